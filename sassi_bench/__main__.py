@@ -1,0 +1,7 @@
+"""``python -m sassi_bench`` runs the command line."""
+
+import sys
+
+from sassi_bench.cli import main
+
+sys.exit(main())

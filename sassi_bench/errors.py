@@ -1,0 +1,48 @@
+"""Exceptions of the workbench.
+
+Every error raised on bad input names the step, the cause and the fix. The classes
+subclass the built-in exception a caller would naturally catch (``ValueError`` for bad
+values), so ``except ValueError`` keeps working.
+"""
+
+from __future__ import annotations
+
+
+class SassiBenchError(Exception):
+    """Base class for every error the workbench raises on purpose."""
+
+
+class ConfigError(SassiBenchError, ValueError):
+    """A rig or procedure description is invalid.
+
+    The message names the offending key as a dotted path (``prism.apex_deg``).
+    """
+
+
+class DeviceError(SassiBenchError, RuntimeError):
+    """A device refused a command or is in the wrong state."""
+
+
+def step_error(step: str, cause: str, fix: str) -> str:
+    """Format an error message that names the step, the cause and the fix.
+
+    Parameters
+    ----------
+    step
+        What the workbench was doing, e.g. ``"SLM show"``.
+    cause
+        What was wrong with the input.
+    fix
+        What the user should do about it.
+
+    Returns
+    -------
+    str
+        ``"<step>: <cause>. Fix: <fix>"``.
+
+    Examples
+    --------
+    >>> step_error("SLM show", "pattern has shape (3, 3)", "pass a (400, 640) array")
+    'SLM show: pattern has shape (3, 3). Fix: pass a (400, 640) array'
+    """
+    return f"{step}: {cause}. Fix: {fix}"

@@ -1,0 +1,42 @@
+"""Where the workbench keeps its data.
+
+Bundles and raw sessions live under one data root: ``calib_data/`` in the current
+directory by default, the ``SASSI_BENCH_DATA`` environment variable when set, or the
+``--data DIR`` option of every command (which wins over both). Scripts and tests pass a
+temporary directory so they never touch the repository's own ``calib_data/``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+__all__ = ["DATA_ENV_VAR", "data_root"]
+
+DATA_ENV_VAR = "SASSI_BENCH_DATA"
+
+
+def data_root(explicit: str | os.PathLike[str] | None = None) -> Path:
+    """Resolve the data root.
+
+    Parameters
+    ----------
+    explicit
+        A directory given on the command line or by the caller; wins when not None.
+
+    Returns
+    -------
+    pathlib.Path
+        The directory (not created here).
+
+    Examples
+    --------
+    >>> data_root("/tmp/lab").as_posix()
+    '/tmp/lab'
+    """
+    if explicit is not None:
+        return Path(explicit)
+    env = os.environ.get(DATA_ENV_VAR)
+    if env:
+        return Path(env)
+    return Path("calib_data")

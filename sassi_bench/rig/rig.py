@@ -1,0 +1,49 @@
+"""A rig: the device handles a procedure works with."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.protocols import Camera, LightSource, Slm, Trigger
+
+__all__ = ["SCENES", "Rig"]
+
+SCENES = ("white", "colorchecker", "natural", "pcb")
+
+
+@dataclass
+class Rig:
+    """Device handles of one bench, simulated or real.
+
+    Procedures receive a ``Rig`` and use only its devices and :meth:`set_scene`; on
+    a real bench ``set_scene`` asks the operator to place the target.
+
+    Parameters
+    ----------
+    description
+        The validated rig description.
+    slm, spectral_camera, guide_camera, light, trigger
+        Device handles implementing the protocols of :mod:`sassi_bench.rig.protocols`.
+    scene_setter
+        Called by :meth:`set_scene` with the scene name.
+    """
+
+    description: RigDescription
+    slm: Slm
+    spectral_camera: Camera
+    guide_camera: Camera
+    light: LightSource
+    trigger: Trigger
+    scene_setter: Callable[[str], None] = field(repr=False)
+    scene: str | None = None
+
+    def set_scene(self, name: str) -> None:
+        """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...)."""
+        if name not in SCENES:
+            raise ValueError(
+                f"set scene: unknown scene {name!r}. Fix: use one of {', '.join(SCENES)}"
+            )
+        self.scene_setter(name)
+        self.scene = name

@@ -1,0 +1,205 @@
+"""The virtual bench's world state: scene, light, SLM pattern, and the optics."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.errors import ConfigError
+from sassi_bench.optics.blur import BlurModel
+from sassi_bench.optics.sensor import SensorModel
+from sassi_bench.optics.sources import (
+    SpectralSamples,
+    blackbody_power,
+    broadband_samples,
+    colour_illuminant_power,
+    laser_samples,
+    wavelength_grid,
+)
+from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.sim.geometry import SpectralRelay
+from sassi_bench.rig.sim.guide import GuideOptics
+from sassi_bench.rig.sim.render import SpectralRenderer
+from sassi_bench.rig.sim.scenes import Scene, make_scene
+
+__all__ = ["VirtualBench"]
+
+
+class VirtualBench:
+    """Everything the simulated devices share.
+
+    The SLM, cameras and light of a simulated rig are thin device facades over one
+    ``VirtualBench``; the bench turns (scene, light, SLM pattern) into electron rates.
+
+    Parameters
+    ----------
+    desc
+        A validated rig description with ``backend: sim``.
+    sparse_limit
+        Patterns with at most this many open pixels are rendered by splatting streaks;
+        denser ones by warping. ``None`` picks max(2000, 0.5 % of the SLM).
+    """
+
+    def __init__(self, desc: RigDescription, sparse_limit: int | None = None) -> None:
+        self.description = desc
+        self.slm_shape = (desc.slm.height, desc.slm.width)
+        self.camera_shape = (desc.spectral_camera.height, desc.spectral_camera.width)
+        g = desc.spectral_grid
+        self.grid = wavelength_grid(g.start_nm, g.stop_nm, g.step_nm)
+        self.eps = 1.0 / desc.slm.contrast_ratio
+        cam = desc.spectral_camera
+        self.sensor = SensorModel(
+            read_noise_e=cam.read_noise_e,
+            full_well_e=cam.full_well_e,
+            bit_depth=cam.bit_depth,
+            dark_offset_adu=cam.dark_offset_adu,
+            dark_current_e_per_s=cam.dark_current_e_per_s,
+            qe=cam.qe,
+        )
+        gc = desc.guide_camera
+        self.guide_sensor = SensorModel(
+            read_noise_e=gc.read_noise_e,
+            full_well_e=gc.full_well_e,
+            bit_depth=gc.bit_depth,
+            dark_offset_adu=0.0 if gc.bit_depth <= 8 else 16.0,
+            qe="flat",  # the colour sensitivities already include the sensor's QE
+        )
+        self.relay = SpectralRelay(self.slm_shape, self.camera_shape, desc.relay, desc.prism)
+        self.blur = BlurModel(desc.blur.sigma_px)
+        self.renderer = SpectralRenderer(
+            self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
+        )
+        self.guide = GuideOptics(gc, self.slm_shape, self.grid)
+        self._check_streaks_fit()
+        spectral_seed, guide_seed, scene_seed = np.random.SeedSequence(desc.seed).spawn(3)
+        self.spectral_rng = np.random.default_rng(spectral_seed)
+        self.guide_rng = np.random.default_rng(guide_seed)
+        self.scene_seed = int(scene_seed.generate_state(1)[0])
+        self.sparse_limit = (
+            sparse_limit
+            if sparse_limit is not None
+            else max(2000, self.slm_shape[0] * self.slm_shape[1] // 200)
+        )
+        self.lights = (
+            "off",
+            *(f"laser:{x:g}" for x in desc.lasers_nm),
+            "led",
+            "halogen",
+            "fluorescent",
+        )
+        self.light = "off"
+        self.pattern = np.zeros(self.slm_shape, dtype=np.uint8)
+        self._scenes: dict[str, Scene] = {}
+        self._samples: dict[str, SpectralSamples] = {}
+        self._background: dict[tuple[str, str], NDArray[np.float32]] = {}
+        self.scene = self.scene_named("white")
+
+    # -- configuration checks ---------------------------------------------------------
+    def _check_streaks_fit(self) -> None:
+        h, w = self.slm_shape
+        u = np.array([0, w - 1, 0, w - 1], dtype=np.float64)
+        v = np.array([0, 0, h - 1, h - 1], dtype=np.float64)
+        reach = 3.0 * float(self.renderer.spot_sigma(np.array([400.0, 700.0])).max())
+        xs, ys = [], []
+        for lam in (400.0, 700.0):
+            x, y = self.relay.forward(u, v, lam)
+            xs.append(x)
+            ys.append(y)
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        hc, wc = self.camera_shape
+        if (
+            x.min() - reach < 0
+            or x.max() + reach > wc - 1
+            or y.min() - reach < 0
+            or y.max() + reach > hc - 1
+        ):
+            raise ConfigError(
+                "relay: the SLM's image with its 400-700 nm streaks spans camera x "
+                f"{x.min() - reach:.0f}..{x.max() + reach:.0f}, y {y.min() - reach:.0f}.."
+                f"{y.max() + reach:.0f}, outside the {wc}x{hc} camera. Fix: lower relay.scale "
+                "or prism.spread_px, or move relay.offset_px"
+            )
+
+    # -- scene and light ----------------------------------------------------------------
+    def scene_named(self, name: str) -> Scene:
+        """Build (once) and return scene ``name``."""
+        if name not in self._scenes:
+            sc = self.description.scenes
+            self._scenes[name] = make_scene(
+                name,
+                self.slm_shape,
+                self.grid,
+                sc.margin_px,
+                seed=self.scene_seed,
+                colorchecker_data=sc.colorchecker_data,
+                colorchecker_rotation_deg=sc.colorchecker_rotation_deg,
+                natural_image=sc.natural_image,
+            )
+        return self._scenes[name]
+
+    def set_scene(self, name: str) -> None:
+        """Put scene ``name`` in front of the bench."""
+        self.scene = self.scene_named(name)
+
+    def set_light(self, name: str) -> None:
+        """Select light ``name`` (already validated by the light device)."""
+        self.light = name
+
+    def samples(self, light: str) -> SpectralSamples:
+        """The spectral samples of light ``light``."""
+        if light not in self._samples:
+            cfg = self.description.light
+            if light == "off":
+                samples = SpectralSamples(np.array([550.0]), np.array([0.0]))
+            elif light.startswith("laser:"):
+                samples = laser_samples(float(light[6:]), cfg.laser_fwhm_nm, cfg.laser_flux)
+            elif light == "led":
+                power = colour_illuminant_power(cfg.led, self.grid)
+                samples = broadband_samples(power, self.grid, cfg.broadband_flux)
+            elif light == "fluorescent":
+                power = colour_illuminant_power(cfg.fluorescent, self.grid)
+                samples = broadband_samples(power, self.grid, cfg.broadband_flux)
+            elif light == "halogen":
+                power = blackbody_power(self.grid, cfg.halogen_k)
+                samples = broadband_samples(power, self.grid, cfg.broadband_flux)
+            else:  # pragma: no cover - the light device validates names
+                raise ValueError(f"unknown light {light!r}")
+            self._samples[light] = samples
+        return self._samples[light]
+
+    # -- rendering ----------------------------------------------------------------------
+    def transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:
+        """SLM transmission for a uint8 pattern: eps + (1 - eps) (g / 255) ** gamma."""
+        response = (pattern.astype(np.float32) / np.float32(255.0)) ** np.float32(
+            self.description.slm.gamma
+        )
+        return np.float32(self.eps) + np.float32(1.0 - self.eps) * response
+
+    def _background_rate(self) -> NDArray[np.float32]:
+        """Light leaking through a fully closed SLM (cached per scene and light)."""
+        key = (self.scene.name, self.light)
+        if key not in self._background:
+            closed = np.full(self.slm_shape, np.float32(self.eps))
+            self._background[key] = self.renderer.render_dense(
+                closed, self.scene, self.samples(self.light)
+            )
+        return self._background[key]
+
+    def spectral_rate(self) -> NDArray[np.float32]:
+        """Photo-electron rate on the spectral camera for the current state (e-/s)."""
+        samples = self.samples(self.light)
+        if self.light == "off" or not np.any(samples.weights):
+            return np.zeros(self.camera_shape, dtype=np.float32)
+        open_rows, open_cols = np.nonzero(self.pattern)
+        if open_rows.size > self.sparse_limit:
+            return self.renderer.render_dense(self.transmission(self.pattern), self.scene, samples)
+        excess = self.transmission(self.pattern[open_rows, open_cols]) - np.float32(self.eps)
+        sparse = self.renderer.render_sparse(open_rows, open_cols, excess, self.scene, samples)
+        return self._background_rate() + sparse
+
+    def guide_rate(self) -> NDArray[np.float32]:
+        """Photo-electron rate (H, W, 3) on the guide camera for the current state."""
+        samples = self.samples(self.light)
+        if self.light == "off":
+            return np.zeros(self.guide.shape, dtype=np.float32)
+        return self.guide.electron_rate(self.scene, samples.wavelengths_nm, samples.weights)

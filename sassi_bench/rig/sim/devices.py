@@ -1,0 +1,93 @@
+"""Simulated devices: thin facades over a :class:`~sassi_bench.rig.sim.bench.VirtualBench`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.rig.base import CameraBase, LightSourceBase, SlmBase, TriggerBase
+from sassi_bench.rig.sim.bench import VirtualBench
+
+__all__ = ["SimGuideCamera", "SimLight", "SimSlm", "SimSpectralCamera", "SimTrigger"]
+
+
+class SimTrigger(TriggerBase):
+    """Counts SLM pulses (one per pattern shown) and the ones passed to the cameras."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._received = 0
+        self._passed = 0
+
+    def pulse(self) -> None:
+        """An SLM master pulse arrives."""
+        self._received += 1
+        if self.armed and self._received % self.divider == 0:
+            self._passed += 1
+
+    def _arm(self, armed: bool) -> None:
+        pass
+
+    def _set_divider(self, n: int) -> None:
+        pass
+
+    def counters(self) -> dict[str, int]:
+        return {"received": self._received, "passed": self._passed}
+
+
+class SimSlm(SlmBase):
+    """The virtual bench's SLM."""
+
+    def __init__(self, bench: VirtualBench, trigger: SimTrigger) -> None:
+        super().__init__(bench.slm_shape)
+        self._bench = bench
+        self._trigger = trigger
+
+    def _display(self, pattern: NDArray[np.uint8]) -> None:
+        self._bench.pattern = pattern
+        self._trigger.pulse()
+
+
+class SimLight(LightSourceBase):
+    """Lasers, LED, halogen and fluorescent lamps of the virtual bench."""
+
+    def __init__(self, bench: VirtualBench) -> None:
+        super().__init__(bench.lights)
+        self._bench = bench
+
+    def _switch(self, name: str) -> None:
+        self._bench.set_light(name)
+
+
+class SimSpectralCamera(CameraBase):
+    """The monochrome spectral camera behind the prism."""
+
+    def __init__(self, bench: VirtualBench, slm: SimSlm, light: SimLight) -> None:
+        cam = bench.description.spectral_camera
+        super().__init__(
+            "spectral", bench.camera_shape, cam.bit_depth, cam.exposure_range_s, exposure_s=0.05
+        )
+        self._bench, self._slm, self._light = bench, slm, light
+
+    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
+        rate = self._bench.spectral_rate()
+        data = self._bench.sensor.expose(rate, self.exposure_s, self._bench.spectral_rng)
+        return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
+
+
+class SimGuideCamera(CameraBase):
+    """The RGB guide camera (sees the scene before the SLM)."""
+
+    def __init__(self, bench: VirtualBench, slm: SimSlm, light: SimLight) -> None:
+        gc = bench.description.guide_camera
+        super().__init__(
+            "guide", bench.guide.shape, gc.bit_depth, gc.exposure_range_s, exposure_s=0.02
+        )
+        self._bench, self._slm, self._light = bench, slm, light
+
+    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
+        rate = self._bench.guide_rate()
+        data = self._bench.guide_sensor.expose(rate, self.exposure_s, self._bench.guide_rng)
+        return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}

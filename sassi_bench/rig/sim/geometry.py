@@ -1,0 +1,204 @@
+"""Where light from an SLM pixel lands on the spectral camera, from first principles.
+
+The virtual bench's SLM -> camera map is a ray trace, not a fitted polynomial:
+
+1. SLM pixel (u, v), relative to the SLM centre and rotated by ``relay.rotation_deg``
+   (the SLM's mounting error), becomes a collimated beam whose direction is set by the
+   collimating lens (focal length ``f1``, in SLM pixels).
+2. The beam crosses the prism (apex angle, incidence, Sellmeier index of the glass),
+   traced exactly in 3-D with Snell's law, so field-dependent dispersion, anamorphic
+   magnification and the curvature of spectral lines of skew rays all come out of the
+   physics.
+3. The camera lens (focal length ``f2`` in camera pixels, axis along the deviated
+   reference ray) focuses it; ``f2`` is chosen so the 400-700 nm streak at the field
+   centre is ``prism.spread_px`` long, and ``f2 / f1 = relay.scale``.
+4. Mild radial distortion ``relay.distortion_k1`` (radius normalised to the camera's
+   half diagonal) and a phenomenological vertical bow of the streak, ``prism.smile_px``
+   at mid-band, from a slight prism roll and the lens's field curvature. The bow
+   follows the glass's dispersion, so it is not a polynomial in wavelength either.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.optics.glass import Glass, get_glass
+from sassi_bench.optics.prism import min_deviation_incidence_deg, trace_prism
+from sassi_bench.rig.config import PrismConfig, RelayConfig
+
+__all__ = ["SpectralRelay", "linear_upsampler"]
+
+_BAND_NM = (400.0, 700.0)
+
+
+def _rot_y(angle_rad: float) -> NDArray[np.float64]:
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+@dataclass
+class SpectralRelay:
+    """The SLM -> prism -> spectral camera optics of the virtual bench.
+
+    Parameters
+    ----------
+    slm_shape, camera_shape
+        (height, width) of the SLM and of the spectral camera.
+    relay, prism
+        The rig description's sections.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> d = load_rig_description("sim")
+    >>> relay = SpectralRelay((400, 640), (512, 800), d.relay, d.prism)
+    >>> x, y = relay.forward([319.5, 319.5], [199.5, 199.5], [400.0, 700.0])
+    >>> round(float(x[1] - x[0]), 6)
+    68.0
+    """
+
+    slm_shape: tuple[int, int]
+    camera_shape: tuple[int, int]
+    relay: RelayConfig
+    prism: PrismConfig
+
+    def __post_init__(self) -> None:
+        self.glass: Glass = get_glass(self.prism.glass)
+        h, w = self.slm_shape
+        hc, wc = self.camera_shape
+        self.slm_centre = ((w - 1) / 2.0, (h - 1) / 2.0)
+        self.optical_centre = (
+            (wc - 1) / 2.0 + self.relay.offset_px[0],
+            (hc - 1) / 2.0 + self.relay.offset_px[1],
+        )
+        self.distortion_radius = 0.5 * float(np.hypot(wc, hc))
+        n_ref = float(self.glass.index(self.prism.reference_nm))
+        self.incidence_deg = (
+            self.prism.incidence_deg
+            if self.prism.incidence_deg is not None
+            else min_deviation_incidence_deg(n_ref, self.prism.apex_deg)
+        )
+        axis = trace_prism(
+            np.array([0.0, 0.0, 1.0]), n_ref, self.prism.apex_deg, self.incidence_deg
+        )
+        if not np.all(np.isfinite(axis)):
+            raise ValueError(
+                "prism: the central ray is totally internally reflected; "
+                "Fix: lower prism.apex_deg or change prism.incidence_deg"
+            )
+        self._to_camera = _rot_y(-np.arctan2(axis[0], axis[2]))
+        n_lo, n_hi = self.glass.index(np.array(_BAND_NM))
+        self._n_band = (float(n_lo), float(n_hi))
+        # Choose f2 so the streak at the field centre spans spread_px; distortion makes
+        # the spread depend weakly on f2, so refine by fixed-point iteration.
+        self.f2 = 1000.0
+        for _ in range(6):
+            x, _ = self.forward(
+                [self.slm_centre[0]] * 2, [self.slm_centre[1]] * 2, np.array(_BAND_NM)
+            )
+            self.f2 *= self.prism.spread_px / float(x[1] - x[0])
+
+    @property
+    def f1(self) -> float:
+        """Collimator focal length in SLM pixels."""
+        return self.f2 / self.relay.scale
+
+    def forward(
+        self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Camera position of SLM pixel (u, v) at a wavelength (broadcasting).
+
+        Returns
+        -------
+        x, y : ndarray
+            Camera column and row (pixel centres at integers).
+        """
+        u, v, lam = np.broadcast_arrays(
+            np.asarray(u, dtype=np.float64),
+            np.asarray(v, dtype=np.float64),
+            np.asarray(wavelength_nm, dtype=np.float64),
+        )
+        rot = np.deg2rad(self.relay.rotation_deg)
+        du = u - self.slm_centre[0]
+        dv = v - self.slm_centre[1]
+        hu = np.cos(rot) * du - np.sin(rot) * dv
+        hv = np.sin(rot) * du + np.cos(rot) * dv
+        f1 = self.f2 / self.relay.scale
+        d = np.stack([hu, hv, np.full_like(hu, f1)], axis=-1)
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        n = self.glass.index(lam)
+        out = trace_prism(d, n, self.prism.apex_deg, self.incidence_deg) @ self._to_camera.T
+        xu = self.f2 * out[..., 0] / out[..., 2]
+        yu = self.f2 * out[..., 1] / out[..., 2]
+        factor = 1.0 + self.relay.distortion_k1 * (xu**2 + yu**2) / self.distortion_radius**2
+        x = self.optical_centre[0] + xu * factor
+        y = self.optical_centre[1] + yu * factor
+        t = (self._n_band[0] - n) / (self._n_band[0] - self._n_band[1])
+        y = y + self.prism.smile_px * 4.0 * t * (1.0 - t)
+        return x, y
+
+    def inverse(
+        self,
+        x: ArrayLike,
+        y: ArrayLike,
+        wavelength_nm: float,
+        tol_px: float = 1e-7,
+        max_iter: int = 30,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """SLM position (u, v) whose light lands at camera (x, y) at one wavelength.
+
+        Newton's method with a finite-difference Jacobian, vectorised over points.
+        """
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        s = self.relay.scale
+        cos_r = np.cos(np.deg2rad(self.relay.rotation_deg))
+        sin_r = np.sin(np.deg2rad(self.relay.rotation_deg))
+        x0, y0 = self.forward(self.slm_centre[0], self.slm_centre[1], wavelength_nm)
+        # Start from the inverse of the linear part of the relay.
+        dx, dy = (x - x0) / s, (y - y0) / s
+        u = self.slm_centre[0] + cos_r * dx + sin_r * dy
+        v = self.slm_centre[1] - sin_r * dx + cos_r * dy
+        h = 1e-3
+        for _ in range(max_iter):
+            fx, fy = self.forward(u, v, wavelength_nm)
+            fxu, fyu = self.forward(u + h, v, wavelength_nm)
+            fxv, fyv = self.forward(u, v + h, wavelength_nm)
+            a, b = (fxu - fx) / h, (fxv - fx) / h
+            c, d = (fyu - fy) / h, (fyv - fy) / h
+            rx, ry = x - fx, y - fy
+            det = a * d - b * c
+            step_u = (d * rx - b * ry) / det
+            step_v = (-c * rx + a * ry) / det
+            u, v = u + step_u, v + step_v
+            if np.nanmax(np.abs(rx) + np.abs(ry), initial=0.0) < tol_px:
+                break
+        return u, v
+
+
+def linear_upsampler(coarse_positions: NDArray[np.float64], size: int) -> NDArray[np.float32]:
+    """Matrix that linearly interpolates samples at ``coarse_positions`` onto 0..size-1.
+
+    ``fine = W @ coarse`` (rows: fine pixels). The coarse positions must bracket the
+    fine range, so no sample is extrapolated.
+
+    Examples
+    --------
+    >>> w = linear_upsampler(np.array([-4.0, 4.0, 12.0]), 9)
+    >>> (w @ np.array([-4.0, 4.0, 12.0])).tolist()
+    [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]
+    """
+    fine = np.arange(size, dtype=np.float64)
+    idx = np.clip(
+        np.searchsorted(coarse_positions, fine, side="right") - 1, 0, len(coarse_positions) - 2
+    )
+    left = coarse_positions[idx]
+    frac = (fine - left) / (coarse_positions[idx + 1] - left)
+    w = np.zeros((size, len(coarse_positions)), dtype=np.float32)
+    rows = np.arange(size)
+    w[rows, idx] = 1.0 - frac
+    w[rows, idx + 1] = frac
+    return w

@@ -1,0 +1,101 @@
+"""Ground truth of the virtual bench, for tests and accuracy reports only.
+
+Procedures never receive this object: they get device handles. Tests and accuracy
+reports call :func:`truth` to score what a procedure measured.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.optics.sources import SpectralSamples
+from sassi_bench.rig.rig import Rig
+from sassi_bench.rig.sim.bench import VirtualBench
+
+__all__ = ["BenchTruth", "register_bench", "truth"]
+
+_BENCHES: dict[int, VirtualBench] = {}
+
+
+def register_bench(rig: Rig, bench: VirtualBench) -> None:
+    """Remember which bench backs ``rig`` (until the rig is garbage-collected)."""
+    key = id(rig)
+    _BENCHES[key] = bench
+    weakref.finalize(rig, _BENCHES.pop, key, None)
+
+
+@dataclass(frozen=True)
+class BenchTruth:
+    """What the virtual bench really is.
+
+    Examples
+    --------
+    >>> from sassi_bench import open_rig
+    >>> t = truth(open_rig("sim"))
+    >>> x, y = t.slm_to_camera(320, 200, 550.0)
+    >>> round(t.contrast_eps, 4)
+    0.001
+    """
+
+    _bench: VirtualBench
+
+    def slm_to_camera(
+        self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Camera (x, y) of SLM pixel (u, v) at a wavelength (vectorised)."""
+        return self._bench.relay.forward(u, v, wavelength_nm)
+
+    @property
+    def guide_to_slm(self) -> NDArray[np.float64]:
+        """The 3x3 homography from guide pixels (p, q, 1) to SLM pixels (u, v, 1)."""
+        return self._bench.guide.guide_to_slm.copy()
+
+    def blur_sigma_px(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """The optics' PSF sigma (camera px) at a wavelength, as the rig describes it."""
+        return self._bench.blur(wavelength_nm)
+
+    def line_spread_sigma_px(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """Sigma of the spot one SLM pixel makes, including pixel apertures."""
+        return self._bench.renderer.spot_sigma(np.asarray(wavelength_nm, dtype=np.float64))
+
+    @property
+    def contrast_eps(self) -> float:
+        """Closed-pixel transmission of the SLM (1 / contrast ratio)."""
+        return self._bench.eps
+
+    @property
+    def wavelengths_nm(self) -> NDArray[np.float64]:
+        """The scene wavelength grid."""
+        return self._bench.grid.copy()
+
+    def scene_cube(
+        self, name: str | None = None
+    ) -> tuple[NDArray[np.float32], NDArray[np.float64]]:
+        """Reflectance cube (H, W, L) on the SLM grid and its wavelengths."""
+        scene = self._bench.scene if name is None else self._bench.scene_named(name)
+        return scene.cube(self._bench.slm_shape), self._bench.grid.copy()
+
+    def quantum_efficiency(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """The spectral camera's QE."""
+        return self._bench.sensor.quantum_efficiency(wavelength_nm)
+
+    def light_samples(self, name: str) -> SpectralSamples:
+        """The spectral samples of light ``name``."""
+        return self._bench.samples(name)
+
+    @property
+    def bench(self) -> VirtualBench:
+        """The bench itself (renderer, sensor, scenes), for tests that need more."""
+        return self._bench
+
+
+def truth(rig: Rig) -> BenchTruth:
+    """Ground truth of a simulated rig (tests and accuracy reports only)."""
+    bench = _BENCHES.get(id(rig))
+    if bench is None:
+        raise ValueError("truth: this rig is not a virtual bench opened in this process")
+    return BenchTruth(bench)
