@@ -2,8 +2,8 @@
 
 A pixel collecting ``rate`` photo-electrons per second for ``t`` seconds records
 
-    e ~ Poisson((rate + dark_current) t),   e <- min(e, full_well)
-    ADU = clip(round((e + N(0, read_noise)) / gain) + dark_offset, 0, 2^bits - 1)
+    e ~ Poisson((rate + dark_current) t) + N(0, read_noise),   e <- min(e, full_well)
+    ADU = clip(round(e / gain) + dark_offset, 0, 2^bits - 1)
 
 so the variance in ADU is ``(mean_e + read_noise^2) / gain^2`` below saturation.
 """
@@ -130,10 +130,12 @@ class SensorModel:
             exposure_s
         )
         electrons = rng.poisson(np.clip(mean_e, 0.0, None)).astype(np.float32)
-        np.minimum(electrons, np.float32(self.full_well_e), out=electrons)
         electrons += rng.standard_normal(electrons.shape, dtype=np.float32) * np.float32(
             self.read_noise_e
         )
+        # A full pixel reads a constant: the well (and with the default gain the ADC)
+        # clips after the read-out noise, as a saturated sCMOS pixel does.
+        np.minimum(electrons, np.float32(self.full_well_e), out=electrons)
         adu = np.rint(
             electrons / np.float32(self.gain_e_per_adu) + np.float32(self.dark_offset_adu)
         )

@@ -36,8 +36,10 @@ class VirtualBench:
     desc
         A validated rig description with ``backend: sim``.
     sparse_limit
-        Patterns with at most this many open pixels are rendered by splatting streaks;
-        denser ones by warping. ``None`` picks max(2000, 0.5 % of the SLM).
+        Patterns with at most this many open pixels are rendered by splatting streaks
+        (exact), denser ones by warping (exact for extended patterns, within a few per
+        cent per isolated pixel). ``None`` picks the break-even of the two costs, about
+        one open pixel per 80 camera pixels.
     """
 
     def __init__(self, desc: RigDescription, sparse_limit: int | None = None) -> None:

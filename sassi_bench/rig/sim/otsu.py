@@ -38,7 +38,10 @@ def _model() -> tuple[NDArray[np.float64], ...]:
 
     def to_xyz(values: NDArray[np.float64]) -> NDArray[np.float64]:
         sd = colour.SpectralDistribution(values, wl)
-        with colour.utilities.domain_range_scale("ignore"):
+        with (
+            colour.utilities.domain_range_scale("ignore"),
+            colour.utilities.suppress_warnings(colour_runtime_warnings=True),
+        ):
             return colour.sd_to_XYZ(sd, cmfs, illuminant) / 100
 
     n_clusters = BASIS_FUNCTIONS_OTSU2018.shape[0]

@@ -31,9 +31,86 @@ from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim.geometry import SpectralRelay, linear_upsampler
 from sassi_bench.rig.sim.scenes import Scene
 
-__all__ = ["SpectralRenderer"]
+__all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
 
 _TRUNCATE_SIGMAS = 4.0
+# Samples per camera pixel of the tabulated spot profiles.
+_TABLE_STEPS = 64
+# Wavelength samples splatted together (see SpectralRenderer._splat).
+_RUN = 8
+
+
+def spot_profile(
+    offset: NDArray[np.float64], half_width: float, sigma: float
+) -> NDArray[np.float64]:
+    """1-D profile of one SLM pixel's image: a tent convolved with a Gaussian.
+
+    A square SLM pixel imaged onto square camera pixels of about the same size gives a
+    box convolved with a box, a tent of half-width ``half_width`` (one SLM pitch in
+    camera px); the optics add a Gaussian of ``sigma``. Bilinear warping produces the
+    same tent, which is why the dense and sparse renderers agree.
+
+    Parameters
+    ----------
+    offset
+        Distances (camera px) from the spot centre.
+    half_width, sigma
+        Tent half-width and Gaussian sigma (camera px); sigma may be 0.
+
+    Returns
+    -------
+    ndarray
+        Profile values (it integrates to 1 over ``offset``).
+
+    Examples
+    --------
+    >>> x = np.linspace(-6, 6, 12001)
+    >>> round(float(np.trapezoid(spot_profile(x, 1.0, 0.5), x)), 6)
+    1.0
+    """
+    from scipy.special import ndtr
+
+    x = np.asarray(offset, dtype=np.float64)
+    a = float(half_width)
+    if sigma < 1e-3:
+        return np.clip(1.0 - np.abs(x) / a, 0.0, None) / a
+
+    def ramp(t: NDArray[np.float64]) -> NDArray[np.float64]:
+        # Integral of Phi: the Gaussian-smoothed version of max(t, 0).
+        z = t / sigma
+        return t * ndtr(z) + sigma * np.exp(-0.5 * z**2) / np.sqrt(2.0 * np.pi)
+
+    return (ramp(x + a) - 2.0 * ramp(x) + ramp(x - a)) / a**2
+
+
+def discrete_gaussian_kernel(sigma: float) -> NDArray[np.float32]:
+    """A normalised, sampled Gaussian kernel whose *discrete* variance is ``sigma**2``.
+
+    A Gaussian sampled at integers with sigma below about 0.7 px has a visibly smaller
+    variance than intended (OpenCV's ``GaussianBlur`` included); the kernel's width
+    parameter is solved so the sampled kernel spreads light by exactly ``sigma``.
+
+    Examples
+    --------
+    >>> k = discrete_gaussian_kernel(0.4)
+    >>> j = np.arange(k.size) - k.size // 2
+    >>> round(float(np.sum(j**2 * k)), 6)
+    0.16
+    """
+    from scipy.optimize import brentq
+
+    taps = max(1, int(np.ceil(4.0 * sigma)))
+    j = np.arange(-taps, taps + 1, dtype=np.float64)
+
+    def kernel(width: float) -> NDArray[np.float64]:
+        k = np.exp(-0.5 * (j / width) ** 2)
+        return k / k.sum()
+
+    if sigma < 0.8:
+        width = brentq(lambda w: float(np.sum(j**2 * kernel(w))) - sigma**2, 1e-3, 2.0 * sigma)
+    else:
+        width = sigma
+    return kernel(width).astype(np.float32)
 
 
 class SpectralRenderer:
@@ -77,11 +154,38 @@ class SpectralRenderer:
         self._up_x = linear_upsampler(self._coarse_x, wc)
         self._up_y = linear_upsampler(self._coarse_y, hc)
         self._inverse_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
+        self._tables: dict[tuple[float, ...], NDArray[np.float32]] = {}
 
     # -- the optical model shared by both renderers ---------------------------------
     def spot_sigma(self, wavelength_nm: NDArray[np.float64]) -> NDArray[np.float64]:
         """Sigma (camera px) of the spot one SLM pixel makes, at each wavelength."""
         return line_spread_sigma(self.blur(wavelength_nm), self.relay.relay.scale, self.fill_factor)
+
+    def _tent_blur(self, spot_sigma: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Gaussian sigma that, on top of a tent of one SLM pitch, gives ``spot_sigma``.
+
+        A tent of half-width ``scale`` has variance ``scale**2 / 6``.
+        """
+        scale = self.relay.relay.scale
+        return np.sqrt(np.clip(spot_sigma**2 - scale**2 / 6.0, 0.0, None))
+
+    def _profile_table(self, wavelengths_nm: NDArray[np.float64]) -> NDArray[np.float32]:
+        """Spot profiles sampled every 1/_TABLE_STEPS px over +-_reach, one row per sample."""
+        key = tuple(np.round(wavelengths_nm, 6))
+        table = self._tables.get(key)
+        if table is None:
+            sigma = self._tent_blur(self.spot_sigma(wavelengths_nm))
+            reach = self._reach(wavelengths_nm)
+            offsets = np.arange(-reach * _TABLE_STEPS, reach * _TABLE_STEPS + 1) / _TABLE_STEPS
+            scale = self.relay.relay.scale
+            table = np.stack([spot_profile(offsets, scale, s) for s in sigma]).astype(np.float32)
+            self._tables[key] = table
+        return table
+
+    def _reach(self, wavelengths_nm: NDArray[np.float64]) -> int:
+        """Half-width (px) beyond which the widest spot of these samples is negligible."""
+        sigma = float(self.spot_sigma(wavelengths_nm).max())
+        return int(np.ceil(_TRUNCATE_SIGMAS * sigma + self.relay.relay.scale)) + 1
 
     def electrons_per_photon(self, samples: SpectralSamples) -> NDArray[np.float64]:
         """Photo-electron rate each sample delivers per unit reflectance and transmission."""
@@ -133,8 +237,7 @@ class SpectralRenderer:
         rate = np.zeros(self.camera_shape, dtype=np.float32)
         gain = self.electrons_per_photon(samples)
         sigma = self.spot_sigma(samples.wavelengths_nm)
-        # Bilinear warping spreads an SLM pixel like a tent of variance scale^2 / 6.
-        extra = np.sqrt(np.clip(sigma**2 - scale**2 / 6.0, 0.0, None))
+        extra = self._tent_blur(sigma)
         for lam, g, s in zip(samples.wavelengths_nm, gain, extra, strict=True):
             if g <= 0:
                 continue
@@ -150,7 +253,8 @@ class SpectralRenderer:
             )
             warped *= self._upsample(carea) * np.float32(g)
             if s > 0.05:
-                warped = cv2.GaussianBlur(warped, (0, 0), sigmaX=float(s), sigmaY=float(s))
+                k = discrete_gaussian_kernel(float(s))
+                warped = cv2.sepFilter2D(warped, -1, k, k, borderType=cv2.BORDER_CONSTANT)
             rate += warped
         return rate
 
@@ -178,33 +282,60 @@ class SpectralRenderer:
             return total.reshape(hc, wc).astype(np.float32)
         lam = samples.wavelengths_nm
         gain = self.electrons_per_photon(samples).astype(np.float32)
-        sigma = self.spot_sigma(lam)
-        inv_two_var = (0.5 / sigma**2).astype(np.float32)
-        reach = int(np.ceil(_TRUNCATE_SIGMAS * sigma.max())) + 1
+        table = self._profile_table(lam)
+        reach = self._reach(lam)
+        scale = self.relay.relay.scale
+        run_reach = np.ceil(_TRUNCATE_SIGMAS * self.spot_sigma(lam) + scale).astype(np.intp) + 1
         for start in range(0, rows.size, self.block):
             r = rows[start : start + self.block]
             c = cols[start : start + self.block]
             spectra = scene.reflectance_at(r + scene.margin, c + scene.margin, lam)
             spectra *= gain[None, :] * transmission[start : start + self.block, None]
             x, y = self.relay.forward(c[:, None], r[:, None], lam[None, :])
-            total += self._splat(x, y, spectra, inv_two_var, reach)
+            total += self._splat(x, y, spectra, table, reach, run_reach)
         return total.reshape(hc, wc).astype(np.float32)
 
-    def _splat(self, x, y, spectra, inv_two_var, reach) -> NDArray[np.float64]:
+    def _splat(self, x, y, spectra, table, reach, run_reach) -> NDArray[np.float64]:
+        """Scatter the streaks of a block of pixels; returns the flat frame increment.
+
+        Wavelength samples are processed in short runs: a run's spots only reach a few
+        pixels past the run's own extent, so each run fills a small window of the
+        pixel's patch (a batched matrix product) instead of the whole streak length.
+        Spot profiles come from a table (1/64 px steps, nearest entry).
+        """
         hc, wc = self.camera_shape
+        n_pix, n_lam = x.shape
+        half = (table.shape[1] - 1) // 2
+        flat_table = table.ravel()
+        row_start = (np.arange(n_lam) * table.shape[1] + half)[None, :, None]
         x0 = np.floor(x.min(axis=1)).astype(np.intp) - reach
         y0 = np.floor(y.min(axis=1)).astype(np.intp) - reach
         width = int(np.ceil((x.max(axis=1) - x0).max())) + reach + 1
         height = int(np.ceil((y.max(axis=1) - y0).max())) + reach + 1
-        px = (x0[:, None] + np.arange(width))[:, None, :].astype(np.float32)
-        py = (y0[:, None] + np.arange(height))[:, None, :].astype(np.float32)
-        gx = np.exp(-((px - x[:, :, None].astype(np.float32)) ** 2) * inv_two_var[None, :, None])
-        gy = np.exp(-((py - y[:, :, None].astype(np.float32)) ** 2) * inv_two_var[None, :, None])
-        # Normalise each sampled 1-D kernel so every sample deposits exactly its energy.
-        gx /= gx.sum(axis=2, keepdims=True)
-        gy /= gy.sum(axis=2, keepdims=True)
-        gy *= spectra[:, :, None]
-        patches = np.matmul(gy.transpose(0, 2, 1), gx)  # (N, height, width)
+        patches = np.zeros((n_pix, height, width), dtype=np.float32)
+        xr = ((x - x0[:, None]) * _TABLE_STEPS).astype(np.float32)  # in table steps
+        yr = ((y - y0[:, None]) * _TABLE_STEPS).astype(np.float32)
+
+        def kernels(pos, lo, hi, run):
+            steps = np.arange(lo, hi, dtype=np.float32) * _TABLE_STEPS
+            idx = np.rint(steps[None, None, :] - pos[:, run, None]).astype(np.intp)
+            np.clip(idx, -half, half, out=idx)
+            k = flat_table[idx + row_start[:, run]]
+            return k
+
+        for start in range(0, n_lam, _RUN):
+            run = slice(start, min(start + _RUN, n_lam))
+            r = int(run_reach[run].max())
+            left = max(int(xr[:, run].min() / _TABLE_STEPS) - r, 0)
+            right = min(int(xr[:, run].max() / _TABLE_STEPS) + r + 2, width)
+            top = max(int(yr[:, run].min() / _TABLE_STEPS) - r, 0)
+            bottom = min(int(yr[:, run].max() / _TABLE_STEPS) + r + 2, height)
+            gx = kernels(xr, left, right, run)
+            gy = kernels(yr, top, bottom, run)
+            # Normalise each sampled kernel so every sample deposits exactly its energy.
+            gx /= gx.sum(axis=2, keepdims=True)
+            gy *= (spectra[:, run] / gy.sum(axis=2))[:, :, None]
+            patches[:, top:bottom, left:right] += np.matmul(gy.transpose(0, 2, 1), gx)
         cols = x0[:, None, None] + np.arange(width)[None, None, :]
         rows = y0[:, None, None] + np.arange(height)[None, :, None]
         inside = (cols >= 0) & (cols < wc) & (rows >= 0) & (rows < hc)

@@ -297,7 +297,7 @@ def natural_scene(
     grid: NDArray[np.float64],
     margin: int,
     image: str = "coffee",
-    components: int = 8,
+    components: int = 12,
     chunk: int = 1 << 18,
 ) -> BasisScene:
     """A real photograph lifted to plausible reflectance spectra.
@@ -305,8 +305,8 @@ def natural_scene(
     The sRGB photo (scikit-image data) is cropped to the canvas aspect, resized with
     anti-aliasing, converted to CIE XYZ and lifted pixel by pixel with the vectorised
     Otsu et al. (2018) method. The spectra are then compressed to their first
-    ``components`` principal components (over 99.9 % of the energy), processed in
-    chunks so memory stays bounded at the prototype's scale.
+    ``components`` principal components (reflectances stay within about 0.015 of
+    [0, 1]), processed in chunks so memory stays bounded at the prototype's scale.
     """
     import colour
     from scipy.interpolate import CubicSpline

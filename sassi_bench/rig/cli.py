@@ -1,0 +1,47 @@
+"""``sassi-bench rig``: show a rig description, take snapshots."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import yaml
+
+__all__ = ["register"]
+
+
+def _show(args: argparse.Namespace) -> int:
+    from sassi_bench.rig.config import load_rig_description
+
+    desc = load_rig_description(args.rig)
+    print(f"# rig {desc.name} ({desc.source}), sha256 {desc.sha256()[:12]}")
+    print(yaml.safe_dump(desc.to_dict(), sort_keys=False), end="")
+    return 0
+
+
+def _snapshot(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.rig.snapshot import take_snapshot
+
+    rig = open_rig(args.rig)
+    files = take_snapshot(rig, Path(args.out), scene=args.scene, light=args.light)
+    for path in files:
+        print(path)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``rig`` command group to the top-level parser."""
+    rig = sub.add_parser("rig", help="inspect a rig and take snapshots")
+    rig_sub = rig.add_subparsers(dest="rig_command", metavar="SUBCOMMAND", required=True)
+    show = rig_sub.add_parser("show", help="print the validated rig description")
+    show.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    show.set_defaults(func=_show)
+    snap = rig_sub.add_parser(
+        "snapshot", help="save a guide image and spectral frames as PNG and 16-bit TIFF"
+    )
+    snap.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    snap.add_argument("--out", required=True, help="output directory")
+    snap.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
+    snap.add_argument("--light", default="led", help="light (default: led)")
+    snap.set_defaults(func=_snapshot)

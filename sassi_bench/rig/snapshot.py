@@ -1,0 +1,75 @@
+"""Snapshots: a few frames of a rig saved as images, so a person can look."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.rig.frame import Frame
+from sassi_bench.rig.rig import Rig
+
+__all__ = ["pinhole_pattern", "save_frame", "take_snapshot"]
+
+
+def pinhole_pattern(
+    shape: tuple[int, int], pitch: tuple[int, int] = (100, 5), offset: tuple[int, int] = (0, 0)
+) -> NDArray[np.bool_]:
+    """A grid of single open pixels, ``pitch`` = (horizontal, vertical) apart.
+
+    Examples
+    --------
+    >>> pinhole_pattern((10, 12), pitch=(6, 5)).sum()
+    np.int64(4)
+    """
+    mask = np.zeros(shape, dtype=bool)
+    mask[offset[1] :: pitch[1], offset[0] :: pitch[0]] = True
+    return mask
+
+
+def _display_8bit(data: NDArray) -> NDArray[np.uint8]:
+    lo, hi = np.percentile(data, [0.5, 99.9])
+    scaled = (data.astype(np.float64) - lo) / max(hi - lo, 1e-9)
+    return (np.clip(scaled, 0, 1) ** (1 / 2.2) * 255).round().astype(np.uint8)
+
+
+def save_frame(frame: Frame, stem: Path) -> list[Path]:
+    """Save a frame as ``stem.tiff`` (raw values) and ``stem.png`` (display stretch)."""
+    import tifffile
+    from skimage.io import imsave
+
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    tiff = stem.with_suffix(".tiff")
+    png = stem.with_suffix(".png")
+    tifffile.imwrite(tiff, frame.data, metadata={"meta": frame.meta.to_dict()})
+    imsave(png, _display_8bit(frame.data), check_contrast=False)
+    return [tiff, png]
+
+
+def take_snapshot(
+    rig: Rig, out: Path, scene: str = "colorchecker", light: str = "led"
+) -> list[Path]:
+    """Capture a guide image and spectral frames (all-open SLM, pinholes) into ``out``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Examples
+    --------
+    >>> from sassi_bench import open_rig
+    >>> files = take_snapshot(open_rig("sim"), Path("snapshot"))  # doctest: +SKIP
+    """
+    out = Path(out)
+    rig.set_scene(scene)
+    rig.light.select(light)
+    written = []
+    rig.slm.show(np.zeros(rig.slm.shape, dtype=bool))
+    written += save_frame(rig.guide_camera.capture(), out / "guide")
+    rig.slm.show(np.ones(rig.slm.shape, dtype=bool))
+    written += save_frame(rig.spectral_camera.capture(), out / "spectral_all_open")
+    rig.slm.show(pinhole_pattern(rig.slm.shape))
+    written += save_frame(rig.spectral_camera.capture(), out / "spectral_pinholes")
+    return written
