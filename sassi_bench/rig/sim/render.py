@@ -233,7 +233,6 @@ class SpectralRenderer:
         (512, 800)
         """
         rows, cols = scene.slm_window(transmission.shape)
-        scale = self.relay.relay.scale
         rate = np.zeros(self.camera_shape, dtype=np.float32)
         gain = self.electrons_per_photon(samples)
         sigma = self.spot_sigma(samples.wavelengths_nm)

@@ -208,4 +208,4 @@ def test_prototype_scale_renders_a_pinhole_frame():
     assert frame.shape == (2048, 2048)
     u, v = 950, 525
     x, y = truth(rig).slm_to_camera(u, v, 532.0)
-    assert frame.data[int(round(float(y))), int(round(float(x)))] > 5 * np.median(frame.data)
+    assert frame.data[round(float(y)), round(float(x))] > 5 * np.median(frame.data)
