@@ -1,0 +1,72 @@
+"""Versioned, immutable, checksummed calibration bundles.
+
+A bundle is a folder ``<data_root>/<rig>/<version>/`` holding ``manifest.json`` (schema
+``sassi-bench/calibration-bundle``, validated by the JSON Schema shipped as
+``manifest.schema.json``), ``manifest.sha256`` and ``arrays/*.npy`` (plus optional
+``report/*``), every file checksummed. :func:`publish` writes one atomically and never
+overwrites; :func:`load` returns a :class:`CalibrationBundle` only after the schema and every
+checksum verify. The model contract (how the dispersion, bins and blur are evaluated) is
+documented in :mod:`sassi_bench.bundle.models`.
+
+Examples
+--------
+>>> from sassi_bench.bundle import load
+>>> bundle = load(rig="sim")  # doctest: +SKIP
+>>> x, y = bundle.slm_to_camera(320, 200, bundle.wavelengths)  # doctest: +SKIP
+"""
+
+from sassi_bench.bundle.archive import ImportedBundle, export_zip, import_zip, verify_zip
+from sassi_bench.bundle.bundle import CalibrationBundle, Streak
+from sassi_bench.bundle.diff import BundleDiff, diff_bundles, format_diff
+from sassi_bench.bundle.errors import (
+    BundleError,
+    BundleIntegrityError,
+    BundleQualityError,
+    BundleSchemaError,
+    BundleSchemaWarning,
+    UnsafeArchiveError,
+    UnsupportedSchemaError,
+)
+from sassi_bench.bundle.loader import load, verify
+from sassi_bench.bundle.models import (
+    BlurModel,
+    CalibrationModels,
+    DispersionModel,
+    WavelengthBins,
+    legendre2d_design,
+    legendre2d_terms,
+)
+from sassi_bench.bundle.quality import QualityCheck
+from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION
+from sassi_bench.bundle.writer import publish
+
+__all__ = [
+    "SCHEMA_NAME",
+    "SCHEMA_VERSION",
+    "BlurModel",
+    "BundleDiff",
+    "BundleError",
+    "BundleIntegrityError",
+    "BundleQualityError",
+    "BundleSchemaError",
+    "BundleSchemaWarning",
+    "CalibrationBundle",
+    "CalibrationModels",
+    "DispersionModel",
+    "ImportedBundle",
+    "QualityCheck",
+    "Streak",
+    "UnsafeArchiveError",
+    "UnsupportedSchemaError",
+    "WavelengthBins",
+    "diff_bundles",
+    "export_zip",
+    "format_diff",
+    "import_zip",
+    "legendre2d_design",
+    "legendre2d_terms",
+    "load",
+    "publish",
+    "verify",
+    "verify_zip",
+]

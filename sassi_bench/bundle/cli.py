@@ -1,0 +1,297 @@
+"""``sassi-bench bundle ...``: list, show, verify, diff, export and import calibration bundles.
+
+Every subcommand accepts ``--data DIR`` (the data root; see :func:`sassi_bench.paths.data_root`).
+A bundle is named by a version of ``--rig`` (``v0003``, ``3`` or ``latest``) or by the path of
+its folder.
+
+Examples
+--------
+>>> from sassi_bench.cli import main
+>>> main(["bundle", "list", "--data", "calib_data"])  # doctest: +SKIP
+>>> main(["bundle", "diff", "v0001", "latest", "--rig", "sim"])  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sassi_bench.bundle.archive import export_zip, import_zip, verify_zip
+from sassi_bench.bundle.bundle import CalibrationBundle
+from sassi_bench.bundle.diff import diff_bundles, format_diff
+from sassi_bench.bundle.errors import BundleError, BundleIntegrityError, BundleSchemaError
+from sassi_bench.bundle.integrity import MANIFEST_NAME
+from sassi_bench.bundle.jsonio import thaw
+from sassi_bench.bundle.layout import (
+    latest_version,
+    normalize_version,
+    rig_dir,
+    rig_names,
+    versions,
+)
+from sassi_bench.bundle.loader import load, verify
+from sassi_bench.paths import data_root
+
+__all__ = ["register"]
+
+DEFAULT_RIG = "sim"
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``bundle`` command group to the top-level subparsers.
+
+    Parameters
+    ----------
+    subparsers
+        What ``ArgumentParser.add_subparsers()`` returned.
+
+    Examples
+    --------
+    >>> import argparse
+    >>> parser = argparse.ArgumentParser(prog="sassi-bench")
+    >>> register(parser.add_subparsers())
+    >>> parser.parse_args(["bundle", "verify", "calib_data/sim/v0001"]).func.__name__
+    'cmd_verify'
+    """
+    parser = subparsers.add_parser(
+        "bundle",
+        help="list, inspect, verify, compare, export and import calibration bundles",
+        description="Work with versioned calibration bundles (<data>/<rig>/<version>/).",
+    )
+    sub = parser.add_subparsers(dest="bundle_command", metavar="SUBCOMMAND", required=True)
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "--data",
+        metavar="DIR",
+        default=None,
+        help="data root (default: $SASSI_BENCH_DATA or ./calib_data)",
+    )
+    rig_help = f"rig name (default: {DEFAULT_RIG})"
+    ref_help = "a version of --rig (v0003, 3, latest) or a bundle folder"
+
+    p = sub.add_parser("list", parents=[common], help="table of published versions")
+    p.add_argument("--rig", default=None, help="only this rig (default: every rig)")
+    p.set_defaults(func=cmd_list)
+
+    p = sub.add_parser("show", parents=[common], help="summary of one bundle (verifies it first)")
+    p.add_argument("version", metavar="VERSION", nargs="?", default="latest", help=ref_help)
+    p.add_argument("--rig", default=DEFAULT_RIG, help=rig_help)
+    p.set_defaults(func=cmd_show)
+
+    p = sub.add_parser("verify", parents=[common], help="check the schema and every checksum")
+    p.add_argument("path", metavar="PATH", help="a bundle folder or an exported .zip")
+    p.set_defaults(func=cmd_verify)
+
+    p = sub.add_parser("diff", parents=[common], help="what changed between two bundles")
+    p.add_argument("a", metavar="A", help=ref_help)
+    p.add_argument("b", metavar="B", help=ref_help)
+    p.add_argument("--rig", default=DEFAULT_RIG, help=rig_help)
+    p.add_argument("--grid", type=int, default=9, help="field points per SLM side (default 9)")
+    p.set_defaults(func=cmd_diff)
+
+    p = sub.add_parser("export", parents=[common], help="verify a bundle and write it to a zip")
+    p.add_argument("path", metavar="PATH", help=ref_help)
+    p.add_argument("--zip", dest="zip", metavar="OUT.zip", required=True, help="zip to create")
+    p.add_argument("--rig", default=DEFAULT_RIG, help=rig_help)
+    p.set_defaults(func=cmd_export)
+
+    p = sub.add_parser("import", parents=[common], help="verify and import an exported zip")
+    p.add_argument("zip", metavar="ZIP", help="archive made by 'bundle export'")
+    p.add_argument("--rig", default=None, help="expected rig (default: the bundle's own)")
+    p.set_defaults(func=cmd_import)
+
+
+def _load_ref(ref: str, rig: str, data: str | None) -> CalibrationBundle:
+    """Load a bundle named by a version of ``rig`` or by a folder path."""
+    try:
+        version = normalize_version(ref)
+    except BundleError:
+        return load(Path(ref))
+    return load(rig=rig, version=version, data=data)
+
+
+def _bundle_path(ref: str, rig: str, data: str | None) -> Path:
+    return _load_ref(ref, rig, data).path
+
+
+# -- list ---------------------------------------------------------------------------------------
+
+
+def _summary_row(folder: Path, rig: str, version: str, latest: str | None) -> list[str]:
+    """One row of ``bundle list``, read from the manifest without full verification."""
+    marker = "*" if version == latest else ""
+    try:
+        manifest = json.loads((folder / version / MANIFEST_NAME).read_text("utf-8"))
+        created = str(manifest.get("created", "?"))
+        if manifest.get("passed") is True:
+            status = "passed"
+        elif manifest.get("override") is True:
+            status = "FAILED(override)"
+        else:
+            status = "?"
+        parent = str(manifest.get("parent") or "-")
+    except (OSError, ValueError, AttributeError):
+        created, status, parent = "?", "unreadable", "?"
+    return [rig, version + marker, created, status, parent]
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    lines = [
+        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()
+        for row in [header, *rows]
+    ]
+    return "\n".join(lines)
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    """``bundle list``: a table of versions (``*`` marks LATEST)."""
+    rigs = [args.rig] if args.rig else rig_names(args.data)
+    rows = []
+    for rig in rigs:
+        folder = rig_dir(rig, args.data)
+        latest = latest_version(folder)
+        rows.extend(_summary_row(folder, rig, version, latest) for version in versions(folder))
+    if not rows:
+        where = rig_dir(args.rig, args.data) if args.rig else data_root(args.data)
+        print(f"no calibration bundles under {where}")
+        return 0
+    print(_table(["RIG", "VERSION", "CREATED", "STATUS", "PARENT"], rows))
+    print("(* = LATEST)")
+    return 0
+
+
+# -- show ---------------------------------------------------------------------------------------
+
+
+def _range(values: np.ndarray, fmt: str = ".1f") -> str:
+    return f"{values.min():{fmt}}-{values.max():{fmt}}"
+
+
+def describe(bundle: CalibrationBundle) -> str:
+    """Multi-line human summary of a bundle (what ``bundle show`` prints).
+
+    Examples
+    --------
+    >>> print(describe(load(rig="sim")))  # doctest: +SKIP
+    """
+    m = bundle.manifest
+    models = bundle.models
+    soft = m["software"]
+    git = soft["git_commit"][:12] if soft["git_commit"] else "unknown"
+    if soft.get("git_dirty"):
+        git += " (uncommitted changes)"
+    height, width = bundle.slm_shape
+    centres, edges = bundle.wavelengths, bundle.bin_edges
+    streak = bundle.streak((width - 1) / 2, (height - 1) / 2)
+    spread = float(streak.x_right.max() - streak.x_left.min())
+    sigma = bundle.blur_width(centres)
+    i_min = int(np.argmin(sigma))
+    schema = m["schema_version"]
+    if bundle.migrated_from:
+        schema += f" (migrated from {bundle.migrated_from})"
+    status = "passed" if bundle.passed else "FAILED (published with an override)"
+    lines = [
+        f"{bundle.rig_name}/{bundle.version}  ({bundle.path})",
+        f"  created     {bundle.created}",
+        f"  status      {status}",
+        f"  parent      {bundle.parent or 'none'}",
+        f"  schema      {m['schema']} {schema}",
+        f"  software    {soft['name']} {soft['version']}, git {git}",
+        f"  rig         {bundle.rig_name}, rig_hash {m['rig_hash'][:12]}...",
+        f"  SLM         {width} x {height} px",
+        f"  dispersion  glass {models.dispersion.glass}, legendre2d degree "
+        f"{models.dispersion.field_degree}; streak at the field centre spans {spread:.1f} px",
+        f"  bins        {centres.size} bins, {edges[0]:.1f}-{edges[-1]:.1f} nm, "
+        f"width {_range(np.diff(edges), '.2f')} nm, resolution "
+        f"{_range(bundle.bin_resolution_nm, '.2f')} nm",
+        f"  blur        sigma {sigma[0]:.2f} px at {centres[0]:.0f} nm, min {sigma[i_min]:.2f} px "
+        f"at {centres[i_min]:.0f} nm, {sigma[-1]:.2f} px at {centres[-1]:.0f} nm; "
+        f"window +/-{models.blur.window_sigmas:g} sigma",
+    ]
+    if bundle.guide_to_slm is None:
+        lines.append("  guide       homography not calibrated")
+    else:
+        rms = models.guide_info.get("rms_px")
+        lines.append(
+            "  guide       guide -> SLM homography calibrated"
+            + (f" (rms {rms:.3g} px)" if rms is not None else "")
+        )
+    offset = models.offset
+    lines.append(f"  offset      {'none' if offset is None else thaw(offset)}")
+    response = bundle.response
+    lines.append(
+        "  response    none"
+        if response is None
+        else f"  response    {response.size} bins, {_range(response, '.3g')}"
+    )
+    lines.append(f"  inputs      {len(m['inputs'])} raw session(s)")
+    checks = m["quality"]["checks"]
+    passed = sum(1 for c in checks if c["passed"])
+    lines.append(f"  quality     {passed}/{len(checks)} checks passed")
+    for c in checks:
+        comparison = c.get("comparison", "<=")
+        lines.append(
+            f"    {'PASS' if c['passed'] else 'FAIL'}  {c['name']}: {c['value']:.4g} {c['unit']} "
+            f"(tolerance {comparison} {c['tolerance']:.4g} {c['unit']})"
+        )
+    return "\n".join(lines)
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    """``bundle show``: verify, then summarise one bundle."""
+    print(describe(_load_ref(args.version, args.rig, args.data)))
+    return 0
+
+
+# -- verify -------------------------------------------------------------------------------------
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    """``bundle verify``: exit 0 with "OK", or 1 naming the failing file and why."""
+    path = Path(args.path)
+    try:
+        is_zip = path.is_file() and path.name != MANIFEST_NAME
+        files = verify_zip(path) if is_zip else verify(path)
+    except (BundleIntegrityError, BundleSchemaError) as exc:
+        failing = getattr(exc, "file", None)
+        print(f"FAILED {path}" + (f" ({failing})" if failing else "") + f": {exc}")
+        return 1
+    print(f"OK {path}: schema and {len(files)} files verified")
+    return 0
+
+
+# -- diff ---------------------------------------------------------------------------------------
+
+
+def cmd_diff(args: argparse.Namespace) -> int:
+    """``bundle diff A B``: what changed from A to B."""
+    a = _load_ref(args.a, args.rig, args.data)
+    b = _load_ref(args.b, args.rig, args.data)
+    print(format_diff(diff_bundles(a, b, grid=max(2, args.grid))))
+    return 0
+
+
+# -- export / import ----------------------------------------------------------------------------
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    """``bundle export PATH --zip OUT.zip``."""
+    source = _bundle_path(args.path, args.rig, args.data)
+    out = export_zip(source, args.zip)
+    print(f"exported {source} -> {out}")
+    return 0
+
+
+def cmd_import(args: argparse.Namespace) -> int:
+    """``bundle import ZIP``: verify and add the bundle under the data root."""
+    result = import_zip(args.zip, rig=args.rig, data=args.data)
+    if result.created:
+        print(f"imported {args.zip} -> {result.path}")
+    else:
+        print(f"already present (identical): {result.path}")
+    return 0

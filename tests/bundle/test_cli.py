@@ -1,0 +1,107 @@
+"""``sassi-bench bundle ...`` through the real entry point ``sassi_bench.cli.main``."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from sassi_bench.cli import main
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_list(capsys, data_root: Path, synthetic):
+    code, out, _ = run(capsys, "bundle", "list", "--data", str(data_root))
+    assert code == 0 and "no calibration bundles" in out
+    synthetic.publish_synthetic(data_root)
+    synthetic.publish_synthetic(data_root, quality=synthetic.failing_quality(), allow_failed=True)
+    code, out, _ = run(capsys, "bundle", "list", "--rig", "sim", "--data", str(data_root))
+    assert code == 0
+    lines = out.splitlines()
+    assert lines[0].split() == ["RIG", "VERSION", "CREATED", "STATUS", "PARENT"]
+    assert lines[1].split()[1:2] == ["v0001"] and "passed" in lines[1]
+    assert lines[2].split()[1] == "v0002*" and "FAILED(override)" in lines[2]
+    assert lines[2].split()[-1] == "v0001"
+
+
+def test_show(capsys, published: Path, data_root: Path):
+    code, out, _ = run(capsys, "bundle", "show", "v0001", "--rig", "sim", "--data", str(data_root))
+    assert code == 0
+    assert "sim/v0001" in out and "status      passed" in out
+    assert "68 bins, 400.0-700.0 nm" in out
+    assert "sigma" in out and "window +/-2.5 sigma" in out
+    assert "homography calibrated (rms 0.41 px)" in out
+    assert "PASS  dispersion_rms: 0.08 px (tolerance <= 0.25 px)" in out
+    code, out_latest, _ = run(capsys, "bundle", "show", "--data", str(data_root))
+    assert code == 0 and "sim/v0001" in out_latest
+    code, out_path, _ = run(capsys, "bundle", "show", str(published))
+    assert code == 0 and "sim/v0001" in out_path
+
+
+def test_show_missing_version_is_a_user_error(capsys, published: Path, data_root: Path):
+    code, _, err = run(capsys, "bundle", "show", "v0007", "--data", str(data_root))
+    assert code == 2 and "no version v0007" in err and "Fix:" in err
+
+
+def test_verify_ok_and_failure(capsys, published: Path, tmp_path: Path):
+    code, out, _ = run(capsys, "bundle", "verify", str(published))
+    assert code == 0 and out.startswith("OK")
+    target = published / "arrays" / "bin_edges_nm.npy"
+    data = bytearray(target.read_bytes())
+    data[100] ^= 0x10
+    target.write_bytes(bytes(data))
+    code, out, _ = run(capsys, "bundle", "verify", str(published))
+    assert code != 0
+    assert out.startswith("FAILED") and "arrays/bin_edges_nm.npy" in out and "SHA-256" in out
+    code, _, err = run(capsys, "bundle", "verify", str(tmp_path / "nowhere"))
+    assert code == 2 and "not a bundle folder" in err
+
+
+def test_diff(capsys, data_root: Path, synthetic):
+    synthetic.publish_synthetic(data_root)
+    synthetic.publish_synthetic(data_root, procedure={**synthetic.PROCEDURE, "note": "v2"})
+    code, out, _ = run(capsys, "bundle", "diff", "v0001", "latest", "--data", str(data_root))
+    assert code == 0
+    assert "bundle diff sim/v0001 -> sim/v0002" in out
+    assert "wavelength map: shift max 0 px" in out
+    assert "note: '<absent>' -> 'v2'" in out
+
+
+def test_export_import_and_verify_zip(capsys, published: Path, tmp_path: Path):
+    out_zip = tmp_path / "sim-v0001.zip"
+    code, out, _ = run(capsys, "bundle", "export", str(published), "--zip", str(out_zip))
+    assert code == 0 and out_zip.is_file()
+    code, out, _ = run(capsys, "bundle", "verify", str(out_zip))
+    assert code == 0 and out.startswith("OK")
+    other = tmp_path / "other"
+    code, out, _ = run(capsys, "bundle", "import", str(out_zip), "--data", str(other))
+    assert code == 0 and "imported" in out
+    assert (other / "sim" / "v0001" / "manifest.json").is_file()
+    code, out, _ = run(capsys, "bundle", "import", str(out_zip), "--data", str(other))
+    assert code == 0 and "already present (identical)" in out
+    code, _, err = run(capsys, "bundle", "export", str(published), "--zip", str(out_zip))
+    assert code == 2 and "already exists" in err
+
+
+def test_import_rejects_traversal(capsys, published: Path, tmp_path: Path):
+    evil = tmp_path / "evil.zip"
+    with zipfile.ZipFile(evil, "w") as archive:
+        for p in published.rglob("*"):
+            if p.is_file():
+                archive.write(p, p.relative_to(published).as_posix())
+        archive.writestr("../../outside.txt", "pwned")
+    code, _, err = run(capsys, "bundle", "import", str(evil), "--data", str(tmp_path / "d"))
+    assert code == 2 and "'..'" in err
+    assert not (tmp_path / "outside.txt").exists()
+
+
+def test_bundle_requires_a_subcommand(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["bundle"])
+    assert info.value.code == 2

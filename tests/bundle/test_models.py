@@ -1,0 +1,181 @@
+"""The model contract: field basis, Sellmeier index, dispersion/blur evaluation, validation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sassi_bench.bundle import BundleSchemaError, CalibrationModels, DispersionModel
+from sassi_bench.bundle.models import (
+    BlurModel,
+    WavelengthBins,
+    field_coordinates,
+    legendre2d_design,
+    legendre2d_terms,
+    sellmeier_index,
+)
+from sassi_bench.optics.glass import get_glass
+
+# Closed forms of the first Legendre polynomials, independent of numpy.polynomial.
+LEGENDRE = [
+    lambda t: np.ones_like(t),
+    lambda t: t,
+    lambda t: (3 * t**2 - 1) / 2,
+    lambda t: (5 * t**3 - 3 * t) / 2,
+]
+TERMS_DEGREE_3 = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3)]
+
+
+def reference_xy(model: DispersionModel, u, v, lam):
+    """Straightforward evaluation of the documented formulas (loops over terms only)."""
+    height, width = model.slm_shape
+    uh = 2 * np.asarray(u, float) / (width - 1) - 1
+    vh = 2 * np.asarray(v, float) / (height - 1) - 1
+    s_x = (sellmeier_index(lam, model.sellmeier_b, model.sellmeier_c) - model.n_ref) / model.n_scale
+    s_y = (np.asarray(lam, float) - model.lambda_ref_nm) / model.lambda_scale_nm
+    x = 0.0
+    y = 0.0
+    for k in range(3):
+        for t, (i, j) in enumerate(TERMS_DEGREE_3):
+            basis = LEGENDRE[i](uh) * LEGENDRE[j](vh)
+            x = x + model.x_coeffs[k, t] * basis * s_x**k
+            y = y + model.y_coeffs[k, t] * basis * s_y**k
+    return x, y
+
+
+def test_legendre2d_terms_order():
+    assert list(legendre2d_terms(3)) == TERMS_DEGREE_3
+    assert legendre2d_terms(0) == ((0, 0),)
+    assert len(legendre2d_terms(5)) == 21
+    with pytest.raises(ValueError):
+        legendre2d_terms(-1)
+
+
+def test_legendre2d_design_matches_closed_forms():
+    rng = np.random.default_rng(0)
+    uh, vh = rng.uniform(-1, 1, (2, 7, 3))
+    design = legendre2d_design(uh, vh, 3)
+    assert design.shape == (7, 3, 10)
+    for t, (i, j) in enumerate(TERMS_DEGREE_3):
+        np.testing.assert_allclose(design[..., t], LEGENDRE[i](uh) * LEGENDRE[j](vh), atol=1e-14)
+
+
+def test_field_coordinates_span_minus_one_to_one():
+    uh, vh = field_coordinates([0, 319.5, 639], [0, 199.5, 399], (400, 640))
+    np.testing.assert_allclose(uh, [-1, 0, 1])
+    np.testing.assert_allclose(vh, [-1, 0, 1])
+
+
+def test_sellmeier_matches_the_optics_glass_catalog():
+    glass = get_glass("N-SF11")
+    lam = np.linspace(380, 720, 50)
+    np.testing.assert_allclose(sellmeier_index(lam, glass.b, glass.c), glass.index(lam), rtol=1e-14)
+
+
+def test_dispersion_evaluates_documented_formula(synthetic):
+    model = synthetic.make_dispersion()
+    rng = np.random.default_rng(1)
+    u = rng.uniform(0, 639, 40)
+    v = rng.uniform(0, 399, 40)
+    lam = rng.uniform(400, 700, 40)
+    x, y = model.evaluate(u, v, lam)
+    x_ref, y_ref = reference_xy(model, u, v, lam)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(y, y_ref, rtol=0, atol=1e-9)
+
+
+def test_dispersion_broadcasts(synthetic):
+    model = synthetic.make_dispersion()
+    u = np.linspace(0, 639, 5)[:, None, None]
+    v = np.linspace(0, 399, 4)[None, :, None]
+    lam = np.linspace(400, 700, 11)[None, None, :]
+    x, y = model.evaluate(u, v, lam)
+    assert x.shape == y.shape == (5, 4, 11)
+    assert x.dtype == np.float64
+    x_ref, _ = reference_xy(model, *np.broadcast_arrays(u, v, lam))
+    np.testing.assert_allclose(x, x_ref, atol=1e-9)
+    x0, y0 = model.evaluate(320, 200, 550.0)
+    assert np.ndim(x0) == 0 and np.ndim(y0) == 0
+
+
+def test_synthetic_dispersion_is_physically_shaped(synthetic):
+    model = synthetic.make_dispersion()
+    x, _ = model.evaluate(319.5, 199.5, [400.0, 700.0])
+    assert 64 < x[1] - x[0] < 72  # the prototype's ~68 px spread
+    bins = synthetic.make_bins(model)
+    widths = np.diff(bins.edges_nm)
+    assert widths[0] < 3 and widths[-1] > 8  # ~2 nm in the blue, ~10 nm in the red
+
+
+def test_blur_quadratic():
+    blur = BlurModel((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5)
+    np.testing.assert_allclose(blur.sigma([405.0, 520.0, 635.0]), [4.0, 1.0, 4.0])
+    np.testing.assert_allclose(blur.window_half_width(520.0), 2.5)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("x_coeffs", np.zeros((3, 9)), r"expected \(K, 10\)"),
+        ("x_coeffs", np.full((3, 10), np.nan), "NaN"),
+        ("x_coeffs", np.array([["a"] * 10] * 3), "real numeric"),
+        ("n_scale", -1.0, "must be > 0"),
+        ("slm_shape", (1, 640), "between 2"),
+        ("field_degree", 2.5, "integer"),
+        ("sellmeier_b", (1.0, 2.0), "3 numbers"),
+    ],
+)
+def test_dispersion_rejects_malformed(synthetic, field, value, match):
+    model = synthetic.make_dispersion()
+    kwargs = {name: getattr(model, name) for name in DispersionModel.__dataclass_fields__}
+    kwargs[field] = value
+    with pytest.raises(BundleSchemaError, match=match):
+        DispersionModel(**kwargs)
+
+
+def test_bins_rejects_malformed():
+    with pytest.raises(BundleSchemaError, match="strictly increasing"):
+        WavelengthBins([450.0, 550.0], [400.0, 600.0, 500.0], [1.0, 1.0])
+    with pytest.raises(BundleSchemaError, match="expected"):
+        WavelengthBins([450.0, 550.0], [400.0, 500.0], [1.0, 1.0])
+    with pytest.raises(BundleSchemaError, match="between their bin's edges"):
+        WavelengthBins([450.0, 650.0], [400.0, 500.0, 600.0], [1.0, 1.0])
+
+
+def test_models_reject_cross_model_problems(synthetic):
+    with pytest.raises(BundleSchemaError, match="sigma must be > 0"):
+        synthetic.make_models(blur=BlurModel((-1.0, 0.0, 0.1), 520.0, 100.0, 2.5))
+    with pytest.raises(BundleSchemaError, match=r"response.*expected \(68,\)"):
+        synthetic.make_models(response=np.ones(5))
+    with pytest.raises(BundleSchemaError, match="singular"):
+        synthetic.make_models(guide_to_slm=np.zeros((3, 3)))
+    disp = synthetic.make_dispersion()
+    folded = disp.x_coeffs.copy()
+    folded[2, 0] = 40.0  # strong curvature: the streak folds back on itself
+    kwargs = {name: getattr(disp, name) for name in DispersionModel.__dataclass_fields__}
+    kwargs["x_coeffs"] = folded
+    with pytest.raises(BundleSchemaError, match="not monotonic"):
+        synthetic.make_models(dispersion=DispersionModel(**kwargs))
+
+
+def test_models_manifest_round_trip(synthetic):
+    models = synthetic.make_models()
+    section, arrays = models.to_manifest()
+    again = CalibrationModels.from_manifest(section, arrays)
+    np.testing.assert_array_equal(again.dispersion.x_coeffs, models.dispersion.x_coeffs)
+    np.testing.assert_array_equal(again.guide_to_slm, models.guide_to_slm)
+    assert again.guide_info["matches"] == 812
+    assert again.offset["method"] == "masked-cubic"
+    section["guide_homography"] = None
+    del section["offset"]
+    section["response"] = None
+    bare = CalibrationModels.from_manifest(section, arrays)
+    assert bare.guide_to_slm is None and bare.offset is None and bare.response is None
+
+
+def test_model_arrays_are_read_only(synthetic):
+    models = synthetic.make_models()
+    with pytest.raises(ValueError):
+        models.dispersion.x_coeffs[0, 0] = 1.0
+    with pytest.raises(TypeError):
+        models.offset["method"] = "other"
