@@ -20,8 +20,8 @@ def pinhole_pattern(
 
     Examples
     --------
-    >>> pinhole_pattern((10, 12), pitch=(6, 5)).sum()
-    np.int64(4)
+    >>> int(pinhole_pattern((10, 12), pitch=(6, 5)).sum())
+    4
     """
     mask = np.zeros(shape, dtype=bool)
     mask[offset[1] :: pitch[1], offset[0] :: pitch[0]] = True

@@ -116,20 +116,17 @@ class SpectralRelay:
         x, y : ndarray
             Camera column and row (pixel centres at integers).
         """
-        u, v, lam = np.broadcast_arrays(
-            np.asarray(u, dtype=np.float64),
-            np.asarray(v, dtype=np.float64),
-            np.asarray(wavelength_nm, dtype=np.float64),
-        )
+        # Field terms depend on (u, v) only and the index on the wavelength only: compute
+        # each on its own (unbroadcast) shape and let the ray trace broadcast them.
+        u, v = np.broadcast_arrays(np.asarray(u, dtype=np.float64), np.asarray(v, dtype=np.float64))
+        n = self.glass.index(np.asarray(wavelength_nm, dtype=np.float64))
         rot = np.deg2rad(self.relay.rotation_deg)
         du = u - self.slm_centre[0]
         dv = v - self.slm_centre[1]
         hu = np.cos(rot) * du - np.sin(rot) * dv
         hv = np.sin(rot) * du + np.cos(rot) * dv
-        f1 = self.f2 / self.relay.scale
-        d = np.stack([hu, hv, np.full_like(hu, f1)], axis=-1)
+        d = np.stack([hu, hv, np.full_like(hu, self.f2 / self.relay.scale)], axis=-1)
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        n = self.glass.index(lam)
         out = trace_prism(d, n, self.prism.apex_deg, self.incidence_deg) @ self._to_camera.T
         xu = self.f2 * out[..., 0] / out[..., 2]
         yu = self.f2 * out[..., 1] / out[..., 2]

@@ -22,6 +22,11 @@ sensor model. No Python loop runs over pixels: loops run over wavelength samples
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from functools import lru_cache
+
 import cv2
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +41,8 @@ __all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
 _TRUNCATE_SIGMAS = 4.0
 # Samples per camera pixel of the tabulated spot profiles.
 _TABLE_STEPS = 64
+# Margin (px) the spot tables keep beyond a spot's reach, for a run's own extent.
+_RUN_SPAN_PX = 24
 # Wavelength samples splatted together (see SpectralRenderer._splat).
 _RUN = 8
 
@@ -113,6 +120,27 @@ def discrete_gaussian_kernel(sigma: float) -> NDArray[np.float32]:
     return kernel(width).astype(np.float32)
 
 
+@lru_cache(maxsize=1)
+def _pool() -> ThreadPoolExecutor:
+    """Worker threads for the sparse renderer (one per core, at most four)."""
+    return ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)))
+
+
+@dataclass(frozen=True)
+class _SpotTable:
+    """Spot profiles of a set of wavelength samples, for the sparse renderer.
+
+    ``values[k, centre + m]`` is sample k's profile at ``m / _TABLE_STEPS`` px from the
+    spot centre (zero beyond ``reach[k]`` px); ``norm[k, phase]`` is the sum of the
+    profile over whole-pixel steps for a spot at sub-pixel phase ``phase``.
+    """
+
+    values: NDArray[np.float32]
+    centre: int
+    norm: NDArray[np.float64]
+    reach: NDArray[np.intp]
+
+
 class SpectralRenderer:
     """Photo-electron rates on the spectral camera for an SLM transmission and a scene.
 
@@ -154,7 +182,7 @@ class SpectralRenderer:
         self._up_x = linear_upsampler(self._coarse_x, wc)
         self._up_y = linear_upsampler(self._coarse_y, hc)
         self._inverse_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
-        self._tables: dict[tuple[float, ...], NDArray[np.float32]] = {}
+        self._tables: dict[tuple[float, ...], _SpotTable] = {}
 
     # -- the optical model shared by both renderers ---------------------------------
     def spot_sigma(self, wavelength_nm: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -169,23 +197,33 @@ class SpectralRenderer:
         scale = self.relay.relay.scale
         return np.sqrt(np.clip(spot_sigma**2 - scale**2 / 6.0, 0.0, None))
 
-    def _profile_table(self, wavelengths_nm: NDArray[np.float64]) -> NDArray[np.float32]:
-        """Spot profiles sampled every 1/_TABLE_STEPS px over +-_reach, one row per sample."""
+    def _spot_table(self, wavelengths_nm: NDArray[np.float64]) -> _SpotTable:
+        """Tabulated spot profiles of these samples (cached; see :class:`_SpotTable`)."""
         key = tuple(np.round(wavelengths_nm, 6))
         table = self._tables.get(key)
         if table is None:
-            sigma = self._tent_blur(self.spot_sigma(wavelengths_nm))
-            reach = self._reach(wavelengths_nm)
-            offsets = np.arange(-reach * _TABLE_STEPS, reach * _TABLE_STEPS + 1) / _TABLE_STEPS
+            spot = self.spot_sigma(wavelengths_nm)
+            sigma = self._tent_blur(spot)
             scale = self.relay.relay.scale
-            table = np.stack([spot_profile(offsets, scale, s) for s in sigma]).astype(np.float32)
+            own_reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.intp) + 1
+            half = (int(own_reach.max()) + _RUN_SPAN_PX) * _TABLE_STEPS
+            offsets = np.arange(-half, half + 1) / _TABLE_STEPS
+            values = np.stack([spot_profile(offsets, scale, sd) for sd in sigma])
+            values[np.abs(offsets)[None, :] > own_reach[:, None]] = 0.0
+            # Sum over whole-pixel steps for every sub-pixel phase, to normalise kernels.
+            phases = np.arange(_TABLE_STEPS)
+            taps = np.arange(-half // _TABLE_STEPS - 1, half // _TABLE_STEPS + 2) * _TABLE_STEPS
+            where = half - phases[:, None] + taps[None, :]
+            valid = (where >= 0) & (where < values.shape[1])
+            norm = np.where(valid[None], values[:, np.clip(where, 0, values.shape[1] - 1)], 0.0)
+            table = _SpotTable(
+                values=values.astype(np.float32),
+                centre=half,
+                norm=norm.sum(axis=2),
+                reach=own_reach,
+            )
             self._tables[key] = table
         return table
-
-    def _reach(self, wavelengths_nm: NDArray[np.float64]) -> int:
-        """Half-width (px) beyond which the widest spot of these samples is negligible."""
-        sigma = float(self.spot_sigma(wavelengths_nm).max())
-        return int(np.ceil(_TRUNCATE_SIGMAS * sigma + self.relay.relay.scale)) + 1
 
     def electrons_per_photon(self, samples: SpectralSamples) -> NDArray[np.float64]:
         """Photo-electron rate each sample delivers per unit reflectance and transmission."""
@@ -281,62 +319,79 @@ class SpectralRenderer:
             return total.reshape(hc, wc).astype(np.float32)
         lam = samples.wavelengths_nm
         gain = self.electrons_per_photon(samples).astype(np.float32)
-        table = self._profile_table(lam)
-        reach = self._reach(lam)
-        scale = self.relay.relay.scale
-        run_reach = np.ceil(_TRUNCATE_SIGMAS * self.spot_sigma(lam) + scale).astype(np.intp) + 1
-        for start in range(0, rows.size, self.block):
+        table = self._spot_table(lam)
+
+        def splat_block(start: int) -> NDArray[np.float64]:
             r = rows[start : start + self.block]
             c = cols[start : start + self.block]
             spectra = scene.reflectance_at(r + scene.margin, c + scene.margin, lam)
             spectra *= gain[None, :] * transmission[start : start + self.block, None]
             x, y = self.relay.forward(c[:, None], r[:, None], lam[None, :])
-            total += self._splat(x, y, spectra, table, reach, run_reach)
+            return self._splat(x, y, spectra, table)
+
+        # NumPy releases the GIL in the heavy steps, so blocks render in parallel threads;
+        # partial frames are summed in block order, so results stay deterministic.
+        for part in _pool().map(splat_block, range(0, rows.size, self.block)):
+            total += part
         return total.reshape(hc, wc).astype(np.float32)
 
-    def _splat(self, x, y, spectra, table, reach, run_reach) -> NDArray[np.float64]:
+    def _splat(self, x, y, spectra, table: _SpotTable) -> NDArray[np.float64]:
         """Scatter the streaks of a block of pixels; returns the flat frame increment.
 
         Wavelength samples are processed in short runs: a run's spots only reach a few
         pixels past the run's own extent, so each run fills a small window of the
         pixel's patch (a batched matrix product) instead of the whole streak length.
-        Spot profiles come from a table (1/64 px steps, nearest entry).
+        Spot profiles come from the table (1/64 px steps, nearest entry); each sampled
+        kernel's sum is known per sub-pixel phase, so normalising it (every sample
+        deposits exactly its energy) only rescales the (pixel, sample) weights.
         """
         hc, wc = self.camera_shape
         n_pix, n_lam = x.shape
-        half = (table.shape[1] - 1) // 2
-        flat_table = table.ravel()
-        row_start = (np.arange(n_lam) * table.shape[1] + half)[None, :, None]
+        reach = int(table.reach.max())
         x0 = np.floor(x.min(axis=1)).astype(np.intp) - reach
         y0 = np.floor(y.min(axis=1)).astype(np.intp) - reach
         width = int(np.ceil((x.max(axis=1) - x0).max())) + reach + 1
         height = int(np.ceil((y.max(axis=1) - y0).max())) + reach + 1
+        # Positions relative to each pixel's patch, in whole table steps.
+        ix = np.rint((x - x0[:, None]) * _TABLE_STEPS).astype(np.int32)
+        iy = np.rint((y - y0[:, None]) * _TABLE_STEPS).astype(np.int32)
+        lam_index = np.arange(n_lam)
+        weights = spectra / (
+            table.norm[lam_index, ix % _TABLE_STEPS] * table.norm[lam_index, iy % _TABLE_STEPS]
+        )
+        row_base = (lam_index * table.values.shape[1] + table.centre).astype(np.int32)
+        flat = table.values.ravel()
         patches = np.zeros((n_pix, height, width), dtype=np.float32)
-        xr = ((x - x0[:, None]) * _TABLE_STEPS).astype(np.float32)  # in table steps
-        yr = ((y - y0[:, None]) * _TABLE_STEPS).astype(np.float32)
-
-        def kernels(pos, lo, hi, run):
-            steps = np.arange(lo, hi, dtype=np.float32) * _TABLE_STEPS
-            idx = np.rint(steps[None, None, :] - pos[:, run, None]).astype(np.intp)
-            np.clip(idx, -half, half, out=idx)
-            k = flat_table[idx + row_start[:, run]]
-            return k
-
         for start in range(0, n_lam, _RUN):
             run = slice(start, min(start + _RUN, n_lam))
-            r = int(run_reach[run].max())
-            left = max(int(xr[:, run].min() / _TABLE_STEPS) - r, 0)
-            right = min(int(xr[:, run].max() / _TABLE_STEPS) + r + 2, width)
-            top = max(int(yr[:, run].min() / _TABLE_STEPS) - r, 0)
-            bottom = min(int(yr[:, run].max() / _TABLE_STEPS) + r + 2, height)
-            gx = kernels(xr, left, right, run)
-            gy = kernels(yr, top, bottom, run)
-            # Normalise each sampled kernel so every sample deposits exactly its energy.
-            gx /= gx.sum(axis=2, keepdims=True)
-            gy *= (spectra[:, run] / gy.sum(axis=2))[:, :, None]
+            r = int(table.reach[run].max())
+            left = max(int(ix[:, run].min()) // _TABLE_STEPS - r, 0)
+            right = min(int(ix[:, run].max()) // _TABLE_STEPS + r + 2, width)
+            top = max(int(iy[:, run].min()) // _TABLE_STEPS - r, 0)
+            bottom = min(int(iy[:, run].max()) // _TABLE_STEPS + r + 2, height)
+            base = row_base[run][None, :, None]
+            gx = flat[self._taps(left, right, ix[:, run], base, table)]
+            gy = flat[self._taps(top, bottom, iy[:, run], base, table)]
+            gy *= weights[:, run, None].astype(np.float32)
             patches[:, top:bottom, left:right] += np.matmul(gy.transpose(0, 2, 1), gx)
-        cols = x0[:, None, None] + np.arange(width)[None, None, :]
-        rows = y0[:, None, None] + np.arange(height)[None, :, None]
-        inside = (cols >= 0) & (cols < wc) & (rows >= 0) & (rows < hc)
-        index = (rows * wc + cols)[inside]
-        return np.bincount(index, weights=patches[inside], minlength=hc * wc)
+        index = (
+            (y0 * wc + x0).astype(np.int64)[:, None, None]
+            + (np.arange(height) * wc)[None, :, None]
+            + np.arange(width)[None, None, :]
+        )
+        if x0.min() < 0 or (x0 + width).max() > wc or y0.min() < 0 or (y0 + height).max() > hc:
+            cols = x0[:, None, None] + np.arange(width)[None, None, :]
+            rows = y0[:, None, None] + np.arange(height)[None, :, None]
+            inside = (cols >= 0) & (cols < wc) & (rows >= 0) & (rows < hc)
+            index = np.where(inside, index, 0)
+            patches = np.where(inside, patches, 0.0)
+        return np.bincount(index.ravel(), weights=patches.ravel(), minlength=hc * wc)
+
+    @staticmethod
+    def _taps(lo: int, hi: int, positions, base, table: _SpotTable):
+        """Flat table indices of pixels lo..hi-1 for spots at ``positions`` (table steps)."""
+        steps = (np.arange(lo, hi, dtype=np.int32) * _TABLE_STEPS)[None, None, :]
+        offset = steps - positions[:, :, None]
+        if np.abs(offset).max() > table.centre:  # a run wider than the table's margin
+            np.clip(offset, -table.centre, table.centre, out=offset)
+        return offset + base
