@@ -12,10 +12,12 @@ The virtual bench's SLM -> camera map is a ray trace, not a fitted polynomial:
 3. The camera lens (focal length ``f2`` in camera pixels, axis along the deviated
    reference ray) focuses it; ``f2`` is chosen so the 400-700 nm streak at the field
    centre is ``prism.spread_px`` long, and ``f2 / f1 = relay.scale``.
-4. Mild radial distortion ``relay.distortion_k1`` (radius normalised to the camera's
-   half diagonal) and a phenomenological vertical bow of the streak, ``prism.smile_px``
-   at mid-band, from a slight prism roll and the lens's field curvature. The bow
-   follows the glass's dispersion, so it is not a polynomial in wavelength either.
+4. The prism sits slightly rolled about the optical axis, so a streak is not quite
+   horizontal: its 700 nm end lies ``prism.smile_px`` rows below its 400 nm end at the
+   field centre (the roll angle is solved for). With the skew-ray curvature this gives
+   the small wavelength-dependent row shift that the calibration fits.
+5. Mild radial distortion ``relay.distortion_k1`` (radius normalised to the camera's
+   half diagonal).
 """
 
 from __future__ import annotations
@@ -81,25 +83,43 @@ class SpectralRelay:
             if self.prism.incidence_deg is not None
             else min_deviation_incidence_deg(n_ref, self.prism.apex_deg)
         )
-        axis = trace_prism(
-            np.array([0.0, 0.0, 1.0]), n_ref, self.prism.apex_deg, self.incidence_deg
-        )
+        n_lo, n_hi = self.glass.index(np.array(_BAND_NM))
+        self._n_band = (float(n_lo), float(n_hi))
+        # Solve the camera focal length (streak length = spread_px) and the prism roll
+        # (end-to-end row offset = smile_px) at the field centre by fixed-point iteration.
+        self.f2, self.roll_rad = 1000.0, 0.0
+        for _ in range(8):
+            self._to_camera = self._align_camera(n_ref)
+            x, y = self.forward(
+                [self.slm_centre[0]] * 2, [self.slm_centre[1]] * 2, np.array(_BAND_NM)
+            )
+            self.f2 *= self.prism.spread_px / float(x[1] - x[0])
+            self.roll_rad += np.arctan2(
+                self.prism.smile_px - float(y[1] - y[0]), float(x[1] - x[0])
+            )
+
+    def _trace(self, d: NDArray[np.float64], n: ArrayLike) -> NDArray[np.float64]:
+        """Trace directions through the rolled prism (roll about the optical axis)."""
+        c, s = np.cos(self.roll_rad), np.sin(self.roll_rad)
+        roll = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        out = trace_prism(d @ roll, n, self.prism.apex_deg, self.incidence_deg)
+        return out @ roll.T
+
+    def _align_camera(self, n_ref: float) -> NDArray[np.float64]:
+        """Rotation taking the deviated central ray at the reference wavelength to +z."""
+        axis = self._trace(np.array([0.0, 0.0, 1.0]), n_ref)
         if not np.all(np.isfinite(axis)):
             raise ValueError(
                 "prism: the central ray is totally internally reflected; "
                 "Fix: lower prism.apex_deg or change prism.incidence_deg"
             )
-        self._to_camera = _rot_y(-np.arctan2(axis[0], axis[2]))
-        n_lo, n_hi = self.glass.index(np.array(_BAND_NM))
-        self._n_band = (float(n_lo), float(n_hi))
-        # Choose f2 so the streak at the field centre spans spread_px; distortion makes
-        # the spread depend weakly on f2, so refine by fixed-point iteration.
-        self.f2 = 1000.0
-        for _ in range(6):
-            x, _ = self.forward(
-                [self.slm_centre[0]] * 2, [self.slm_centre[1]] * 2, np.array(_BAND_NM)
-            )
-            self.f2 *= self.prism.spread_px / float(x[1] - x[0])
+        yaw = _rot_y(-np.arctan2(axis[0], axis[2]))
+        flat = yaw @ axis
+        e = np.arctan2(flat[1], flat[2])
+        pitch = np.array(
+            [[1.0, 0.0, 0.0], [0.0, np.cos(e), -np.sin(e)], [0.0, np.sin(e), np.cos(e)]]
+        )
+        return pitch @ yaw
 
     @property
     def f1(self) -> float:
@@ -127,14 +147,12 @@ class SpectralRelay:
         hv = np.sin(rot) * du + np.cos(rot) * dv
         d = np.stack([hu, hv, np.full_like(hu, self.f2 / self.relay.scale)], axis=-1)
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        out = trace_prism(d, n, self.prism.apex_deg, self.incidence_deg) @ self._to_camera.T
+        out = self._trace(d, n) @ self._to_camera.T
         xu = self.f2 * out[..., 0] / out[..., 2]
         yu = self.f2 * out[..., 1] / out[..., 2]
         factor = 1.0 + self.relay.distortion_k1 * (xu**2 + yu**2) / self.distortion_radius**2
         x = self.optical_centre[0] + xu * factor
         y = self.optical_centre[1] + yu * factor
-        t = (self._n_band[0] - n) / (self._n_band[0] - self._n_band[1])
-        y = y + self.prism.smile_px * 4.0 * t * (1.0 - t)
         return x, y
 
     def inverse(

@@ -90,19 +90,29 @@ def test_distortion_moves_the_corners_not_the_centre(desc):
     assert np.hypot(x1 - x0, y1 - y0) > 1.0
 
 
-def test_streaks_bow_by_smile_px(desc):
-    flat = make_relay(desc, prism={"smile_px": 0.0})
-    bowed = make_relay(desc, prism={"smile_px": 1.5})
-    lam = np.linspace(400, 700, 301)
-    _, y_flat = flat.forward(319.5, 199.5, lam)
-    _, y_bowed = bowed.forward(319.5, 199.5, lam)
-    assert np.max(y_bowed - y_flat) == pytest.approx(1.5, abs=1e-6)
-    assert (y_bowed - y_flat)[[0, -1]] == pytest.approx([0.0, 0.0], abs=1e-9)
+def test_streak_ends_differ_by_smile_px_from_the_prism_roll(desc):
+    level = make_relay(desc, prism={"smile_px": 0.0})
+    rolled = make_relay(desc, prism={"smile_px": 1.5})
+    _, y_level = level.forward(319.5, 199.5, np.array([400.0, 700.0]))
+    _, y_rolled = rolled.forward(319.5, 199.5, np.array([400.0, 700.0]))
+    assert y_level[1] - y_level[0] == pytest.approx(0.0, abs=1e-6)
+    assert y_rolled[1] - y_rolled[0] == pytest.approx(1.5, abs=1e-6)
+    assert np.rad2deg(rolled.roll_rad) == pytest.approx(np.rad2deg(np.arctan(1.5 / 68)), rel=0.05)
+
+
+def test_row_shift_is_close_to_but_not_exactly_quadratic_in_wavelength(relay):
+    lasers = np.array([450.0, 520.0, 532.0, 635.0, 670.0])
+    lam = np.linspace(400, 700, 61)
+    for u, v in FIELD:
+        _, y_lasers = relay.forward(u, v, lasers)
+        _, y = relay.forward(u, v, lam)
+        err = np.polyval(np.polyfit(lasers, y_lasers, 2), lam) - y
+        assert 1e-4 < np.abs(err).max() < 0.1
 
 
 def test_skew_rays_curve_spectral_lines(desc):
     # The classic prism smile: a spectral line's x depends on the field row.
-    relay = make_relay(desc, relay={"rotation_deg": 0.0})
+    relay = make_relay(desc, relay={"rotation_deg": 0.0}, prism={"smile_px": 0.0})
     x_mid, _ = relay.forward(319.5, 199.5, 550.0)
     x_top, _ = relay.forward(319.5, 0.0, 550.0)
     x_bottom, _ = relay.forward(319.5, 399.0, 550.0)
