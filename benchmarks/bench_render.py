@@ -24,8 +24,8 @@ import time
 import numpy as np
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.patterns import pinhole_pattern
 from sassi_bench.rig.sim import truth
-from sassi_bench.rig.snapshot import pinhole_pattern
 
 TARGET_SCAN_S = 60.0
 SCAN_FRAMES = 500

@@ -20,8 +20,8 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def _snapshot(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.snapshot import take_snapshot
     from sassi_bench.rig import open_rig
-    from sassi_bench.rig.snapshot import take_snapshot
 
     rig = open_rig(args.rig)
     files = take_snapshot(rig, Path(args.out), scene=args.scene, light=args.light)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.patterns import pinhole_pattern
 from sassi_bench.rig.sim import truth
-from sassi_bench.rig.snapshot import pinhole_pattern
 
 
 def _single_pixel(shape, u, v):

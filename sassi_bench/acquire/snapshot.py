@@ -7,25 +7,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench.acquire.patterns import pinhole_pattern
 from sassi_bench.rig.frame import Frame
 from sassi_bench.rig.rig import Rig
 
-__all__ = ["pinhole_pattern", "save_frame", "take_snapshot"]
-
-
-def pinhole_pattern(
-    shape: tuple[int, int], pitch: tuple[int, int] = (100, 5), offset: tuple[int, int] = (0, 0)
-) -> NDArray[np.bool_]:
-    """A grid of single open pixels, ``pitch`` = (horizontal, vertical) apart.
-
-    Examples
-    --------
-    >>> int(pinhole_pattern((10, 12), pitch=(6, 5)).sum())
-    4
-    """
-    mask = np.zeros(shape, dtype=bool)
-    mask[offset[1] :: pitch[1], offset[0] :: pitch[0]] = True
-    return mask
+__all__ = ["save_frame", "take_snapshot"]
 
 
 def _display_8bit(data: NDArray) -> NDArray[np.uint8]:

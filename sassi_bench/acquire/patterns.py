@@ -1,0 +1,187 @@
+"""SLM patterns, described by small JSON-compatible dictionaries.
+
+A capture plan stores each frame's pattern as a *descriptor* (``{"kind": "gray", ...}``)
+rather than as pixels: sessions stay small, and analysis code regenerates exactly the
+pattern that was shown. :func:`render_pattern` turns a descriptor into a uint8 image
+(255 = fully open).
+
+Kinds
+-----
+``blank``                   all closed
+``full``                    all open
+``uniform``                 ``level``: one grey level everywhere
+``gray``                    ``axis`` ("x" columns or "y" rows), ``bit`` (0 = most
+                            significant), ``block`` (px per code word), ``inverse``
+``periodic``                ``axis``, ``profile`` (grey levels of one period), ``shift``
+                            (px): pixel ``p`` along the axis shows ``profile[(p - shift) % P]``
+``lines``                   ``axis``, ``offset``, ``spacing``, ``width`` (px)
+``pinholes``                ``pitch`` [px_x, px_y], ``offset`` [x, y]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.errors import step_error
+
+__all__ = [
+    "gray_bit_count",
+    "gray_code",
+    "gray_pattern",
+    "lines_pattern",
+    "periodic_pattern",
+    "pinhole_pattern",
+    "render_pattern",
+]
+
+
+def gray_code(index: NDArray[np.integer]) -> NDArray[np.integer]:
+    """Binary-reflected Gray code of non-negative integers.
+
+    Examples
+    --------
+    >>> gray_code(np.arange(4)).tolist()
+    [0, 1, 3, 2]
+    """
+    index = np.asarray(index)
+    return index ^ (index >> 1)
+
+
+def gray_bit_count(length: int, block: int) -> int:
+    """Number of Gray-code bits needed to label ``length`` pixels in blocks of ``block``.
+
+    Examples
+    --------
+    >>> gray_bit_count(640, 8), gray_bit_count(1920, 8)
+    (7, 8)
+    """
+    blocks = -(-length // block)
+    return max(1, int(np.ceil(np.log2(blocks))))
+
+
+def _axis_shape(shape: tuple[int, int], axis: str) -> int:
+    if axis not in ("x", "y"):
+        raise ValueError(
+            step_error("pattern", f"axis {axis!r} is not 'x' or 'y'", "use 'x' or 'y'")
+        )
+    return shape[1] if axis == "x" else shape[0]
+
+
+def _broadcast(profile: NDArray[np.uint8], shape: tuple[int, int], axis: str) -> NDArray[np.uint8]:
+    if axis == "x":
+        return np.ascontiguousarray(np.broadcast_to(profile[None, :], shape))
+    return np.ascontiguousarray(np.broadcast_to(profile[:, None], shape))
+
+
+def gray_pattern(
+    shape: tuple[int, int], axis: str, bit: int, block: int, inverse: bool = False
+) -> NDArray[np.uint8]:
+    """Bit ``bit`` (0 = most significant) of the Gray code of each pixel's block.
+
+    Examples
+    --------
+    >>> gray_pattern((1, 8), "x", bit=0, block=2)[0].tolist()
+    [0, 0, 0, 0, 255, 255, 255, 255]
+    """
+    length = _axis_shape(shape, axis)
+    bits = gray_bit_count(length, block)
+    if not 0 <= bit < bits:
+        raise ValueError(
+            step_error("pattern", f"Gray bit {bit} out of range", f"use 0..{bits - 1}")
+        )
+    code = gray_code(np.arange(length) // block)
+    on = (code >> (bits - 1 - bit)) & 1
+    profile = np.where(on.astype(bool) != inverse, 255, 0).astype(np.uint8)
+    return _broadcast(profile, shape, axis)
+
+
+def periodic_pattern(
+    shape: tuple[int, int], axis: str, profile: NDArray[np.integer], shift: int
+) -> NDArray[np.uint8]:
+    """A 1-D periodic grey-level profile repeated along ``axis`` and shifted by ``shift``.
+
+    Examples
+    --------
+    >>> periodic_pattern((1, 6), "x", np.array([0, 100, 200]), shift=1)[0].tolist()
+    [200, 0, 100, 200, 0, 100]
+    """
+    profile = np.asarray(profile)
+    if profile.ndim != 1 or profile.size < 2 or profile.min() < 0 or profile.max() > 255:
+        raise ValueError(
+            step_error(
+                "pattern", "periodic profile must be 1-D grey levels 0..255", "check the plan"
+            )
+        )
+    length = _axis_shape(shape, axis)
+    levels = profile.astype(np.uint8)[(np.arange(length) - int(shift)) % profile.size]
+    return _broadcast(levels, shape, axis)
+
+
+def lines_pattern(
+    shape: tuple[int, int], axis: str, offset: int, spacing: int, width: int = 1
+) -> NDArray[np.uint8]:
+    """Open lines: columns (axis "x") or rows (axis "y") at ``offset + k * spacing``.
+
+    Examples
+    --------
+    >>> lines_pattern((1, 10), "x", offset=1, spacing=4)[0].tolist()
+    [0, 255, 0, 0, 0, 255, 0, 0, 0, 255]
+    """
+    length = _axis_shape(shape, axis)
+    pos = np.arange(length)
+    on = ((pos - offset) % spacing < width) & (pos >= offset)
+    return _broadcast(np.where(on, 255, 0).astype(np.uint8), shape, axis)
+
+
+def pinhole_pattern(
+    shape: tuple[int, int], pitch: tuple[int, int] = (100, 5), offset: tuple[int, int] = (0, 0)
+) -> NDArray[np.uint8]:
+    """Single open pixels on a grid, ``pitch`` = (horizontal, vertical) apart.
+
+    Examples
+    --------
+    >>> int((pinhole_pattern((10, 12), pitch=(6, 5)) > 0).sum())
+    4
+    """
+    out = np.zeros(shape, dtype=np.uint8)
+    out[offset[1] :: pitch[1], offset[0] :: pitch[0]] = 255
+    return out
+
+
+def render_pattern(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    """Render a pattern descriptor (see the module docstring) for an SLM of ``shape``.
+
+    Examples
+    --------
+    >>> render_pattern({"kind": "uniform", "level": 7}, (2, 3)).tolist()
+    [[7, 7, 7], [7, 7, 7]]
+    """
+    kind = descriptor.get("kind")
+    d = descriptor
+    if kind == "blank":
+        return np.zeros(shape, dtype=np.uint8)
+    if kind == "full":
+        return np.full(shape, 255, dtype=np.uint8)
+    if kind == "uniform":
+        return np.full(shape, int(d["level"]), dtype=np.uint8)
+    if kind == "gray":
+        return gray_pattern(shape, d["axis"], int(d["bit"]), int(d["block"]), bool(d["inverse"]))
+    if kind == "periodic":
+        return periodic_pattern(shape, d["axis"], np.asarray(d["profile"]), int(d["shift"]))
+    if kind == "lines":
+        return lines_pattern(
+            shape, d["axis"], int(d["offset"]), int(d["spacing"]), int(d.get("width", 1))
+        )
+    if kind == "pinholes":
+        return pinhole_pattern(shape, tuple(d["pitch"]), tuple(d.get("offset", (0, 0))))
+    raise ValueError(
+        step_error(
+            "pattern",
+            f"unknown pattern kind {kind!r}",
+            "use blank, full, uniform, gray, periodic, lines or pinholes",
+        )
+    )
