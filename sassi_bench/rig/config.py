@@ -13,7 +13,6 @@ Examples
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import json
 import os
@@ -22,11 +21,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import jsonschema
 import numpy as np
 import yaml
 
 from sassi_bench.errors import ConfigError
+from sassi_bench.schema_validation import validate_against_schema
 
 __all__ = [
     "BlurConfig",
@@ -185,40 +184,8 @@ def _schema() -> dict[str, Any]:
     return json.loads(text)
 
 
-def _allowed_keys(schema: dict[str, Any], path: list[str | int]) -> list[str]:
-    node = schema
-    for part in path:
-        node = node.get("properties", {}).get(str(part), {})
-    return list(node.get("properties", {}))
-
-
-def _format_error(error: jsonschema.ValidationError, schema: dict[str, Any]) -> str:
-    where = ".".join(str(p) for p in error.absolute_path) or "(top level)"
-    if error.validator == "additionalProperties":
-        allowed = _allowed_keys(schema, list(error.absolute_path))
-        extras = sorted(set(error.instance) - set(allowed))
-        hints = []
-        for key in extras:
-            close = difflib.get_close_matches(key, allowed, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            hints.append(f"{key!r}{hint}")
-        prefix = "" if where == "(top level)" else f"{where}."
-        return (
-            f"{prefix}{extras[0] if extras else '?'}: unknown key {', '.join(hints)}. "
-            f"Fix: remove it or use one of {', '.join(allowed)}"
-        )
-    if error.validator == "required":
-        return f"{where}: {error.message}. Fix: add the missing key"
-    return f"{where}: {error.message}"
-
-
 def _validate_schema(data: dict[str, Any], source: str) -> None:
-    schema = _schema()
-    validator = jsonschema.Draft202012Validator(schema)
-    errors = sorted(validator.iter_errors(data), key=lambda e: list(map(str, e.absolute_path)))
-    if errors:
-        lines = [_format_error(e, schema) for e in errors[:5]]
-        raise ConfigError(f"rig description {source} is invalid:\n  " + "\n  ".join(lines))
+    validate_against_schema(data, _schema(), f"rig description {source}")
 
 
 def _build(data: dict[str, Any], source: str | None) -> RigDescription:

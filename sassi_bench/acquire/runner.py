@@ -1,0 +1,208 @@
+"""Run a capture plan on a rig, storing every frame in a session as soon as it exists.
+
+:func:`run_plan` captures the steps a session still misses, in plan order, so an
+interrupted capture (crash, Ctrl-C, ``stop_after``) resumes by calling it again with the
+same plan and session, possibly on a freshly opened rig. Devices are used only through
+the :class:`~sassi_bench.rig.rig.Rig` protocols.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+from tqdm.auto import tqdm
+
+from sassi_bench.acquire.patterns import render_pattern
+from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.errors import step_error
+from sassi_bench.rig.protocols import Camera
+from sassi_bench.rig.rig import Rig
+
+__all__ = ["run_plan"]
+
+
+def _camera(rig: Rig, name: str) -> Camera:
+    return rig.spectral_camera if name == "spectral" else rig.guide_camera
+
+
+@contextlib.contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Hold Ctrl-C until the block ends, so a frame and its event are stored whole."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+    try:
+        previous = signal.signal(signal.SIGINT, lambda signum, frame: received.append(signum))
+    except ValueError:  # pragma: no cover - signals unavailable in this interpreter
+        yield
+        return
+    try:
+        yield
+    finally:
+        # A handler installed outside Python reads back as None; restore the default then.
+        signal.signal(
+            signal.SIGINT, previous if previous is not None else signal.default_int_handler
+        )
+    if received:
+        raise KeyboardInterrupt
+
+
+def _check_inputs(rig: Rig, plan: Plan, session: Session, todo: tuple[int, ...]) -> None:
+    """Refuse a mismatched session and catch bad steps before any device moves."""
+    if session.plan_sha256 != plan.sha256():
+        raise SessionError(
+            step_error(
+                f"run plan {plan.name!r}",
+                f"session {session.id!r} was created for plan {session.plan.name!r} "
+                f"(sha256 {session.plan_sha256[:12]}), not this one",
+                "pass the session's own plan (session.plan) or create a new session",
+            )
+        )
+    if session.rig_sha256 != rig.description.sha256():
+        raise SessionError(
+            step_error(
+                f"run plan {plan.name!r}",
+                f"session {session.id!r} was captured on another rig description "
+                f"({session.rig.get('name')!r}, sha256 {session.rig_sha256[:12]})",
+                "open the rig the session was made for, or create a new session",
+            )
+        )
+    for i in todo:
+        step = plan.steps[i]
+        lo, hi = _camera(rig, step.camera).exposure_range_s
+        if not lo <= step.exposure_s <= hi:
+            raise ValueError(
+                step_error(
+                    f"run plan {plan.name!r} step {i}",
+                    f"exposure {step.exposure_s:g} s is outside the {step.camera} camera's "
+                    f"range [{lo:g}, {hi:g}] s",
+                    "fix the plan's exposure (seconds)",
+                )
+            )
+        try:
+            render_pattern(step.pattern, rig.slm.shape)
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(
+                step_error(
+                    f"run plan {plan.name!r} step {i}",
+                    f"pattern {dict(step.pattern)!r} cannot be rendered ({exc})",
+                    "fix the step's pattern descriptor (see sassi_bench.acquire.patterns)",
+                )
+            ) from exc
+
+
+def run_plan(
+    rig: Rig,
+    plan: Plan,
+    session: Session,
+    *,
+    progress: bool = True,
+    stop_after: int | None = None,
+) -> Session:
+    """Capture the steps of ``plan`` that ``session`` still misses, in order.
+
+    For each step: select its light (when it changed), set its camera's exposure,
+    show its pattern on the SLM, capture, and store the frame with
+    :meth:`Session.write_frame`. The trigger is armed for the run and always disarmed
+    at the end. If ``plan.parameters`` has a ``"scene"``, that scene is put in front of
+    the bench first (so a resumed run on a fresh rig sees the same scene).
+
+    Parameters
+    ----------
+    rig
+        Device handles (``sassi_bench.open_rig(...)``).
+    plan
+        The plan; must be the session's plan.
+    session
+        Where frames go; steps already in ``session.completed`` are skipped.
+    progress
+        Show a tqdm progress bar (terminal or notebook) over the whole plan.
+    stop_after
+        Stop after this many new frames (``None``: run to the end).
+
+    Returns
+    -------
+    Session
+        ``session``, with the new frames.
+
+    Raises
+    ------
+    SessionError
+        If ``session`` was made for another plan or rig.
+    ValueError
+        If a remaining step's exposure or pattern is invalid (checked before capturing).
+    KeyboardInterrupt
+        Re-raised after the frame being stored is complete; run again to resume.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from sassi_bench import open_rig
+    >>> from sassi_bench.acquire.plan import Plan, Step
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> rig = open_rig("sim")
+    >>> plan = Plan("dark", [Step("spectral", "off", 0.01, {"kind": "blank"})] * 2)
+    >>> session = Session.create(rig.description, plan, session_id="dark", data=tmp.name)
+    >>> run_plan(rig, plan, session, progress=False, stop_after=1).missing
+    (1,)
+    >>> run_plan(rig, plan, session, progress=False).is_complete
+    True
+    >>> tmp.cleanup()
+    """
+    if stop_after is not None and (
+        isinstance(stop_after, bool) or not isinstance(stop_after, int) or stop_after < 0
+    ):
+        raise ValueError(
+            step_error(
+                f"run plan {plan.name!r}",
+                f"stop_after={stop_after!r} is not a non-negative integer",
+                "pass None to run to the end, or a number of frames",
+            )
+        )
+    todo = session.missing
+    _check_inputs(rig, plan, session, todo)
+    if stop_after is not None:
+        todo = todo[:stop_after]
+    bar: Any = tqdm(
+        total=len(plan),
+        initial=len(plan) - len(session.missing),
+        desc=plan.name,
+        unit="frame",
+        disable=not progress,
+    )
+    light: str | None = None
+    rig.trigger.arm()
+    try:
+        scene = plan.parameters.get("scene")
+        if scene is not None:
+            rig.set_scene(scene)
+        for i in todo:
+            step = plan.steps[i]
+            camera = _camera(rig, step.camera)
+            if step.light != light:
+                rig.light.select(step.light)
+                light = step.light
+            if camera.exposure_s != step.exposure_s:
+                camera.set_exposure(step.exposure_s)
+            rig.slm.show(render_pattern(step.pattern, rig.slm.shape))
+            frame = camera.capture()
+            with _sigint_deferred():
+                session.write_frame(i, frame)
+            bar.update(1)
+    except KeyboardInterrupt:
+        if progress:
+            bar.write(
+                f"{plan.name}: interrupted; {len(session.completed)}/{len(plan)} frames are "
+                f"stored in {session.path}. Run run_plan again with this session to resume."
+            )
+        raise
+    finally:
+        rig.trigger.disarm()
+        bar.close()
+    return session

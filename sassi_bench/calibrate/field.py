@@ -1,0 +1,141 @@
+"""Smooth field models: 2-D Legendre polynomials over the SLM, fitted robustly.
+
+The SLM -> camera map at one wavelength is smooth across the field (relay distortion,
+field-dependent dispersion and the skew-ray curvature of a prism are all low order), so
+it is fitted as a polynomial in normalised SLM coordinates, the same basis the
+calibration bundle uses (:func:`sassi_bench.bundle.models.legendre2d_design`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.bundle.models import field_coordinates, legendre2d_design
+from sassi_bench.errors import step_error
+
+__all__ = ["FieldFit", "fit_field"]
+
+
+@dataclass(frozen=True)
+class FieldFit:
+    """A robust polynomial fit of one scalar over the SLM field.
+
+    Attributes
+    ----------
+    coeffs
+        Legendre coefficients, ordered as :func:`~sassi_bench.bundle.models.legendre2d_terms`.
+    degree, slm_shape
+        Basis degree and the SLM (height, width) defining the normalisation.
+    rms, median_abs
+        Residual RMS and median absolute residual over the inliers.
+    inliers
+        Mask of the samples kept by the outlier rejection.
+    """
+
+    coeffs: NDArray[np.float64]
+    degree: int
+    slm_shape: tuple[int, int]
+    rms: float
+    median_abs: float
+    inliers: NDArray[np.bool_]
+
+    def __call__(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+        """Evaluate the fit at SLM coordinates (vectorised)."""
+        u_hat, v_hat = field_coordinates(u, v, self.slm_shape)
+        return legendre2d_design(u_hat, v_hat, self.degree) @ self.coeffs
+
+    @property
+    def n_inliers(self) -> int:
+        """Number of samples the fit kept."""
+        return int(self.inliers.sum())
+
+
+def fit_field(
+    u: ArrayLike,
+    v: ArrayLike,
+    values: ArrayLike,
+    slm_shape: tuple[int, int],
+    degree: int = 5,
+    clip_sigmas: float = 4.0,
+    max_samples: int = 200_000,
+    seed: int = 0,
+) -> FieldFit:
+    """Fit ``values(u, v)`` with a 2-D Legendre polynomial, rejecting outliers.
+
+    Iterates least squares and rejection of samples further than ``clip_sigmas`` robust
+    standard deviations (1.4826 MAD) from the fit until the inlier set is stable. Very
+    large sample sets are thinned to ``max_samples`` (seeded) for the solve; residuals
+    are reported over all samples.
+
+    Parameters
+    ----------
+    u, v, values
+        Samples (1-D, same length): SLM coordinates and the value there.
+    slm_shape
+        SLM (height, width).
+    degree
+        Total degree of the polynomial.
+
+    Returns
+    -------
+    FieldFit
+
+    Raises
+    ------
+    ValueError
+        With fewer samples than ~3x the number of polynomial terms.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u, v = rng.uniform(0, 639, 500), rng.uniform(0, 399, 500)
+    >>> fit = fit_field(u, v, 3 + 0.01 * u - 2e-5 * v**2, (400, 640), degree=2)
+    >>> bool(fit.rms < 1e-9)
+    True
+    """
+    u = np.asarray(u, dtype=np.float64).ravel()
+    v = np.asarray(v, dtype=np.float64).ravel()
+    values = np.asarray(values, dtype=np.float64).ravel()
+    n_terms = (degree + 1) * (degree + 2) // 2
+    if not (u.size == v.size == values.size):
+        raise ValueError(
+            step_error(
+                "field fit", "u, v and values differ in length", "pass 1-D arrays of equal length"
+            )
+        )
+    if u.size < 3 * n_terms:
+        raise ValueError(
+            step_error(
+                "field fit",
+                f"{u.size} samples cannot constrain a degree-{degree} polynomial ({n_terms} terms)",
+                "capture more valid pixels or lower the field degree",
+            )
+        )
+    u_hat, v_hat = field_coordinates(u, v, slm_shape)
+    design = legendre2d_design(u_hat, v_hat, degree)
+    subset = np.arange(u.size)
+    if u.size > max_samples:
+        subset = np.sort(np.random.default_rng(seed).choice(u.size, max_samples, replace=False))
+    keep = np.ones(subset.size, dtype=bool)
+    for _ in range(10):
+        coeffs, *_ = np.linalg.lstsq(design[subset][keep], values[subset][keep], rcond=None)
+        resid = values[subset] - design[subset] @ coeffs
+        scale = 1.4826 * np.median(np.abs(resid[keep] - np.median(resid[keep])))
+        new_keep = np.abs(resid) <= clip_sigmas * max(scale, 1e-12)
+        if np.array_equal(new_keep, keep):
+            break
+        keep = new_keep
+    residual = values - design @ coeffs
+    spread = 1.4826 * np.median(np.abs(residual - np.median(residual)))
+    inliers = np.abs(residual) <= clip_sigmas * max(spread, 1e-12)
+    return FieldFit(
+        coeffs=coeffs,
+        degree=degree,
+        slm_shape=tuple(slm_shape),
+        rms=float(np.sqrt(np.mean(residual[inliers] ** 2))),
+        median_abs=float(np.median(np.abs(residual[inliers]))),
+        inliers=inliers,
+    )

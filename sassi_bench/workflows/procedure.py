@@ -1,0 +1,64 @@
+"""Procedure files: the lab's editable parameters and acceptance tolerances.
+
+A procedure is a YAML file in ``procedures/`` (or anywhere, given by path), checked
+against a JSON Schema shipped beside this module (``schemas/<procedure>.schema.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from sassi_bench.errors import ConfigError
+from sassi_bench.schema_validation import validate_against_schema
+
+__all__ = ["load_procedure"]
+
+
+def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """Load and validate a procedure file.
+
+    Parameters
+    ----------
+    kind
+        Procedure kind, e.g. ``"spectral_calibration"``; names the schema and the default
+        file ``procedures/<kind>.yaml``.
+    name_or_path
+        A path to a YAML file, or None for the shipped default.
+
+    Returns
+    -------
+    dict
+        The validated procedure (JSON-compatible), with ``source`` added.
+
+    Examples
+    --------
+    >>> proc = load_procedure("spectral_calibration")
+    >>> proc["lasers_nm"]
+    [450, 520, 532, 635, 670]
+    """
+    if name_or_path is None:
+        resource = resources.files("sassi_bench.procedures").joinpath(f"{kind}.yaml")
+        text, source = resource.read_text(), f"procedures/{kind}.yaml"
+    else:
+        path = Path(name_or_path)
+        if not path.is_file():
+            raise ConfigError(f"procedure: no such file {str(path)!r}")
+        text, source = path.read_text(), str(path)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"procedure {source}: not valid YAML ({exc})") from exc
+    data = json.loads(json.dumps(data))
+    schema_file = resources.files("sassi_bench.workflows").joinpath(
+        "schemas", f"{kind}.schema.json"
+    )
+    schema = json.loads(schema_file.read_text())
+    validate_against_schema(data, schema, f"procedure {source}")
+    data["source"] = source
+    return data

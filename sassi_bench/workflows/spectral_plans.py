@@ -1,0 +1,223 @@
+"""Capture plans of the spectral calibration (device-free: they only describe frames).
+
+Two plans run in turn. The *grey-level* plan measures the SLM's grey-level response
+under one laser (uniform patterns), so the sinusoids of the phase-shifting sweep can be
+precompensated. The *sweep* plan then captures, laser by laser: a dark frame (light
+off), closed (``blank``) and open (``full``) SLM frames, the sweep proper (Gray code and
+phase shifting on both axes, or the paper's line sweep) and pinhole frames for the blur.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from sassi_bench.acquire.patterns import gray_bit_count
+from sassi_bench.acquire.plan import Plan, Step
+
+__all__ = ["grey_levels", "grey_plan", "laser_light", "sweep_plan"]
+
+
+def laser_light(wavelength_nm: float) -> str:
+    """Light name of a laser line, e.g. ``laser:532``.
+
+    Examples
+    --------
+    >>> laser_light(532.0)
+    'laser:532'
+    """
+    return f"laser:{float(wavelength_nm):g}"
+
+
+def grey_levels(count: int) -> list[int]:
+    """``count`` grey levels spread over 0..255, always including both ends.
+
+    Examples
+    --------
+    >>> grey_levels(5)
+    [0, 64, 128, 191, 255]
+    """
+    return sorted({int(np.rint(x)) for x in np.linspace(0, 255, count)})
+
+
+def grey_plan(procedure: Mapping[str, Any], laser_nm: float, exposure_s: float) -> Plan:
+    """Uniform SLM grey levels under one laser, plus a dark frame.
+
+    Examples
+    --------
+    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> plan = grey_plan(load_procedure("spectral_calibration"), 532.0, 0.05)
+    >>> len(plan), plan.steps[0].tags["role"]
+    (18, 'dark')
+    """
+    light = laser_light(laser_nm)
+    steps = [Step("spectral", "off", exposure_s, {"kind": "blank"}, {"role": "dark"})]
+    for level in grey_levels(int(procedure["sweep"].get("grey_levels", 17))):
+        steps.append(
+            Step(
+                "spectral",
+                light,
+                exposure_s,
+                {"kind": "uniform", "level": level},
+                {"role": "grey", "level": level},
+            )
+        )
+    return Plan(
+        "spectral-grey",
+        tuple(steps),
+        {"scene": "white", "laser_nm": laser_nm, "exposure_s": exposure_s},
+    )
+
+
+def _structured_steps(
+    light: str, exposure: float, tags: dict, slm_shape: tuple[int, int], sweep: Mapping, profile
+) -> list[Step]:
+    block = int(sweep.get("gray_block_px", 8))
+    period = int(sweep.get("phase_period_px", 16))
+    steps_count = int(sweep.get("phase_steps", 8))
+    steps = []
+    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
+        for bit in range(gray_bit_count(length, block)):
+            for inverse in (False, True):
+                pattern = {
+                    "kind": "gray",
+                    "axis": axis,
+                    "bit": bit,
+                    "block": block,
+                    "inverse": inverse,
+                }
+                steps.append(
+                    Step(
+                        "spectral",
+                        light,
+                        exposure,
+                        pattern,
+                        {**tags, "role": "gray", "axis": axis, "bit": bit, "inverse": inverse},
+                    )
+                )
+        for s in range(steps_count):
+            shift = s * period / steps_count
+            if shift != int(shift):
+                raise ValueError(
+                    f"sweep.phase_steps: {steps_count} steps do not divide the period {period} px "
+                    "into whole pixels. Fix: choose a period that is a multiple of phase_steps"
+                )
+            pattern = {"kind": "periodic", "axis": axis, "profile": profile, "shift": int(shift)}
+            steps.append(
+                Step(
+                    "spectral",
+                    light,
+                    exposure,
+                    pattern,
+                    {**tags, "role": "phase", "axis": axis, "step": s},
+                )
+            )
+    return steps
+
+
+def _line_steps(light: str, exposure: float, tags: dict, sweep: Mapping) -> list[Step]:
+    stride = int(sweep.get("line_stride_px", 8))
+    spacing = int(sweep.get("line_spacing_px", 64))
+    steps = []
+    for axis in ("x", "y"):
+        for offset in range(0, spacing, stride):
+            pattern = {
+                "kind": "lines",
+                "axis": axis,
+                "offset": offset,
+                "spacing": spacing,
+                "width": 1,
+            }
+            steps.append(
+                Step(
+                    "spectral",
+                    light,
+                    exposure,
+                    pattern,
+                    {**tags, "role": "line", "axis": axis, "offset": offset},
+                )
+            )
+    return steps
+
+
+def sweep_plan(
+    procedure: Mapping[str, Any],
+    slm_shape: tuple[int, int],
+    exposures: Mapping[float, float],
+    profile: list[int] | None,
+    blur_exposures: Mapping[float, float] | None = None,
+) -> Plan:
+    """The laser-by-laser sweep plan.
+
+    Parameters
+    ----------
+    procedure
+        The validated spectral-calibration procedure.
+    slm_shape
+        SLM (height, width).
+    exposures
+        Exposure (s) per laser line used by the sweep.
+    profile
+        Grey levels of one sinusoid period, precompensated for the SLM's response
+        (structured mode; ignored in line mode).
+    blur_exposures
+        Exposure per line for the pinhole (blur) frames; lines only in this mapping
+        (e.g. an extra 405 nm line) get pinhole frames but no sweep.
+
+    Examples
+    --------
+    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> proc = load_procedure("spectral_calibration")
+    >>> plan = sweep_plan(proc, (400, 640), {532.0: 0.05}, list(range(0, 256, 16)))
+    >>> len(plan.select(role="gray", laser=532.0)), len(plan.select(role="phase"))
+    (26, 16)
+    """
+    sweep = procedure["sweep"]
+    blur = procedure["blur"]
+    blur_exposures = dict(blur_exposures or exposures)
+    pitch = [int(p) for p in blur.get("pinhole_pitch_px", [40, 40])]
+    lines = sorted(set(exposures) | set(blur_exposures))
+    steps: list[Step] = []
+    for laser in lines:
+        light = laser_light(laser)
+        tags = {"laser": float(laser)}
+        if laser in exposures:
+            exposure = float(exposures[laser])
+            steps.append(
+                Step("spectral", "off", exposure, {"kind": "blank"}, {**tags, "role": "dark"})
+            )
+            steps.append(
+                Step("spectral", light, exposure, {"kind": "blank"}, {**tags, "role": "blank"})
+            )
+            steps.append(
+                Step("spectral", light, exposure, {"kind": "full"}, {**tags, "role": "full"})
+            )
+            if sweep["mode"] == "structured":
+                steps += _structured_steps(light, exposure, tags, slm_shape, sweep, profile)
+            else:
+                steps += _line_steps(light, exposure, tags, sweep)
+        exposure = float(blur_exposures[laser])
+        steps.append(
+            Step("spectral", light, exposure, {"kind": "blank"}, {**tags, "role": "blur-blank"})
+        )
+        for frame in range(int(blur.get("frames", 2))):
+            pattern = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
+            steps.append(
+                Step(
+                    "spectral",
+                    light,
+                    exposure,
+                    pattern,
+                    {**tags, "role": "pinholes", "frame": frame},
+                )
+            )
+    parameters = {
+        "scene": "white",
+        "mode": sweep["mode"],
+        "exposures_s": {f"{k:g}": float(v) for k, v in exposures.items()},
+        "blur_exposures_s": {f"{k:g}": float(v) for k, v in blur_exposures.items()},
+        "profile": profile,
+    }
+    return Plan("spectral-sweep", tuple(steps), parameters)
