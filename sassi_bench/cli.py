@@ -22,6 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Assemble the full argument parser from every command group."""
     from sassi_bench.bundle import cli as bundle_cli
     from sassi_bench.rig import cli as rig_cli
+    from sassi_bench.workflows import cli as workflow_cli
 
     parser = argparse.ArgumentParser(
         prog="sassi-bench",
@@ -32,6 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"sassi-bench {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     rig_cli.register(sub)
+    workflow_cli.register(sub)
     bundle_cli.register(sub)
     return parser
 

@@ -1,0 +1,1 @@
+"""Figures a scientist checks: calibration residuals, dispersion, blur, validation."""

@@ -1,0 +1,446 @@
+"""The spectral calibration workflow: laser sweeps -> dispersion and blur -> bundle.
+
+:func:`run_spectral_calibration` drives a rig through the procedure's capture plans
+(recording everything in raw sessions, resumable), decodes every laser's SLM -> camera
+correspondences, fits the per-laser field maps, the joint dispersion model and the blur,
+grades the result against the procedure's tolerances and (optionally) publishes a
+calibration bundle with its plots. It uses device handles only.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.bundle import CalibrationModels, QualityCheck, publish
+from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
+from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap, fit_dispersion
+from sassi_bench.calibrate.field import fit_field
+from sassi_bench.calibrate.grey_response import (
+    GreyResponse,
+    measure_grey_response,
+    sinusoid_profile,
+)
+from sassi_bench.calibrate.line_sweep import fit_line_axis, line_centres
+from sassi_bench.calibrate.structured_light import decode_axis
+from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
+
+__all__ = ["LaserDecode", "SpectralCalibration", "analyse_sweep", "run_spectral_calibration"]
+
+
+@dataclass(frozen=True)
+class LaserDecode:
+    """What one laser's sweep gave: correspondences, their smooth map, and counts."""
+
+    wavelength_nm: float
+    camera_x: NDArray[np.float64]
+    camera_y: NDArray[np.float64]
+    slm_u: NDArray[np.float64]
+    slm_v: NDArray[np.float64]
+    valid_fraction: float
+    counts: dict[str, int]
+    laser_map: LaserMap
+
+    @property
+    def residual_rms_px(self) -> float:
+        """Camera-px RMS of the correspondences about the smooth map (inliers)."""
+        return float(np.hypot(self.laser_map.x.rms, self.laser_map.y.rms))
+
+
+@dataclass
+class SpectralCalibration:
+    """Everything the spectral calibration produced."""
+
+    procedure: dict[str, Any]
+    rig_description: Any
+    lasers: list[LaserDecode]
+    dispersion: DispersionFit
+    blur: BlurFit
+    grey_response: GreyResponse | None
+    checks: list[QualityCheck]
+    sessions: list[Session]
+    bundle_path: Path | None = None
+    figures: dict[str, bytes] = field(default_factory=dict)
+
+    @property
+    def passed(self) -> bool:
+        """Whether every quality check passed."""
+        return all(c.passed for c in self.checks)
+
+    def models(self) -> CalibrationModels:
+        """The bundle models of this calibration."""
+        return CalibrationModels(
+            dispersion=self.dispersion.model, bins=self.dispersion.bins, blur=self.blur.model
+        )
+
+
+def _session_id(base: str | None) -> str:
+    if base:
+        return base
+    return "spectral-" + datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+
+
+def _check_lasers(rig: Rig, lasers: list[float]) -> None:
+    missing = [x for x in lasers if laser_light(x) not in rig.light.available]
+    if missing:
+        raise ConfigError(
+            step_error(
+                "spectral calibration",
+                f"the procedure needs laser line(s) {missing} nm that rig "
+                f"{rig.description.name!r} does not have ({', '.join(rig.light.available)})",
+                "add them to the rig's lasers_nm or remove them from the procedure's lasers_nm",
+            )
+        )
+
+
+def _open(rig: Rig, plan, session_id: str, data) -> Session:
+    return Session.open_or_create(rig.description, plan, session_id=session_id, data=data)
+
+
+def _existing_plan(session_id: str, data) -> Any | None:
+    try:
+        return Session.open(session_id, data=data).plan
+    except SessionError:  # no such session yet: a new plan will be built
+        return None
+
+
+def _frames(session: Session, indices: list[int]) -> NDArray[np.float32]:
+    return np.stack([session.read_frame(i).astype(np.float32) for i in indices])
+
+
+def _one(session: Session, **tags) -> NDArray[np.float32]:
+    indices = session.plan.select(**tags)
+    if not indices:
+        raise ValueError(
+            step_error("spectral analysis", f"no frame tagged {tags}", "re-run the capture")
+        )
+    return _frames(session, indices).mean(axis=0)
+
+
+def measure_response(session: Session) -> GreyResponse:
+    """The SLM's grey-level response from a grey-level session."""
+    plan = session.plan
+    indices = plan.select(role="grey")
+    levels = [plan.steps[i].tags["level"] for i in indices]
+    dark = _one(session, role="dark")
+    return measure_grey_response(levels, _frames(session, indices), dark)
+
+
+def _structured_decode(session: Session, proc, laser: float, slm_shape, saturation):
+    sweep = proc["sweep"]
+    plan = session.plan
+    dark = _one(session, role="dark", laser=laser)
+    blank = _one(session, role="blank", laser=laser)
+    full = _one(session, role="full", laser=laser)
+    axes = {}
+    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
+        pos = plan.select(role="gray", laser=laser, axis=axis, inverse=False)
+        neg = plan.select(role="gray", laser=laser, axis=axis, inverse=True)
+        phase = plan.select(role="phase", laser=laser, axis=axis)
+        axes[axis] = decode_axis(
+            _frames(session, pos),
+            _frames(session, neg),
+            _frames(session, phase),
+            blank=blank,
+            full=full,
+            length=length,
+            dark=dark,
+            block=int(sweep.get("gray_block_px", 8)),
+            period=int(sweep.get("phase_period_px", 16)),
+            saturation_level=saturation,
+            min_modulation=float(sweep.get("min_modulation", 0.2)),
+        )
+    valid = axes["x"].valid & axes["y"].valid
+    lit = (full - blank) > 0.05 * np.percentile(full - blank, 99.5)
+    rows, cols = np.nonzero(valid)
+    counts = {f"{axis}_{k}": v for axis, dec in axes.items() for k, v in dec.counts.items()}
+    return (
+        cols.astype(np.float64),
+        rows.astype(np.float64),
+        axes["x"].coord[rows, cols],
+        axes["y"].coord[rows, cols],
+        float(valid.sum() / max(lit.sum(), 1)),
+        counts,
+    )
+
+
+def _line_decode(session: Session, proc, laser: float, slm_shape, saturation):
+    sweep = proc["sweep"]
+    plan = session.plan
+    blank = _one(session, role="blank", laser=laser)
+    full = _one(session, role="full", laser=laser)
+    camera_shape = blank.shape
+    fits = {}
+    skipped = 0
+    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
+        indices = plan.select(role="line", laser=laser, axis=axis)
+        offsets = [plan.steps[i].tags["offset"] for i in indices]
+        signals = [session.read_frame(i).astype(np.float32) - blank for i in indices]
+        centres = line_centres(
+            signals, offsets, int(sweep.get("line_spacing_px", 64)), axis, length
+        )
+        skipped += centres.skipped_frames
+        fits[axis] = fit_line_axis(centres, camera_shape, int(proc["fit"].get("field_degree", 5)))
+    signal = full - blank
+    lit = signal > 0.25 * np.percentile(signal, 99.5)
+    rows, cols = np.nonzero(lit)
+    x, y = cols.astype(np.float64), rows.astype(np.float64)
+    u, v = fits["x"](x, y), fits["y"](x, y)
+    inside = (u >= 0) & (u <= slm_shape[1] - 1) & (v >= 0) & (v <= slm_shape[0] - 1)
+    counts = {"skipped_frames": skipped, "outside_slm": int((~inside).sum())}
+    counts.update({f"{a}_line_fit_rms_slm_px": round(f.rms, 4) for a, f in fits.items()})
+    return x[inside], y[inside], u[inside], v[inside], float(inside.mean()), counts
+
+
+def analyse_sweep(
+    session: Session, proc: Mapping[str, Any], slm_shape: tuple[int, int], saturation: float
+) -> list[LaserDecode]:
+    """Decode every laser of a sweep session and fit its smooth field map."""
+    degree = int(proc["fit"].get("field_degree", 5))
+    out = []
+    lasers = sorted(
+        {float(s.tags["laser"]) for s in session.plan.steps if s.tags.get("role") == "full"}
+    )
+    for laser in lasers:
+        decode = _structured_decode if proc["sweep"]["mode"] == "structured" else _line_decode
+        x, y, u, v, fraction, counts = decode(session, proc, laser, slm_shape, saturation)
+        if x.size < 1000:
+            raise ValueError(
+                step_error(
+                    f"sweep decoding at {laser:g} nm",
+                    f"only {x.size} camera pixels decoded ({counts})",
+                    "check the exposure (saturated or too dark frames) and the laser",
+                )
+            )
+        fx = fit_field(u, v, x, slm_shape, degree)
+        fy = fit_field(u, v, y, slm_shape, degree)
+        out.append(
+            LaserDecode(
+                laser, x, y, u, v, fraction, counts, LaserMap(laser, fx, fy, x.size, counts)
+            )
+        )
+    return out
+
+
+def _blur_fit(session: Session, proc, dispersion: DispersionFit, slm_shape, saturation) -> BlurFit:
+    plan = session.plan
+    pitch = [int(p) for p in proc["blur"].get("pinhole_pitch_px", [40, 40])]
+    lasers = sorted(
+        {float(s.tags["laser"]) for s in plan.steps if s.tags.get("role") == "pinholes"}
+    )
+    sigmas = []
+    for laser in lasers:
+        indices = plan.select(role="pinholes", laser=laser)
+        frames = _frames(session, indices)
+        signal = frames.mean(axis=0) - _one(session, role="blur-blank", laser=laser)
+        pattern_rows, pattern_cols = np.mgrid[
+            pitch[1] // 2 : slm_shape[0] : pitch[1], pitch[0] // 2 : slm_shape[1] : pitch[0]
+        ]
+        x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), laser)
+        widths = measure_spot_widths(
+            signal, x, y, 1.5, saturated=(frames >= saturation).any(axis=0)
+        )
+        sigmas.append(widths.median_sigma_y)
+    return fit_blur(lasers, sigmas, float(proc["blur"].get("window_sigmas", 3.0)))
+
+
+def grade(
+    result_lasers, dispersion: DispersionFit, blur: BlurFit, tolerances: Mapping
+) -> list[QualityCheck]:
+    """Quality checks of a spectral calibration against the procedure's tolerances."""
+    checks = []
+    for laser in result_lasers:
+        name = f"{laser.wavelength_nm:g}nm"
+        checks.append(
+            QualityCheck.at_most(
+                f"correspondence_rms_{name}",
+                laser.residual_rms_px,
+                tolerances["correspondence_rms_px"],
+                "px",
+            )
+        )
+        checks.append(
+            QualityCheck.at_least(
+                f"valid_fraction_{name}",
+                laser.valid_fraction,
+                tolerances["valid_fraction_min"],
+                "1",
+            )
+        )
+    loo = dispersion.leave_one_out
+    if loo:
+        checks.append(
+            QualityCheck.at_most(
+                "leave_one_out_rms_nm",
+                dispersion.leave_one_out_rms_nm,
+                tolerances["leave_one_out_rms_nm"],
+                "nm",
+            )
+        )
+        checks.append(
+            QualityCheck.at_most(
+                "leave_one_out_max_px",
+                max(v["max_px"] for v in loo.values()),
+                tolerances["leave_one_out_max_px"],
+                "px",
+            )
+        )
+    checks.append(
+        QualityCheck.at_most("blur_fit_rms_px", blur.rms_px, tolerances["blur_fit_rms_px"], "px")
+    )
+    return checks
+
+
+def run_spectral_calibration(
+    rig: Rig,
+    procedure: Mapping[str, Any],
+    *,
+    session_id: str | None = None,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    publish_bundle: bool = True,
+    allow_failed: bool = False,
+    figures: bool = True,
+) -> SpectralCalibration:
+    """Run the spectral calibration end to end.
+
+    Parameters
+    ----------
+    rig
+        Device handles (virtual or real).
+    procedure
+        A validated spectral-calibration procedure
+        (:func:`~sassi_bench.workflows.procedure.load_procedure`).
+    session_id
+        Base id of the raw sessions (``<id>-grey``, ``<id>-sweep``); an existing id
+        resumes its capture (the stored plans are reused, not rebuilt).
+    data
+        Data root for sessions and bundles.
+    publish_bundle, allow_failed
+        Publish a bundle; refuse one that failed its checks unless ``allow_failed``.
+
+    Returns
+    -------
+    SpectralCalibration
+    """
+    proc = dict(procedure)
+    lasers = [float(x) for x in proc["lasers_nm"]]
+    extra = [float(x) for x in proc["blur"].get("extra_lasers_nm", [])]
+    _check_lasers(rig, lasers + extra)
+    base = _session_id(session_id)
+    slm_shape = rig.slm.shape
+    saturation = 2**rig.spectral_camera.bit_depth - 1
+    exp_cfg = proc.get("exposure", {})
+
+    def expose(laser: float, pattern: Mapping) -> float:
+        rig.set_scene("white")
+        return auto_exposure(
+            rig,
+            laser_light(laser),
+            pattern,
+            target_fraction=float(exp_cfg.get("target_fraction", 0.6)),
+            start_s=float(exp_cfg.get("start_s", 0.01)),
+            max_s=float(exp_cfg.get("max_s", 2.0)),
+        )
+
+    response = None
+    sessions = []
+    if proc["sweep"]["mode"] == "structured":
+        plan = _existing_plan(f"{base}-grey", data) or grey_plan(
+            proc, lasers[len(lasers) // 2], expose(lasers[len(lasers) // 2], {"kind": "full"})
+        )
+        grey = _open(rig, plan, f"{base}-grey", data)
+        run_plan(rig, plan, grey, progress=progress)
+        response = measure_response(grey)
+        sessions.append(grey)
+    plan = _existing_plan(f"{base}-sweep", data)
+    if plan is None:
+        exposures = {laser: expose(laser, {"kind": "full"}) for laser in lasers}
+        pitch = [int(p) for p in proc["blur"].get("pinhole_pitch_px", [40, 40])]
+        pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
+        blur_exposures = {laser: expose(laser, pinholes) for laser in lasers + extra}
+        period = int(proc["sweep"].get("phase_period_px", 16))
+        profile = sinusoid_profile(period, response).tolist() if response is not None else None
+        plan = sweep_plan(proc, slm_shape, exposures, profile, blur_exposures)
+    sweep = _open(rig, plan, f"{base}-sweep", data)
+    run_plan(rig, plan, sweep, progress=progress)
+    sessions.append(sweep)
+
+    decoded = analyse_sweep(sweep, proc, slm_shape, saturation)
+    dispersion = fit_dispersion(
+        [d.laser_map for d in decoded],
+        rig.description.prism.glass,
+        slm_shape,
+        field_degree=int(proc["fit"].get("field_degree", 5)),
+        order=int(proc["fit"].get("dispersion_order", 2)),
+    )
+    blur = _blur_fit(sweep, proc, dispersion, slm_shape, saturation)
+    checks = grade(decoded, dispersion, blur, proc["tolerances"])
+    result = SpectralCalibration(
+        proc, rig.description, decoded, dispersion, blur, response, checks, sessions
+    )
+    if figures:
+        from sassi_bench.plots.spectral import spectral_figures
+
+        result.figures = {name: _png(fig) for name, fig in spectral_figures(result).items()}
+    if publish_bundle:
+        result.bundle_path = publish_spectral(result, data=data, allow_failed=allow_failed)
+    return result
+
+
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    return buffer.getvalue()
+
+
+def quality_section(result: SpectralCalibration) -> dict[str, Any]:
+    """The ``quality`` section of the bundle manifest."""
+    disp = result.dispersion
+    return {
+        "checks": result.checks,
+        "residuals": {
+            "correspondence_rms_px": {
+                f"{d.wavelength_nm:g}": d.residual_rms_px for d in result.lasers
+            },
+            "valid_fraction": {f"{d.wavelength_nm:g}": d.valid_fraction for d in result.lasers},
+            "decode_counts": {f"{d.wavelength_nm:g}": d.counts for d in result.lasers},
+            "dispersion_residual_px": {f"{k:g}": v for k, v in disp.residual_px.items()},
+            "position_sigma_px": disp.position_sigma_px,
+            "blur_measured_sigma_px": dict(
+                zip(
+                    [f"{x:g}" for x in result.blur.wavelengths_nm],
+                    result.blur.measured_sigma_px.tolist(),
+                    strict=True,
+                )
+            ),
+        },
+        "leave_one_out": {f"{k:g}": v for k, v in disp.leave_one_out.items()},
+    }
+
+
+def publish_spectral(result: SpectralCalibration, *, data=None, allow_failed: bool = False) -> Path:
+    """Publish the spectral calibration as a bundle (plots go under ``report/``)."""
+    return publish(
+        result.models(),
+        rig=result.rig_description,
+        quality=quality_section(result),
+        procedure={k: v for k, v in result.procedure.items() if k != "source"},
+        inputs=[{"id": s.id, "sha256": s.sha256(), "kind": "session"} for s in result.sessions],
+        reports={f"{name}.png": png for name, png in result.figures.items()},
+        allow_failed=allow_failed,
+        data=data,
+    )

@@ -1,0 +1,432 @@
+"""Structured-light decoding: Gray code, phase shifting, unwrapping, masks, the virtual bench."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.special import ndtr
+
+import sassi_bench
+from sassi_bench.acquire.patterns import gray_bit_count, render_pattern
+from sassi_bench.calibrate.grey_response import measure_grey_response, sinusoid_profile
+from sassi_bench.calibrate.structured_light import (
+    REASONS,
+    AxisDecode,
+    blur_from_modulation,
+    decode_axis,
+    decode_correspondences,
+    decode_gray,
+    decode_phase,
+    unwrap,
+)
+from sassi_bench.rig.sim import truth
+
+BLOCK, PERIOD, STEPS = 8, 16, 8
+
+
+def sweep_descriptors(axis: str, length: int, profile) -> dict[str, list[dict]]:
+    """Pattern descriptors of one axis, as the sweep plan shows them."""
+    bits = range(gray_bit_count(length, BLOCK))
+    gray = {"kind": "gray", "axis": axis, "block": BLOCK}
+    return {
+        "positive": [{**gray, "bit": b, "inverse": False} for b in bits],
+        "negative": [{**gray, "bit": b, "inverse": True} for b in bits],
+        "phase": [
+            {"kind": "periodic", "axis": axis, "profile": [int(p) for p in profile],
+             "shift": s * PERIOD // STEPS}
+            for s in range(STEPS)
+        ],
+    }  # fmt: skip
+
+
+# -- a synthetic bench: known smooth warp, Gaussian blur, SLM gamma, shot and read noise ----
+class SyntheticBench:
+    """Camera (150, 200) viewing an SLM (120, 160) through a known smooth warp.
+
+    Patterns along one axis are separable, so the blurred image is exactly
+    ``(T * G)(u) (rect * G)(v)`` (or with u and v swapped): 1-D edge sums of normal CDFs,
+    tabulated finely and interpolated at each camera pixel's SLM coordinate.
+    """
+
+    slm = (120, 160)
+    camera = (150, 200)
+    gain = 0.458  # e- per ADU
+    eps = 1e-3
+
+    def __init__(self, sigma_slm: float = 1.2, electrons: float = 20000.0, seed: int = 0):
+        self.sigma = sigma_slm
+        self.rng = np.random.default_rng(seed)
+        y, x = np.mgrid[0 : self.camera[0], 0 : self.camera[1]].astype(np.float64)
+        xc, yc = x - 100.0, y - 75.0
+        self.u = 79.5 + 0.92 * xc + 0.015 * yc + 1.5e-4 * xc**2 - 1e-4 * xc * yc
+        self.v = 59.5 + 0.91 * yc - 0.012 * xc + 1.2e-4 * yc**2 + 0.8e-4 * xc**2
+        self.light = electrons * (1.0 - 0.15 * ((xc / 100) ** 2 + (yc / 75) ** 2))
+        self.light[(x - 60) ** 2 + (y - 50) ** 2 < 8**2] = 0.0  # an opaque speck: dark
+        self.light[95:110, 130:150] *= 2.5  # a hot spot: saturates in bright frames
+        self.dark = self._digitise(np.zeros(self.camera))
+
+    def _blurred(self, transmission: np.ndarray, coord: np.ndarray) -> np.ndarray:
+        """Transmission per SLM pixel (0 outside the SLM), blurred, at ``coord``."""
+        steps = np.diff(np.concatenate([[0.0], transmission, [0.0]]))
+        edges = np.arange(transmission.size + 1) - 0.5
+        fine = np.arange(-10.0, transmission.size + 10.0, 1 / 32)
+        table = ndtr((fine[:, None] - edges[None, :]) / self.sigma) @ steps
+        return np.clip(np.interp(coord, fine, table), 0.0, None)  # no -1e-17 rounding
+
+    def _digitise(self, electrons: np.ndarray) -> np.ndarray:
+        e = self.rng.poisson(electrons) + self.rng.normal(0.0, 5.0, electrons.shape)
+        return np.clip(np.rint(np.minimum(e, 30000) / self.gain + 100), 0, 65535).astype(np.uint16)
+
+    def capture(self, descriptor: dict) -> np.ndarray:
+        pattern = render_pattern(descriptor, self.slm).astype(np.float64)
+        t = self.eps + (1 - self.eps) * (pattern / 255.0) ** 2.2
+        along_x = descriptor.get("axis", "x") == "x"
+        profile_u = t[0] if along_x else np.ones(self.slm[1])
+        profile_v = np.ones(self.slm[0]) if along_x else t[:, 0]
+        image = self._blurred(profile_u, self.u) * self._blurred(profile_v, self.v)
+        return self._digitise(self.light * image)
+
+    def capture_axis(self, axis: str, profile) -> dict[str, np.ndarray]:
+        length = self.slm[1] if axis == "x" else self.slm[0]
+        plan = sweep_descriptors(axis, length, profile)
+        return {k: np.stack([self.capture(d) for d in ds]) for k, ds in plan.items()}
+
+
+def decode_synthetic(bench: SyntheticBench) -> tuple[dict[str, AxisDecode], object]:
+    """Run the whole sweep on a synthetic bench: grey response, both axes, pairs."""
+    refs = {k: bench.capture({"kind": k}) for k in ("blank", "full")}
+    levels = np.array([*range(0, 256, 32), 255])
+    uniform = np.stack([bench.capture({"kind": "uniform", "level": int(g)}) for g in levels])
+    profile = sinusoid_profile(PERIOD, measure_grey_response(levels, uniform, bench.dark))
+    axes = {}
+    for axis in ("x", "y"):
+        frames = bench.capture_axis(axis, profile)
+        length = bench.slm[1] if axis == "x" else bench.slm[0]
+        axes[axis] = decode_axis(
+            frames["positive"], frames["negative"], frames["phase"],
+            length=length, dark=bench.dark, **refs,
+        )  # fmt: skip
+    return axes, decode_correspondences(axes["x"], axes["y"])
+
+
+def warp_errors(bench: SyntheticBench, pairs) -> tuple[np.ndarray, np.ndarray]:
+    rows, cols = pairs.y.astype(int), pairs.x.astype(int)
+    return pairs.u - bench.u[rows, cols], pairs.v - bench.v[rows, cols]
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    bench = SyntheticBench()
+    return bench, *decode_synthetic(bench)
+
+
+@pytest.mark.parametrize("sigma", [0.55, 2.8])
+def test_decoding_holds_over_the_blur_range(sigma):
+    bench = SyntheticBench(sigma_slm=sigma, seed=3)
+    axes, pairs = decode_synthetic(bench)
+    du, dv = warp_errors(bench, pairs)
+    assert np.sqrt(np.mean(du**2 + dv**2)) < 0.05
+    assert np.abs(np.concatenate([du, dv])).max() < 0.25
+    assert axes["x"].blur_sigma == pytest.approx(np.sqrt(sigma**2 + 1 / 12), abs=0.03)
+    inside = (bench.u > 8) & (bench.u < 151) & (bench.v > 8) & (bench.v < 111)
+    assert pairs.valid[inside & (bench.light > 0)].mean() > 0.97
+
+
+def test_synthetic_warp_is_recovered_to_a_few_hundredths_of_a_pixel(synthetic):
+    bench, _, pairs = synthetic
+    du, dv = warp_errors(bench, pairs)
+    rms_u, rms_v = np.sqrt(np.mean(du**2)), np.sqrt(np.mean(dv**2))
+    assert rms_u < 0.05 and rms_v < 0.05
+    assert np.sqrt(np.mean(du**2 + dv**2)) < 0.05
+    assert abs(du.mean()) < 0.01 and abs(dv.mean()) < 0.01  # no systematic shift
+    assert np.abs(np.concatenate([du, dv])).max() < 0.5
+
+
+def test_synthetic_validity_counts(synthetic):
+    bench, axes, pairs = synthetic
+    inside = (bench.u > -0.5) & (bench.u < 159.5) & (bench.v > -0.5) & (bench.v < 119.5)
+    speck = bench.light == 0
+    hot = np.zeros(bench.camera, bool)
+    hot[95:110, 130:150] = True
+    reason = np.array(REASONS)[pairs.reason]
+    # The speck is dark and counted; the hot spot is saturated (full frame at 65535).
+    assert set(reason[speck]) == {"dark"}
+    assert set(reason[hot]) == {"saturated"}
+    assert pairs.counts["saturated"] == hot.sum() == 300
+    # Outside the SLM's image: dark, or (within the blur's reach) an excluded edge.
+    assert set(reason[~inside]) == {"dark", "edge"}
+    far = (bench.u < -5) | (bench.u > 164) | (bench.v < -5) | (bench.v > 124)
+    assert set(reason[far]) == {"dark"}
+    assert pairs.counts["dark"] >= speck.sum() + far.sum()
+    # Counts add up, and match the maps.
+    assert sum(pairs.counts[r] for r in REASONS) == pairs.counts["pixels"] == 30000
+    assert pairs.counts["valid"] == len(pairs) == pairs.valid.sum()
+    for name, code in zip(REASONS, range(len(REASONS)), strict=True):
+        assert pairs.counts[name] == int((pairs.reason == code).sum())
+    # Every other pixel more than the edge margin inside the SLM's image is valid.
+    margin = axes["x"].edge_margin + 0.2
+    core = (
+        (bench.u > margin - 0.5) & (bench.u < 159.5 - margin)
+        & (bench.v > margin - 0.5) & (bench.v < 119.5 - margin) & ~hot & ~speck
+    )  # fmt: skip
+    assert pairs.valid[core].all()
+    assert not pairs.valid[~inside].any()
+    assert set(reason[inside & ~core & ~hot & ~speck]) == {"valid", "edge"}
+
+
+def test_blur_and_edge_margin_come_from_the_modulation(synthetic):
+    bench, axes, _ = synthetic
+    # The SLM pixel's box (variance 1/12) adds to the Gaussian blur.
+    expected = np.sqrt(bench.sigma**2 + 1 / 12)
+    for axis in axes.values():
+        assert axis.blur_sigma == pytest.approx(expected, abs=0.03)
+        assert axis.edge_margin == pytest.approx(0.5 + 2.5 * axis.blur_sigma)
+    assert blur_from_modulation(np.exp(-2 * np.pi**2 * 0.25 / 256), 16) == pytest.approx(0.5)
+
+
+def test_correspondence_arrays_match_the_maps(synthetic):
+    _, axes, pairs = synthetic
+    rows, cols = pairs.y.astype(int), pairs.x.astype(int)
+    assert np.array_equal(pairs.u, pairs.u_map[rows, cols])
+    assert np.array_equal(pairs.v, axes["y"].coord[rows, cols])
+    assert np.isnan(pairs.u_map[~pairs.valid]).all()
+    assert np.isfinite(pairs.v_map[pairs.valid]).all()
+
+
+# -- Gray code ------------------------------------------------------------------------
+@pytest.mark.parametrize(("length", "block"), [(160, 8), (100, 8), (37, 1), (64, 4), (1920, 8)])
+def test_gray_decoding_is_exact_on_noiseless_frames(length, block):
+    shape = (2, length)
+    bits = range(gray_bit_count(length, block))
+    pos = np.stack([render_pattern({"kind": "gray", "axis": "x", "bit": b, "block": block,
+                                    "inverse": False}, shape) for b in bits])  # fmt: skip
+    neg = 255 - pos
+    coord, margin, valid = decode_gray(pos, neg, block)
+    expected = block * (np.arange(length) // block) + (block - 1) / 2
+    assert np.array_equal(coord[0], expected) and np.array_equal(coord[1], expected)
+    assert np.all(margin == 1.0) and valid.all()
+
+
+def test_gray_margin_flags_the_undecidable_bit():
+    pos = np.array([[[100.0, 100.0, 60.0]]]).repeat(2, axis=0)
+    neg = np.array([[[0.0, 100.0, 40.0]]]).repeat(2, axis=0)
+    _, margin, valid = decode_gray(pos, neg, block=8, min_margin=0.25)
+    assert margin[0].tolist() == pytest.approx([1.0, 0.0, 0.2])
+    assert valid[0].tolist() == [True, False, False]
+
+
+def test_gray_dark_is_subtracted_before_the_margin():
+    pos, neg = np.full((1, 1, 1), 1100.0), np.full((1, 1, 1), 150.0)
+    assert decode_gray(pos, neg, 8)[1].item() == pytest.approx(950 / 1250)
+    assert decode_gray(pos, neg, 8, dark=100.0)[1].item() == pytest.approx(950 / 1050)
+
+
+# -- phase ----------------------------------------------------------------------------
+@pytest.mark.parametrize(("steps", "period"), [(3, 12), (4, 16), (8, 16), (5, 16), (12, 24)])
+def test_phase_decoding_of_pure_sinusoids(steps, period):
+    rng = np.random.default_rng(steps)
+    truth_coord = rng.uniform(0, period, (6, 7))
+    offset = rng.uniform(100, 1000, (6, 7))
+    amplitude = rng.uniform(0.1, 1.0, (6, 7)) * offset
+    shifts = np.arange(steps) * period // steps  # not equally spaced for 5 steps of 16
+    frames = np.stack(
+        [offset + amplitude * np.cos(2 * np.pi * (truth_coord - s) / period) for s in shifts]
+    )
+    coord, modulation, mean = decode_phase(frames.astype(np.float32), period)
+    error = (coord - truth_coord + period / 2) % period - period / 2
+    assert np.abs(error).max() < 1e-4
+    assert np.all((coord >= 0) & (coord < period))
+    np.testing.assert_allclose(modulation, amplitude, rtol=1e-5)
+    np.testing.assert_allclose(mean, offset, rtol=1e-5)
+
+
+def test_phase_decoding_with_explicit_shifts_and_dark():
+    shifts = np.array([0.0, 3.0, 7.5, 11.0])
+    p = np.linspace(0, 15.9, 50)[None, :]
+    frames = np.stack([110 + 50 * np.cos(2 * np.pi * (p - s) / 16) for s in shifts])
+    coord, _, offset = decode_phase(frames, 16, shifts=shifts, dark=10.0)
+    # Frames are converted to float32 one by one: ~1e-7 relative precision.
+    np.testing.assert_allclose((coord - p + 8) % 16 - 8, 0.0, atol=1e-5)
+    np.testing.assert_allclose(offset, 100.0, rtol=1e-6)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    true_coord=st.floats(0.0, 400.0),
+    coarse_error=st.floats(-7.9, 7.9),
+    noise=st.floats(-0.05, 0.05),
+)
+def test_unwrap_picks_the_right_period_even_at_period_boundaries(true_coord, coarse_error, noise):
+    measured = true_coord + noise
+    phase = np.mod(measured, PERIOD)
+    got = unwrap(phase, true_coord + coarse_error, PERIOD)
+    assert got == pytest.approx(measured, abs=1e-9)
+
+
+def test_unwrap_at_exact_boundaries():
+    phase = np.array([0.0, 15.999, 0.001, 15.999, 0.001])
+    coarse = np.array([16.0, 15.5, 16.5, 32.0 - 7.0, 7.9])
+    assert unwrap(phase, coarse, 16).tolist() == pytest.approx(
+        [16.0, 15.999, 16.001, 31.999, 0.001]
+    )
+
+
+# -- errors -----------------------------------------------------------------------------
+def test_errors_name_step_cause_and_fix():
+    frames = np.zeros((4, 3, 5))
+    with pytest.raises(ValueError, match=r"phase decoding: .*\(2, 3, 5\).*Fix: pass at least 3"):
+        decode_phase(frames[:2], 16)
+    with pytest.raises(ValueError, match=r"phase decoding: phase shifts .* do not span"):
+        decode_phase(frames, 16, shifts=[0, 0, 0, 0])
+    with pytest.raises(ValueError, match=r"Gray decoding: positive frames .* differ"):
+        decode_gray(frames, frames[:3], 8)
+    with pytest.raises(ValueError, match="Gray decoding: block 0"):
+        decode_gray(frames, frames, 0)
+    gray = frames[:1]  # 5 px in blocks of 8: one Gray bit
+    refs = {"blank": frames[0], "full": frames[0], "length": 5}
+    decode_axis(gray, gray, frames, **refs)  # well-formed input decodes (to all dark)
+    with pytest.raises(ValueError, match="structured-light decoding: full frames are"):
+        decode_axis(gray, gray, frames, **{**refs, "full": np.zeros((3, 4))})
+    with pytest.raises(ValueError, match="structured-light decoding: dark frames are"):
+        decode_axis(gray, gray, frames, **refs, dark=np.ones(3))
+    with pytest.raises(ValueError, match="structured-light decoding: phase has shape"):
+        decode_axis(gray, gray, frames[:2], **refs)
+    with pytest.raises(ValueError, match="4 Gray bits given; 5 px in blocks of 8 need 1"):
+        decode_axis(frames, frames, frames, **refs)
+    with pytest.raises(ValueError, match="Gray blocks of 16 px cannot pick a period of 16"):
+        decode_axis(gray, gray, frames, **refs, block=16)
+    with pytest.raises(ValueError, match=r"length 0 is not a positive integer.*SLM's width"):
+        decode_axis(gray, gray, frames, **{**refs, "length": 0})
+
+
+def test_each_exclusion_reason_is_detected_where_expected():
+    """A noiseless camera that sees the SLM pixel for pixel, with one defect per patch."""
+    shape, length = (40, 64), 64
+
+    def show(descriptor):
+        return 100.0 + 1000.0 * render_pattern(descriptor, shape) / 255.0
+
+    plan = sweep_descriptors("x", length, sinusoid_profile(PERIOD))
+    frames = {k: np.stack([show(d) for d in ds]) for k, ds in plan.items()}
+    blank, full = show({"kind": "blank"}), show({"kind": "full"})
+    full[0:5, 10:20] = blank[0:5, 10:20]  # dark: no light at all
+    frames["positive"][2, 5:10, 10:20] = 65535  # saturated in one frame
+    frames["phase"][:, 10:15, 10:20] = 600.0  # no fringes
+    frames["negative"][1:3, 15:20, 10:20] = frames["positive"][1:3, 15:20, 10:20]  # 2 bits lost
+    frames["phase"][:, 20:25] = np.roll(frames["phase"][:, 20:25], PERIOD // 2, axis=2)
+    axis = decode_axis(
+        frames["positive"], frames["negative"], frames["phase"],
+        blank=blank, full=full, length=length, dark=100.0,
+    )  # fmt: skip
+    expected = np.zeros(shape, np.uint8)
+    expected[0:5, 10:20] = REASONS.index("dark")
+    expected[5:10, 10:20] = REASONS.index("saturated")
+    expected[10:15, 10:20] = REASONS.index("low_modulation")
+    expected[15:20, 10:20] = REASONS.index("ambiguous_gray")
+    # Fringes half a period off put the unwrapped phase 8 - |3.5 - p| px from the block
+    # centre (p = position in the block): the check catches p = 2..5 (> 6 px away).
+    p = np.arange(length) % BLOCK
+    expected[20:25] = np.where(np.abs(3.5 - p) < 2, REASONS.index("disagreement"), 0)
+    edge = np.arange(length) < axis.edge_margin - 0.5
+    edge |= np.arange(length) > length - 0.5 - axis.edge_margin
+    expected[:, edge] = np.where(expected[:, edge] == 0, REASONS.index("edge"), expected[:, edge])
+    # Pixels the wrong fringes shift by a whole period may land near the border: skip them.
+    compare = np.ones(shape, bool)
+    compare[20:25, :BLOCK] = compare[20:25, -BLOCK:] = False
+    np.testing.assert_array_equal(axis.reason[compare], expected[compare])
+    assert axis.counts["dark"] == axis.counts["saturated"] == 50
+    assert axis.counts["disagreement"] >= 5 * 4 * 6  # 4 of 8 px in the 6 interior blocks
+    # Elsewhere the decode is exact. (In rows 20-24 the pixels the check cannot catch are
+    # off by half a period: a consistency check only sees errors near period / 2.)
+    good = axis.reason == 0
+    good[20:25] = False
+    np.testing.assert_allclose(axis.coord[good], np.broadcast_to(np.arange(64.0), shape)[good],
+                               atol=0.02)  # fmt: skip
+    assert axis.blur_sigma < 0.2  # point-sampled, unblurred: only the profile's rounding
+
+
+def test_correspondences_refuse_mismatched_or_empty_axes():
+    def axis(shape, valid):
+        ok = np.full(shape, valid)
+        reason = np.where(ok, 0, 1).astype(np.uint8)
+        return AxisDecode(
+            np.zeros(shape), ok, np.ones(shape), {}, reason, np.zeros(shape), 0.5, 1.0
+        )
+
+    with pytest.raises(ValueError, match=r"correspondences: x axis is \(2, 3\)"):
+        decode_correspondences(axis((2, 3), True), axis((3, 2), True))
+    with pytest.raises(ValueError, match="correspondences: no pixel was decoded on both axes"):
+        decode_correspondences(axis((2, 3), True), axis((2, 3), False))
+
+
+# -- the virtual bench --------------------------------------------------------------------
+def test_virtual_bench_sweep_at_532nm_matches_truth():
+    start = time.perf_counter()
+    rig = sassi_bench.open_rig("sim")
+    rig.set_scene("white")
+    cam, shape, wavelength = rig.spectral_camera, rig.slm.shape, 532.0
+
+    def capture(descriptor):
+        rig.slm.show(render_pattern(descriptor, shape))
+        return cam.capture().data
+
+    # Expose so the brightest pixel of the full frame sits at ~60 % of the ADC range.
+    trial_s = 0.005
+    cam.set_exposure(trial_s)
+    rig.light.select("off")
+    black = float(np.median(capture({"kind": "blank"})))
+    rig.light.select("laser:532")
+    peak = float(capture({"kind": "full"}).max()) - black
+    cam.set_exposure(trial_s * 0.6 * (65535.0 - black) / peak)
+    rig.light.select("off")
+    dark = capture({"kind": "blank"})
+    rig.light.select("laser:532")
+    blank, full = capture({"kind": "blank"}), capture({"kind": "full"})
+    assert 0.5 * 65535 < full.max() < 0.7 * 65535
+
+    levels = np.array([*range(0, 256, 32), 255])
+    uniform = np.stack([capture({"kind": "uniform", "level": int(g)}) for g in levels])
+    response = measure_grey_response(levels, uniform, dark)
+    g = np.arange(256)
+    sim_response = (g / 255.0) ** rig.description.slm.gamma
+    assert np.abs(response(g) - sim_response).max() < 1e-3
+    profile = sinusoid_profile(PERIOD, response)
+
+    decoded = {}
+    for axis, length in (("x", shape[1]), ("y", shape[0])):
+        plan = sweep_descriptors(axis, length, profile)
+        frames = {k: np.stack([capture(d) for d in ds]) for k, ds in plan.items()}
+        decoded[axis] = decode_axis(
+            frames["positive"], frames["negative"], frames["phase"],
+            blank=blank, full=full, length=length, dark=dark, saturation_level=65535,
+        )  # fmt: skip
+    pairs = decode_correspondences(decoded["x"], decoded["y"])
+
+    bench_truth = truth(rig)
+    x, y = bench_truth.slm_to_camera(pairs.u, pairs.v, wavelength)
+    distance = np.hypot(x - pairs.x, y - pairs.y)
+    rms_camera = float(np.sqrt(np.mean(distance**2)))
+    u_true, v_true = bench_truth.bench.relay.inverse(pairs.x, pairs.y, wavelength)
+    rms_slm = float(np.sqrt(np.mean((pairs.u - u_true) ** 2 + (pairs.v - v_true) ** 2)))
+
+    rows, cols = np.mgrid[0 : cam.shape[0], 0 : cam.shape[1]].astype(np.float64)
+    u_all, v_all = bench_truth.bench.relay.inverse(cols, rows, wavelength)
+    lit = (u_all > -0.5) & (u_all < shape[1] - 0.5) & (v_all > -0.5) & (v_all < shape[0] - 0.5)
+    valid_fraction = float((pairs.valid & lit).sum() / lit.sum())
+    elapsed = time.perf_counter() - start
+    print(
+        f"\nvirtual bench 532 nm: RMS {rms_camera:.4f} camera px, {rms_slm:.4f} SLM px; "
+        f"max {distance.max():.3f} camera px; valid {valid_fraction:.4f} of {lit.sum()} lit "
+        f"pixels; blur sigma x {decoded['x'].blur_sigma:.3f}, y {decoded['y'].blur_sigma:.3f} "
+        f"SLM px; counts {pairs.counts}; {elapsed:.1f} s"
+    )
+    assert rms_camera < 0.1
+    assert rms_slm < 0.1
+    assert np.percentile(distance, 99.9) < 0.5  # "lands within the pixel"
+    assert valid_fraction > 0.8
+    assert (pairs.valid & ~lit).sum() < 0.001 * lit.sum()
+    assert pairs.counts["disagreement"] + pairs.counts["ambiguous_gray"] < 0.001 * lit.sum()

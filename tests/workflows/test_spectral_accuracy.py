@@ -1,0 +1,83 @@
+"""Spectral calibration scored against the virtual bench's ground truth.
+
+Each rig is calibrated once per test module (about a minute each): the default rig and
+an odd one (SLM rotated 2 degrees, a dense flint prism, three times the read noise).
+The default rig already uses N-BK7 (it reproduces the paper's 2-10 nm/px bins), so the
+odd rig swaps in F2, whose stronger dispersion makes the field dependence harsher.
+"""
+
+import numpy as np
+import pytest
+
+from sassi_bench import open_rig
+from sassi_bench.bundle import load
+from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
+from sassi_bench.rig.sim import truth
+from sassi_bench.workflows.procedure import load_procedure
+from sassi_bench.workflows.spectral import run_spectral_calibration
+
+
+def _odd_rig():
+    data = load_rig_description("sim").to_dict()
+    data["name"] = "sim-odd"
+    data["relay"]["rotation_deg"] = 2.0
+    data["relay"]["scale"] = 1.04
+    data["relay"]["offset_px"] = [28.0, 3.0]
+    data["prism"]["glass"] = "F2"
+    data["spectral_camera"]["read_noise_e"] = 15.0
+    return open_rig(rig_description_from_dict(data))
+
+
+@pytest.fixture(scope="module", params=["default", "odd"])
+def calibrated(request, tmp_path_factory):
+    rig = open_rig("sim") if request.param == "default" else _odd_rig()
+    data = tmp_path_factory.mktemp(f"data-{request.param}")
+    result = run_spectral_calibration(
+        rig, load_procedure("spectral_calibration"), data=data, progress=False, session_id="acc"
+    )
+    return rig, result, data
+
+
+def test_every_quality_check_passes_and_a_bundle_is_published(calibrated):
+    rig, result, data = calibrated
+    assert result.passed, [c for c in result.checks if not c.passed]
+    bundle = load(rig=rig.description.name, data=data)
+    assert bundle.passed
+    assert 60 <= bundle.wavelengths.size <= 76
+    assert {"residual_maps.png", "dispersion.png", "blur.png"} <= set(
+        p.name for p in (bundle.path / "report").iterdir()
+    )
+    assert [i["id"] for i in bundle.manifest["inputs"]] == ["acc-grey", "acc-sweep"]
+
+
+def test_correspondences_land_where_truth_says(calibrated):
+    rig, result, _ = calibrated
+    t = truth(rig)
+    for laser in result.lasers:
+        x, y = t.slm_to_camera(laser.slm_u, laser.slm_v, laser.wavelength_nm)
+        error = np.hypot(x - laser.camera_x, y - laser.camera_y)
+        assert np.sqrt(np.mean(error**2)) <= 0.1, laser.wavelength_nm
+        assert laser.valid_fraction > 0.85
+
+
+def test_wavelength_map_matches_truth_over_the_band(calibrated):
+    rig, result, _ = calibrated
+    t = truth(rig)
+    h, w = rig.slm.shape
+    u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
+    lam = np.linspace(400, 700, 61)
+    xm, ym = result.dispersion.model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    xt, yt = t.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    error_nm = (xm - xt) / np.gradient(xt, lam, axis=1)
+    assert np.sqrt(np.mean(error_nm**2)) <= 0.5
+    assert np.sqrt(np.mean((ym - yt) ** 2)) <= 0.1  # rows, camera px
+    assert result.dispersion.leave_one_out_rms_nm <= 0.5
+
+
+def test_blur_width_matches_truth(calibrated):
+    rig, result, _ = calibrated
+    t = truth(rig)
+    lasers = result.blur.wavelengths_nm
+    assert result.blur.model.sigma(lasers) == pytest.approx(t.line_spread_sigma_px(lasers), abs=0.2)
+    band = np.linspace(420, 690, 28)
+    assert np.abs(result.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max() <= 0.2
