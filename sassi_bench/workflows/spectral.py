@@ -53,11 +53,9 @@ class LaserDecode:
     valid_fraction: float
     counts: dict[str, int]
     laser_map: LaserMap
-
-    @property
-    def residual_rms_px(self) -> float:
-        """Camera-px RMS of the correspondences about the smooth map (inliers)."""
-        return float(np.hypot(self.laser_map.x.rms, self.laser_map.y.rms))
+    residual_rms_px: float
+    """Scatter of the raw measurements about the smooth map, camera px: decoded pixels
+    about the field fit (structured), line centres about their fits (lines)."""
 
 
 @dataclass
@@ -227,11 +225,16 @@ def analyse_sweep(
             )
         fx = fit_field(u, v, x, slm_shape, degree)
         fy = fit_field(u, v, y, slm_shape, degree)
-        out.append(
-            LaserDecode(
-                laser, x, y, u, v, fraction, counts, LaserMap(laser, fx, fy, x.size, counts)
-            )
-        )
+        if "x_line_fit_rms_slm_px" in counts:
+            # Line centres scatter in SLM px; convert with the local magnification.
+            h, w = slm_shape
+            scale = float(np.diff(fx(np.array([w / 2 - 1, w / 2 + 1]), h / 2))[0] / 2)
+            slm_rms = np.hypot(counts["x_line_fit_rms_slm_px"], counts["y_line_fit_rms_slm_px"])
+            residual = float(slm_rms * abs(scale))
+        else:
+            residual = float(np.hypot(fx.rms, fy.rms))
+        laser_map = LaserMap(laser, fx, fy, x.size, counts)
+        out.append(LaserDecode(laser, x, y, u, v, fraction, counts, laser_map, residual))
     return out
 
 

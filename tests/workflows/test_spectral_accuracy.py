@@ -81,3 +81,23 @@ def test_blur_width_matches_truth(calibrated):
     assert result.blur.model.sigma(lasers) == pytest.approx(t.line_spread_sigma_px(lasers), abs=0.2)
     band = np.linspace(420, 690, 28)
     assert np.abs(result.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max() <= 0.2
+
+
+def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):
+    rig = open_rig("sim")
+    proc = load_procedure("spectral_calibration")
+    proc["sweep"]["mode"] = "lines"
+    result = run_spectral_calibration(
+        rig, proc, data=tmp_path, progress=False, publish_bundle=False, figures=False
+    )
+    assert result.passed, [c for c in result.checks if not c.passed]
+    t = truth(rig)
+    for laser in result.lasers:
+        x, y = t.slm_to_camera(laser.slm_u, laser.slm_v, laser.wavelength_nm)
+        error = np.hypot(x - laser.camera_x, y - laser.camera_y)
+        assert np.sqrt(np.mean(error**2)) <= 0.1
+        assert 0.01 < laser.residual_rms_px < 0.15  # line centres scatter about their fit
+    assert result.dispersion.leave_one_out_rms_nm <= 0.5
+    frames = len(result.sessions[-1].plan)
+    # Multi-line shift: 2 x 64 / 8 = 16 line frames per laser, plus 3 references and 3 blur.
+    assert frames == 5 * (16 + 3 + 3)
