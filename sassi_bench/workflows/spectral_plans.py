@@ -117,12 +117,14 @@ def _structured_steps(
     return steps
 
 
-def _line_steps(light: str, exposure: float, tags: dict, sweep: Mapping) -> list[Step]:
+def _line_steps(
+    light: str, exposure: float, tags: dict, slm_shape: tuple[int, int], sweep: Mapping
+) -> list[Step]:
     stride = int(sweep.get("line_stride_px", 8))
     spacing = int(sweep.get("line_spacing_px", 64))
     steps = []
-    for axis in ("x", "y"):
-        for offset in range(0, spacing, stride):
+    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
+        for offset in range(0, min(spacing, length), stride):
             pattern = {
                 "kind": "lines",
                 "axis": axis,
@@ -197,7 +199,7 @@ def sweep_plan(
             if sweep["mode"] == "structured":
                 steps += _structured_steps(light, exposure, tags, slm_shape, sweep, profile)
             else:
-                steps += _line_steps(light, exposure, tags, sweep)
+                steps += _line_steps(light, exposure, tags, slm_shape, sweep)
         exposure = float(blur_exposures[laser])
         steps.append(
             Step("spectral", light, exposure, {"kind": "blank"}, {**tags, "role": "blur-blank"})
