@@ -276,6 +276,8 @@ def import_zip(
         folder = rig_dir(bundle_rig, data)
         folder.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=".import-", dir=folder))
+        # mkdtemp makes the folder private (0700); bundles are shared lab records.
+        staging.chmod(0o755)
         try:
             _extract(source, archive, members, staging, max_bytes)
             verified = read_bundle(staging, step="bundle import")

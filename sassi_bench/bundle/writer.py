@@ -334,6 +334,8 @@ def publish(
     try:
         folder.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=".publish-", dir=folder))
+        # mkdtemp makes the folder private (0700); bundles are shared lab records.
+        staging.chmod(0o755)
     except OSError as exc:
         raise _bad(
             f"cannot create {folder} ({exc})", "check the data root and its permissions"
