@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["DATA_ENV_VAR", "data_root"]
+__all__ = ["DATA_ENV_VAR", "data_root", "shared_mode"]
 
 DATA_ENV_VAR = "SASSI_BENCH_DATA"
 
@@ -40,3 +40,19 @@ def data_root(explicit: str | os.PathLike[str] | None = None) -> Path:
     if env:
         return Path(env)
     return Path("calib_data")
+
+
+def shared_mode(directory: bool) -> int:
+    """Permission bits a new file or folder would get from the process umask.
+
+    ``tempfile.mkstemp``/``mkdtemp`` create private (0600/0700) entries; the workbench's
+    bundles and sessions are shared lab records, so they get the umask's usual mode.
+
+    Examples
+    --------
+    >>> oct(shared_mode(directory=True) & 0o700)
+    '0o700'
+    """
+    mask = os.umask(0)
+    os.umask(mask)
+    return (0o777 if directory else 0o666) & ~mask

@@ -28,3 +28,20 @@ def make_rig():
         return open_rig(rig_description_from_dict(data))
 
     return _make
+
+
+@pytest.fixture(scope="session")
+def calibrated_sim(tmp_path_factory):
+    """The default virtual bench, spectrally calibrated once per test session.
+
+    Returns (rig, result, data_root); the bundle is published under data_root.
+    """
+    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.workflows.spectral import run_spectral_calibration
+
+    rig = open_rig("sim")
+    data = tmp_path_factory.mktemp("calibrated-sim")
+    result = run_spectral_calibration(
+        rig, load_procedure("spectral_calibration"), data=data, progress=False, session_id="acc"
+    )
+    return rig, result, data

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.acquire.patterns import pinhole_pattern
+from sassi_bench.errors import SassiBenchError, step_error
 from sassi_bench.rig.frame import Frame
 from sassi_bench.rig.rig import Rig
 
@@ -28,6 +29,11 @@ def save_frame(frame: Frame, stem: Path) -> list[Path]:
     stem.parent.mkdir(parents=True, exist_ok=True)
     tiff = stem.with_suffix(".tiff")
     png = stem.with_suffix(".png")
+    for path in (tiff, png):
+        if path.exists():
+            raise SassiBenchError(
+                step_error("snapshot", f"{path} already exists", "choose another --out folder")
+            )
     tifffile.imwrite(tiff, frame.data, metadata={"meta": frame.meta.to_dict()})
     imsave(png, _display_8bit(frame.data), check_contrast=False)
     return [tiff, png]

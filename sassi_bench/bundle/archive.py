@@ -32,6 +32,7 @@ from sassi_bench.bundle.layout import (
 )
 from sassi_bench.bundle.loader import ARRAYS_DIR, REPORT_DIR, read_bundle
 from sassi_bench.errors import step_error
+from sassi_bench.paths import shared_mode
 
 __all__ = ["ImportedBundle", "export_zip", "import_zip", "verify_zip"]
 
@@ -89,6 +90,7 @@ def export_zip(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> Pat
         verified.files, key=lambda f: (f not in (MANIFEST_NAME, MANIFEST_CHECKSUM_NAME), f)
     )
     fd, tmp_name = tempfile.mkstemp(prefix=".export-", suffix=".zip", dir=out_path.parent)
+    os.fchmod(fd, shared_mode(directory=False))
     os.close(fd)
     try:
         with zipfile.ZipFile(tmp_name, "w", compression=zipfile.ZIP_DEFLATED) as archive:
@@ -276,8 +278,7 @@ def import_zip(
         folder = rig_dir(bundle_rig, data)
         folder.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=".import-", dir=folder))
-        # mkdtemp makes the folder private (0700); bundles are shared lab records.
-        staging.chmod(0o755)
+        staging.chmod(shared_mode(directory=True))
         try:
             _extract(source, archive, members, staging, max_bytes)
             verified = read_bundle(staging, step="bundle import")

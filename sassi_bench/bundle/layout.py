@@ -18,7 +18,7 @@ from pathlib import Path
 
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.errors import step_error
-from sassi_bench.paths import data_root
+from sassi_bench.paths import data_root, shared_mode
 
 __all__ = [
     "LATEST_NAME",
@@ -184,6 +184,7 @@ def update_latest(folder: Path, version: str) -> None:
         if current_number > new_number:
             return
     fd, tmp = tempfile.mkstemp(prefix=".LATEST-", dir=folder)
+    os.fchmod(fd, shared_mode(directory=False))
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(version + "\n")

@@ -130,6 +130,17 @@ def _check_file_set(step: str, path: Path, expected: set[str]) -> None:
 def _check_manifest_rules(step: str, path: Path, manifest: Mapping[str, Any]) -> None:
     """Cross-field rules the JSON Schema cannot express."""
     checks = manifest["quality"]["checks"]
+    for check in checks:
+        comparison = check.get("comparison", "<=")
+        value, tolerance = check["value"], check["tolerance"]
+        holds = value <= tolerance if comparison == "<=" else value >= tolerance
+        if check["passed"] != holds:
+            raise _schema(
+                step,
+                path,
+                f"quality check {check['name']!r} says passed={check['passed']} but "
+                f"{value:g} {comparison} {tolerance:g} is {holds}",
+            )
     all_passed = all(check["passed"] for check in checks)
     if manifest["passed"] != all_passed:
         raise _schema(

@@ -115,6 +115,16 @@ def _check(item: Any, index: int) -> QualityCheck:
             or not math.isfinite(float(number))
         ):
             raise _bad(f"{where}.{key} must be a finite number, got {number!r}")
+    holds = (
+        check.value <= check.tolerance
+        if check.comparison == "<="
+        else check.value >= check.tolerance
+    )
+    if check.passed != holds:
+        raise _bad(
+            f"{where}.passed is {check.passed}, but {check.value:g} {check.comparison} "
+            f"{check.tolerance:g} is {holds}"
+        )
     return check
 
 

@@ -22,7 +22,7 @@ import subprocess
 import tempfile
 import warnings
 from collections.abc import Iterable, Mapping
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as package_version
 from pathlib import Path
@@ -53,6 +53,7 @@ from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.bundle.quality import normalize_quality
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION, validate_manifest
 from sassi_bench.errors import step_error
+from sassi_bench.paths import shared_mode
 
 __all__ = ["publish", "software_info"]
 
@@ -202,7 +203,7 @@ def _write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
 
 
 def _utc_now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+    return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
 def publish(
@@ -334,8 +335,7 @@ def publish(
     try:
         folder.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=".publish-", dir=folder))
-        # mkdtemp makes the folder private (0700); bundles are shared lab records.
-        staging.chmod(0o755)
+        staging.chmod(shared_mode(directory=True))
     except OSError as exc:
         raise _bad(
             f"cannot create {folder} ({exc})", "check the data root and its permissions"

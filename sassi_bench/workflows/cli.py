@@ -60,3 +60,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     spectral.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
     spectral.add_argument("--quiet", action="store_true", help="no progress bars")
     spectral.set_defaults(func=_spectral)
+    from sassi_bench.spectra.cli import register_response
+
+    register_response(groups)

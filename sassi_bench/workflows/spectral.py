@@ -10,10 +10,11 @@ calibration bundle with its plots. It uses device handles only.
 from __future__ import annotations
 
 import io
+import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.runner import run_plan
-from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationModels, QualityCheck, publish
 from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
 from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap, fit_dispersion
@@ -35,10 +36,17 @@ from sassi_bench.calibrate.grey_response import (
 from sassi_bench.calibrate.line_sweep import fit_line_axis, line_centres
 from sassi_bench.calibrate.structured_light import decode_axis
 from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
 
-__all__ = ["LaserDecode", "SpectralCalibration", "analyse_sweep", "run_spectral_calibration"]
+__all__ = [
+    "LaserDecode",
+    "SpectralCalibration",
+    "analyse_sweep",
+    "measure_response",
+    "run_spectral_calibration",
+]
 
 
 @dataclass(frozen=True)
@@ -88,7 +96,7 @@ class SpectralCalibration:
 def _session_id(base: str | None) -> str:
     if base:
         return base
-    return "spectral-" + datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    return "spectral-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
 
 
 def _check_lasers(rig: Rig, lasers: list[float]) -> None:
@@ -104,19 +112,33 @@ def _check_lasers(rig: Rig, lasers: list[float]) -> None:
         )
 
 
-def _open(rig: Rig, plan, session_id: str, data) -> Session:
-    return Session.open_or_create(rig.description, plan, session_id=session_id, data=data)
-
-
-def _existing_plan(session_id: str, data) -> Any | None:
-    try:
-        return Session.open(session_id, data=data).plan
-    except SessionError:  # no such session yet: a new plan will be built
+def _resume(session_id: str, data) -> Session | None:
+    """The existing session of this id, or None if there is none (damage is an error)."""
+    if not (data_root(data) / "sessions" / session_id).exists():
         return None
+    return Session.open(session_id, data=data)
+
+
+def _procedure_key(proc: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in proc.items() if k != "source"}
+
+
+def _check_same_procedure(session: Session, proc: Mapping[str, Any]) -> None:
+    stored = session.plan.parameters.get("procedure")
+    if stored is not None and json.dumps(stored, sort_keys=True) != json.dumps(
+        _procedure_key(proc), sort_keys=True
+    ):
+        raise ConfigError(
+            step_error(
+                f"resume session {session.id}",
+                "it was captured with a different procedure than the one given now",
+                "resume with the same procedure file, or start a new --session",
+            )
+        )
 
 
 def _frames(session: Session, indices: list[int]) -> NDArray[np.float32]:
-    return np.stack([session.read_frame(i).astype(np.float32) for i in indices])
+    return session.read_frames(indices).astype(np.float32)
 
 
 def _one(session: Session, **tags) -> NDArray[np.float32]:
@@ -128,13 +150,21 @@ def _one(session: Session, **tags) -> NDArray[np.float32]:
     return _frames(session, indices).mean(axis=0)
 
 
-def measure_response(session: Session) -> GreyResponse:
+def measure_response(session: Session, saturation: float) -> GreyResponse:
     """The SLM's grey-level response from a grey-level session."""
     plan = session.plan
     indices = plan.select(role="grey")
     levels = [plan.steps[i].tags["level"] for i in indices]
     dark = _one(session, role="dark")
-    return measure_grey_response(levels, _frames(session, indices), dark)
+    return measure_grey_response(
+        levels, _frames(session, indices), dark, saturation_level=saturation
+    )
+
+
+def _lit(full: NDArray, blank: NDArray) -> NDArray[np.bool_]:
+    """Camera pixels the open SLM lights (the denominator of the valid fraction)."""
+    signal = full - blank
+    return signal > 0.1 * np.percentile(signal, 99.5)
 
 
 def _structured_decode(session: Session, proc, laser: float, slm_shape, saturation):
@@ -162,7 +192,7 @@ def _structured_decode(session: Session, proc, laser: float, slm_shape, saturati
             min_modulation=float(sweep.get("min_modulation", 0.2)),
         )
     valid = axes["x"].valid & axes["y"].valid
-    lit = (full - blank) > 0.05 * np.percentile(full - blank, 99.5)
+    lit = _lit(full, blank)
     rows, cols = np.nonzero(valid)
     counts = {f"{axis}_{k}": v for axis, dec in axes.items() for k, v in dec.counts.items()}
     return (
@@ -170,7 +200,7 @@ def _structured_decode(session: Session, proc, laser: float, slm_shape, saturati
         rows.astype(np.float64),
         axes["x"].coord[rows, cols],
         axes["y"].coord[rows, cols],
-        float(valid.sum() / max(lit.sum(), 1)),
+        float((valid & lit).sum() / max(lit.sum(), 1)),
         counts,
     )
 
@@ -192,8 +222,7 @@ def _line_decode(session: Session, proc, laser: float, slm_shape, saturation):
         )
         skipped += centres.skipped_frames
         fits[axis] = fit_line_axis(centres, camera_shape, int(proc["fit"].get("field_degree", 5)))
-    signal = full - blank
-    lit = signal > 0.25 * np.percentile(signal, 99.5)
+    lit = _lit(full, blank)
     rows, cols = np.nonzero(lit)
     x, y = cols.astype(np.float64), rows.astype(np.float64)
     u, v = fits["x"](x, y), fits["y"](x, y)
@@ -359,27 +388,35 @@ def run_spectral_calibration(
             max_s=float(exp_cfg.get("max_s", 2.0)),
         )
 
+    grey = _resume(f"{base}-grey", data)
+    sweep = _resume(f"{base}-sweep", data)
+    for existing in (grey, sweep):
+        if existing is not None:
+            _check_same_procedure(existing, proc)
+    exposures: dict[float, float] = {}
+    if sweep is None:
+        exposures = {laser: expose(laser, {"kind": "full"}) for laser in lasers}
     response = None
     sessions = []
     if proc["sweep"]["mode"] == "structured":
-        plan = _existing_plan(f"{base}-grey", data) or grey_plan(
-            proc, lasers[len(lasers) // 2], expose(lasers[len(lasers) // 2], {"kind": "full"})
-        )
-        grey = _open(rig, plan, f"{base}-grey", data)
-        run_plan(rig, plan, grey, progress=progress)
-        response = measure_response(grey)
+        middle = lasers[len(lasers) // 2]
+        if grey is None:
+            plan = grey_plan(
+                proc, middle, exposures.get(middle) or expose(middle, {"kind": "full"})
+            )
+            grey = Session.create(rig.description, plan, session_id=f"{base}-grey", data=data)
+        run_plan(rig, grey.plan, grey, progress=progress)
+        response = measure_response(grey, saturation)
         sessions.append(grey)
-    plan = _existing_plan(f"{base}-sweep", data)
-    if plan is None:
-        exposures = {laser: expose(laser, {"kind": "full"}) for laser in lasers}
-        pitch = [int(p) for p in proc["blur"].get("pinhole_pitch_px", [40, 40])]
+    if sweep is None:
+        pitch = [int(p) for p in proc["blur"]["pinhole_pitch_px"]]
         pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
         blur_exposures = {laser: expose(laser, pinholes) for laser in lasers + extra}
-        period = int(proc["sweep"].get("phase_period_px", 16))
+        period = int(proc["sweep"]["phase_period_px"])
         profile = sinusoid_profile(period, response).tolist() if response is not None else None
         plan = sweep_plan(proc, slm_shape, exposures, profile, blur_exposures)
-    sweep = _open(rig, plan, f"{base}-sweep", data)
-    run_plan(rig, plan, sweep, progress=progress)
+        sweep = Session.create(rig.description, plan, session_id=f"{base}-sweep", data=data)
+    run_plan(rig, sweep.plan, sweep, progress=progress)
     sessions.append(sweep)
 
     decoded = analyse_sweep(sweep, proc, slm_shape, saturation)

@@ -67,7 +67,12 @@ def grey_plan(procedure: Mapping[str, Any], laser_nm: float, exposure_s: float) 
     return Plan(
         "spectral-grey",
         tuple(steps),
-        {"scene": "white", "laser_nm": laser_nm, "exposure_s": exposure_s},
+        {
+            "scene": "white",
+            "laser_nm": laser_nm,
+            "exposure_s": exposure_s,
+            "procedure": {k: v for k, v in procedure.items() if k != "source"},
+        },
     )
 
 
@@ -217,6 +222,7 @@ def sweep_plan(
             )
     parameters = {
         "scene": "white",
+        "procedure": {k: v for k, v in procedure.items() if k != "source"},
         "mode": sweep["mode"],
         "exposures_s": {f"{k:g}": float(v) for k, v in exposures.items()},
         "blur_exposures_s": {f"{k:g}": float(v) for k, v in blur_exposures.items()},

@@ -29,8 +29,10 @@ def _odd_rig():
 
 
 @pytest.fixture(scope="module", params=["default", "odd"])
-def calibrated(request, tmp_path_factory):
-    rig = open_rig("sim") if request.param == "default" else _odd_rig()
+def calibrated(request, tmp_path_factory, calibrated_sim):
+    if request.param == "default":
+        return calibrated_sim
+    rig = _odd_rig()
     data = tmp_path_factory.mktemp(f"data-{request.param}")
     result = run_spectral_calibration(
         rig, load_procedure("spectral_calibration"), data=data, progress=False, session_id="acc"
@@ -56,7 +58,8 @@ def test_correspondences_land_where_truth_says(calibrated):
     for laser in result.lasers:
         x, y = t.slm_to_camera(laser.slm_u, laser.slm_v, laser.wavelength_nm)
         error = np.hypot(x - laser.camera_x, y - laser.camera_y)
-        assert np.sqrt(np.mean(error**2)) <= 0.1, laser.wavelength_nm
+        # Issue target 0.1 px; measured 0.02-0.04 px, so hold it to 0.06 px.
+        assert np.sqrt(np.mean(error**2)) <= 0.06, laser.wavelength_nm
         assert laser.valid_fraction > 0.85
 
 
@@ -69,18 +72,20 @@ def test_wavelength_map_matches_truth_over_the_band(calibrated):
     xm, ym = result.dispersion.model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
     xt, yt = t.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
     error_nm = (xm - xt) / np.gradient(xt, lam, axis=1)
-    assert np.sqrt(np.mean(error_nm**2)) <= 0.5
-    assert np.sqrt(np.mean((ym - yt) ** 2)) <= 0.1  # rows, camera px
-    assert result.dispersion.leave_one_out_rms_nm <= 0.5
+    # Issue target 0.5 nm RMS; measured about 0.01 nm.
+    assert np.sqrt(np.mean(error_nm**2)) <= 0.05
+    assert np.abs(error_nm).max() <= 0.25
+    assert np.sqrt(np.mean((ym - yt) ** 2)) <= 0.05  # rows, camera px
 
 
 def test_blur_width_matches_truth(calibrated):
     rig, result, _ = calibrated
     t = truth(rig)
     lasers = result.blur.wavelengths_nm
-    assert result.blur.model.sigma(lasers) == pytest.approx(t.line_spread_sigma_px(lasers), abs=0.2)
+    # Issue target 0.2 px; measured within 0.06 px.
+    assert result.blur.model.sigma(lasers) == pytest.approx(t.line_spread_sigma_px(lasers), abs=0.1)
     band = np.linspace(420, 690, 28)
-    assert np.abs(result.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max() <= 0.2
+    assert np.abs(result.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max() <= 0.1
 
 
 def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):

@@ -1,0 +1,196 @@
+"""Pinhole-scan workflows: the radiometric response and ground-truth cubes.
+
+:func:`run_response` scans a white diffuser under a source of known spectrum (halogen as
+a blackbody of the rig's lamp temperature, or a reference CSV) and publishes a new
+bundle version with the per-bin response. :func:`run_scan` scans a scene, assembles the
+cube with a bundle and divides by its response when it has one.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
+from sassi_bench.calibrate.radiometry import (
+    read_reference_csv,
+    response_from_white,
+    source_photons_in_bins,
+)
+from sassi_bench.errors import step_error
+from sassi_bench.rig.rig import Rig
+from sassi_bench.spectra.scan import ScanCube, assemble_scan, scan_plan
+
+__all__ = ["ScanRun", "run_response", "run_scan"]
+
+
+def _stamp(prefix: str) -> str:
+    return f"{prefix}-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+
+
+def _session(rig: Rig, plan: Plan, session_id: str, data) -> Session:
+    try:
+        existing = Session.open(session_id, data=data)
+    except SessionError:
+        return Session.create(rig.description, plan, session_id=session_id, data=data)
+    return Session.open_or_create(rig.description, existing.plan, session_id=session_id, data=data)
+
+
+def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) -> Plan:
+    rig.set_scene(scene)
+    pattern = {"kind": "pinholes", "pitch": list(pitch)}
+    exposure = auto_exposure(rig, light, pattern, target_fraction=target)
+    plan = scan_plan(rig.slm.shape, light, exposure, tuple(pitch), scene=scene)
+    if every > 1:  # a thinned scan: every n-th pinhole offset
+        keep = [s for i, s in enumerate(plan.steps) if s.tags["role"] == "closed" or i % every == 1]
+        plan = Plan(plan.name, tuple(keep), {**plan.parameters, "every": every})
+    return plan
+
+
+def run_response(
+    rig: Rig,
+    bundle: CalibrationBundle,
+    *,
+    light: str = "halogen",
+    temperature_k: float | None = None,
+    reference_csv: str | os.PathLike[str] | None = None,
+    reflectance: float = 1.0,
+    pitch: tuple[int, int] = (100, 5),
+    every: int = 25,
+    session_id: str | None = None,
+    data=None,
+    progress: bool = True,
+    allow_failed: bool = False,
+) -> Path:
+    """Measure the per-bin response on a white diffuser and publish it in a new bundle.
+
+    The source spectrum is a blackbody at ``temperature_k`` (default: the rig's
+    ``light.halogen_k``) or a reference CSV (wavelength_nm, power).
+    """
+    plan = _plan(rig, "white", light, pitch, every, 0.6)
+    session = _session(rig, plan, session_id or _stamp("response"), data)
+    run_plan(rig, session.plan, session, progress=progress)
+    scan = assemble_scan(session, bundle, progress=progress)
+    good = scan.quality == 0
+    spectra = scan.cube[good & (np.abs(scan.cube).sum(axis=-1) > 0)]
+    if reference_csv is not None:
+        source = source_photons_in_bins(
+            bundle.bin_edges, reference=read_reference_csv(reference_csv)
+        )
+    else:
+        source = source_photons_in_bins(
+            bundle.bin_edges, temperature_k=temperature_k or rig.description.light.halogen_k
+        )
+    response = response_from_white(spectra, source, reflectance)
+    positive = bool(np.all(np.isfinite(response)) and np.all(response > 0))
+    spread = float(np.median(np.std(spectra, axis=0) / np.abs(np.mean(spectra, axis=0))))
+    checks = [
+        QualityCheck("response_positive", float(positive), 1.0, "1", positive, ">="),
+        QualityCheck.at_most("white_uniformity", spread, 0.1, "1"),
+    ]
+    old = bundle.models
+    models = CalibrationModels(
+        dispersion=old.dispersion,
+        bins=old.bins,
+        blur=old.blur,
+        guide_to_slm=old.guide_to_slm,
+        guide_info=old.guide_info,
+        offset={
+            "method": "per-pixel mean of streak-free frames",
+            "fallback": "block-median spline",
+        },
+        response=response,
+    )
+    manifest = bundle.manifest
+    inputs = [dict(i) for i in manifest["inputs"]] + [
+        {"id": session.id, "sha256": session.sha256(), "kind": "session"}
+    ]
+    return publish(
+        models,
+        rig=rig.description,
+        quality={"checks": checks, "residuals": {"white_relative_spread": spread}},
+        procedure={
+            **dict(manifest["procedure"]),
+            "response": {
+                "light": light,
+                "pitch": list(pitch),
+                "every": every,
+                "reflectance": reflectance,
+                "source": str(reference_csv)
+                if reference_csv
+                else f"blackbody {temperature_k or rig.description.light.halogen_k} K",
+            },
+        },
+        inputs=inputs,
+        allow_failed=allow_failed,
+        data=data,
+    )
+
+
+@dataclass
+class ScanRun:
+    """A finished scan: the assembled cube, whether it is in radiance, and its session."""
+
+    scan: ScanCube
+    radiance: bool
+    session: Session
+    bundle: CalibrationBundle
+
+    def dataset(self):
+        """The cube as an xarray Dataset with its provenance as attributes."""
+        from sassi_bench.spectra.cube_io import cube_dataset
+
+        cube = self.scan
+        if self.radiance:
+            cube = ScanCube(
+                **{**cube.__dict__, "cube": (cube.cube / self.bundle.response).astype(np.float32)}
+            )
+        units = (
+            "relative photon radiance per bin" if self.radiance else "camera ADU per second per bin"
+        )
+        attrs: dict[str, Any] = {
+            "bundle_version": self.bundle.version,
+            "bundle_rig": self.bundle.rig_name,
+            "session_id": self.session.id,
+            "session_sha256": self.session.sha256(),
+            "scene": str(self.session.plan.parameters.get("scene", "")),
+            "light": str(self.session.plan.parameters.get("light", "")),
+        }
+        return cube_dataset(cube, units=units, attrs=attrs)
+
+
+def run_scan(
+    rig: Rig,
+    bundle: CalibrationBundle,
+    *,
+    scene: str = "colorchecker",
+    light: str = "led",
+    pitch: tuple[int, int] = (100, 5),
+    roi: tuple[int, int, int, int] | None = None,
+    session_id: str | None = None,
+    data=None,
+    progress: bool = True,
+) -> ScanRun:
+    """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``."""
+    if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
+        raise ValueError(
+            step_error(
+                "scan",
+                f"bundle is for a {bundle.slm_shape} SLM, the rig has {rig.slm.shape}",
+                "load this rig's bundle",
+            )
+        )
+    plan = _plan(rig, scene, light, pitch, 1, 0.6)
+    session = _session(rig, plan, session_id or _stamp(f"scan-{scene}"), data)
+    run_plan(rig, session.plan, session, progress=progress)
+    scan = assemble_scan(session, bundle, roi=roi, progress=progress)
+    return ScanRun(scan, bundle.response is not None, session, bundle)
