@@ -22,6 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Assemble the full argument parser from every command group."""
     from sassi_bench.bundle import cli as bundle_cli
     from sassi_bench.rig import cli as rig_cli
+    from sassi_bench.spectra import cli as scan_cli
     from sassi_bench.workflows import cli as workflow_cli
 
     parser = argparse.ArgumentParser(
@@ -34,6 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     rig_cli.register(sub)
     workflow_cli.register(sub)
+    scan_cli.register(sub)
     bundle_cli.register(sub)
     return parser
 

@@ -44,7 +44,7 @@ import shutil
 import uuid
 import warnings
 from collections.abc import Iterable, Iterator
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -108,7 +108,7 @@ def frame_sha256(data: NDArray[Any]) -> str:
 
 
 def _utc_now() -> datetime:
-    return datetime.now(timezone.utc)
+    return datetime.now(UTC)
 
 
 def _error(step: str, cause: str, fix: str, kind: type[SessionError] = SessionError):

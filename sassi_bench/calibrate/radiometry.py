@@ -1,0 +1,124 @@
+"""Radiometric response: from camera units per bin to relative spectral radiance.
+
+A white diffuser under a source of known spectrum (a halogen lamp as a blackbody of
+its colour temperature, or a reference spectrum the lab supplies as CSV) is scanned;
+each bin's mean signal over the diffuser divided by the source's photon flux in that
+bin is the system's response (quantum efficiency, optics, bin width). Dividing a cube by
+it gives relative spectral radiance (photons per bin).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.optics.sources import blackbody_power
+
+__all__ = ["read_reference_csv", "response_from_white", "source_photons_in_bins"]
+
+
+def read_reference_csv(
+    path: str | os.PathLike[str],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Read a reference spectrum CSV: two columns, wavelength (nm) and relative power.
+
+    A header line is allowed; ``#`` starts a comment.
+    """
+    try:
+        table = np.genfromtxt(Path(path), delimiter=",", comments="#", dtype=np.float64)
+    except OSError as exc:
+        raise ConfigError(f"reference spectrum: cannot read {path} ({exc})") from exc
+    table = table[np.all(np.isfinite(table), axis=1)] if table.ndim == 2 else table
+    if table.ndim != 2 or table.shape[1] < 2 or table.shape[0] < 3:
+        raise ConfigError(
+            f"reference spectrum {path}: expected at least three rows of 'wavelength_nm,power'"
+        )
+    order = np.argsort(table[:, 0])
+    return table[order, 0], table[order, 1]
+
+
+def source_photons_in_bins(
+    bin_edges_nm: ArrayLike,
+    temperature_k: float | None = None,
+    reference: tuple[ArrayLike, ArrayLike] | None = None,
+    step_nm: float = 0.1,
+) -> NDArray[np.float64]:
+    """Relative photon flux of the source in each bin (integrated on a fine grid).
+
+    Parameters
+    ----------
+    bin_edges_nm
+        Bin edges (B + 1,).
+    temperature_k
+        Blackbody colour temperature (a halogen lamp), or
+    reference
+        (wavelengths_nm, relative power) of a measured source spectrum.
+
+    Examples
+    --------
+    >>> flux = source_photons_in_bins([400, 500, 600, 700], temperature_k=3000)
+    >>> bool(np.all(np.diff(flux) > 0))  # a 3000 K lamp is red-heavy
+    True
+    """
+    edges = np.asarray(bin_edges_nm, dtype=np.float64)
+    fine = np.arange(edges[0], edges[-1] + step_nm / 2, step_nm)
+    if reference is not None:
+        lam, power = (np.asarray(a, dtype=np.float64) for a in reference)
+        if fine[0] < lam[0] or fine[-1] > lam[-1]:
+            raise ConfigError(
+                step_error(
+                    "radiometric response",
+                    f"the reference spectrum covers {lam[0]:g}-{lam[-1]:g} nm, the bins "
+                    f"{edges[0]:.1f}-{edges[-1]:.1f} nm",
+                    "supply a reference spectrum covering all bins",
+                )
+            )
+        spectrum = np.interp(fine, lam, power)
+    elif temperature_k is not None:
+        spectrum = blackbody_power(fine, temperature_k)
+    else:
+        raise ConfigError("radiometric response: give the source's temperature or a reference")
+    photons = spectrum * fine
+    cumulative = np.concatenate([[0.0], np.cumsum((photons[1:] + photons[:-1]) / 2 * step_nm)])
+    at_edges = np.interp(edges, fine, cumulative)
+    return np.diff(at_edges) / np.max(np.diff(at_edges))
+
+
+def response_from_white(
+    spectra: ArrayLike, source_bins: ArrayLike, reflectance: float | ArrayLike = 1.0
+) -> NDArray[np.float64]:
+    """Per-bin response: robust mean white signal over source flux times reflectance.
+
+    Parameters
+    ----------
+    spectra
+        White-diffuser spectra (N, B), camera units per second, good pixels only.
+    source_bins
+        :func:`source_photons_in_bins` of the illuminating source.
+    reflectance
+        The diffuser's reflectance (scalar or per bin).
+
+    Examples
+    --------
+    >>> white = np.outer(np.ones(50), [2.0, 4.0, 6.0])
+    >>> response_from_white(white, [1.0, 2.0, 2.0]).tolist()
+    [2.0, 2.0, 3.0]
+    """
+    data = np.asarray(spectra, dtype=np.float64)
+    if data.ndim != 2 or data.shape[0] < 10:
+        raise ValueError(
+            step_error(
+                "radiometric response",
+                f"need spectra of at least ten white pixels, got shape {data.shape}",
+                "scan more of the white diffuser",
+            )
+        )
+    # Trimmed mean over pixels: robust to a few dusty or clipped ones.
+    lo, hi = np.percentile(data, [10, 90], axis=0)
+    inside = (data >= lo) & (data <= hi)
+    mean = np.sum(np.where(inside, data, 0.0), axis=0) / np.maximum(inside.sum(axis=0), 1)
+    return mean / (np.asarray(source_bins, dtype=np.float64) * np.asarray(reflectance))

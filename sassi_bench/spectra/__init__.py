@@ -1,0 +1,1 @@
+"""Spectra from streaks: extraction with a calibration bundle, offset removal, cubes."""

@@ -1,0 +1,94 @@
+"""``sassi-bench scan`` and ``sassi-bench calibrate response``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["register", "register_response"]
+
+
+def _bundle(args):
+    from sassi_bench.bundle import load
+
+    if args.bundle and Path(args.bundle).is_dir():
+        return load(args.bundle)
+    return load(
+        rig=args.bundle_rig or args.rig_name, version=args.bundle or "latest", data=args.data
+    )
+
+
+def _scan(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.spectra.cube_io import write_envi, write_netcdf
+    from sassi_bench.workflows.scan import run_scan
+
+    rig = open_rig(args.rig)
+    args.rig_name = rig.description.name
+    bundle = _bundle(args)
+    roi = tuple(args.roi) if args.roi else None
+    run = run_scan(
+        rig, bundle, scene=args.scene, light=args.light, pitch=tuple(args.pitch), roi=roi,
+        session_id=args.session, data=args.data, progress=not args.quiet,
+    )  # fmt: skip
+    ds = run.dataset()
+    out = write_netcdf(ds, args.out)
+    print(f"cube {ds['radiance'].shape} ({ds['radiance'].attrs['units']}) -> {out}")
+    if args.envi:
+        print(f"ENVI -> {write_envi(ds, args.envi)}")
+    bad = int((run.scan.quality != 0).sum())
+    print(f"flagged pixels: {bad}; problems: {len(run.scan.problems)}")
+    for line in run.scan.problems[:10]:
+        print(f"  {line}")
+    return 0
+
+
+def _response(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.workflows.scan import run_response
+
+    rig = open_rig(args.rig)
+    args.rig_name = rig.description.name
+    bundle = _bundle(args)
+    path = run_response(
+        rig, bundle, light=args.light, temperature_k=args.temperature, reference_csv=args.reference,
+        session_id=args.session, data=args.data, progress=not args.quiet,
+        allow_failed=args.allow_failed,
+    )  # fmt: skip
+    print(f"bundle with radiometric response: {path}")
+    return 0
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    parser.add_argument("--bundle", help="bundle version (default: latest) or folder")
+    parser.add_argument("--bundle-rig", help="rig folder of the bundle (default: the rig's name)")
+    parser.add_argument("--data", help="data root for sessions and bundles")
+    parser.add_argument("--session", help="session id; an existing one resumes its capture")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``scan`` to the top-level parser."""
+    scan = sub.add_parser("scan", help="ground-truth pinhole scan of a scene into a cube")
+    _common(scan)
+    scan.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
+    scan.add_argument("--light", default="led", help="light (default: led)")
+    scan.add_argument("--pitch", type=int, nargs=2, default=[100, 5], metavar=("PX", "PY"))
+    scan.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
+    scan.add_argument("--out", required=True, help="NetCDF file to write")
+    scan.add_argument("--envi", help="also export ENVI (.hdr/.img) at this path")
+    scan.set_defaults(func=_scan)
+
+
+def register_response(groups: argparse._SubParsersAction) -> None:
+    """Add ``response`` to the ``calibrate`` group."""
+    resp = groups.add_parser(
+        "response", help="radiometric response from a white diffuser; publishes a new bundle"
+    )
+    _common(resp)
+    resp.add_argument("--light", default="halogen", help="source (default: halogen)")
+    resp.add_argument("--temperature", type=float, help="blackbody temperature (K) of the source")
+    resp.add_argument("--reference", help="CSV of the source spectrum (wavelength_nm,power)")
+    resp.add_argument("--allow-failed", action="store_true", help="publish even if a check failed")
+    resp.set_defaults(func=_response)
