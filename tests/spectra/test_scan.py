@@ -87,3 +87,23 @@ def test_saturated_streaks_are_reported_by_frame_and_pixel(calibrated_sim):
     scan = assemble_scan(session, bundle, progress=False)
     assert (scan.quality & QUALITY_FLAGS["saturated"]).any()
     assert any("saturated" in line and "SLM pixel (u=" in line for line in scan.problems)
+
+
+def test_a_scan_killed_midway_resumes_to_the_same_cube(calibrated_sim):
+    from sassi_bench import open_rig
+
+    _, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    rig = open_rig("sim")
+    plan = _thinned(scan_plan(rig.slm.shape, "led", 0.1, scene="colorchecker"), every=50)
+    whole = Session.create(rig.description, plan, session_id="whole", data=data)
+    run_plan(rig, plan, whole, progress=False)
+    killed = Session.create(rig.description, plan, session_id="killed", data=data)
+    run_plan(open_rig("sim"), plan, killed, progress=False, stop_after=4)
+    assert not killed.is_complete
+    resumed = Session.open("killed", data=data)
+    run_plan(open_rig("sim"), plan, resumed, progress=False)
+    a = assemble_scan(whole, bundle, progress=False)
+    b = assemble_scan(resumed, bundle, progress=False)
+    np.testing.assert_array_equal(a.cube, b.cube)
+    np.testing.assert_array_equal(a.quality, b.quality)

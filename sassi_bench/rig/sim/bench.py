@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -73,10 +75,8 @@ class VirtualBench:
         )
         self.guide = GuideOptics(gc, self.slm_shape, self.grid)
         self._check_streaks_fit()
-        spectral_seed, guide_seed, scene_seed = np.random.SeedSequence(desc.seed).spawn(3)
-        self.spectral_rng = np.random.default_rng(spectral_seed)
-        self.guide_rng = np.random.default_rng(guide_seed)
-        self.scene_seed = int(scene_seed.generate_state(1)[0])
+        self.scene_seed = int(np.random.SeedSequence([desc.seed, 2]).generate_state(1)[0])
+        self._exposures_seen: dict[tuple[str, bytes], int] = {}
         self.sparse_limit = (
             sparse_limit
             if sparse_limit is not None
@@ -168,6 +168,26 @@ class VirtualBench:
                 raise ValueError(f"unknown light {light!r}")
             self._samples[light] = samples
         return self._samples[light]
+
+    # -- noise ------------------------------------------------------------------------------
+    def noise_rng(self, camera: str, exposure_s: float) -> np.random.Generator:
+        """Random stream for the next frame of ``camera``, keyed by what it sees.
+
+        The stream depends on the rig's seed, the camera, the state of the bench (pattern,
+        light, scene, exposure) and how many frames of that same state this bench has
+        exposed before; so a capture resumed on a freshly opened rig gets exactly the
+        frames an uninterrupted one would have.
+        """
+        digest = hashlib.blake2b(digest_size=16)
+        for part in (camera, self.light, self.scene.name, repr(float(exposure_s))):
+            digest.update(part.encode() + b"\0")
+        if camera == "spectral":  # the guide camera does not see the SLM
+            digest.update(self.pattern.tobytes())
+        key = (camera, digest.digest())
+        count = self._exposures_seen.get(key, 0)
+        self._exposures_seen[key] = count + 1
+        words = np.frombuffer(digest.digest(), dtype=np.uint32).tolist()
+        return np.random.default_rng([self.description.seed, *words, count])
 
     # -- rendering ----------------------------------------------------------------------
     def transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:

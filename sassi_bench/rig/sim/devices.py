@@ -73,7 +73,8 @@ class SimSpectralCamera(CameraBase):
 
     def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
         rate = self._bench.spectral_rate()
-        data = self._bench.sensor.expose(rate, self.exposure_s, self._bench.spectral_rng)
+        rng = self._bench.noise_rng("spectral", self.exposure_s)
+        data = self._bench.sensor.expose(rate, self.exposure_s, rng)
         return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
 
 
@@ -89,5 +90,6 @@ class SimGuideCamera(CameraBase):
 
     def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
         rate = self._bench.guide_rate()
-        data = self._bench.guide_sensor.expose(rate, self.exposure_s, self._bench.guide_rng)
+        rng = self._bench.noise_rng("guide", self.exposure_s)
+        data = self._bench.guide_sensor.expose(rate, self.exposure_s, rng)
         return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
