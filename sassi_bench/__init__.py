@@ -1,9 +1,10 @@
 """sassi_bench: calibration and lab-bench workbench for SASSI hyperspectral cameras.
 
-The package is organised so dependencies point one way (see docs/ARCHITECTURE.md):
-``optics`` (physics) <- ``rig`` (devices and the virtual bench) <- ``acquire`` (plans
-that drive devices) and ``calibrate`` (pure fits) <- ``bundle`` <- ``spectra`` /
-``validate`` <- ``cli``.
+The package is organised in layers (see docs/ARCHITECTURE.md): ``optics`` (physics),
+``rig`` (devices and the virtual bench), ``bundle`` (the calibration product and its
+model contract), ``acquire`` (patterns, plans, sessions: the code that drives devices),
+``calibrate`` and ``spectra`` (pure fits and extraction on arrays), ``workflows``
+(procedures end to end) and the ``cli``.
 
 Examples
 --------

@@ -64,6 +64,7 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle.errors import BundleSchemaError
 from sassi_bench.bundle.jsonio import freeze, thaw, to_jsonable
 from sassi_bench.errors import step_error
+from sassi_bench.optics.glass import sellmeier_index
 
 __all__ = [
     "BlurModel",
@@ -167,29 +168,6 @@ def field_coordinates(
     u_hat = 2.0 * np.asarray(u, dtype=np.float64) / (width - 1) - 1.0
     v_hat = 2.0 * np.asarray(v, dtype=np.float64) / (height - 1) - 1.0
     return u_hat, v_hat
-
-
-def sellmeier_index(wavelength_nm: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
-    """Refractive index ``sqrt(1 + Σ B_i λ² / (λ² − C_i))`` with ``λ`` in µm.
-
-    Parameters
-    ----------
-    wavelength_nm
-        Wavelength(s) in nm, any shape.
-    b, c
-        The three Sellmeier ``B_i`` and ``C_i`` (µm²).
-
-    Examples
-    --------
-    >>> b = [1.03961212, 0.231792344, 1.01046945]  # N-BK7
-    >>> c = [0.00600069867, 0.0200179144, 103.560653]
-    >>> round(float(sellmeier_index(587.5618, b, c)), 4)
-    1.5168
-    """
-    lam2 = (np.asarray(wavelength_nm, dtype=np.float64) * 1e-3)[..., None] ** 2
-    terms = np.asarray(b, dtype=np.float64) * lam2 / (lam2 - np.asarray(c, dtype=np.float64))
-    with np.errstate(invalid="ignore"):
-        return np.sqrt(1.0 + terms.sum(axis=-1))
 
 
 # ---------------------------------------------------------------------------------------------

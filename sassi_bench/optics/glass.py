@@ -18,7 +18,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ConfigError
 
-__all__ = ["GLASSES", "Glass", "get_glass", "refractive_index"]
+__all__ = ["GLASSES", "Glass", "get_glass", "refractive_index", "sellmeier_index"]
+
+
+def sellmeier_index(wavelength_nm: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
+    """Refractive index ``sqrt(1 + sum_i B_i lam^2 / (lam^2 - C_i))``, lam in µm.
+
+    Examples
+    --------
+    >>> b = [1.03961212, 0.231792344, 1.01046945]  # N-BK7
+    >>> c = [0.00600069867, 0.0200179144, 103.560653]
+    >>> round(float(sellmeier_index(587.5618, b, c)), 4)
+    1.5168
+    """
+    lam2 = (np.asarray(wavelength_nm, dtype=np.float64) * 1e-3)[..., None] ** 2
+    terms = np.asarray(b, dtype=np.float64) * lam2 / (lam2 - np.asarray(c, dtype=np.float64))
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(1.0 + terms.sum(axis=-1))
 
 
 @dataclass(frozen=True)
@@ -49,11 +65,7 @@ class Glass:
 
     def index(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """Refractive index at ``wavelength_nm`` (vectorised, float64)."""
-        lam2 = (np.asarray(wavelength_nm, dtype=np.float64) * 1e-3) ** 2
-        b = np.asarray(self.b)
-        c = np.asarray(self.c)
-        n2 = 1.0 + np.sum(b * lam2[..., None] / (lam2[..., None] - c), axis=-1)
-        return np.sqrt(n2)
+        return sellmeier_index(wavelength_nm, self.b, self.c)
 
 
 GLASSES: dict[str, Glass] = {

@@ -151,16 +151,26 @@ class SpectralDeblur:
         return cls(gu, gv, inverse.reshape(points[1], points[0], n, n))
 
     def apply(self, values: NDArray[np.float64], rows, cols) -> NDArray[np.float64]:
-        """Unmix (N, B') column sums of pixels at SLM (rows, cols), interpolating bilinearly."""
+        """Unmix (N, B') column sums of pixels at SLM (rows, cols), interpolating bilinearly.
+
+        Each grid point's matrix is applied once to all the pixels of the four cells
+        around it (a loop over grid points, not pixels), instead of gathering a matrix
+        per pixel.
+        """
         fu = np.interp(cols, self.grid_u, np.arange(self.grid_u.size))
         fv = np.interp(rows, self.grid_v, np.arange(self.grid_v.size))
         iu = np.minimum(fu.astype(np.intp), self.grid_u.size - 2)
         iv = np.minimum(fv.astype(np.intp), self.grid_v.size - 2)
-        tu, tv = (fu - iu)[:, None], (fv - iv)[:, None]
+        tu, tv = fu - iu, fv - iv
         out = np.zeros_like(values)
-        for dv, du, weight in ((0, 0, (1 - tv) * (1 - tu)), (0, 1, (1 - tv) * tu),
-                               (1, 0, tv * (1 - tu)), (1, 1, tv * tu)):  # fmt: skip
-            out += weight * np.einsum("nij,nj->ni", self.inverse[iv + dv, iu + du], values)
+        corners = ((0, 0, (1 - tv) * (1 - tu)), (0, 1, (1 - tv) * tu),
+                   (1, 0, tv * (1 - tu)), (1, 1, tv * tu))  # fmt: skip
+        for dv, du, weight in corners:
+            node = (iv + dv) * self.grid_u.size + (iu + du)
+            for g in np.unique(node):
+                mine = node == g
+                matrix = self.inverse[g // self.grid_u.size, g % self.grid_u.size]
+                out[mine] += weight[mine, None] * (values[mine] @ matrix.T)
         return out
 
 
@@ -190,9 +200,6 @@ def _cell_sums(image, geo: StreakGeometry):
     hi = np.minimum(hi, geo.y + reach)
     first_row = np.ceil(lo - 0.5).astype(np.intp)  # rows whose centre lies in [lo, hi)
     last_row = np.ceil(hi - 0.5).astype(np.intp) - 1
-    height = int((last_row - first_row).max()) + 1
-    rows = first_row[..., None] + np.arange(height)
-    row_in = rows <= last_row[..., None]
     first_col = np.floor(geo.x_left + 0.5).astype(np.intp)
     span = int(np.max(np.floor(geo.x_right + 0.5) - first_col)) + 1
     cols = first_col[..., None] + np.arange(span)
@@ -203,9 +210,15 @@ def _cell_sums(image, geo: StreakGeometry):
         1.0,
     )
     off = (first_row < 0) | (last_row >= h)
-    off |= ((cols < 0) | (cols >= w)).__and__(col_weight > 0).any(axis=-1)
-    patch = image[np.clip(rows, 0, h - 1)[..., :, None], np.clip(cols, 0, w - 1)[..., None, :]]
-    sums = np.einsum("nbrc,nbc,nbr->nb", patch, col_weight, row_in.astype(np.float64))
+    off |= (((cols < 0) | (cols >= w)) & (col_weight > 0)).any(axis=-1)
+    # Row sums through a cumulative sum down the columns: two look-ups per column
+    # instead of one per row of the cell.
+    cumulative = np.vstack([np.zeros((1, w)), np.cumsum(image, axis=0)])
+    top = np.clip(first_row, 0, h)[..., None]
+    bottom = np.clip(last_row + 1, 0, h)[..., None]
+    safe_cols = np.clip(cols, 0, w - 1)
+    column_sums = cumulative[bottom, safe_cols] - cumulative[top, safe_cols]
+    sums = np.einsum("nbc,nbc->nb", column_sums, col_weight)
     # Continuous bounds of the summed rows, for the Gaussian integrals.
     return sums, first_row - 0.5, last_row + 0.5, off, order, same_up
 
@@ -252,14 +265,14 @@ def _unmix_rows(sums, lo, hi, geo: StreakGeometry, order, same_up, p: int = 3):
     safe = np.where(present, index, 0)
     bands = np.zeros((groups, nb, size, 2 * p + 1))
     sigma = geo.sigma[None, :, None]
+    y = geo.y[safe].transpose(0, 2, 1)  # (G, B, S)
+    lo_j = lo[safe].transpose(0, 2, 1)
+    hi_j = hi[safe].transpose(0, 2, 1)
     for d in range(-p, p + 1):
-        j = np.arange(size)
-        k = j + d
+        k = np.arange(size) + d
         ok = (k >= 0) & (k < size)
         kk = np.clip(k, 0, size - 1)
-        y_k = geo.y[safe[:, kk]].transpose(0, 2, 1)  # (G, B, S) centre of pixel j + d
-        lo_j = lo[safe].transpose(0, 2, 1)
-        hi_j = hi[safe].transpose(0, 2, 1)
+        y_k = y[..., kk]  # centre of pixel j + d, seen from pixel j's cell
         frac = ndtr((hi_j - y_k) / sigma) - ndtr((lo_j - y_k) / sigma)
         valid = (present & present[:, kk] & ok[None, :])[:, None, :]
         bands[..., p + d] = np.where(valid, frac, 0.0)

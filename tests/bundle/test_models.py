@@ -14,7 +14,6 @@ from sassi_bench.bundle.models import (
     legendre2d_terms,
     sellmeier_index,
 )
-from sassi_bench.optics.glass import get_glass
 
 # Closed forms of the first Legendre polynomials, independent of numpy.polynomial.
 LEGENDRE = [
@@ -64,12 +63,6 @@ def test_field_coordinates_span_minus_one_to_one():
     uh, vh = field_coordinates([0, 319.5, 639], [0, 199.5, 399], (400, 640))
     np.testing.assert_allclose(uh, [-1, 0, 1])
     np.testing.assert_allclose(vh, [-1, 0, 1])
-
-
-def test_sellmeier_matches_the_optics_glass_catalog():
-    glass = get_glass("N-SF11")
-    lam = np.linspace(380, 720, 50)
-    np.testing.assert_allclose(sellmeier_index(lam, glass.b, glass.c), glass.index(lam), rtol=1e-14)
 
 
 def test_dispersion_evaluates_documented_formula(synthetic):
