@@ -15,7 +15,7 @@ A camera's array is created when its first frame is written, with that frame's s
 and dtype; later frames must match. A step is *completed* when its event is in the log.
 A torn last line (a crash while appending) is ignored, reported as a
 :class:`SessionWarning`, and moved to ``events.torn`` before the next append; its step
-is simply captured again. Completed steps are never overwritten. No pickle: JSON only.
+is simply captured again. Completed steps are never overwritten. Metadata is JSON only.
 
 Examples
 --------

@@ -120,7 +120,7 @@ def _bad(cause: str, fix: str) -> BundleError:
 
 
 def _npy(name: str, value: ArrayLike) -> tuple[bytes, dict[str, Any]]:
-    """Serialise one array to .npy bytes (no pickle) and describe it for the manifest."""
+    """Serialise one numeric array to plain .npy bytes and describe it for the manifest."""
     if not _ARRAY_NAME.match(name):
         raise _bad(
             f"array name {name!r} is not a plain file name",
@@ -133,7 +133,7 @@ def _npy(name: str, value: ArrayLike) -> tuple[bytes, dict[str, Any]]:
     if array.dtype.kind not in "biufc":
         raise _bad(
             f"array {name!r} has dtype {array.dtype} (object, string and structured arrays are "
-            "refused: they would need pickle or are not numeric)",
+            "refused: only plain numeric arrays can be stored safely)",
             "store numbers in arrays and text in the manifest (procedure, quality)",
         )
     buffer = io.BytesIO()

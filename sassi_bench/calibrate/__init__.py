@@ -1,1 +1,1 @@
-"""Calibration fits: pure functions on arrays (no devices, no ground truth)."""
+"""Calibration fits: pure functions on arrays (no devices, no simulator internals)."""

@@ -70,7 +70,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add ``scan`` to the top-level parser."""
-    scan = sub.add_parser("scan", help="ground-truth pinhole scan of a scene into a cube")
+    scan = sub.add_parser("scan", help="Nyquist pinhole scan of a scene into a reference cube")
     _common(scan)
     scan.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
     scan.add_argument("--light", default="led", help="light (default: led)")

@@ -1,4 +1,4 @@
-"""Ground-truth pinhole scans: the plan, and streaming assembly into a cube.
+"""Nyquist pinhole scans (reference cubes): the plan, and streaming assembly into a cube.
 
 A Nyquist pinhole scan opens SLM pixels on a grid (100 px apart horizontally, 5 px
 vertically by default) and shifts it through every offset, so every SLM pixel is open

@@ -2,5 +2,6 @@
 
 A workflow reads a procedure YAML (``procedures/*.yaml``), captures into raw sessions
 through :mod:`sassi_bench.acquire`, fits with :mod:`sassi_bench.calibrate` and publishes
-with :mod:`sassi_bench.bundle`. Workflows never see a virtual bench's ground truth.
+with :mod:`sassi_bench.bundle`. Workflows use device handles only, nothing of a
+virtual bench's internals.
 """

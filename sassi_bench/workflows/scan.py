@@ -1,4 +1,4 @@
-"""Pinhole-scan workflows: the radiometric response and ground-truth cubes.
+"""Pinhole-scan workflows: the radiometric response and reference cubes.
 
 :func:`run_response` scans a white diffuser under a source of known spectrum (halogen as
 a blackbody of the rig's lamp temperature, or a reference CSV) and publishes a new
