@@ -78,14 +78,17 @@ def line_centres(
         image = np.asarray(signal, dtype=np.float64)
         if axis == "y":
             image = image.T
-        bright = np.percentile(image, 99.9)
-        row, start, stop = _runs(image > threshold_fraction * bright)
+        level = threshold_fraction * np.percentile(image, 99.9)
+        row, start, stop = _runs(image > level)
         if row.size == 0:
             skipped += 1
             continue
-        cum = np.cumsum(np.pad(image, ((0, 0), (1, 0))), axis=1)
+        # Weights above the threshold: a plain centre of mass over a whole-pixel run is
+        # pulled towards the run's middle by up to ~0.2 px for off-centre lines.
+        excess = np.clip(image - level, 0.0, None)
+        cum = np.cumsum(np.pad(excess, ((0, 0), (1, 0))), axis=1)
         pos = np.arange(image.shape[1] + 1, dtype=np.float64)
-        cum_x = np.cumsum(np.pad(image * pos[None, :-1], ((0, 0), (1, 0))), axis=1)
+        cum_x = np.cumsum(np.pad(excess * pos[None, :-1], ((0, 0), (1, 0))), axis=1)
         weight = cum[row, stop] - cum[row, start]
         centre = (cum_x[row, stop] - cum_x[row, start]) / weight
         lines = np.arange(offset, slm_length, spacing)
