@@ -16,12 +16,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle.models import BlurModel
+from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
 from sassi_bench.errors import step_error
 
 __all__ = ["BlurFit", "SpotWidths", "fit_blur", "measure_spot_widths"]
-
-LAMBDA_REF_NM = 550.0
-LAMBDA_SCALE_NM = 150.0
 
 
 @dataclass(frozen=True)

@@ -23,23 +23,15 @@ def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
     fig = _figure(figsize=(3.2 * n, 2.9), layout="constrained")
     axes = fig.subplots(1, n, squeeze=False)[0]
     h, w = slm_shape
-    vmax = max(
-        float(
-            np.percentile(
-                np.hypot(
-                    d.laser_map.x(d.slm_u, d.slm_v) - d.camera_x,
-                    d.laser_map.y(d.slm_u, d.slm_v) - d.camera_y,
-                ),
-                99,
-            )
-        )
-        for d in lasers
-    )
-    for ax, d in zip(axes, lasers, strict=True):
-        dist = np.hypot(
+    distances = [
+        np.hypot(
             d.laser_map.x(d.slm_u, d.slm_v) - d.camera_x,
             d.laser_map.y(d.slm_u, d.slm_v) - d.camera_y,
         )
+        for d in lasers
+    ]
+    vmax = max(float(np.percentile(dist, 99)) for dist in distances)
+    for ax, d, dist in zip(axes, lasers, distances, strict=True):
         stat, _, _, _ = binned_statistic_2d(
             d.slm_v, d.slm_u, dist**2, "mean", bins=[16, 24], range=[[0, h], [0, w]]
         )

@@ -76,6 +76,11 @@ def grey_plan(procedure: Mapping[str, Any], laser_nm: float, exposure_s: float) 
     )
 
 
+def _frame(light: str, exposure: float, pattern: dict, tags: dict) -> Step:
+    """A spectral-camera step (every step of these plans uses that camera)."""
+    return Step("spectral", light, exposure, pattern, tags)
+
+
 def _structured_steps(
     light: str, exposure: float, tags: dict, slm_shape: tuple[int, int], sweep: Mapping, profile
 ) -> list[Step]:
@@ -94,8 +99,7 @@ def _structured_steps(
                     "inverse": inverse,
                 }
                 steps.append(
-                    Step(
-                        "spectral",
+                    _frame(
                         light,
                         exposure,
                         pattern,
@@ -111,13 +115,7 @@ def _structured_steps(
                 )
             pattern = {"kind": "periodic", "axis": axis, "profile": profile, "shift": int(shift)}
             steps.append(
-                Step(
-                    "spectral",
-                    light,
-                    exposure,
-                    pattern,
-                    {**tags, "role": "phase", "axis": axis, "step": s},
-                )
+                _frame(light, exposure, pattern, {**tags, "role": "phase", "axis": axis, "step": s})
             )
     return steps
 
@@ -138,8 +136,7 @@ def _line_steps(
                 "width": 1,
             }
             steps.append(
-                Step(
-                    "spectral",
+                _frame(
                     light,
                     exposure,
                     pattern,
@@ -192,33 +189,19 @@ def sweep_plan(
         tags = {"laser": float(laser)}
         if laser in exposures:
             exposure = float(exposures[laser])
-            steps.append(
-                Step("spectral", "off", exposure, {"kind": "blank"}, {**tags, "role": "dark"})
-            )
-            steps.append(
-                Step("spectral", light, exposure, {"kind": "blank"}, {**tags, "role": "blank"})
-            )
-            steps.append(
-                Step("spectral", light, exposure, {"kind": "full"}, {**tags, "role": "full"})
-            )
+            steps.append(_frame("off", exposure, {"kind": "blank"}, {**tags, "role": "dark"}))
+            steps.append(_frame(light, exposure, {"kind": "blank"}, {**tags, "role": "blank"}))
+            steps.append(_frame(light, exposure, {"kind": "full"}, {**tags, "role": "full"}))
             if sweep["mode"] == "structured":
                 steps += _structured_steps(light, exposure, tags, slm_shape, sweep, profile)
             else:
                 steps += _line_steps(light, exposure, tags, slm_shape, sweep)
         exposure = float(blur_exposures[laser])
-        steps.append(
-            Step("spectral", light, exposure, {"kind": "blank"}, {**tags, "role": "blur-blank"})
-        )
+        steps.append(_frame(light, exposure, {"kind": "blank"}, {**tags, "role": "blur-blank"}))
         for frame in range(int(blur.get("frames", 2))):
             pattern = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
             steps.append(
-                Step(
-                    "spectral",
-                    light,
-                    exposure,
-                    pattern,
-                    {**tags, "role": "pinholes", "frame": frame},
-                )
+                _frame(light, exposure, pattern, {**tags, "role": "pinholes", "frame": frame})
             )
     parameters = {
         "scene": "white",
