@@ -15,9 +15,10 @@ model in two separable, vectorised steps:
 2. **Columns.** Within a streak the blur also spills each bin into its neighbours, up to
    about 3.5 bins at the red end; that mixing matrix (uniform box blurred by a Gaussian,
    integrated over each bin's columns, in closed form) depends only on relative positions,
-   so its regularised inverse is precomputed on a coarse grid of field points and
-   interpolated. A few one-pixel guard bins beyond 400 and 700 nm absorb light from
-   outside the band.
+   so its regularised inverse is precomputed on a coarse grid of field points and a
+   ladder of smoothing weights, and interpolated; the weight follows each pixel's
+   signal, so dark pixels are smoothed more than bright ones. A few one-pixel guard
+   bins beyond 400 and 700 nm absorb light from outside the band.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import solve_banded
 from scipy.special import ndtr
 
 from sassi_bench.bundle import CalibrationBundle
@@ -117,26 +119,64 @@ def spill_matrix(x_left, x_right, sigma) -> NDArray[np.float64]:
     )
 
 
+#: Smoothing weights at which the regularised inverses are precomputed (log-spaced);
+#: a pixel's weight is interpolated between the two nearest.
+SMOOTHING_LADDER = np.geomspace(0.25, 64.0, 13)
+
+
 @dataclass(frozen=True)
 class SpectralDeblur:
     """Regularised inverses of the within-streak spill, on a coarse grid of field points.
+
+    The unmixing solves, per pixel, ``min |A x - y|^2 + s^2 |W L x|^2`` with ``A`` the
+    spill matrix, ``L`` the second difference along the bins and ``W`` the blur sigma of
+    each bin over the largest one: curvature is penalised where the blur mixes bins, while
+    where the blur is narrower than a bin the data alone decide. The weight ``s`` follows
+    each pixel's signal, ``s = strength * sqrt(full_scale / mean bin signal)``: with
+    photon-limited noise (variance proportional to the signal) and a prior whose scale
+    follows the spectrum's own level, that is the noise-whitened Tikhonov weight, so dark
+    pixels are smoothed more than bright ones. A single weight for all pixels either
+    leaves dark pixels noisy or flattens the LED's blue peak in bright ones.
 
     Build once per bundle with :meth:`from_bundle`; :meth:`apply` unmixes spectra.
     """
 
     grid_u: NDArray[np.float64]
     grid_v: NDArray[np.float64]
-    inverse: NDArray[np.float64]  # (len(grid_v), len(grid_u), B', B')
+    coefficients: NDArray[np.float64]  # (len(SMOOTHING_LADDER), len(grid_v), len(grid_u), K)
+    basis: NDArray[np.float64]  # (K, B', B')
+    strength: float
+    full_scale: float
 
     @classmethod
     def from_bundle(
         cls,
         bundle: CalibrationBundle,
+        *,
+        strength: float = 1.5,
+        full_scale: float = 65535.0,
         points: tuple[int, int] = (9, 6),
-        smoothing: float = 1.0,
         guard: int = GUARD_BINS,
     ) -> SpectralDeblur:
-        """Precompute ``(A^T A + s^2 L^T L)^-1 A^T`` with ``L`` the second difference."""
+        """Precompute ``(A^T A + s^2 L^T W^2 L)^-1 A^T`` for every ladder weight ``s``.
+
+        Parameters
+        ----------
+        bundle
+            The calibration bundle (streak geometry and blur).
+        strength
+            Smoothing weight of a pixel whose mean bin signal is ``full_scale``.
+        full_scale
+            The camera's full-scale reading (ADU), the reference signal level.
+        points
+            Field points (along u, along v) at which the inverses are computed.
+        guard
+            Guard bins at each end of the band (see :func:`streak_geometry`).
+
+        Examples
+        --------
+        >>> deblur = SpectralDeblur.from_bundle(bundle)  # doctest: +SKIP
+        """
         h, w = bundle.slm_shape
         gu = np.linspace(0, w - 1, points[0])
         gv = np.linspace(0, h - 1, points[1])
@@ -144,34 +184,58 @@ class SpectralDeblur:
         geo = streak_geometry(bundle, vv.ravel(), uu.ravel(), guard)
         a = spill_matrix(geo.x_left, geo.x_right, geo.sigma)  # (P, B', B')
         n = a.shape[-1]
-        second = np.diff(np.eye(n), 2, axis=0)
-        scale = np.trace(a.transpose(0, 2, 1) @ a, axis1=1, axis2=2)[:, None, None] / n
-        normal = a.transpose(0, 2, 1) @ a + smoothing**2 * scale * (second.T @ second)
-        inverse = np.linalg.solve(normal, a.transpose(0, 2, 1))
-        return cls(gu, gv, inverse.reshape(points[1], points[0], n, n))
+        weight = geo.sigma[1:-1] / geo.sigma.max()
+        penalty = weight[:, None] * np.diff(np.eye(n), 2, axis=0)
+        ata = a.transpose(0, 2, 1) @ a
+        scale = np.trace(ata, axis1=1, axis2=2)[:, None, None] / n
+        s2 = SMOOTHING_LADDER[:, None, None, None] ** 2
+        normal = ata[None] + s2 * scale[None] * (penalty.T @ penalty)
+        inverse = np.linalg.solve(normal, np.broadcast_to(a.transpose(0, 2, 1), normal.shape))
+        # The inverses vary smoothly over the field and the ladder: a few dozen basis
+        # matrices reproduce all of them (to 1e-6 of the largest singular value), so a
+        # pixel's interpolated inverse is a weighted sum of the basis, applied to all
+        # pixels at once in one matrix product instead of a loop over grid points.
+        left, singular, right = np.linalg.svd(inverse.reshape(-1, n * n), full_matrices=False)
+        rank = int(np.count_nonzero(singular > 1e-6 * singular[0]))
+        shape = (SMOOTHING_LADDER.size, points[1], points[0], rank)
+        coefficients = (left[:, :rank] * singular[:rank]).reshape(shape)
+        basis = right[:rank].reshape(rank, n, n)
+        return cls(gu, gv, coefficients, basis, float(strength), float(full_scale))
+
+    def smoothing(
+        self, values: NDArray[np.float64], guard: int = GUARD_BINS
+    ) -> NDArray[np.float64]:
+        """Each pixel's smoothing weight from its (N, B') column sums."""
+        level = np.clip(values[:, guard : values.shape[1] - guard].mean(axis=1), 1e-12, None)
+        return self.strength * np.sqrt(self.full_scale / level)
 
     def apply(self, values: NDArray[np.float64], rows, cols) -> NDArray[np.float64]:
-        """Unmix (N, B') column sums of pixels at SLM (rows, cols), interpolating bilinearly.
+        """Unmix (N, B') column sums of pixels at SLM (rows, cols).
 
-        Each grid point's matrix is applied once to all the pixels of the four cells
-        around it (a loop over grid points, not pixels), instead of gathering a matrix
-        per pixel.
+        The inverse is interpolated trilinearly: bilinearly over the field and linearly in
+        the log of the smoothing weight (through the coefficients of the basis).
         """
-        fu = np.interp(cols, self.grid_u, np.arange(self.grid_u.size))
-        fv = np.interp(rows, self.grid_v, np.arange(self.grid_v.size))
-        iu = np.minimum(fu.astype(np.intp), self.grid_u.size - 2)
-        iv = np.minimum(fv.astype(np.intp), self.grid_v.size - 2)
-        tu, tv = fu - iu, fv - iv
-        out = np.zeros_like(values)
-        corners = ((0, 0, (1 - tv) * (1 - tu)), (0, 1, (1 - tv) * tu),
-                   (1, 0, tv * (1 - tu)), (1, 1, tv * tu))  # fmt: skip
-        for dv, du, weight in corners:
-            node = (iv + dv) * self.grid_u.size + (iu + du)
-            for g in np.unique(node):
-                mine = node == g
-                matrix = self.inverse[g // self.grid_u.size, g % self.grid_u.size]
-                out[mine] += weight[mine, None] * (values[mine] @ matrix.T)
-        return out
+        ladder = np.log(SMOOTHING_LADDER)
+        position = [
+            np.interp(np.log(self.smoothing(values)), ladder, np.arange(ladder.size)),
+            np.interp(rows, self.grid_v, np.arange(self.grid_v.size)),
+            np.interp(cols, self.grid_u, np.arange(self.grid_u.size)),
+        ]
+        grid = self.coefficients.shape[:3]
+        base = [
+            np.minimum(f.astype(np.intp), size - 2) for f, size in zip(position, grid, strict=True)
+        ]
+        frac = [f - i for f, i in zip(position, base, strict=True)]
+        weights = np.zeros((values.shape[0], self.basis.shape[0]))
+        for corner in np.ndindex(2, 2, 2):
+            share = np.prod(
+                [np.where(c, t, 1 - t) for c, t in zip(corner, frac, strict=True)], axis=0
+            )
+            index = tuple(i + c for i, c in zip(base, corner, strict=True))
+            weights += share[:, None] * self.coefficients[index]
+        n = values.shape[1]
+        mixed = (values @ self.basis.reshape(-1, n).T).reshape(values.shape[0], -1, n)
+        return np.einsum("nk,nkj->nj", weights, mixed)
 
 
 def _cell_sums(image, geo: StreakGeometry):
@@ -224,31 +288,21 @@ def _cell_sums(image, geo: StreakGeometry):
 
 
 def _solve_banded(bands: NDArray, rhs: NDArray, p: int) -> NDArray:
-    """Solve banded systems without pivoting, batched over the leading axes.
+    """Solve banded systems batched over the leading axes, in one LAPACK call.
 
-    ``bands[..., i, p + d]`` holds ``A[i, i + d]`` for ``|d| <= p``; the systems here are
-    diagonally dominant (a pixel's own cell holds most of its light).
+    ``bands[..., i, p + d]`` holds ``A[i, i + d]`` for ``|d| <= p`` (zero where ``i + d``
+    leaves the system). The systems are laid end to end as one block-diagonal banded
+    system, so LAPACK's banded solver does all of them at once instead of a Python loop
+    over systems or over rows.
     """
-    a = bands.copy()
-    b = rhs.copy()
-    n = b.shape[-1]
-    for i in range(n):
-        pivot = a[..., i, p]
-        for r in range(1, p + 1):
-            if i + r >= n:
-                break
-            factor = a[..., i + r, p - r] / pivot
-            # Row i + r -= factor * row i, over the band columns i .. i + p.
-            a[..., i + r, p - r : 2 * p + 1 - r] -= factor[..., None] * a[..., i, p : 2 * p + 1]
-            b[..., i + r] -= factor * b[..., i]
-    x = np.zeros_like(b)
-    for i in range(n - 1, -1, -1):
-        acc = b[..., i].copy()
-        for d in range(1, p + 1):
-            if i + d < n:
-                acc -= a[..., i, p + d] * x[..., i + d]
-        x[..., i] = acc / a[..., i, p]
-    return x
+    size = rhs.shape[-1]
+    flat = bands.reshape(-1, 2 * p + 1)
+    length = flat.shape[0]
+    ab = np.zeros((2 * p + 1, length))
+    for d in range(-p, p + 1):  # ab[p - d, j + d] = A[j, j + d]
+        ab[p - d, max(d, 0) : length + min(d, 0)] = flat[max(-d, 0) : length - max(d, 0), p + d]
+    x = solve_banded((p, p), ab, rhs.reshape(-1), check_finite=False)
+    return x.reshape(*rhs.shape[:-1], size)
 
 
 def _unmix_rows(sums, lo, hi, geo: StreakGeometry, order, same_up, p: int = 3):

@@ -198,7 +198,7 @@ def assemble_scan(
                 "load the bundle of the rig the scan was taken on",
             )
         )
-    unmix = SpectralDeblur.from_bundle(bundle) if deblur else None
+    unmix = SpectralDeblur.from_bundle(bundle, full_scale=saturation) if deblur else None
     r0, c0, r1, c1 = roi if roi is not None else (0, 0, *slm_shape)
     n_bins = bundle.wavelengths.size
     cube = np.zeros((r1 - r0, c1 - c0, n_bins), dtype=np.float32)

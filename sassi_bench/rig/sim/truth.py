@@ -79,6 +79,27 @@ class BenchTruth:
         scene = self._bench.scene if name is None else self._bench.scene_named(name)
         return scene.cube(self._bench.slm_shape), self._bench.grid.copy()
 
+    def binned_cube(
+        self, bin_edges_nm: ArrayLike, light: str, scene: str | None = None
+    ) -> NDArray[np.float64]:
+        """What an ideal scan measures: (H, W, B) photo-electron rate per bin.
+
+        The scene's reflectance times the light's photons times the camera's QE, each
+        spectral sample spread over its own step of the grid and integrated into the bins.
+        Equal to a scan cube up to one overall gain.
+        """
+        edges = np.asarray(bin_edges_nm, dtype=np.float64)
+        reflectance, grid = self.scene_cube(scene)
+        samples = self.light_samples(light)
+        if not np.array_equal(samples.wavelengths_nm, grid):
+            raise ValueError("binned_cube: the light is not sampled on the scene grid")
+        rate = samples.weights * self.quantum_efficiency(grid)
+        step = np.gradient(grid)
+        low, high = grid - step / 2, grid + step / 2
+        overlap = np.minimum(high[None], edges[1:, None]) - np.maximum(low[None], edges[:-1, None])
+        weights = np.clip(overlap, 0.0, None) / step[None] * rate[None]
+        return np.einsum("hwl,bl->hwb", reflectance, weights)
+
     def quantum_efficiency(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """The spectral camera's QE."""
         return self._bench.sensor.quantum_efficiency(wavelength_nm)

@@ -1,0 +1,57 @@
+"""A full default pinhole scan of the ColorChecker, scored against the bench's ground truth.
+
+Issue targets (default sim rig, default noise): cube PSNR >= 40 dB and mean spectral angle
+<= 1.5 degrees against the truth cube integrated into the same bins, and an offset residual
+<= 1 % of the mean streak signal.
+"""
+
+import numpy as np
+import pytest
+
+from sassi_bench.bundle import load
+from sassi_bench.rig.sim import truth
+from sassi_bench.workflows.scan import run_scan
+
+
+@pytest.fixture(scope="module")
+def colorchecker_scan(calibrated_sim):
+    rig, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    run = run_scan(rig, bundle, scene="colorchecker", light="led", data=data, progress=False)
+    expected = truth(rig).binned_cube(bundle.bin_edges, "led", "colorchecker")
+    return rig, run, expected
+
+
+def _scores(cube, expected, measured):
+    a, b = cube[measured].astype(np.float64), expected[measured]
+    cosine = (a * b).sum(1) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    gain = (a * b).sum() / (b * b).sum()  # the one overall gain (ADU per electron etc.)
+    psnr = 10 * np.log10((gain * b).max() ** 2 / np.mean((a - gain * b) ** 2))
+    return angle, psnr
+
+
+def test_full_scan_meets_the_accuracy_targets(colorchecker_scan):
+    _, run, expected = colorchecker_scan
+    scan = run.scan
+    measured = scan.quality == 0
+    assert measured.mean() > 0.95  # the whole field is scanned; only edge streaks flagged
+    angle, psnr = _scores(scan.cube, expected, measured)
+    assert psnr >= 40.0
+    assert angle.mean() <= 1.5
+    # Bright patches are much better than the mean, which the dark surround dominates.
+    bright = np.linalg.norm(expected[measured], axis=1)
+    assert angle[bright > np.median(bright)].mean() <= 1.0
+
+
+def test_full_scan_offset_residual(colorchecker_scan):
+    rig, run, _ = colorchecker_scan
+    scan = run.scan
+    bench = truth(rig).bench
+    exposure = run.session.plan.steps[run.session.plan.select(role="pinholes")[0]].exposure_s
+    bench.set_scene("colorchecker")
+    bench.set_light("led")
+    electrons = (bench._background_rate() + bench.sensor.dark_current_e_per_s) * exposure
+    true_background = electrons / bench.sensor.gain_e_per_adu + bench.sensor.dark_offset_adu
+    residual = np.sqrt(np.mean((scan.background - true_background) ** 2))
+    assert residual <= 0.01 * scan.mean_streak_signal
