@@ -276,7 +276,8 @@ def load_rig_description(name_or_path: str | os.PathLike[str]) -> RigDescription
     1920
     """
     path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml") or path.exists():
+    # A folder named like a rig (the data root keeps bundles in ``<rig>/``) is not a path.
+    if path.suffix in (".yaml", ".yml") or path.is_file():
         if not path.is_file():
             raise ConfigError(f"rig description: no such file {str(path)!r}")
         text = path.read_text()

@@ -105,3 +105,10 @@ def test_yaml_file_of_a_custom_rig_loads(tmp_path, sim_dict):
     assert desc.name == "my-bench"
     assert desc.prism.glass == "F2"
     assert desc.source == str(path)
+
+
+def test_a_folder_named_like_a_rig_does_not_shadow_it(tmp_path, monkeypatch):
+    # The data root keeps each rig's bundles in a folder named after the rig.
+    (tmp_path / "sim").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert load_rig_description("sim").name == "sim"
