@@ -55,13 +55,32 @@ def take_snapshot(
     >>> files = take_snapshot(open_rig("sim"), Path("snapshot"))  # doctest: +SKIP
     """
     out = Path(out)
+    written = []
+    for name, frame in capture_views(rig, scene, light).items():
+        written += save_frame(frame, out / name)
+    return written
+
+
+def capture_views(rig: Rig, scene: str = "colorchecker", light: str = "led") -> dict[str, Frame]:
+    """A guide image and spectral frames with the SLM all open and with pinholes.
+
+    Returns
+    -------
+    dict
+        ``guide``, ``spectral_all_open`` and ``spectral_pinholes`` frames.
+
+    Examples
+    --------
+    >>> from sassi_bench import open_rig
+    >>> sorted(capture_views(open_rig("sim")))  # doctest: +SKIP
+    ['guide', 'spectral_all_open', 'spectral_pinholes']
+    """
     rig.set_scene(scene)
     rig.light.select(light)
-    written = []
     rig.slm.show(np.zeros(rig.slm.shape, dtype=bool))
-    written += save_frame(rig.guide_camera.capture(), out / "guide")
+    views = {"guide": rig.guide_camera.capture()}
     rig.slm.show(np.ones(rig.slm.shape, dtype=bool))
-    written += save_frame(rig.spectral_camera.capture(), out / "spectral_all_open")
+    views["spectral_all_open"] = rig.spectral_camera.capture()
     rig.slm.show(pinhole_pattern(rig.slm.shape))
-    written += save_frame(rig.spectral_camera.capture(), out / "spectral_pinholes")
-    return written
+    views["spectral_pinholes"] = rig.spectral_camera.capture()
+    return views

@@ -9,7 +9,6 @@ calibration bundle with its plots. It uses device handles only.
 
 from __future__ import annotations
 
-import io
 import json
 import os
 from collections.abc import Mapping
@@ -25,6 +24,7 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationModels, QualityCheck, publish
+from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
 from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap, fit_dispersion
 from sassi_bench.calibrate.field import fit_field
@@ -43,8 +43,13 @@ from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_p
 __all__ = [
     "LaserDecode",
     "SpectralCalibration",
+    "SpectralSweeps",
+    "analyse_spectral_sweeps",
     "analyse_sweep",
+    "capture_spectral_sweeps",
     "measure_response",
+    "publish_spectral",
+    "render_figures",
     "run_spectral_calibration",
 ]
 
@@ -125,9 +130,9 @@ def _procedure_key(proc: Mapping[str, Any]) -> dict[str, Any]:
 
 def _check_same_procedure(session: Session, proc: Mapping[str, Any]) -> None:
     stored = session.plan.parameters.get("procedure")
-    if stored is not None and json.dumps(stored, sort_keys=True) != json.dumps(
-        _procedure_key(proc), sort_keys=True
-    ):
+    # Compared as JSON values (not their text), so 450 and 450.0 nm are the same laser.
+    given = json.loads(json.dumps(_procedure_key(proc)))
+    if stored is not None and json.loads(json.dumps(thaw(stored))) != given:
         raise ConfigError(
             step_error(
                 f"resume session {session.id}",
@@ -336,18 +341,29 @@ def grade(
     return checks
 
 
-def run_spectral_calibration(
+@dataclass(frozen=True)
+class SpectralSweeps:
+    """The raw sessions of a spectral calibration: the grey-level response (structured
+    sweeps only) and the laser sweep itself."""
+
+    grey: Session | None
+    sweep: Session
+
+    @property
+    def sessions(self) -> list[Session]:
+        """The sessions, in capture order."""
+        return [s for s in (self.grey, self.sweep) if s is not None]
+
+
+def capture_spectral_sweeps(
     rig: Rig,
     procedure: Mapping[str, Any],
     *,
     session_id: str | None = None,
     data: str | os.PathLike[str] | None = None,
     progress: bool = True,
-    publish_bundle: bool = True,
-    allow_failed: bool = False,
-    figures: bool = True,
-) -> SpectralCalibration:
-    """Run the spectral calibration end to end.
+) -> SpectralSweeps:
+    """Capture (or resume) the laser sweeps of a spectral calibration.
 
     Parameters
     ----------
@@ -360,13 +376,15 @@ def run_spectral_calibration(
         Base id of the raw sessions (``<id>-grey``, ``<id>-sweep``); an existing id
         resumes its capture (the stored plans are reused, not rebuilt).
     data
-        Data root for sessions and bundles.
-    publish_bundle, allow_failed
-        Publish a bundle; refuse one that failed its checks unless ``allow_failed``.
+        Data root for sessions.
 
     Returns
     -------
-    SpectralCalibration
+    SpectralSweeps
+
+    Examples
+    --------
+    >>> sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")  # doctest: +SKIP
     """
     proc = dict(procedure)
     lasers = [float(x) for x in proc["lasers_nm"]]
@@ -396,8 +414,6 @@ def run_spectral_calibration(
     exposures: dict[float, float] = {}
     if sweep is None:
         exposures = {laser: expose(laser, {"kind": "full"}) for laser in lasers}
-    response = None
-    sessions = []
     if proc["sweep"]["mode"] == "structured":
         middle = lasers[len(lasers) // 2]
         if grey is None:
@@ -406,9 +422,9 @@ def run_spectral_calibration(
             )
             grey = Session.create(rig.description, plan, session_id=f"{base}-grey", data=data)
         run_plan(rig, grey.plan, grey, progress=progress)
-        response = measure_response(grey, saturation)
-        sessions.append(grey)
     if sweep is None:
+        # The sinusoids are precompensated for the SLM's measured grey-level response.
+        response = measure_response(grey, saturation) if grey is not None else None
         pitch = [int(p) for p in proc["blur"]["pinhole_pitch_px"]]
         pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
         blur_exposures = {laser: expose(laser, pinholes) for laser in lasers + extra}
@@ -417,34 +433,102 @@ def run_spectral_calibration(
         plan = sweep_plan(proc, slm_shape, exposures, profile, blur_exposures)
         sweep = Session.create(rig.description, plan, session_id=f"{base}-sweep", data=data)
     run_plan(rig, sweep.plan, sweep, progress=progress)
-    sessions.append(sweep)
+    return SpectralSweeps(grey, sweep)
 
-    decoded = analyse_sweep(sweep, proc, slm_shape, saturation)
+
+def analyse_spectral_sweeps(
+    sweeps: SpectralSweeps, procedure: Mapping[str, Any], rig_description: Any
+) -> SpectralCalibration:
+    """Decode the sweeps, fit the dispersion and blur models and grade them.
+
+    Parameters
+    ----------
+    sweeps
+        From :func:`capture_spectral_sweeps`.
+    procedure
+        The procedure the sweeps were captured with (fit settings and tolerances).
+    rig_description
+        The rig's description (SLM shape, camera bit depth, prism glass).
+
+    Returns
+    -------
+    SpectralCalibration
+
+    Examples
+    --------
+    >>> result = analyse_spectral_sweeps(sweeps, proc, rig.description)  # doctest: +SKIP
+    >>> result.passed  # doctest: +SKIP
+    True
+    """
+    proc = dict(procedure)
+    desc = rig_description
+    slm_shape = (desc.slm.height, desc.slm.width)
+    saturation = 2**desc.spectral_camera.bit_depth - 1
+    response = measure_response(sweeps.grey, saturation) if sweeps.grey is not None else None
+    decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation)
     dispersion = fit_dispersion(
         [d.laser_map for d in decoded],
-        rig.description.prism.glass,
+        desc.prism.glass,
         slm_shape,
         field_degree=int(proc["fit"].get("field_degree", 5)),
         order=int(proc["fit"].get("dispersion_order", 2)),
     )
-    blur = _blur_fit(sweep, proc, dispersion, slm_shape, saturation)
+    blur = _blur_fit(sweeps.sweep, proc, dispersion, slm_shape, saturation)
     checks = grade(decoded, dispersion, blur, proc["tolerances"])
-    result = SpectralCalibration(
-        proc, rig.description, decoded, dispersion, blur, response, checks, sessions
+    return SpectralCalibration(
+        proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions
     )
-    if figures:
-        from sassi_bench.plots.spectral import spectral_figures
 
-        result.figures = {name: _png(fig) for name, fig in spectral_figures(result).items()}
+
+def run_spectral_calibration(
+    rig: Rig,
+    procedure: Mapping[str, Any],
+    *,
+    session_id: str | None = None,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    publish_bundle: bool = True,
+    allow_failed: bool = False,
+    figures: bool = True,
+) -> SpectralCalibration:
+    """Run the spectral calibration end to end: capture, analyse, plot, publish.
+
+    Parameters
+    ----------
+    rig, procedure, session_id, data, progress
+        As for :func:`capture_spectral_sweeps`.
+    publish_bundle, allow_failed
+        Publish a bundle; refuse one that failed its checks unless ``allow_failed``.
+    figures
+        Render the plots (they go into the bundle's ``report/``).
+
+    Returns
+    -------
+    SpectralCalibration
+
+    Examples
+    --------
+    >>> result = run_spectral_calibration(open_rig("sim"), proc)  # doctest: +SKIP
+    >>> result.bundle_path  # doctest: +SKIP
+    PosixPath('calib_data/sim/v0001')
+    """
+    sweeps = capture_spectral_sweeps(
+        rig, procedure, session_id=session_id, data=data, progress=progress
+    )
+    result = analyse_spectral_sweeps(sweeps, procedure, rig.description)
+    if figures:
+        render_figures(result)
     if publish_bundle:
         result.bundle_path = publish_spectral(result, data=data, allow_failed=allow_failed)
     return result
 
 
-def _png(fig) -> bytes:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    return buffer.getvalue()
+def render_figures(result: SpectralCalibration) -> None:
+    """Render the calibration's plots into ``result.figures`` (PNG bytes by name)."""
+    from sassi_bench.plots.png import figure_png
+    from sassi_bench.plots.spectral import spectral_figures
+
+    result.figures = {name: figure_png(fig) for name, fig in spectral_figures(result).items()}
 
 
 def quality_section(result: SpectralCalibration) -> dict[str, Any]:

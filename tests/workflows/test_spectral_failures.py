@@ -78,3 +78,13 @@ def test_procedure_rejects_unknown_keys(tmp_path):
     path.write_text(yaml.safe_dump(proc))
     with pytest.raises(ConfigError, match=r"sweep\.moed: unknown key .*did you mean 'mode'"):
         load_procedure("spectral_calibration", path)
+
+
+def test_resuming_with_another_procedure_is_refused(tmp_path):
+    rig = open_rig("sim")
+    proc = load_procedure("spectral_calibration")
+    plan = sweep_plan(proc, rig.slm.shape, {450.0: 0.01}, None, {})
+    plan = type(plan)(plan.name, plan.steps[:2], {"procedure": {"lasers_nm": [450]}})
+    Session.create(rig.description, plan, session_id="old-sweep", data=tmp_path)
+    with pytest.raises(ConfigError, match="different procedure"):
+        run_spectral_calibration(rig, proc, session_id="old", data=tmp_path, progress=False)
