@@ -17,7 +17,7 @@ import yaml
 from sassi_bench.errors import ConfigError
 from sassi_bench.schema_validation import validate_against_schema
 
-__all__ = ["load_procedure"]
+__all__ = ["load_procedure", "with_changes"]
 
 
 def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
@@ -55,10 +55,35 @@ def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None
     except yaml.YAMLError as exc:
         raise ConfigError(f"procedure {source}: not valid YAML ({exc})") from exc
     data = json.loads(json.dumps(data))
+    _validate(kind, data, f"procedure {source}")
+    data["source"] = source
+    return data
+
+
+def _validate(kind: str, data: dict[str, Any], where: str) -> None:
     schema_file = resources.files("sassi_bench.workflows").joinpath(
         "schemas", f"{kind}.schema.json"
     )
     schema = json.loads(schema_file.read_text())
-    validate_against_schema(data, schema, f"procedure {source}")
+    validate_against_schema(data, schema, where)
+
+
+def with_changes(procedure: dict[str, Any], **changes: Any) -> dict[str, Any]:
+    """A copy of a loaded procedure with some top-level keys changed, validated again.
+
+    Notebooks use it for the choices a person makes (which lasers, what tolerance); the
+    change is recorded in ``source`` so a published bundle says the procedure was edited.
+
+    Examples
+    --------
+    >>> proc = with_changes(load_procedure("spectral_calibration"), lasers_nm=[450, 532, 670])
+    >>> proc["lasers_nm"], proc["source"]
+    ([450, 532, 670], 'procedures/spectral_calibration.yaml (edited: lasers_nm)')
+    """
+    kind = str(procedure["name"])
+    data = json.loads(json.dumps({k: v for k, v in procedure.items() if k != "source"}))
+    data.update(json.loads(json.dumps(changes)))
+    source = f"{procedure.get('source', kind)} (edited: {', '.join(sorted(changes))})"
+    _validate(kind, data, f"procedure {source}")
     data["source"] = source
     return data

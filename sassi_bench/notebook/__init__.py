@@ -1,0 +1,7 @@
+"""Notebook helpers: the widgets where a person decides, each with a default that a
+notebook run without a person (CI, ``jupyter nbconvert --execute``) keeps."""
+
+from sassi_bench.notebook.display import show
+from sassi_bench.notebook.widgets import accept_checks, checks_table, pick_lasers, show_png
+
+__all__ = ["accept_checks", "checks_table", "pick_lasers", "show", "show_png"]

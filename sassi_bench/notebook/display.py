@@ -1,0 +1,20 @@
+"""Show figures in a notebook whatever the matplotlib backend (CI runs with Agg)."""
+
+from __future__ import annotations
+
+from sassi_bench.plots.png import figure_png
+
+__all__ = ["show"]
+
+
+def show(fig) -> None:
+    """Display a matplotlib figure as a PNG output of the current cell.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> show(Figure(figsize=(1, 1)))  # doctest: +SKIP
+    """
+    from IPython.display import Image, display
+
+    display(Image(data=figure_png(fig), format="png"))

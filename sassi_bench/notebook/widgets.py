@@ -1,0 +1,114 @@
+"""Decision widgets for the guided notebooks.
+
+Every function returns an ipywidgets control whose initial value is the sensible default
+(the procedure's choice, or "accept" exactly when every tolerance passed). A notebook
+reads ``.value`` in a later cell, so a run without a person goes on with the defaults
+and a person can change them before running the rest.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+__all__ = ["accept_checks", "checks_table", "pick_lasers", "show_png"]
+
+
+def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
+    """A multiple choice of lasers, the procedure's selected.
+
+    Parameters
+    ----------
+    procedure
+        The loaded procedure (its ``lasers_nm`` are the default choice).
+    available_nm
+        The rig's lasers (``rig.description.lasers_nm``).
+
+    Returns
+    -------
+    ipywidgets.SelectMultiple
+        ``.value`` is a tuple of wavelengths (nm).
+
+    Examples
+    --------
+    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> picker = pick_lasers(load_procedure("spectral_calibration"), [450, 520, 532, 635, 670])
+    >>> picker.value
+    (450.0, 520.0, 532.0, 635.0, 670.0)
+    """
+    import ipywidgets as widgets
+
+    options = [(f"{float(nm):g} nm", float(nm)) for nm in available_nm]
+    chosen = tuple(
+        float(nm) for nm in procedure["lasers_nm"] if float(nm) in dict(options).values()
+    )
+    return widgets.SelectMultiple(
+        options=options,
+        value=chosen,
+        rows=min(len(options), 8),
+        description="Lasers",
+    )
+
+
+def checks_table(checks: Iterable[Any]) -> str:
+    """An HTML table of quality checks (name, value, tolerance, pass/fail).
+
+    Examples
+    --------
+    >>> from sassi_bench.bundle import QualityCheck
+    >>> "PASS" in checks_table([QualityCheck.at_most("rms", 0.02, 0.1, "px")])
+    True
+    """
+    rows = []
+    for check in checks:
+        mark = "PASS" if check.passed else "FAIL"
+        colour = "#1a7f37" if check.passed else "#cf222e"
+        rows.append(
+            f"<tr><td>{html.escape(check.name)}</td><td>{check.value:.4g} "
+            f"{html.escape(check.unit)}</td><td>{check.comparison} {check.tolerance:g}</td>"
+            f'<td style="color:{colour};font-weight:bold">{mark}</td></tr>'
+        )
+    head = "<tr><th>check</th><th>value</th><th>tolerance</th><th></th></tr>"
+    return f"<table>{head}{''.join(rows)}</table>"
+
+
+def accept_checks(checks: Sequence[Any]):
+    """Show quality checks and a choice to accept or reject the result.
+
+    The default is "accept" when every check passed and "reject" otherwise, so an
+    unattended run never publishes a failed calibration.
+
+    Returns
+    -------
+    ipywidgets.VBox
+        The table and the choice; ``.children[-1].value`` is ``"accept"`` or ``"reject"``.
+
+    Examples
+    --------
+    >>> from sassi_bench.bundle import QualityCheck
+    >>> box = accept_checks([QualityCheck.at_most("rms", 0.5, 0.1, "px")])
+    >>> box.children[-1].value
+    'reject'
+    """
+    import ipywidgets as widgets
+
+    passed = all(c.passed for c in checks)
+    choice = widgets.ToggleButtons(
+        options=["accept", "reject"], value="accept" if passed else "reject", description="Fit"
+    )
+    return widgets.VBox([widgets.HTML(checks_table(checks)), choice])
+
+
+def show_png(png: bytes, width: int | None = None):
+    """An image widget for PNG bytes (e.g. a bundle's report figure).
+
+    Examples
+    --------
+    >>> show_png(b"\\x89PNG").format
+    'png'
+    """
+    import ipywidgets as widgets
+
+    kwargs = {} if width is None else {"width": width}
+    return widgets.Image(value=png, format="png", **kwargs)

@@ -1,0 +1,107 @@
+"""Every guided notebook runs top to bottom on the virtual bench, without a person.
+
+The notebooks run in order in one data root (as a lab would: later notebooks use the
+sessions and bundles of earlier ones), with their parameters cell replaced by small
+settings, and each test checks what its notebook produced, not only that it ran.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import nbformat
+import pytest
+
+from sassi_bench.bundle import load, verify
+
+NOTEBOOKS = Path(__file__).resolve().parents[2] / "notebooks"
+
+nbclient = pytest.importorskip("nbclient", reason="nbclient comes with the notebooks extra")
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """A data root shared by the notebooks of this module, in their numbered order."""
+    return tmp_path_factory.mktemp("notebook-lab")
+
+
+def _run(name: str, data: Path, **extra) -> nbformat.NotebookNode:
+    book = nbformat.read(NOTEBOOKS / name, as_version=4)
+    cells = [c for c in book.cells if "parameters" in c.metadata.get("tags", [])]
+    assert len(cells) == 1, f"{name} needs exactly one cell tagged 'parameters'"
+    settings = {"rig_name": "sim", "session_id": "nb", "data": str(data), "progress": False}
+    settings.update(extra)
+    cells[0].source += "\n" + "\n".join(f"{k} = {v!r}" for k, v in settings.items())
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    client = nbclient.NotebookClient(
+        book, timeout=900, kernel_name="python3", resources={"metadata": {"path": str(data)}}
+    )
+    client.execute(env=env)
+    return book
+
+
+def _images(book) -> int:
+    return sum(
+        "image/png" in output.get("data", {})
+        for cell in book.cells
+        if cell.cell_type == "code"
+        for output in cell.outputs
+    )
+
+
+def _errors(book) -> list[str]:
+    return [
+        output.get("ename", "")
+        for cell in book.cells
+        if cell.cell_type == "code"
+        for output in cell.outputs
+        if output.output_type == "error"
+    ]
+
+
+def test_notebooks_have_no_committed_outputs():
+    for path in sorted(NOTEBOOKS.glob("*.ipynb")):
+        book = nbformat.read(path, as_version=4)
+        assert not any(c.get("outputs") for c in book.cells if c.cell_type == "code"), path.name
+
+
+def test_00_quickstart_publishes_a_bundle_that_verifies(lab):
+    book = _run("00_quickstart.ipynb", lab)
+    assert not _errors(book)
+    assert _images(book) >= 1  # the raw frames
+    bundle_dir = lab / "sim" / "v0001"
+    verify(bundle_dir)
+    assert load(bundle_dir).wavelengths.size > 30
+
+
+def test_01_laser_sweeps_captures_a_named_session(lab):
+    book = _run("01_laser_sweeps.ipynb", lab)
+    assert not _errors(book)
+    assert _images(book) >= 1
+    assert (lab / "sessions" / "nb-sweep").is_dir()
+
+
+def test_02_dispersion_and_blur_shows_the_fit(lab):
+    book = _run("02_dispersion_and_blur.ipynb", lab)
+    assert not _errors(book)
+    assert _images(book) >= 3  # residual maps, dispersion, blur
+    assert not (lab / "sim" / "v0002").exists()  # this notebook only looks
+
+
+def test_03_pinhole_scan_writes_a_cube(lab):
+    book = _run("03_pinhole_scan.ipynb", lab, scan_pitch=(100, 40), response_every=50)
+    assert not _errors(book)
+    assert _images(book) >= 1
+    cube = lab / "nb-colorchecker.nc"
+    assert cube.is_file() and cube.stat().st_size > 10_000
+    assert load(rig="sim", data=lab).response is not None
+
+
+def test_06_publish_bundle_publishes_an_accepted_fit(lab):
+    before = {p.name for p in (lab / "sim").iterdir() if p.name.startswith("v")}
+    book = _run("06_publish_bundle.ipynb", lab)
+    assert not _errors(book)
+    after = {p.name for p in (lab / "sim").iterdir() if p.name.startswith("v")}
+    (new,) = after - before
+    verify(lab / "sim" / new)
