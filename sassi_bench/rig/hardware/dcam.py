@@ -123,8 +123,11 @@ class DcamCamera(CameraBase):
         self._cam.close()
 
 
-def open_dcam(name: str, index: int = 0, **kwargs: Any) -> DcamCamera:
+def open_dcam(name: str, index: int = 0, library: str | None = None, **kwargs: Any) -> DcamCamera:
     """Open Hamamatsu camera ``index`` through pylablib.
+
+    ``library`` is the folder or file of the DCAM-API runtime when it is not on the
+    system's library path.
 
     Raises
     ------
@@ -134,6 +137,8 @@ def open_dcam(name: str, index: int = 0, **kwargs: Any) -> DcamCamera:
     pylablib = require("pylablib", "pylablib", f"{name} camera")
     # pylablib refuses vendor libraries outside Windows unless told otherwise.
     pylablib.par["devices/only_windows_dlls"] = False
+    if library is not None:
+        pylablib.par["devices/dlls/dcamapi"] = library
     dcam = require("pylablib.devices.DCAM", "pylablib", f"{name} camera")
     try:
         camera = dcam.DCAMCamera(idx=index)

@@ -165,9 +165,9 @@ class GenICamCamera(CameraBase):
         if self._exposure_node is not None:
             self._set_enum("ExposureAuto", "Off", optional=True)
             self._set_enum("ExposureMode", "Timed", optional=True)
-            lo = float(self._exposure_node.min) * 1e-6
-            hi = float(self._exposure_node.max) * 1e-6
-            current = float(self._exposure_node.value) * 1e-6
+            lo = float(self._exposure_node.min) / 1e6
+            hi = float(self._exposure_node.max) / 1e6
+            current = float(self._exposure_node.value) / 1e6
         elif exposure_range_s is None:
             lo = hi = current = 0.0
         else:

@@ -137,8 +137,12 @@ class ArduinoTrigger(TriggerBase):
         self._push_state()
 
     def _push_state(self) -> None:
-        self._command(f"DIV {self._divider}", reconnect=False)
-        self._command("ARM" if self._armed else "DISARM", reconnect=False)
+        for command in (f"DIV {self._divider}", "ARM" if self._armed else "DISARM"):
+            reply = self._command(command, reconnect=False)
+            if reply != "OK":
+                raise DeviceError(
+                    step_error(f"trigger {command}", f"unexpected reply {reply!r}", _SILENT_FIX)
+                )
 
     def _reconnect(self) -> None:
         self.close()
@@ -182,6 +186,10 @@ class ArduinoTrigger(TriggerBase):
                 RuntimeWarning,
                 stacklevel=4,
             )
+            # A command sent around the restart may or may not be answered: drop
+            # whatever is in flight before pushing the state and asking again.
+            while self._read_line(0.1):
+                pass
             self._push_state()
             self._write(command)
             reply = self._read_line(self.timeout_s)
