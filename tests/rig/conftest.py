@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -71,6 +72,17 @@ def dummy_x(tmp_path_factory):
     for module in ("PySide6.QtWidgets", "screeninfo", "mss"):
         pytest.importorskip(module, reason=f"{module} missing: pip install -e '.[dev]'")
     server = xserver.DummyXServer(tmp_path_factory.mktemp("xorg"), SLM_SIZE)
+    # Qt aborts the process when its xcb plugin cannot load: try it in a child first.
+    probe = subprocess.run(
+        [sys.executable, "-c", "from PySide6.QtWidgets import QApplication; QApplication([])"],
+        env={**os.environ, "DISPLAY": server.display},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    if probe.returncode != 0:
+        server.close()
+        pytest.skip(f"Qt cannot open a window (missing libxcb-* packages?): {probe.stderr[-300:]}")
     old = os.environ.get("DISPLAY")
     os.environ["DISPLAY"] = server.display
     yield server
