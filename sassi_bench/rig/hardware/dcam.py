@@ -46,6 +46,9 @@ class DcamCamera(CameraBase):
         Limits tighter than the camera's; None uses the camera's.
     timeout_s
         How long a capture waits for a frame.
+    settle_frames
+        Line trigger only: frames skipped after the call (an exposure may have begun
+        before it); the frame returned is the next one.
     state
         Returns (SLM pattern id, light name) for frame metadata.
 
@@ -65,6 +68,7 @@ class DcamCamera(CameraBase):
         bit_depth: int = 16,
         exposure_range_s: Sequence[float] | None = None,
         timeout_s: float = 5.0,
+        settle_frames: int = 1,
         state: State | None = None,
     ) -> None:
         if trigger not in _TRIGGERS:
@@ -75,6 +79,7 @@ class DcamCamera(CameraBase):
             )
         self._cam = camera
         self._timeout = float(timeout_s)
+        self._settle = int(settle_frames)
         self._state = state or (lambda: (None, "unknown"))
         self.trigger = trigger
         camera.set_trigger_mode(_TRIGGERS[trigger])
@@ -97,10 +102,15 @@ class DcamCamera(CameraBase):
             if not self._cam.acquisition_in_progress():
                 self._cam.setup_acquisition(mode="sequence", nframes=16)
                 self._cam.start_acquisition()
+            # Line trigger: the SLM pulses with every displayed frame, so frames taken
+            # before this call are skipped (plus settle_frames); the newest is returned.
             if self.trigger == "software":
                 self._cam.send_software_trigger()
+                since, count = "lastread", 1
+            else:
+                since, count = "now", 1 + self._settle
             try:
-                self._cam.wait_for_frame(timeout=self._timeout)
+                self._cam.wait_for_frame(since=since, nframes=count, timeout=self._timeout)
             except Exception as exc:  # pylablib's DCAMTimeoutError
                 raise DeviceError(
                     step_error(
@@ -110,7 +120,7 @@ class DcamCamera(CameraBase):
                         "trigger is armed",
                     )
                 ) from exc
-            data = self._cam.read_oldest_image()
+            data = self._cam.read_newest_image()
         frame = np.asarray(data)
         if frame.dtype.kind != "u":
             frame = frame.astype(np.uint16)

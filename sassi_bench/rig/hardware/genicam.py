@@ -7,7 +7,10 @@ holds the SFNC features used here: ``Width``, ``Height``, ``PixelFormat``,
 ``Trigger*`` group. Frames are taken three ways:
 
 - ``trigger="line"``: ``FrameStart`` on a hardware line (``trigger_line``, wired to
-  the trigger Arduino), rising edge; capture waits for the next passed SLM pulse;
+  the trigger Arduino), rising edge. The SLM pulses with every displayed frame, so
+  frames pile up between captures: a capture drops the buffered ones and
+  ``settle_frames`` more (an exposure may have begun before the call), then returns
+  the next;
 - ``trigger="software"``: ``TriggerSoftware`` per capture, so a frame never predates
   the call;
 - ``trigger="none"``: cameras without trigger features; acquisition is started and
@@ -113,8 +116,14 @@ class GenICamCamera(CameraBase):
         Limits tighter than the camera's; None uses the ``ExposureTime`` node's.
     timeout_s
         How long a capture waits for a frame.
+    settle_frames
+        Line trigger only: frames dropped after the buffered ones (see above).
     state
         Returns (SLM pattern id, light name) for frame metadata.
+
+    Cameras without ``ExposureTime`` keep the exposure set in the vendor's tool:
+    give it as ``exposure_range_s`` (both values equal) so frames record it;
+    otherwise it is recorded as 0.
 
     Examples
     --------
@@ -135,10 +144,12 @@ class GenICamCamera(CameraBase):
         trigger_line: str = "Line0",
         exposure_range_s: Sequence[float] | None = None,
         timeout_s: float = 5.0,
+        settle_frames: int = 1,
         state: State | None = None,
         on_close: Callable[[], None] | None = None,
     ) -> None:
         self._ia = acquirer
+        self._settle = int(settle_frames)
         self._nm = node_map if node_map is not None else acquirer.remote_device.node_map
         self._timeout = float(timeout_s)
         self._state = state or _no_state
@@ -295,6 +306,11 @@ class GenICamCamera(CameraBase):
                 )
             ) from exc
 
+    def _drain(self) -> None:
+        """Give back every frame already buffered (exposed before this capture)."""
+        while (buffer := self._ia.try_fetch(timeout=0.0)) is not None:
+            buffer.queue()
+
     def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
         pattern_id, light = self._state()
         if self.trigger == "none":
@@ -307,8 +323,12 @@ class GenICamCamera(CameraBase):
             if not self._streaming:
                 self._ia.start()
                 self._streaming = True
+            self._drain()
             if self.trigger == "software":
                 self._node("TriggerSoftware", required=True).execute()
+            else:
+                for _ in range(self._settle):
+                    self._fetch()
             data = self._fetch()
         return data, pattern_id, light, {"pixel_format": self.pixel_format}
 
@@ -391,4 +411,9 @@ def open_genicam(
                 f"choose one of: {found}",
             )
         ) from exc
-    return GenICamCamera(name, acquirer, on_close=harvester.reset, **kwargs)
+    try:
+        return GenICamCamera(name, acquirer, on_close=harvester.reset, **kwargs)
+    except BaseException:
+        acquirer.destroy()  # release the camera for the next attempt
+        harvester.reset()
+        raise

@@ -78,6 +78,8 @@ class FakeAcquirer:
         self.remote_device = SimpleNamespace(node_map=node_map)
         self.height, self.width = height, width
         self.starts = self.stops = self.fetched = 0
+        self.buffered = 0  # frames exposed before the next capture (SLM pulses)
+        self.requeued = 0
         self.destroyed = False
 
     def start(self):
@@ -92,6 +94,16 @@ class FakeAcquirer:
         data = np.full(self.height * self.width, self.fetched, dtype=np.uint16)
         component = SimpleNamespace(data=data, width=self.width, height=self.height)
         yield SimpleNamespace(payload=SimpleNamespace(components=[component]))
+
+    def try_fetch(self, timeout):
+        if not self.buffered:
+            return None
+        self.buffered -= 1
+        self.fetched += 1
+        return SimpleNamespace(queue=self._requeue)
+
+    def _requeue(self):
+        self.requeued += 1
 
     def destroy(self):
         self.destroyed = True

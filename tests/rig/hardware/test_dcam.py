@@ -19,6 +19,7 @@ class FakeDcam:
         self.software_triggers = 0
         self.frames = 0
         self.closed = False
+        self.waits = []
 
     def set_trigger_mode(self, mode):
         self.trigger_mode = mode
@@ -58,10 +59,10 @@ class FakeDcam:
     def send_software_trigger(self):
         self.software_triggers += 1
 
-    def wait_for_frame(self, timeout):
-        pass
+    def wait_for_frame(self, since, nframes, timeout):
+        self.waits.append((since, nframes))
 
-    def read_oldest_image(self):
+    def read_newest_image(self):
         return self._frame()
 
     def close(self):
@@ -91,6 +92,8 @@ def test_trigger_modes_exposure_and_frames(trigger, mode):
     frames = [camera.capture(), camera.capture()]
     assert [int(f.data[0, 0]) for f in frames] == [1, 2] and frames[0].data.dtype == np.uint16
     assert device.software_triggers == (2 if trigger == "software" else 0)
+    expected_wait = {"line": [("now", 2)] * 2, "software": [("lastread", 1)] * 2, "none": []}
+    assert device.waits == expected_wait[trigger]  # line: skip frames from before the call
     assert device.acquiring == (trigger != "none")
     camera.close()
     assert device.closed and not device.acquiring

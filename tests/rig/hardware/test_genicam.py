@@ -79,9 +79,14 @@ def test_line_trigger_configures_frame_start_and_streams():
     assert nodes.TriggerSource.value == "Line0"
     assert nodes.TriggerActivation.value == "RisingEdge"
     assert nodes.TriggerMode.writes == ["Off", "On"]  # off while the selector changes
-    frames = [camera.capture() for _ in range(3)]
+    frames = [camera.capture()]
+    acquirer.buffered = 3  # the SLM kept pulsing between captures
+    frames.append(camera.capture())
     assert acquirer.starts == 1 and acquirer.stops == 0  # streams, waits for pulses
-    assert [int(f.data[0, 0]) for f in frames] == [1, 2, 3]
+    # first: frame 1 dropped (may predate the call), 2 returned; second: 3-5 buffered
+    # and given back, 6 dropped, 7 returned
+    assert [int(f.data[0, 0]) for f in frames] == [2, 7]
+    assert acquirer.requeued == 3
     assert frames[0].meta.pattern_id == 5 and frames[0].meta.light == "led"
     assert nodes.TriggerSoftware.executed == 0
     camera.close()
