@@ -164,9 +164,26 @@ class RigDescription:
         return json.loads(json.dumps(data, sort_keys=True))
 
     def sha256(self) -> str:
-        """SHA-256 of the canonical JSON form; identifies the rig in bundles."""
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        """SHA-256 of the canonical JSON form; identifies the rig in bundles.
+
+        Where hardware is plugged in (serial port, monitor, producer or library path,
+        timeouts) is left out: moving a cable does not make another rig.
+        """
+        data = self.to_dict()
+        if "hardware" in data:
+            data["hardware"] = _without_connection(data["hardware"])
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
+
+
+_CONNECTION_KEYS = {"port", "baudrate", "timeout_s", "boot_s", "monitor", "cti", "library"}
+
+
+def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
+    return {
+        device: {k: v for k, v in spec.items() if k not in _CONNECTION_KEYS}
+        for device, spec in hardware.items()
+    }
 
 
 _SECTIONS: dict[str, type] = {

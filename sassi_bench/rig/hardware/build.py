@@ -11,7 +11,7 @@ from typing import Any
 
 from sassi_bench.errors import ConfigError
 from sassi_bench.rig.config import RigDescription
-from sassi_bench.rig.protocols import Camera, Slm
+from sassi_bench.rig.protocols import Camera
 from sassi_bench.rig.rig import Rig
 
 __all__ = ["build_hardware_rig", "open_camera"]
@@ -59,19 +59,30 @@ def build_hardware_rig(desc: RigDescription, prompt: Callable[[str], None] | Non
     if hw is None:
         raise ConfigError("hardware: a hardware rig needs a hardware section")
     ask = prompt or ask_operator
-    options = {k: v for k, v in hw["trigger"].items() if k not in ("kind", "port")}
-    trigger = ArduinoTrigger(hw["trigger"]["port"], **options)
-    light = ManualLight(desc.lasers_nm, prompt=ask)
-    slm: Slm = DisplaySlm((desc.slm.height, desc.slm.width), monitor=hw["slm"].get("monitor", 1))
+    opened: list[Any] = []
+    try:
+        options = {k: v for k, v in hw["trigger"].items() if k not in ("kind", "port")}
+        trigger = ArduinoTrigger(hw["trigger"]["port"], **options)
+        opened.append(trigger)
+        light = ManualLight(desc.lasers_nm, prompt=ask)
+        slm = DisplaySlm((desc.slm.height, desc.slm.width), monitor=hw["slm"].get("monitor", 1))
+        opened.append(slm)
 
-    def state() -> tuple[int | None, str]:
-        return slm.pattern_id, light.current
+        def state() -> tuple[int | None, str]:
+            return slm.pattern_id, light.current
 
+        spectral = open_camera("spectral", hw["spectral_camera"], state)
+        opened.append(spectral)
+        guide = open_camera("guide", hw["guide_camera"], state)
+    except BaseException:
+        for device in reversed(opened):  # leave nothing half-open for the next try
+            device.close()
+        raise
     return Rig(
         description=desc,
         slm=slm,
-        spectral_camera=open_camera("spectral", hw["spectral_camera"], state),
-        guide_camera=open_camera("guide", hw["guide_camera"], state),
+        spectral_camera=spectral,
+        guide_camera=guide,
         light=light,
         trigger=trigger,
         scene_setter=lambda name: ask(f"Place the {name} target in front of the camera"),

@@ -20,6 +20,7 @@ holds the SFNC features used here: ``Width``, ``Height``, ``PixelFormat``,
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -272,15 +273,7 @@ class GenICamCamera(CameraBase):
 
     def _set_exposure(self, seconds: float) -> None:
         if self._exposure_node is None:
-            if seconds == self.exposure_s:
-                return
-            raise DeviceError(
-                step_error(
-                    f"{self.name} camera exposure",
-                    "the camera has no ExposureTime feature",
-                    "set the exposure in the vendor's tool; procedures then use the fixed one",
-                )
-            )
+            return  # fixed exposure: the range check already allowed only that value
         self._exposure_node.value = seconds * 1e6
 
     def _fetch(self) -> NDArray[Any]:
@@ -368,11 +361,7 @@ def open_genicam(
         When harvesters is missing, a producer file does not exist, no camera is
         found or the selector matches none.
     """
-    core = require("harvesters.core", "harvesters", f"{name} camera")
-    from pathlib import Path
-
     files = [cti] if isinstance(cti, str) else list(cti)
-    harvester = core.Harvester()
     for path in files:
         if not Path(path).is_file():
             raise DeviceError(
@@ -383,15 +372,14 @@ def open_genicam(
                     ".cti file",
                 )
             )
-        harvester.add_file(str(path))
-    harvester.update()
+    harvester, release = _shared_harvester(name, tuple(str(p) for p in files))
     infos = list(harvester.device_info_list)
     found = ", ".join(
         f"{i}: {getattr(d, 'model', '?')} serial {getattr(d, 'serial_number', '?')}"
         for i, d in enumerate(infos)
     )
     if not infos:
-        harvester.reset()
+        release()
         raise DeviceError(
             step_error(
                 f"{name} camera",
@@ -403,7 +391,7 @@ def open_genicam(
     try:
         acquirer = harvester.create(device)
     except Exception as exc:
-        harvester.reset()
+        release()
         raise DeviceError(
             step_error(
                 f"{name} camera",
@@ -412,8 +400,34 @@ def open_genicam(
             )
         ) from exc
     try:
-        return GenICamCamera(name, acquirer, on_close=harvester.reset, **kwargs)
+        return GenICamCamera(name, acquirer, on_close=release, **kwargs)
     except BaseException:
         acquirer.destroy()  # release the camera for the next attempt
-        harvester.reset()
+        release()
         raise
+
+
+# One Harvester per set of producers: a producer is loaded once per process, and a
+# second Harvester on it sees no cameras (two Blackflys on Spinnaker share one).
+_HARVESTERS: dict[tuple[str, ...], list[Any]] = {}
+
+
+def _shared_harvester(name: str, files: tuple[str, ...]) -> tuple[Any, Callable[[], None]]:
+    """The process's Harvester for ``files`` and a function that releases one use."""
+    if files not in _HARVESTERS:
+        core = require("harvesters.core", "harvesters", f"{name} camera")
+        harvester = core.Harvester()
+        for path in files:
+            harvester.add_file(path)
+        harvester.update()
+        _HARVESTERS[files] = [harvester, 0]
+    entry = _HARVESTERS[files]
+    entry[1] += 1
+
+    def release() -> None:
+        entry[1] -= 1
+        if entry[1] == 0 and _HARVESTERS.get(files) is entry:
+            del _HARVESTERS[files]
+            entry[0].reset()
+
+    return entry[0], release
