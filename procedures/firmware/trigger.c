@@ -1,11 +1,12 @@
 /*
  * SASSI exposure trigger for an ATmega328P (Arduino Uno, 16 MHz).
  *
- * The SLM's master pulse enters on D2 (PD2, pin-change interrupt PCINT18). Every pulse is counted; while
- * the trigger is armed, every n-th pulse is copied to the camera outputs D4 (PD4,
- * spectral camera) and D5 (PD5, guide camera) for as long as the input stays high,
- * so the cameras expose only while a pattern is on display. D13 (PB5, the on-board
- * LED) shows the armed state.
+ * The SLM's master pulse enters on D2 (PD2, pin-change interrupt PCINT18; simavr 1.6,
+ * which the tests run this on, stalls UART reception with INT0 in any-change mode).
+ * Every pulse is counted; while the trigger is armed, every n-th pulse is copied to
+ * the camera outputs D4 (PD4, spectral camera) and D5 (PD5, guide camera) for as long
+ * as the input stays high, so the cameras expose only while a pattern is on display.
+ * D13 (PB5, the on-board LED) shows the armed state.
  *
  * Line protocol on UART0 (115200 baud, 8N1, lines end with "\n"; "\r" is ignored).
  * Every command gets exactly one reply line:
