@@ -1,4 +1,4 @@
-"""Devices and rigs: protocols, the virtual bench and (later) hardware adapters.
+"""Devices and rigs: protocols, the virtual bench and the hardware adapters.
 
 Examples
 --------
@@ -57,4 +57,8 @@ def open_rig(rig: str | os.PathLike[str] | RigDescription = "sim") -> Rig:
         from sassi_bench.rig.sim import build_sim_rig
 
         return build_sim_rig(desc)
+    if desc.backend == "hardware":
+        from sassi_bench.rig.hardware.build import build_hardware_rig
+
+        return build_hardware_rig(desc)
     raise ValueError(f"backend: unknown backend {desc.backend!r}")  # pragma: no cover

@@ -152,18 +152,38 @@ class RigDescription:
     light: LightConfig = field(default_factory=LightConfig)
     spectral_grid: SpectralGridConfig = field(default_factory=SpectralGridConfig)
     scenes: ScenesConfig = field(default_factory=ScenesConfig)
+    hardware: dict[str, Any] | None = None
     source: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical JSON-compatible form (the ``source`` path is left out)."""
         data = asdict(self)
         data.pop("source")
+        if data["hardware"] is None:
+            data.pop("hardware")
         return json.loads(json.dumps(data, sort_keys=True))
 
     def sha256(self) -> str:
-        """SHA-256 of the canonical JSON form; identifies the rig in bundles."""
-        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        """SHA-256 of the canonical JSON form; identifies the rig in bundles.
+
+        Where hardware is plugged in (serial port, monitor, producer or library path,
+        timeouts) is left out: moving a cable does not make another rig.
+        """
+        data = self.to_dict()
+        if "hardware" in data:
+            data["hardware"] = _without_connection(data["hardware"])
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
+
+
+_CONNECTION_KEYS = {"port", "baudrate", "timeout_s", "boot_s", "monitor", "cti", "library"}
+
+
+def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
+    return {
+        device: {k: v for k, v in spec.items() if k not in _CONNECTION_KEYS}
+        for device, spec in hardware.items()
+    }
 
 
 _SECTIONS: dict[str, type] = {
@@ -200,6 +220,19 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
         kwargs[key] = cls(**section)
     kwargs["lasers_nm"] = tuple(float(x) for x in data["lasers_nm"])
     return RigDescription(source=source, **kwargs)
+
+
+def _check_backend(desc: RigDescription) -> None:
+    if desc.backend == "hardware" and desc.hardware is None:
+        raise ConfigError(
+            "hardware: backend 'hardware' needs a hardware section "
+            "(see procedures/rigs/lab-example.yaml)"
+        )
+    if desc.backend != "hardware" and desc.hardware is not None:
+        raise ConfigError(
+            f"hardware: only read with backend 'hardware' (this rig's backend is "
+            f"{desc.backend!r}); remove the section or change the backend"
+        )
 
 
 def _check_physics(desc: RigDescription) -> None:
@@ -247,6 +280,7 @@ def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> R
     data = json.loads(json.dumps(data))  # YAML int keys -> str, tuples -> lists
     _validate_schema(data, source)
     desc = _build(data, source if source != "<dict>" else None)
+    _check_backend(desc)
     _check_physics(desc)
     return desc
 

@@ -1,8 +1,10 @@
 """The contract every device backend must honour.
 
-Each backend registers a factory in BACKENDS that returns a Rig; real hardware
-adapters add theirs (skipping with a reason where the hardware or its simulator is
-missing). The tests use only the protocols, never backend internals.
+Each backend registers a factory in BACKENDS that returns a Rig; the hardware
+adapters run against simulators of their devices (``hardware_rig`` in conftest.py:
+the trigger firmware in simavr, the SLM window on a dummy X server, the GenTL
+producer of the genicam wheel) and skip with the reason where those are missing.
+The tests use only the protocols, never backend internals.
 """
 
 import numpy as np
@@ -11,12 +13,15 @@ import pytest
 from sassi_bench import open_rig
 from sassi_bench.rig import Camera, Frame, LightSource, Slm, Trigger
 
-BACKENDS = {"sim": lambda: open_rig("sim")}
+BACKENDS = {
+    "sim": lambda request: open_rig("sim"),
+    "hardware": lambda request: request.getfixturevalue("hardware_rig"),
+}
 
 
 @pytest.fixture(scope="module", params=sorted(BACKENDS))
 def rig(request):
-    return BACKENDS[request.param]()
+    return BACKENDS[request.param](request)
 
 
 def test_devices_implement_the_protocols(rig):

@@ -1,0 +1,68 @@
+"""What the operator does by hand on a real bench: switch lights, place targets."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+
+from sassi_bench.errors import DeviceError, step_error
+from sassi_bench.rig.base import LightSourceBase
+
+__all__ = ["ManualLight", "ask_operator"]
+
+
+def ask_operator(message: str) -> None:
+    """Print ``message`` and wait for Enter; refuse when nobody can answer.
+
+    Examples
+    --------
+    >>> ask_operator("Switch the light to led")  # doctest: +SKIP
+    Switch the light to led, then press Enter
+    """
+    if not sys.stdin or not sys.stdin.isatty():
+        raise DeviceError(
+            step_error(
+                "operator",
+                f"{message!r} needs an operator, but standard input is not a terminal",
+                "run the procedure from a terminal at the bench",
+            )
+        )
+    input(f"{message}, then press Enter ")
+
+
+class ManualLight(LightSourceBase):
+    """Lights switched by the operator when asked.
+
+    Parameters
+    ----------
+    lasers_nm
+        The rig's laser lines; the names are those of the virtual bench
+        (``"off"``, ``"laser:532"``, ``"led"``, ``"halogen"``, ``"fluorescent"``).
+    prompt
+        Called with the instruction; defaults to :func:`ask_operator`.
+
+    Examples
+    --------
+    >>> said = []
+    >>> light = ManualLight((450, 532), prompt=said.append)
+    >>> light.select("laser:532")
+    >>> said
+    ['Switch on the 532 nm laser only']
+    """
+
+    def __init__(
+        self, lasers_nm: tuple[float, ...], prompt: Callable[[str], None] | None = None
+    ) -> None:
+        names = ("off", *(f"laser:{x:g}" for x in lasers_nm), "led", "halogen", "fluorescent")
+        super().__init__(names)
+        self._prompt = prompt or ask_operator
+
+    def _switch(self, name: str) -> None:
+        if name == self.current:
+            return
+        if name == "off":
+            self._prompt("Switch every light off")
+        elif name.startswith("laser:"):
+            self._prompt(f"Switch on the {name[6:]} nm laser only")
+        else:
+            self._prompt(f"Switch on the {name} only")

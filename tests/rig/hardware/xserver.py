@@ -1,0 +1,130 @@
+"""A virtual dual-head X server (Xorg's dummy driver) for the SLM display tests."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+INSTALL_HINT = "apt-get install xserver-xorg-core xserver-xorg-video-dummy x11-xserver-utils"
+
+XORG_CONF = """\
+Section "ServerFlags"
+  Option "AutoAddDevices" "false"
+  Option "AutoEnableDevices" "false"
+  Option "DontVTSwitch" "true"
+EndSection
+Section "Device"
+  Identifier "dummy"
+  Driver "dummy"
+  VideoRam 65536
+EndSection
+Section "Monitor"
+  Identifier "monitor"
+  HorizSync 5.0-1000.0
+  VertRefresh 5.0-200.0
+EndSection
+Section "Screen"
+  Identifier "screen"
+  Device "dummy"
+  Monitor "monitor"
+  DefaultDepth 24
+  SubSection "Display"
+    Depth 24
+    Virtual 4096 2048
+  EndSubSection
+EndSection
+"""
+
+
+def xorg_missing() -> str | None:
+    """Why a dummy X server cannot start here, or None."""
+    for tool in ("Xorg", "xrandr"):
+        if shutil.which(tool) is None:
+            return f"{tool} not found; {INSTALL_HINT}"
+    drivers = Path("/usr/lib/xorg/modules/drivers")
+    if not (drivers / "dummy_drv.so").is_file():
+        return f"Xorg's dummy video driver is missing; {INSTALL_HINT}"
+    return None
+
+
+def _free_display() -> int:
+    for number in range(40, 200):
+        if (
+            not Path(f"/tmp/.X{number}-lock").exists()
+            and not Path(f"/tmp/.X11-unix/X{number}").exists()
+        ):
+            return number
+    raise RuntimeError("no free X display number in 40..199")
+
+
+class DummyXServer:
+    """Xorg with two monitors: DUMMY0 (the operator's) and DUMMY1 (the SLM) to its right."""
+
+    def __init__(self, workdir: Path, slm_size: tuple[int, int], main_size=(800, 600)) -> None:
+        self.number = _free_display()
+        self.display = f":{self.number}"
+        conf = workdir / "xorg.conf"
+        conf.write_text(XORG_CONF)
+        (workdir / "conf.d").mkdir(exist_ok=True)
+        self.log = workdir / "xorg.log"
+        self.proc = subprocess.Popen(
+            [
+                "Xorg",
+                self.display,
+                "-config",
+                str(conf),
+                "-configdir",
+                str(workdir / "conf.d"),
+                "-noreset",
+                "-nolisten",
+                "tcp",
+                "-logfile",
+                str(self.log),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        socket = Path(f"/tmp/.X11-unix/X{self.number}")
+        deadline = time.monotonic() + 15
+        while not socket.exists() or self._xrandr().returncode != 0:
+            if self.proc.poll() is not None or time.monotonic() > deadline:
+                self.close()
+                raise RuntimeError(f"Xorg {self.display} did not start; see {self.log}")
+            time.sleep(0.05)
+        self.main = ("DUMMY0", *main_size, 0, 0)
+        self.slm = ("DUMMY1", *slm_size, main_size[0], 0)
+        self._set_output("DUMMY0", main_size, 0)
+        self._set_output("DUMMY1", slm_size, main_size[0])
+        # A full query (XRRGetScreenResources) makes the server publish the new layout
+        # to clients that only read the current one, as screeninfo does.
+        self._xrandr(check=True)
+
+    def _xrandr(self, *args: str, check: bool = False) -> subprocess.CompletedProcess:
+        env = {**os.environ, "DISPLAY": self.display}
+        return subprocess.run(
+            ["xrandr", *args], env=env, capture_output=True, text=True, check=check
+        )
+
+    def _set_output(self, output: str, size: tuple[int, int], x: int) -> None:
+        w, h = size
+        mode = f"sassi{w}x{h}"
+        # Timings are irrelevant to the dummy driver; a 60 Hz-ish modeline for any size.
+        timing = [str(w), str(w + 8), str(w + 16), str(w + 24)]
+        timing += [str(h), str(h + 2), str(h + 4), str(h + 6)]
+        clock = f"{(w + 24) * (h + 6) * 60 / 1e6:.2f}"
+        if mode not in self._xrandr().stdout:
+            self._xrandr("--newmode", mode, clock, *timing, check=True)
+        self._xrandr("--addmode", output, mode, check=True)
+        self._xrandr("--output", output, "--mode", mode, "--pos", f"{x}x0", check=True)
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
