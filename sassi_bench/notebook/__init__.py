@@ -2,6 +2,21 @@
 notebook run without a person (CI, ``jupyter nbconvert --execute``) keeps."""
 
 from sassi_bench.notebook.display import show
-from sassi_bench.notebook.widgets import accept_checks, checks_table, pick_lasers, show_png
+from sassi_bench.notebook.widgets import (
+    accept_checks,
+    checks_table,
+    excluded_region,
+    pick_excluded_region,
+    pick_lasers,
+    show_png,
+)
 
-__all__ = ["accept_checks", "checks_table", "pick_lasers", "show", "show_png"]
+__all__ = [
+    "accept_checks",
+    "checks_table",
+    "excluded_region",
+    "pick_excluded_region",
+    "pick_lasers",
+    "show",
+    "show_png",
+]

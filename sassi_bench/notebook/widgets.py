@@ -12,7 +12,14 @@ import html
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
-__all__ = ["accept_checks", "checks_table", "pick_lasers", "show_png"]
+__all__ = [
+    "accept_checks",
+    "checks_table",
+    "excluded_region",
+    "pick_excluded_region",
+    "pick_lasers",
+    "show_png",
+]
 
 
 def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
@@ -112,3 +119,36 @@ def show_png(png: bytes, width: int | None = None):
 
     kwargs = {} if width is None else {"width": width}
     return widgets.Image(value=png, format="png", **kwargs)
+
+
+def pick_excluded_region(slm_shape: tuple[int, int]):
+    """A rectangle of the SLM to leave out of the fits (off by default).
+
+    Returns
+    -------
+    ipywidgets.VBox
+        A checkbox and row/column range sliders; read it with :func:`excluded_region`.
+
+    Examples
+    --------
+    >>> excluded_region(pick_excluded_region((400, 640)))
+    []
+    """
+    import ipywidgets as widgets
+
+    h, w = slm_shape
+    return widgets.VBox(
+        [
+            widgets.Checkbox(value=False, description="exclude a region"),
+            widgets.IntRangeSlider(value=(0, h // 4), min=0, max=h, description="rows"),
+            widgets.IntRangeSlider(value=(0, w // 4), min=0, max=w, description="columns"),
+        ]
+    )
+
+
+def excluded_region(picker) -> list[list[int]]:
+    """The ``fit.exclude_regions_slm_px`` entries a :func:`pick_excluded_region` holds."""
+    enabled, rows, cols = picker.children
+    if not enabled.value:
+        return []
+    return [[int(rows.value[0]), int(cols.value[0]), int(rows.value[1]), int(cols.value[1])]]

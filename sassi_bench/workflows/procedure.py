@@ -15,9 +15,10 @@ from typing import Any
 import yaml
 
 from sassi_bench.errors import ConfigError
+from sassi_bench.paths import data_root
 from sassi_bench.schema_validation import validate_against_schema
 
-__all__ = ["load_procedure", "with_changes"]
+__all__ = ["load_procedure", "save_working_procedure", "with_changes", "working_procedure"]
 
 
 def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
@@ -87,3 +88,43 @@ def with_changes(procedure: dict[str, Any], **changes: Any) -> dict[str, Any]:
     _validate(kind, data, f"procedure {source}")
     data["source"] = source
     return data
+
+
+def _working_path(kind: str, session_id: str, data) -> Path:
+    return data_root(data) / "procedures" / f"{session_id}-{kind}.yaml"
+
+
+def save_working_procedure(
+    procedure: dict[str, Any], session_id: str, data: str | os.PathLike[str] | None = None
+) -> Path:
+    """Keep the procedure a person settled on for a named session (the notebooks' choices).
+
+    Written to ``<data>/procedures/<session_id>-<kind>.yaml``, where
+    :func:`working_procedure` finds it in a later notebook.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> tmp = tempfile.mkdtemp()
+    >>> proc = with_changes(load_procedure("spectral_calibration"), lasers_nm=[450, 532, 670])
+    >>> path = save_working_procedure(proc, "lab", tmp)
+    >>> working_procedure("spectral_calibration", "lab", tmp)["lasers_nm"]
+    [450, 532, 670]
+    """
+    kind = str(procedure["name"])
+    path = _working_path(kind, session_id, data)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    body = {k: v for k, v in procedure.items() if k != "source"}
+    header = f"# {kind} as settled for session {session_id} (from {procedure.get('source')})\n"
+    temporary = path.with_suffix(".yaml.tmp")
+    temporary.write_text(header + yaml.safe_dump(body, sort_keys=False))
+    temporary.replace(path)
+    return path
+
+
+def working_procedure(
+    kind: str, session_id: str, data: str | os.PathLike[str] | None = None
+) -> dict[str, Any]:
+    """The procedure saved for a named session, or the shipped default if none was saved."""
+    path = _working_path(kind, session_id, data)
+    return load_procedure(kind, path if path.is_file() else None)

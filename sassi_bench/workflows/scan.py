@@ -47,8 +47,14 @@ def _session(rig: Rig, plan: Plan, session_id: str, data) -> Session:
 
 def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) -> Plan:
     rig.set_scene(scene)
-    pattern = {"kind": "pinholes", "pitch": list(pitch)}
-    exposure = auto_exposure(rig, light, pattern, target_fraction=target)
+    # One pinhole frame samples every 100th column and can miss the brightest part of
+    # the scene (the chart's white patch), which then saturates later in the scan; so
+    # expose for the brightest of five frames spread over the column pitch.
+    exposure = None
+    for dx in range(0, pitch[0], max(1, pitch[0] // 5)):
+        pattern = {"kind": "pinholes", "pitch": list(pitch), "offset": [dx, 0]}
+        found = auto_exposure(rig, light, pattern, target_fraction=target, start_s=exposure or 0.01)
+        exposure = found if exposure is None else min(exposure, found)
     plan = scan_plan(rig.slm.shape, light, exposure, tuple(pitch), scene=scene)
     if every > 1:  # a thinned scan: every n-th pinhole offset
         keep = [s for i, s in enumerate(plan.steps) if s.tags["role"] == "closed" or i % every == 1]

@@ -237,6 +237,20 @@ def _line_decode(session: Session, proc, laser: float, slm_shape, saturation):
     return x[inside], y[inside], u[inside], v[inside], float(inside.mean()), counts
 
 
+def excluded_regions(u: NDArray, v: NDArray, regions) -> NDArray[np.bool_]:
+    """Whether SLM points (u, v) fall in any [row0, col0, row1, col1] rectangle.
+
+    Examples
+    --------
+    >>> excluded_regions(np.array([5.0, 50.0]), np.array([5.0, 5.0]), [[0, 0, 10, 10]])
+    array([ True, False])
+    """
+    out = np.zeros(np.shape(u), dtype=bool)
+    for row0, col0, row1, col1 in regions:
+        out |= (v >= row0) & (v < row1) & (u >= col0) & (u < col1)
+    return out
+
+
 def analyse_sweep(
     session: Session, proc: Mapping[str, Any], slm_shape: tuple[int, int], saturation: float
 ) -> list[LaserDecode]:
@@ -257,6 +271,8 @@ def analyse_sweep(
                     "check the exposure (saturated or too dark frames) and the laser",
                 )
             )
+        keep = ~excluded_regions(u, v, proc["fit"].get("exclude_regions_slm_px", []))
+        x, y, u, v = x[keep], y[keep], u[keep], v[keep]
         fx = fit_field(u, v, x, slm_shape, degree)
         fy = fit_field(u, v, y, slm_shape, degree)
         if "x_line_fit_rms_slm_px" in counts:

@@ -87,6 +87,7 @@ def test_02_dispersion_and_blur_shows_the_fit(lab):
     assert not _errors(book)
     assert _images(book) >= 3  # residual maps, dispersion, blur
     assert not (lab / "sim" / "v0002").exists()  # this notebook only looks
+    assert (lab / "procedures" / "nb-spectral_calibration.yaml").is_file()  # for 06
 
 
 def test_03_pinhole_scan_writes_a_cube(lab):
