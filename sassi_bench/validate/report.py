@@ -112,7 +112,7 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str], bundle: Calibration
         [
             [
                 f'<td class="l">{esc(c["name"])}</td>',
-                f"{c['value']:.3f} {esc(c['unit'])}",
+                f"{c['value']:.3f} {esc(c['unit']) if c['unit'] != '1' else ''}",
                 f"{esc(c['comparison'])} {c['tolerance']:g}",
                 "pass" if c["passed"] else '<td class="bad">FAIL</td>',
             ]
@@ -139,6 +139,7 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str], bundle: Calibration
         ["setting", "value"],
         [[f'<td class="l">{esc(k)}</td>', f'<td class="l">{esc(str(v))}</td>']
          for k, v in doc["settings"].items()],
+        left=2,
     )  # fmt: skip
     wl = doc["figures"]["wavelength_calibration"]
     bundle_checks = _table(

@@ -40,8 +40,8 @@ def _linear_reference_rgb(reference: ReferenceChart) -> NDArray[np.float64]:
 
 
 def _scan_picture(scan: ScanCube) -> NDArray[np.float32]:
-    good = scan.quality[..., None] == 0
-    return cube_to_srgb(scan.wavelengths_nm, np.where(good, scan.cube, 0.0))
+    # Flagged pixels keep their values: a saturated streak still shows where a patch is.
+    return cube_to_srgb(scan.wavelengths_nm, scan.cube)
 
 
 def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np.float32]:
