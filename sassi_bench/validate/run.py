@@ -29,10 +29,18 @@ from sassi_bench.validate.macbeth import (
 )
 from sassi_bench.validate.reference import ReferenceChart, reference_chart
 
-__all__ = ["guide_picture", "locate_chart", "run_macbeth", "validate_scans"]
+__all__ = ["guide_picture", "locate_chart", "reference_rgb", "run_macbeth", "validate_scans"]
 
 
-def _linear_reference_rgb(reference: ReferenceChart) -> NDArray[np.float64]:
+def reference_rgb(reference: ReferenceChart) -> NDArray[np.float64]:
+    """Linear sRGB of the reference patches under D65, (24, 3): the detector's colour cue.
+
+    Examples
+    --------
+    >>> from sassi_bench.validate.reference import reference_chart
+    >>> reference_rgb(reference_chart()).shape
+    (24, 3)
+    """
     import colour
 
     xyz = reflectance_to_xyz(reference.wavelengths_nm, reference.reflectance)
@@ -96,11 +104,11 @@ def locate_chart(
         rgb = cube_to_srgb(
             scan.wavelengths_nm, np.where(scan.quality[..., None] == 0, scan.cube, 0)
         )
-        grid = detect_chart(rgb, _linear_reference_rgb(reference))
+        grid = detect_chart(rgb, reference_rgb(reference))
         # Detected in ROI pixels: move the map to SLM coordinates.
         shift = np.array([[1, 0, scan.origin[1]], [0, 1, scan.origin[0]], [0, 0, 1]], float)
         return ChartGrid(shift @ grid.homography, grid.method, grid.detected)
-    return detect_chart(np.asarray(picture), _linear_reference_rgb(reference))
+    return detect_chart(np.asarray(picture), reference_rgb(reference))
 
 
 def validate_scans(
