@@ -273,6 +273,13 @@ def validate_macbeth(
         "of both spectra, each held constant beyond it; the reference is averaged over the "
         "bundle's bins exactly like the measurement.",
     ]
+    few = np.flatnonzero(chart.count < 0.5 * np.median(chart.count))
+    if few.size:
+        listed = ", ".join(f"{i + 1} ({int(chart.count[i])} px)" for i in few)
+        notes.append(
+            f"Patch(es) {listed} kept less than half the usual pixels: the scan flagged the "
+            "rest (saturated, off the camera or not measured); check the exposure."
+        )
     if white.ndim == 1 and (settings or {}).get("white_reference") == "patch":
         notes.append(
             f"The white reference is the chart's white patch ({reference.patch_names[WHITE_PATCH]})"
