@@ -1,0 +1,195 @@
+"""Figures of the Macbeth validation report; each returns the figure and its data."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "chart_figure",
+    "de00_figure",
+    "localisation_figure",
+    "macbeth_figures",
+    "spectra_figure",
+    "wavelength_figure",
+]
+
+
+def _figure(*args, **kwargs):
+    from matplotlib.figure import Figure
+
+    return Figure(*args, **kwargs)
+
+
+def _shade_unusable(ax, lam, usable) -> None:
+    lo, hi = lam[usable][0], lam[usable][-1]
+    ax.axvspan(lam[0] - 5, lo, color="0.85", lw=0)
+    ax.axvspan(hi, lam[-1] + 5, color="0.85", lw=0)
+
+
+def spectra_figure(result) -> tuple[Any, dict[str, Any]]:
+    """The 24 patch spectra against the reference, in the chart's 4 x 6 layout."""
+    lam, usable = result.wavelengths_nm, result.usable
+    fig = _figure(figsize=(13.5, 8.2), layout="constrained")
+    axes = fig.subplots(4, 6, sharex=True, sharey=True)
+    top = float(np.nanmax(np.r_[result.reference.ravel(), result.reflectance[:, usable].ravel()]))
+    for k, ax in enumerate(axes.ravel()):
+        _shade_unusable(ax, lam, usable)
+        colour = np.clip(result.srgb_reference[k], 0, 1)
+        ax.plot(lam, result.reference[k], color="black", lw=1.2, label="reference")
+        mean, spread = result.reflectance[k], result.spread[k]
+        ax.fill_between(lam, mean - spread, mean + spread, color=colour, alpha=0.35, lw=0)
+        ax.plot(lam, mean, color=colour, lw=1.6, label="measured")
+        ax.plot(lam, mean, color="black", lw=0.4, alpha=0.6)
+        ax.set_title(
+            f"{k + 1} {result.patch_names[k][:16]}\ndE00 {result.de00[k]:.2f}, "
+            f"{result.angle_deg[k]:.2f}°",
+            fontsize=8,
+        )
+        ax.set_ylim(0, 1.1 * top)
+        ax.set_xlim(lam[0], lam[-1])
+        ax.tick_params(labelsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("nm", fontsize=8)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("reflectance", fontsize=8)
+    axes[0, 0].legend(fontsize=7, loc="upper left")
+    fig.suptitle(
+        "Patch reflectance: measured mean ± 1 std (colour) vs reference (black); "
+        "grey: outside the usable band",
+        fontsize=10,
+    )
+    data = {
+        "wavelength_nm": lam.tolist(),
+        "usable": result.usable.tolist(),
+        "patch_names": list(result.patch_names),
+        "measured": np.nan_to_num(result.reflectance).tolist(),
+        "spread": np.nan_to_num(result.spread).tolist(),
+        "reference": result.reference.tolist(),
+        "pixels": result.pixels.tolist(),
+    }
+    return fig, data
+
+
+def de00_figure(result, tolerances) -> tuple[Any, dict[str, Any]]:
+    """CIEDE2000 per patch with the tolerances."""
+    fig = _figure(figsize=(10, 3.6), layout="constrained")
+    ax = fig.subplots()
+    x = np.arange(1, 25)
+    ax.bar(x, result.de00, color=np.clip(result.srgb_reference, 0, 1), edgecolor="black", lw=0.6)
+    ax.axhline(tolerances["max_de00"], color="crimson", ls="--", lw=1, label="max tolerance")
+    ax.axhline(tolerances["mean_de00"], color="darkorange", ls=":", lw=1, label="mean tolerance")
+    ax.axhline(float(np.mean(result.de00)), color="black", lw=1, label="measured mean")
+    ax.set_xticks(x)
+    ax.set_xlabel("patch")
+    ax.set_ylabel("CIEDE2000")
+    ax.set_ylim(0, 1.15 * max(float(np.max(result.de00)), tolerances["max_de00"]))
+    ax.set_title("Colour difference per patch (D65, CIE 1931 2°)", fontsize=10)
+    ax.legend(fontsize=8, ncols=3, loc="upper left")
+    data = {
+        "patch": x.tolist(),
+        "de00": result.de00.tolist(),
+        "mean_tolerance": tolerances["mean_de00"],
+        "max_tolerance": tolerances["max_de00"],
+    }
+    return fig, data
+
+
+def _swatches(rgb) -> np.ndarray:
+    """A 4 x 6 chart image with dark gaps, 20 px per patch."""
+    image = np.full((4 * 24 + 4, 6 * 24 + 4, 3), 0.1)
+    for k, colour in enumerate(np.clip(rgb, 0, 1)):
+        r, c = divmod(k, 6)
+        image[4 + 24 * r : 24 * (r + 1), 4 + 24 * c : 24 * (c + 1)] = colour
+    return image
+
+
+def chart_figure(result) -> tuple[Any, dict[str, Any]]:
+    """The measured chart rendered beside the reference swatches (D65, sRGB)."""
+    fig = _figure(figsize=(10, 3.4), layout="constrained")
+    axes = fig.subplots(1, 2)
+    for ax, rgb, title in (
+        (axes[0], result.srgb_measured, "measured (rendered under D65)"),
+        (axes[1], result.srgb_reference, "reference"),
+    ):
+        ax.imshow(_swatches(rgb), interpolation="nearest")
+        ax.set_title(title, fontsize=10)
+        ax.set_axis_off()
+    data = {
+        "srgb_measured": result.srgb_measured.tolist(),
+        "srgb_reference": result.srgb_reference.tolist(),
+        "lab_measured": result.lab_measured.tolist(),
+        "lab_reference": result.lab_reference.tolist(),
+    }
+    return fig, data
+
+
+def localisation_figure(result, interior: float) -> tuple[Any, dict[str, Any]]:
+    """The picture the chart was found on, with the measured patch interiors."""
+    fig = _figure(figsize=(6.4, 4.4), layout="constrained")
+    ax = fig.subplots()
+    r0, c0 = result.picture_origin
+    if result.picture is not None:
+        h, w = result.picture.shape[:2]
+        ax.imshow(result.picture, extent=(c0 - 0.5, c0 + w - 0.5, r0 + h - 0.5, r0 - 0.5))
+    centres = result.grid.centres()
+    half = interior / 2.0
+    square = np.array([[-half, -half], [half, -half], [half, half], [-half, half], [-half, -half]])
+    rows, cols = np.divmod(np.arange(24), 6)
+    for k in range(24):
+        corners = result.grid.to_slm(square + np.array([cols[k], rows[k]]))
+        ax.plot(corners[:, 0], corners[:, 1], color="white", lw=1)
+        ax.text(*centres[k], str(k + 1), color="white", ha="center", va="center", fontsize=7)
+    ax.set_xlabel("SLM u (px)")
+    ax.set_ylabel("SLM v (px)")
+    ax.set_title(
+        f"Patch localisation ({result.grid.method}, {result.grid.detected} patches found)",
+        fontsize=10,
+    )
+    data = {
+        "method": result.grid.method,
+        "detected": result.grid.detected,
+        "homography_chart_to_slm": result.grid.homography.tolist(),
+        "centres_uv": centres.tolist(),
+        "interior": interior,
+    }
+    return fig, data
+
+
+def wavelength_figure(result, bundle) -> tuple[Any, dict[str, Any]]:
+    """The bundle's wavelength bins: width per bin, and the white signal that set the band."""
+    lam, edges = result.wavelengths_nm, result.bin_edges_nm
+    fig = _figure(figsize=(10, 3.4), layout="constrained")
+    axes = fig.subplots(1, 2)
+    axes[0].plot(lam, np.diff(edges), ".-")
+    axes[0].set_xlabel("bin centre (nm)")
+    axes[0].set_ylabel("bin width (nm)")
+    axes[0].set_title(f"{lam.size} wavelength bins, {edges[0]:.1f}-{edges[-1]:.1f} nm", fontsize=10)
+    _shade_unusable(axes[1], lam, result.usable)
+    axes[1].plot(lam, result.white_relative, ".-")
+    axes[1].set_xlabel("bin centre (nm)")
+    axes[1].set_ylabel("white signal / peak")
+    lo, hi = result.band_nm
+    axes[1].set_title(f"Usable band {lo:.0f}-{hi:.0f} nm (unshaded)", fontsize=10)
+    checks = list(bundle.manifest.get("quality", {}).get("checks", []))
+    data = {
+        "bin_centres_nm": lam.tolist(),
+        "bin_edges_nm": edges.tolist(),
+        "bin_resolution_nm": np.asarray(bundle.bin_resolution_nm).tolist(),
+        "white_relative": result.white_relative.tolist(),
+        "usable_band_nm": [lo, hi],
+        "bundle_checks": [dict(c) for c in checks],
+    }
+    return fig, data
+
+
+def macbeth_figures(result, bundle, procedure) -> dict[str, tuple[Any, dict[str, Any]]]:
+    """Every figure of the report with its data, by name."""
+    return {
+        "spectra": spectra_figure(result),
+        "de00": de00_figure(result, procedure["tolerances"]),
+        "chart": chart_figure(result),
+        "localisation": localisation_figure(result, float(procedure["localisation"]["interior"])),
+        "wavelength_calibration": wavelength_figure(result, bundle),
+    }

@@ -1,0 +1,260 @@
+"""The Macbeth validation end to end: capture (or reuse) scans, find the patches, compare.
+
+:func:`validate_scans` works on assembled scans (pure: no devices); :func:`run_macbeth`
+captures the chart and, when the procedure asks for it, the white diffuser with pinhole
+scans on a rig, then calls it. Sessions resume, so re-running with the same session ids
+re-analyses existing captures (e.g. with another bundle) without capturing again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.errors import step_error
+from sassi_bench.rig.rig import Rig
+from sassi_bench.spectra.scan import ScanCube
+from sassi_bench.validate.colorimetry import cube_to_srgb, reflectance_to_xyz
+from sassi_bench.validate.locate import ChartGrid, detect_chart, grid_from_corners
+from sassi_bench.validate.macbeth import (
+    MacbethResult,
+    patch_statistics,
+    validate_macbeth,
+    white_from_diffuser,
+    white_from_patch,
+)
+from sassi_bench.validate.reference import ReferenceChart, reference_chart
+
+__all__ = ["guide_picture", "locate_chart", "reference_rgb", "run_macbeth", "validate_scans"]
+
+
+def reference_rgb(reference: ReferenceChart) -> NDArray[np.float64]:
+    """Linear sRGB of the reference patches under D65, (24, 3): the detector's colour cue.
+
+    Examples
+    --------
+    >>> from sassi_bench.validate.reference import reference_chart
+    >>> reference_rgb(reference_chart()).shape
+    (24, 3)
+    """
+    import colour
+
+    xyz = reflectance_to_xyz(reference.wavelengths_nm, reference.reflectance)
+    return np.asarray(colour.XYZ_to_sRGB(xyz, apply_cctf_encoding=False), dtype=np.float64)
+
+
+def _scan_picture(scan: ScanCube) -> NDArray[np.float32]:
+    # Flagged pixels keep their values: a saturated streak still shows where a patch is.
+    return cube_to_srgb(scan.wavelengths_nm, scan.cube)
+
+
+def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np.float32]:
+    """The guide camera's view of the current scene, warped onto the SLM grid (sRGB-like 0-1).
+
+    Needs a bundle with a guide -> SLM homography.
+    """
+    from sassi_bench.acquire.exposure import auto_exposure
+
+    if bundle.guide_to_slm is None:
+        raise ValueError(
+            step_error(
+                "Macbeth patch localisation",
+                f"bundle {bundle.rig_name}/{bundle.version} has no guide -> SLM homography",
+                "set localisation.image to 'cube' or calibrate the guide homography first",
+            )
+        )
+    exposure = auto_exposure(rig, light, {"kind": "full"}, camera="guide", target_fraction=0.7)
+    rig.light.select(light)
+    rig.guide_camera.set_exposure(exposure)
+    raw = rig.guide_camera.capture().as_float()
+    linear = np.clip(raw - np.percentile(raw, 0.5), 0, None)
+    linear /= max(float(np.percentile(linear, 99.5)), 1e-12)
+    warped = bundle.warp_guide_to_slm(np.clip(linear, 0, 1).astype(np.float32))
+    return (np.clip(warped, 0, 1) ** (1 / 2.2)).astype(np.float32)
+
+
+def locate_chart(
+    scan: ScanCube,
+    reference: ReferenceChart,
+    *,
+    corners: Sequence[Sequence[float]] | None = None,
+    picture: NDArray[Any] | None = None,
+) -> ChartGrid:
+    """Where the patches are: from four corners, else by detection on a picture.
+
+    Parameters
+    ----------
+    scan
+        The chart scan; its RGB rendering is the default picture.
+    reference
+        Reference reflectances (the detector's orientation cue).
+    corners
+        SLM ``(u, v)`` centres of patches 1, 6, 24 and 19; skips detection.
+    picture
+        (H_slm, W_slm, 3) picture on the full SLM grid (e.g. :func:`guide_picture`)
+        instead of the cube's rendering.
+    """
+    if corners is not None:
+        return grid_from_corners(corners)
+    if picture is None:
+        rgb = cube_to_srgb(
+            scan.wavelengths_nm, np.where(scan.quality[..., None] == 0, scan.cube, 0)
+        )
+        grid = detect_chart(rgb, reference_rgb(reference))
+        # Detected in ROI pixels: move the map to SLM coordinates.
+        shift = np.array([[1, 0, scan.origin[1]], [0, 1, scan.origin[0]], [0, 0, 1]], float)
+        return ChartGrid(shift @ grid.homography, grid.method, grid.detected)
+    return detect_chart(np.asarray(picture), reference_rgb(reference))
+
+
+def validate_scans(
+    chart: ScanCube,
+    bundle: CalibrationBundle,
+    procedure: Mapping[str, Any],
+    *,
+    white: ScanCube | None = None,
+    corners: Sequence[Sequence[float]] | None = None,
+    picture: NDArray[Any] | None = None,
+    settings: Mapping[str, Any] | None = None,
+) -> MacbethResult:
+    """Validate a bundle from an assembled chart scan (and a diffuser scan).
+
+    Parameters
+    ----------
+    chart
+        Pinhole scan of the chart, assembled with ``bundle``.
+    bundle
+        The bundle under test.
+    procedure
+        The ``macbeth_validation`` procedure.
+    white
+        Diffuser scan, in the same units, when ``white_reference.source`` is ``diffuser``.
+    corners, picture
+        See :func:`locate_chart`.
+    settings
+        Provenance added to the report.
+    """
+    source = procedure["white_reference"]["source"]
+    if source == "diffuser" and white is None:
+        raise ValueError(
+            step_error(
+                "Macbeth white reference",
+                "the procedure asks for a white diffuser scan and none was given",
+                "scan the diffuser, or set white_reference.source to 'patch'",
+            )
+        )
+    for scan, what in ((chart, "chart"), (white, "diffuser")):
+        if scan is not None and not np.allclose(scan.wavelengths_nm, bundle.wavelengths):
+            raise ValueError(
+                step_error(
+                    "Macbeth validation",
+                    f"the {what} scan was assembled with other wavelength bins than bundle "
+                    f"{bundle.rig_name}/{bundle.version}",
+                    "assemble both scans with the bundle under test",
+                )
+            )
+    reference = reference_chart(procedure["reference"]["data"])
+    if procedure["localisation"]["method"] == "corners" and corners is None:
+        raise ValueError(
+            step_error(
+                "Macbeth patch localisation",
+                "the procedure asks for manual corners and none were given",
+                "give --corners u1 v1 u6 v6 u24 v24 u19 v19 (centres of patches 1, 6, 24, 19)",
+            )
+        )
+    grid = locate_chart(chart, reference, corners=corners, picture=picture)
+    if picture is None:
+        shown = _scan_picture(chart)
+        shown_origin = chart.origin
+    else:
+        shown, shown_origin = np.asarray(picture, dtype=np.float32), (0, 0)
+    interior = float(procedure["localisation"]["interior"])
+    labels = grid.labels(chart.quality.shape, chart.origin, interior)
+    stats = patch_statistics(chart.cube, chart.quality, labels)
+    if source == "diffuser":
+        assert white is not None
+        white_labels = grid.labels(white.quality.shape, white.origin, interior)
+        white_signal = white_from_diffuser(
+            patch_statistics(white.cube, white.quality, white_labels),
+            float(procedure["white_reference"]["diffuser_reflectance"]),
+        )
+    else:
+        white_signal = white_from_patch(stats, reference, bundle.bin_edges)
+    info = {
+        "bundle": f"{bundle.rig_name}/{bundle.version}",
+        "bundle_passed": bundle.passed,
+        "reference": reference.name,
+        "white_reference": source,
+        "localisation": grid.method,
+        "patches_detected": grid.detected,
+        "interior": interior,
+        "procedure": procedure.get("source", ""),
+        **dict(settings or {}),
+    }
+    result = validate_macbeth(
+        stats,
+        white_signal,
+        reference,
+        bundle.bin_edges,
+        bundle.wavelengths,
+        procedure,
+        grid,
+        settings=info,
+    )
+    result.picture, result.picture_origin = shown, tuple(shown_origin)
+    return result
+
+
+def run_macbeth(
+    rig: Rig,
+    bundle: CalibrationBundle,
+    procedure: Mapping[str, Any],
+    *,
+    corners: Sequence[Sequence[float]] | None = None,
+    session_id: str | None = None,
+    white_session_id: str | None = None,
+    roi: tuple[int, int, int, int] | None = None,
+    data=None,
+    progress: bool = True,
+) -> MacbethResult:
+    """Scan the chart (and the diffuser) on ``rig`` and validate ``bundle``.
+
+    Examples
+    --------
+    >>> from sassi_bench import open_rig
+    >>> from sassi_bench.bundle import load
+    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> result = run_macbeth(open_rig("sim"), load(rig="sim"),
+    ...                      load_procedure("macbeth_validation"))  # doctest: +SKIP
+    >>> result.passed, result.summary()["mean_de00"]  # doctest: +SKIP
+    (True, 0.16)
+    """
+    from sassi_bench.workflows.scan import run_scan
+
+    scan_cfg = procedure["scan"]
+    light, pitch = scan_cfg["light"], tuple(scan_cfg["pitch_px"])
+    chart = run_scan(
+        rig, bundle, scene=scan_cfg["scene"], light=light, pitch=pitch, roi=roi,
+        session_id=session_id, data=data, progress=progress,
+    )  # fmt: skip
+    picture = None
+    loc = procedure["localisation"]
+    if corners is None and loc["method"] == "auto" and loc["image"] == "guide":
+        picture = guide_picture(rig, bundle, light)
+    white = None
+    settings: dict[str, Any] = {"chart_session": chart.session.id, "light": light}
+    if procedure["white_reference"]["source"] == "diffuser":
+        diffuser = run_scan(
+            rig, bundle, scene=procedure["white_reference"]["diffuser_scene"], light=light,
+            pitch=pitch, roi=roi, session_id=white_session_id, data=data, progress=progress,
+        )  # fmt: skip
+        white = diffuser.scan
+        settings["white_session"] = diffuser.session.id
+    return validate_scans(
+        chart.scan, bundle, procedure, white=white, corners=corners, picture=picture,
+        settings=settings,
+    )  # fmt: skip
