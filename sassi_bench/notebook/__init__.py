@@ -4,8 +4,10 @@ notebook run without a person (CI, ``jupyter nbconvert --execute``) keeps."""
 from sassi_bench.notebook.display import show
 from sassi_bench.notebook.widgets import (
     accept_checks,
+    chart_corners,
     checks_table,
     excluded_region,
+    pick_chart_corners,
     pick_excluded_region,
     pick_lasers,
     show_png,
@@ -13,8 +15,10 @@ from sassi_bench.notebook.widgets import (
 
 __all__ = [
     "accept_checks",
+    "chart_corners",
     "checks_table",
     "excluded_region",
+    "pick_chart_corners",
     "pick_excluded_region",
     "pick_lasers",
     "show",

@@ -14,8 +14,10 @@ from typing import Any
 
 __all__ = [
     "accept_checks",
+    "chart_corners",
     "checks_table",
     "excluded_region",
+    "pick_chart_corners",
     "pick_excluded_region",
     "pick_lasers",
     "show_png",
@@ -152,3 +154,49 @@ def excluded_region(picker) -> list[list[int]]:
     if not enabled.value:
         return []
     return [[int(rows.value[0]), int(cols.value[0]), int(rows.value[1]), int(cols.value[1])]]
+
+
+CORNER_PATCHES = ("1", "6", "24", "19")
+
+
+def pick_chart_corners(start, slm_shape: tuple[int, int]):
+    """Sliders for the SLM (u, v) centres of ColorChecker patches 1, 6, 24 and 19.
+
+    Parameters
+    ----------
+    start
+        (4, 2) starting centres (e.g. the detector's,
+        :func:`sassi_bench.validate.run.starting_corners`).
+    slm_shape
+        (height, width) of the SLM.
+
+    Returns
+    -------
+    ipywidgets.GridBox
+        Read it with :func:`chart_corners`.
+
+    Examples
+    --------
+    >>> box = pick_chart_corners([[10, 20], [60, 20], [60, 50], [10, 50]], (400, 640))
+    >>> chart_corners(box).tolist()
+    [[10.0, 20.0], [60.0, 20.0], [60.0, 50.0], [10.0, 50.0]]
+    """
+    import ipywidgets as widgets
+
+    h, w = slm_shape
+    sliders = []
+    for name, (u, v) in zip(CORNER_PATCHES, start, strict=True):
+        sliders.append(
+            widgets.FloatSlider(value=float(u), min=0, max=w - 1, step=0.5, description=f"u {name}")
+        )
+        sliders.append(
+            widgets.FloatSlider(value=float(v), min=0, max=h - 1, step=0.5, description=f"v {name}")
+        )
+    return widgets.GridBox(sliders, layout=widgets.Layout(grid_template_columns="repeat(2, 1fr)"))
+
+
+def chart_corners(picker):
+    """The (4, 2) patch centres a :func:`pick_chart_corners` holds."""
+    import numpy as np
+
+    return np.array([s.value for s in picker.children], dtype=np.float64).reshape(4, 2)

@@ -125,28 +125,53 @@ def chart_figure(result) -> tuple[Any, dict[str, Any]]:
     return fig, data
 
 
-def localisation_figure(result, interior: float) -> tuple[Any, dict[str, Any]]:
-    """The picture the chart was found on, with the measured patch interiors."""
+def grid_figure(picture, origin: tuple[int, int], grid, interior: float):
+    """A picture of the chart with a patch grid's interiors drawn on it.
+
+    Parameters
+    ----------
+    picture
+        (H, W, 3) RGB picture, or None for the grid alone.
+    origin
+        SLM (row, col) of the picture's first pixel.
+    grid
+        A :class:`~sassi_bench.validate.locate.ChartGrid`.
+    interior
+        Side of each measured square, as a fraction of the patch pitch.
+
+    Examples
+    --------
+    >>> from sassi_bench.validate.locate import grid_from_corners
+    >>> grid = grid_from_corners([[10, 20], [60, 20], [60, 50], [10, 50]])
+    >>> len(grid_figure(None, (0, 0), grid, 0.5).axes)
+    1
+    """
     fig = _figure(figsize=(6.4, 4.4), layout="constrained")
     ax = fig.subplots()
-    r0, c0 = result.picture_origin
-    if result.picture is not None:
-        h, w = result.picture.shape[:2]
-        ax.imshow(result.picture, extent=(c0 - 0.5, c0 + w - 0.5, r0 + h - 0.5, r0 - 0.5))
-    centres = result.grid.centres()
+    r0, c0 = origin
+    if picture is not None:
+        h, w = picture.shape[:2]
+        ax.imshow(picture, extent=(c0 - 0.5, c0 + w - 0.5, r0 + h - 0.5, r0 - 0.5))
+    centres = grid.centres()
     half = interior / 2.0
     square = np.array([[-half, -half], [half, -half], [half, half], [-half, half], [-half, -half]])
     rows, cols = np.divmod(np.arange(24), 6)
     for k in range(24):
-        corners = result.grid.to_slm(square + np.array([cols[k], rows[k]]))
-        ax.plot(corners[:, 0], corners[:, 1], color="white", lw=1)
+        corners = grid.to_slm(square + np.array([cols[k], rows[k]]))
+        ax.plot(corners[:, 0], corners[:, 1], color="white" if picture is not None else "k", lw=1)
         ax.text(*centres[k], str(k + 1), color="white", ha="center", va="center", fontsize=7)
     ax.set_xlabel("SLM u (px)")
     ax.set_ylabel("SLM v (px)")
-    ax.set_title(
-        f"Patch localisation ({result.grid.method}, {result.grid.detected} patches found)",
-        fontsize=10,
-    )
+    if picture is None:
+        ax.invert_yaxis()
+    ax.set_title(f"Patch localisation ({grid.method}, {grid.detected} patches found)", fontsize=10)
+    return fig
+
+
+def localisation_figure(result, interior: float) -> tuple[Any, dict[str, Any]]:
+    """The picture the chart was found on, with the measured patch interiors."""
+    fig = grid_figure(result.picture, result.picture_origin, result.grid, interior)
+    centres = result.grid.centres()
     data = {
         "method": result.grid.method,
         "detected": result.grid.detected,

@@ -19,7 +19,7 @@ from sassi_bench.errors import step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanCube
 from sassi_bench.validate.colorimetry import cube_to_srgb, reflectance_to_xyz
-from sassi_bench.validate.locate import ChartGrid, detect_chart, grid_from_corners
+from sassi_bench.validate.locate import ChartGrid, LocateError, detect_chart, grid_from_corners
 from sassi_bench.validate.macbeth import (
     MacbethResult,
     patch_statistics,
@@ -109,6 +109,29 @@ def locate_chart(
         shift = np.array([[1, 0, scan.origin[1]], [0, 1, scan.origin[0]], [0, 0, 1]], float)
         return ChartGrid(shift @ grid.homography, grid.method, grid.detected)
     return detect_chart(np.asarray(picture), reference_rgb(reference))
+
+
+def starting_corners(
+    scan: ScanCube, reference: ReferenceChart, slm_shape: tuple[int, int]
+) -> tuple[NDArray[np.float64], str]:
+    """Centres of patches 1, 6, 24 and 19 to start a manual placement from.
+
+    The detector's result when it finds the chart, else a box over the middle of the
+    SLM; with a sentence saying which.
+
+    Examples
+    --------
+    >>> corners, note = starting_corners(scan, reference, (400, 640))  # doctest: +SKIP
+    """
+    try:
+        found = locate_chart(scan, reference)
+    except LocateError as exc:
+        h, w = slm_shape
+        box = np.array(
+            [[0.2 * w, 0.2 * h], [0.8 * w, 0.2 * h], [0.8 * w, 0.8 * h], [0.2 * w, 0.8 * h]]
+        )
+        return box, f"the detector did not find the chart ({exc}); place the corners by hand"
+    return found.centres()[[0, 5, 23, 18]], f"the detector found {found.detected} patches"
 
 
 def validate_scans(

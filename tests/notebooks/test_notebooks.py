@@ -99,6 +99,21 @@ def test_03_pinhole_scan_writes_a_cube(lab):
     assert load(rig="sim", data=lab).response is not None
 
 
+def test_05_macbeth_validation_writes_a_passing_report(lab):
+    book = _run("05_macbeth_validation.ipynb", lab, white_reference="patch")
+    assert not _errors(book)
+    assert _images(book) >= 1  # the patch grid on the chart
+    report = lab / "report" / "macbeth_report.html"
+    assert report.is_file() and "data:image/png;base64" in report.read_text()
+    text = "".join(
+        output.get("text", "")
+        for cell in book.cells
+        if cell.cell_type == "code"
+        for output in cell.outputs
+    )
+    assert "PASS mean_de00" in text
+
+
 def test_06_publish_bundle_publishes_an_accepted_fit(lab):
     before = {p.name for p in (lab / "sim").iterdir() if p.name.startswith("v")}
     book = _run("06_publish_bundle.ipynb", lab)

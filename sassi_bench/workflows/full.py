@@ -1,0 +1,169 @@
+"""The whole calibration chain: spectral sweeps and fits, radiometric response, guide
+homography, Macbeth validation; one bundle and its report.
+
+The stages run in a staging data root beside the lab's
+(``<data>/staging/<session id>/``: their raw sessions, so an interrupted chain resumes,
+and the intermediate bundle versions each stage builds on). At the end the last staged
+bundle's models are published once in the lab's data root, with every stage's quality
+checks, procedures, input sessions and figures, and the Macbeth report in ``report/``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from sassi_bench.acquire.session import Session
+from sassi_bench.bundle import QualityCheck, load, publish
+from sassi_bench.paths import data_root
+from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.procedure import load_procedure, with_changes
+
+__all__ = ["FullCalibration", "run_full_calibration"]
+
+
+@dataclass
+class FullCalibration:
+    """What the chain produced: every stage's checks, the bundle and the report."""
+
+    checks: list[QualityCheck]
+    bundle_path: Path | None
+    report_html: Path
+    stages: dict[str, Any]
+
+    @property
+    def passed(self) -> bool:
+        """Whether every tolerance of every stage passed."""
+        return all(c.passed for c in self.checks)
+
+
+def _stage_procedure(kind: str, name_or_path: str) -> dict[str, Any]:
+    return load_procedure(kind, None if name_or_path == kind else name_or_path)
+
+
+def _prefixed(stage: str, checks) -> list[QualityCheck]:
+    return [
+        QualityCheck(f"{stage}.{c.name}", c.value, c.tolerance, c.unit, c.passed, c.comparison)
+        for c in checks
+    ]
+
+
+def run_full_calibration(
+    rig: Rig,
+    procedure: Mapping[str, Any],
+    *,
+    session_id: str | None = None,
+    data: str | os.PathLike[str] | None = None,
+    out: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+    allow_failed: bool = False,
+) -> FullCalibration:
+    """Run the full calibration chain on a rig and publish one bundle with its report.
+
+    Parameters
+    ----------
+    rig
+        Device handles (virtual or real).
+    procedure
+        A validated full-calibration procedure (``load_procedure("full_calibration")``).
+    session_id
+        Names the chain's staging folder and raw sessions; an existing one resumes.
+    data
+        The lab's data root (the bundle is published there).
+    out
+        Folder for the Macbeth report (default ``<data>/reports/<session id>``).
+    allow_failed
+        Publish even if a tolerance failed (the bundle is then marked as failed).
+
+    Returns
+    -------
+    FullCalibration
+
+    Examples
+    --------
+    >>> from sassi_bench import open_rig
+    >>> result = run_full_calibration(
+    ...     open_rig("sim"), load_procedure("full_calibration"))  # doctest: +SKIP
+    >>> result.passed, result.bundle_path  # doctest: +SKIP
+    (True, PosixPath('calib_data/sim/v0001'))
+    """
+    from sassi_bench.validate.report import write_report
+    from sassi_bench.validate.run import run_macbeth
+    from sassi_bench.workflows.guide import run_guide_registration
+    from sassi_bench.workflows.scan import run_response
+    from sassi_bench.workflows.spectral import run_spectral_calibration
+
+    base = session_id or "full-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+    root = data_root(data)
+    staging = root / "staging" / base
+    report_dir = Path(out) if out is not None else root / "reports" / base
+    spectral_proc = _stage_procedure("spectral_calibration", procedure["spectral_procedure"])
+    guide_proc = _stage_procedure("guide_registration", procedure["guide_procedure"])
+    macbeth_proc = _stage_procedure("macbeth_validation", procedure["macbeth_procedure"])
+    macbeth_proc = with_changes(
+        macbeth_proc,
+        white_reference={
+            **macbeth_proc["white_reference"],
+            "source": procedure["macbeth_white_reference"],
+        },
+    )
+
+    spectral = run_spectral_calibration(
+        rig, spectral_proc, session_id=f"{base}-spectral", data=staging, progress=progress,
+        allow_failed=True,
+    )  # fmt: skip
+    response_cfg = procedure["response"]
+    staged = load(
+        run_response(
+            rig, load(spectral.bundle_path), light=response_cfg["light"],
+            every=int(response_cfg["every"]), reflectance=float(response_cfg["reflectance"]),
+            session_id=f"{base}-response", data=staging, progress=progress, allow_failed=True,
+        )
+    )  # fmt: skip
+    response_checks = staged.manifest["quality"]["checks"]
+    guide = run_guide_registration(
+        rig, staged, guide_proc, session_id=f"{base}-guide", data=staging, progress=progress,
+        allow_failed=True,
+    )  # fmt: skip
+    staged = load(guide.bundle_path)
+    macbeth = run_macbeth(
+        rig, staged, macbeth_proc, session_id=f"{base}-macbeth", data=staging,
+        progress=progress,
+    )  # fmt: skip
+    html, json_path = write_report(macbeth, staged, macbeth_proc, report_dir)
+
+    checks = (
+        _prefixed("spectral", spectral.checks)
+        + _prefixed("response", [QualityCheck(**dict(c)) for c in response_checks])
+        + _prefixed("guide", guide.checks)
+        + _prefixed("macbeth", macbeth.checks)
+    )
+    reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in spectral.figures.items()}
+    reports.update({f"guide_{k}.png": v for k, v in guide.figures.items()})
+    reports.update({"macbeth_report.html": html, "macbeth_report.json": json_path})
+    chart = Session.open(macbeth.settings["chart_session"], data=staging)
+    chart_input = {"id": chart.id, "sha256": chart.sha256(), "kind": "session"}
+    bundle_path = None
+    if all(c.passed for c in checks) or allow_failed:
+        bundle_path = publish(
+            staged.models,
+            rig=rig.description,
+            quality={"checks": checks, "residuals": {"macbeth": macbeth.summary()}},
+            procedure={
+                "full_calibration": dict(procedure),
+                "spectral_calibration": spectral_proc,
+                "guide_registration": guide_proc,
+                "macbeth_validation": macbeth_proc,
+                "response": dict(response_cfg),
+            },
+            inputs=[dict(i) for i in staged.manifest["inputs"]] + [chart_input],
+            reports=reports,
+            allow_failed=allow_failed,
+            data=root,
+        )
+    stages = {"spectral": spectral, "guide": guide, "macbeth": macbeth, "staging": staging}
+    return FullCalibration(checks, bundle_path, html, stages)
