@@ -204,10 +204,13 @@ def upsample_lattice(
     slm_shape: tuple[int, int],
     origin: tuple[int, int] = (0, 0),
 ) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
-    """Resample an image sampled on a coarse SLM lattice onto every SLM pixel (bicubic).
+    """Resample an image sampled on a coarse SLM lattice onto every SLM pixel (cubic).
 
     A coarse scan measures the SLM pixels ``(origin[0] + i * stride[1],
-    origin[1] + j * stride[0])`` (row, column); pixel centres stay where they are.
+    origin[1] + j * stride[0])`` (row, column). Keys cubic convolution (a = -1/2),
+    separable, computed directly (no fixed-point warp tables): pixel centres stay where
+    they are and linear ramps are reproduced exactly; each pixel uses its 4 x 4 nearest
+    nodes.
 
     Parameters
     ----------
@@ -225,36 +228,51 @@ def upsample_lattice(
     Returns
     -------
     image, valid
-        (H, W[, C]) float32, and (H, W) bool: pixels whose interpolation used only
-        measured nodes.
+        (H, W[, C]) float32, and (H, W) bool: pixels whose every weighted node exists
+        and was measured.
 
     Examples
     --------
     >>> lattice = np.tile(np.arange(6, dtype=np.float32), (2, 1))
     >>> up, ok = upsample_lattice(lattice, np.ones((2, 6), bool), (2, 1), (2, 12))
     >>> up[0, 4:8].round(3).tolist(), ok[0, 9:].tolist()
-    ([2.0, 2.5, 3.0, 3.5], [True, True, False])
+    ([2.0, 2.5, 3.0, 3.5], [False, True, False])
     """
     sx, sy = int(stride[0]), int(stride[1])
-    r0, c0 = int(origin[0]), int(origin[1])
     height, width = int(slm_shape[0]), int(slm_shape[1])
-    # SLM (u, v) -> lattice ((u - c0) / sx, (v - r0) / sy)
-    to_lattice = np.array([[1.0 / sx, 0.0, -c0 / sx], [0.0, 1.0 / sy, -r0 / sy]])
-    flags = cv2.WARP_INVERSE_MAP
-    data = np.ascontiguousarray(np.asarray(image, dtype=np.float32))
-    mask = np.asarray(valid, bool)
-    filled = np.where(mask[..., None] if data.ndim == 3 else mask, data, 0.0).astype(np.float32)
-    up = cv2.warpAffine(
-        filled, to_lattice, (width, height), flags=cv2.INTER_CUBIC | flags,
-        borderMode=cv2.BORDER_REPLICATE,
-    )  # fmt: skip
-    # Bicubic reaches two nodes out: a pixel is usable if every node within reach is valid.
-    bad = cv2.dilate((~mask).astype(np.uint8), np.ones((3, 3), np.uint8)) if sx * sy > 1 else ~mask
-    reach = cv2.warpAffine(
-        np.asarray(bad, np.float32), to_lattice, (width, height),
-        flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_CONSTANT, borderValue=1.0,
-    )  # fmt: skip
-    return up.astype(np.float32), reach <= 0.0
+    data = np.asarray(image, dtype=np.float64)
+    ok = np.asarray(valid, bool)
+    # Lattice coordinates of every SLM pixel centre, one axis at a time (separable).
+    rows = (np.arange(height) - float(origin[0])) / sy
+    cols = (np.arange(width) - float(origin[1])) / sx
+    data, ok = _cubic_axis(data, ok, cols, axis=1)
+    data, ok = _cubic_axis(data, ok, rows, axis=0)
+    return data.astype(np.float32), ok
+
+
+def _cubic_axis(data, ok, positions, axis: int):
+    """Keys cubic convolution (a = -1/2) along one axis: values, and where every node
+    with a non-zero weight exists and is valid."""
+    base = np.floor(positions).astype(np.intp)
+    t = positions - base
+    taps = base[None, :] + np.arange(-1, 3)[:, None]  # (4, P)
+    d = np.abs(t[None, :] - np.arange(-1, 3)[:, None])
+    weights = np.where(
+        d <= 1,
+        1.5 * d**3 - 2.5 * d**2 + 1,
+        np.where(d < 2, -0.5 * d**3 + 2.5 * d**2 - 4 * d + 2, 0),
+    )
+    n = data.shape[axis]
+    used = np.abs(weights) > 1e-12
+    inside = (taps >= 0) & (taps < n)
+    index = np.clip(taps, 0, n - 1)
+    values = np.take(data, index, axis=axis)  # axis -> (4, P)
+    shape = [1] * values.ndim
+    shape[axis], shape[axis + 1] = 4, -1
+    out = np.sum(values * weights.reshape(shape), axis=axis)
+    good = np.take(ok, index, axis=axis) | ~used.reshape(shape[: ok.ndim + 1])
+    good &= (inside | ~used).reshape(shape[: ok.ndim + 1])
+    return out, good.all(axis=axis)
 
 
 def to_grey8(
