@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.errors import ConfigError, SassiBenchError, step_error
 
 __all__ = [
     "METHODS",
@@ -46,6 +46,7 @@ __all__ = [
     "field_discrepancy_px",
     "register_guide",
     "render_rgb",
+    "rendering_sensitivities",
     "to_grey8",
     "upsample_lattice",
 ]
@@ -63,7 +64,7 @@ _SCENE_ADVICE = (
 )
 
 
-class RegistrationError(ValueError):
+class RegistrationError(SassiBenchError, ValueError):
     """The guide image and the SLM rendering could not be registered reliably."""
 
 
@@ -106,6 +107,42 @@ def camera_sensitivities(name: str, wavelengths_nm: ArrayLike) -> NDArray[np.flo
         [np.interp(grid, msds.wavelengths, values[:, c], left=0.0, right=0.0) for c in range(3)]
     )
     return out / out.max()
+
+
+def rendering_sensitivities(
+    sensor: str, method: str, wavelengths_nm: ArrayLike
+) -> tuple[NDArray[np.float64] | None, str]:
+    """The sensitivities :func:`render_rgb` should use, and a label for the bundle.
+
+    Parameters
+    ----------
+    sensor
+        The guide sensor the rig description names (``guide_camera.sensitivities``).
+    method
+        ``"camera"`` (the sensor's sensitivities, an error if unknown), ``"cie"``
+        (CIE 1931 -> sRGB) or ``"auto"`` (the sensor's when known, else CIE).
+    wavelengths_nm
+        Bin centres.
+
+    Examples
+    --------
+    >>> rendering_sensitivities("a lab camera", "auto", [500.0, 600.0])
+    (None, 'cie')
+    >>> rendering_sensitivities("Nikon 5100 (NPL)", "auto", [500.0, 600.0])[1]
+    'camera: Nikon 5100 (NPL)'
+    """
+    if method not in ("auto", "camera", "cie"):
+        raise ValueError(
+            step_error(STEP, f"unknown rendering {method!r}", "use auto, camera or cie")
+        )
+    if method == "cie":
+        return None, "cie"
+    try:
+        return camera_sensitivities(sensor, wavelengths_nm), f"camera: {sensor}"
+    except ConfigError:
+        if method == "camera":
+            raise
+        return None, "cie"
 
 
 def _cie_cmfs(wavelengths_nm: NDArray[np.float64]) -> NDArray[np.float64]:

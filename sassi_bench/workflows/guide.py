@@ -32,9 +32,9 @@ from sassi_bench.acquire.session import Session, SessionError
 from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
 from sassi_bench.calibrate.guide_registration import (
     Registration,
-    camera_sensitivities,
     register_guide,
     render_rgb,
+    rendering_sensitivities,
     upsample_lattice,
 )
 from sassi_bench.errors import ConfigError, step_error
@@ -137,7 +137,7 @@ def coarse_scan_plan(
     Examples
     --------
     >>> plan = coarse_scan_plan((400, 640), "led", 0.1, (100, 5), (4, 1), "natural")
-    >>> len(plan.select(role="pinholes")), plan.parameters["stride"]
+    >>> len(plan.select(role="pinholes")), list(plan.parameters["stride"])
     (125, [4, 1])
     """
     px, py = int(pitch[0]), int(pitch[1])
@@ -157,19 +157,6 @@ def coarse_scan_plan(
         if s.tags["role"] != "pinholes" or (s.tags["ox"] % sx == 0 and s.tags["oy"] % sy == 0)
     )
     return Plan("guide-scan", keep, {**plan.parameters, "stride": [sx, sy]})
-
-
-def _sensitivities(rig: Rig, rendering: str, wavelengths: NDArray[np.float64]):
-    """(3, B) guide sensitivities and a label, or (None, "cie")."""
-    name = rig.description.guide_camera.sensitivities
-    if rendering == "cie":
-        return None, "cie"
-    try:
-        return camera_sensitivities(name, wavelengths), f"camera: {name}"
-    except ConfigError:
-        if rendering == "camera":
-            raise
-        return None, "cie"
 
 
 def scan_reference(
@@ -202,7 +189,9 @@ def scan_reference(
     if bundle.response is not None:
         cube = cube / np.asarray(bundle.response, dtype=np.float32)
     valid = scan.quality[:: stride[1], :: stride[0]] == 0
-    sensitivities, label = _sensitivities(rig, str(procedure["rendering"]), scan.wavelengths_nm)
+    sensitivities, label = rendering_sensitivities(
+        rig.description.guide_camera.sensitivities, str(procedure["rendering"]), scan.wavelengths_nm
+    )
     rgb = render_rgb(cube, scan.wavelengths_nm, sensitivities=sensitivities, valid=valid)
     image, image_valid = upsample_lattice(rgb, valid, stride, rig.slm.shape)
     return SlmReference(np.clip(image, 0.0, 1.0), image_valid, label, scene, session, stride)

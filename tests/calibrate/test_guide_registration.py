@@ -13,10 +13,10 @@ from sassi_bench.calibrate.guide_registration import (
     field_discrepancy_px,
     register_guide,
     render_rgb,
+    rendering_sensitivities,
     upsample_lattice,
 )
 from sassi_bench.errors import ConfigError
-from sassi_bench.rig.sim import truth
 
 # A projective guide -> SLM map with rotation, scale and a little perspective.
 H_TRUE = np.array([[1.12, 0.06, -20.0], [-0.05, 1.1, -14.0], [2e-5, -1e-5, 1.0]])
@@ -43,8 +43,13 @@ def test_camera_sensitivities_known_and_unknown():
     assert s.shape == (3, 31) and s.max() == pytest.approx(1.0)
     peaks = np.arange(400, 701, 10.0)[np.argmax(s, axis=1)]
     assert peaks[2] < peaks[1] < peaks[0]  # blue, green, red peaks in order
-    with pytest.raises(ConfigError, match="guide_camera.sensitivities"):
+    with pytest.raises(ConfigError, match=r"guide_camera\.sensitivities"):
         camera_sensitivities("no such camera", [500.0])
+    with pytest.raises(ConfigError, match="unknown guide camera"):
+        rendering_sensitivities("no such camera", "camera", [500.0])
+    assert rendering_sensitivities("Nikon 5100 (NPL)", "cie", [500.0]) == (None, "cie")
+    with pytest.raises(ValueError, match="unknown rendering"):
+        rendering_sensitivities("Nikon 5100 (NPL)", "srgb", [500.0])
 
 
 def test_cie_rendering_of_daylight_is_neutral_and_of_blue_light_is_blue():
@@ -114,7 +119,7 @@ def test_textureless_scene_fails_with_advice(slm_photo):
 
 def test_wrong_scene_fails(slm_photo):
     other = cv2.resize(skdata.chelsea(), (360, 240)).astype(np.float32)
-    with pytest.raises(RegistrationError, match="different scene|chance pairings"):
+    with pytest.raises(RegistrationError, match=r"different scene|chance pairings"):
         register_guide(other, slm_photo)
 
 
@@ -130,24 +135,3 @@ def test_texture_in_one_corner_fails_on_coverage(slm_photo):
 def test_unknown_method_is_refused(slm_photo):
     with pytest.raises(ValueError, match="unknown method"):
         register_guide(slm_photo, slm_photo, method="lmeds")
-
-
-def test_cie_rendering_of_the_scene_registers_to_the_virtual_guide(sim_rig):
-    """The sRGB route (guide sensor unknown) against the bench's guide camera."""
-    from sassi_bench.acquire.exposure import auto_exposure
-
-    bench = truth(sim_rig)
-    wl = bench.wavelengths_nm[::5]  # 10 nm samples are plenty for colour
-    scene = bench.bench.scene_named("natural")
-    rows, cols = scene.slm_window(sim_rig.slm.shape)
-    cube = np.moveaxis(scene.project(np.eye(bench.wavelengths_nm.size)[::5])[:, rows, cols], 0, -1)
-    led = bench.light_samples("led")
-    rgb = render_rgb(cube * np.interp(wl, led.wavelengths_nm, led.weights), wl)
-    sim_rig.set_scene("natural")
-    exposure = auto_exposure(sim_rig, "led", {"kind": "blank"}, camera="guide")
-    sim_rig.guide_camera.set_exposure(exposure)
-    sim_rig.light.select("led")
-    guide = sim_rig.guide_camera.capture().data.astype(np.float64)
-    reg = register_guide(guide, rgb, sift_options={"contrastThreshold": 0.02})
-    rms, _ = field_discrepancy_px(reg.homography, bench.guide_to_slm, sim_rig.slm.shape)
-    assert rms < 0.3
