@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import io
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -112,13 +112,35 @@ def _stamp() -> str:
     return "guide-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
 
 
-def _session(rig: Rig, plan: Plan, session_id: str, data) -> Session:
-    """Resume ``session_id`` with its stored plan, or create it with ``plan``."""
+def _session(rig: Rig, make_plan: Callable[[], Plan], session_id: str, data) -> Session:
+    """Resume ``session_id`` with its stored plan, or create it with ``make_plan()``
+    (called only then: planning runs auto-exposure on the devices)."""
     try:
         existing = Session.open(session_id, data=data)
     except SessionError:
-        return Session.create(rig.description, plan, session_id=session_id, data=data)
+        return Session.create(rig.description, make_plan(), session_id=session_id, data=data)
     return Session.open_or_create(rig.description, existing.plan, session_id=session_id, data=data)
+
+
+def _check_resumed(session: Session, expected: Mapping[str, Any]) -> None:
+    """A resumed session must have been planned with the procedure's parameters."""
+    stored = session.plan.parameters
+    differ = {k: v for k, v in expected.items() if _plain(stored.get(k)) != _plain(v)}
+    if differ:
+        raise ValueError(
+            step_error(
+                STEP,
+                f"session {session.id!r} was planned with "
+                + ", ".join(f"{k}={_plain(stored.get(k))}" for k in differ)
+                + ", the procedure asks for "
+                + ", ".join(f"{k}={_plain(v)}" for k, v in differ.items()),
+                "use a new --session id, or the procedure the session was made with",
+            )
+        )
+
+
+def _plain(value: Any) -> Any:
+    return [_plain(v) for v in value] if isinstance(value, list | tuple) else value
 
 
 def coarse_scan_plan(
@@ -173,16 +195,21 @@ def scan_reference(
     pitch = tuple(int(p) for p in scan_cfg["pitch_px"])
     stride = (int(scan_cfg["stride_px"][0]), int(scan_cfg["stride_px"][1]))
     scene, light = str(procedure["scene"]), str(procedure["light"])
-    rig.set_scene(scene)
-    exposure = auto_exposure(
-        rig,
-        light,
-        {"kind": "pinholes", "pitch": list(pitch)},
-        target_fraction=float(scan_cfg["target_fraction"]),
+
+    def make_plan() -> Plan:
+        rig.set_scene(scene)
+        exposure = auto_exposure(
+            rig,
+            light,
+            {"kind": "pinholes", "pitch": list(pitch)},
+            target_fraction=float(scan_cfg["target_fraction"]),
+        )
+        return coarse_scan_plan(rig.slm.shape, light, exposure, pitch, stride, scene)
+
+    session = _session(rig, make_plan, session_id, data)
+    _check_resumed(
+        session, {"scene": scene, "light": light, "pitch": list(pitch), "stride": list(stride)}
     )
-    plan = coarse_scan_plan(rig.slm.shape, light, exposure, pitch, stride, scene)
-    session = _session(rig, plan, session_id, data)
-    stride = tuple(int(s) for s in session.plan.parameters.get("stride", stride))
     run_plan(rig, session.plan, session, progress=progress)
     scan = assemble_scan(session, bundle, progress=progress)
     cube = scan.cube[:: stride[1], :: stride[0]]
@@ -208,20 +235,19 @@ def capture_guide(
     """Averaged, dark-subtracted guide image of the procedure's scene, and unsaturated pixels."""
     cfg = procedure["guide"]
     scene, light = str(procedure["scene"]), str(procedure["light"])
-    rig.set_scene(scene)
-    exposure = auto_exposure(
-        rig,
-        light,
-        {"kind": "blank"},
-        camera="guide",
-        target_fraction=float(cfg["target_fraction"]),
-    )
-    n = int(cfg["frames"])
     blank = {"kind": "blank"}
-    steps = [Step("guide", light, exposure, blank, {"role": "guide"}) for _ in range(n)]
-    steps += [Step("guide", "off", exposure, blank, {"role": "guide_dark"}) for _ in range(n)]
-    plan = Plan("guide-capture", tuple(steps), {"scene": scene, "light": light})
-    session = _session(rig, plan, session_id, data)
+
+    def make_plan() -> Plan:
+        rig.set_scene(scene)
+        target = float(cfg["target_fraction"])
+        exposure = auto_exposure(rig, light, blank, camera="guide", target_fraction=target)
+        n = int(cfg["frames"])
+        steps = [Step("guide", light, exposure, blank, {"role": "guide"}) for _ in range(n)]
+        steps += [Step("guide", "off", exposure, blank, {"role": "guide_dark"}) for _ in range(n)]
+        return Plan("guide-capture", tuple(steps), {"scene": scene, "light": light})
+
+    session = _session(rig, make_plan, session_id, data)
+    _check_resumed(session, {"scene": scene, "light": light})
     run_plan(rig, session.plan, session, progress=progress)
     lit = session.read_frames(session.plan.select(role="guide")).astype(np.float64)
     dark = session.read_frames(session.plan.select(role="guide_dark")).astype(np.float64)

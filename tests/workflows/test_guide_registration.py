@@ -13,7 +13,12 @@ from sassi_bench.calibrate.guide_registration import (
 )
 from sassi_bench.errors import ConfigError
 from sassi_bench.rig.sim import truth
-from sassi_bench.workflows.guide import capture_guide, coarse_scan_plan, run_guide_registration
+from sassi_bench.workflows.guide import (
+    capture_guide,
+    coarse_scan_plan,
+    run_guide_registration,
+    scan_reference,
+)
 from sassi_bench.workflows.procedure import load_procedure
 
 # Issue target: <= 0.3 px RMS over the SLM field against the true homography.
@@ -143,3 +148,11 @@ def test_cli_command_is_registered_and_reports_a_missing_bundle(tmp_path, capsys
     code = main(["calibrate", "guide", "--rig", "sim", "--data", str(tmp_path), "--quiet"])
     assert code == 2
     assert "error:" in capsys.readouterr().err
+
+
+def test_resuming_a_session_with_another_procedure_is_refused(guide_run):
+    rig, parent, _, data = guide_run
+    proc = load_procedure("guide_registration")
+    proc["scan"]["stride_px"] = [2, 1]
+    with pytest.raises(ValueError, match=r"planned with stride=\[4, 1\].*stride=\[2, 1\]"):
+        scan_reference(rig, parent, proc, session_id="g-scan", data=data, progress=False)
