@@ -22,7 +22,11 @@ import time
 
 from sassi_bench import open_rig
 from sassi_bench.bundle import load
-from sassi_bench.calibrate.guide_registration import field_discrepancy_px, register_guide
+from sassi_bench.calibrate.guide_registration import (
+    RegistrationError,
+    field_discrepancy_px,
+    register_guide,
+)
 from sassi_bench.rig.config import rig_description_from_dict
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import capture_guide, run_guide_registration
@@ -73,10 +77,14 @@ def main() -> None:
             proc = load_procedure("guide_registration")
             proc["scan"]["stride_px"] = [sx, sy]
             start = time.perf_counter()
-            result = run_guide_registration(
-                rig, bundle, proc, session_id=f"s{sx}x{sy}", data=data, progress=False,
-                publish_bundle=False, figures=False,
-            )  # fmt: skip
+            try:
+                result = run_guide_registration(
+                    rig, bundle, proc, session_id=f"s{sx}x{sy}", data=data, progress=False,
+                    publish_bundle=False, figures=False,
+                )  # fmt: skip
+            except RegistrationError as exc:  # too coarse: say so and go on
+                print(f"{text:>7}  registration failed: {str(exc).split('. Fix:')[0]}")
+                continue
             seconds = time.perf_counter() - start
             baseline = baseline or seconds
             frames = len(result.reference.session.plan.select(role="pinholes"))
