@@ -30,9 +30,8 @@ from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session, SessionError
 from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
-from sassi_bench.calibrate.guide_registration import (
-    Registration,
-    register_guide,
+from sassi_bench.calibrate.guide_registration import Registration, register_guide
+from sassi_bench.calibrate.guide_render import (
     render_rgb,
     rendering_sensitivities,
     upsample_lattice,

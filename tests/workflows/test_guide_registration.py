@@ -9,8 +9,8 @@ from sassi_bench.calibrate.guide_registration import (
     apply_homography,
     field_discrepancy_px,
     register_guide,
-    render_rgb,
 )
+from sassi_bench.calibrate.guide_render import render_rgb
 from sassi_bench.errors import ConfigError
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import (
