@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 __all__ = ["register"]
 
@@ -39,6 +40,70 @@ def _spectral(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _guide(args: argparse.Namespace) -> int:
+    from sassi_bench.bundle import load
+    from sassi_bench.rig import open_rig
+    from sassi_bench.workflows.guide import run_guide_registration
+    from sassi_bench.workflows.procedure import load_procedure
+
+    procedure = load_procedure("guide_registration", args.procedure)
+    if args.full:
+        procedure["scan"]["stride_px"] = [1, 1]
+    rig = open_rig(args.rig)
+    if args.bundle and Path(args.bundle).is_dir():
+        bundle = load(args.bundle)
+    else:
+        bundle = load(rig=rig.description.name, version=args.bundle or "latest", data=args.data)
+    result = run_guide_registration(
+        rig,
+        bundle,
+        procedure,
+        session_id=args.session,
+        data=args.data,
+        progress=not args.quiet,
+        publish_bundle=not args.no_publish,
+        allow_failed=args.allow_failed,
+    )
+    q = result.registration.quality
+    print(f"\nguide -> SLM registration of rig {rig.description.name!r} (bundle {bundle.version})")
+    print(f"  rendering: {result.reference.rendering}; scan stride {list(result.reference.stride)}")
+    for check in result.checks:
+        mark = "PASS" if check.passed else "FAIL"
+        limit = f"{check.comparison} {check.tolerance:g} {check.unit}"
+        print(f"  {mark}  {check.name:32s} {check.value:10.4f} {limit}")
+    if q.dense_correlation is not None:
+        print(f"  dense refinement: correlation {q.dense_correlation:.4f}")
+    print("  homography (guide p, q, 1 -> SLM u, v, 1):")
+    for row in result.homography:
+        print("    " + "  ".join(f"{x: .6e}" for x in row))
+    if result.bundle_path is not None:
+        print(f"  bundle: {result.bundle_path}")
+    print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
+    return 0 if result.passed else 1
+
+
+def _register_guide(groups: argparse._SubParsersAction) -> None:
+    guide = groups.add_parser(
+        "guide", help="guide camera -> SLM homography from a scan; publishes a new bundle"
+    )
+    guide.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    guide.add_argument(
+        "--procedure", help="procedure YAML (default: procedures/guide_registration.yaml)"
+    )
+    guide.add_argument("--bundle", help="bundle version (default: latest) or folder")
+    guide.add_argument("--data", help="data root for sessions and bundles")
+    guide.add_argument("--session", help="session id; an existing one resumes its capture")
+    guide.add_argument(
+        "--full", action="store_true", help="full Nyquist scan instead of the coarse route"
+    )
+    guide.add_argument(
+        "--allow-failed", action="store_true", help="publish even if a tolerance failed"
+    )
+    guide.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
+    guide.add_argument("--quiet", action="store_true", help="no progress bars")
+    guide.set_defaults(func=_guide)
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``calibrate`` command group to the top-level parser."""
     calibrate = sub.add_parser("calibrate", help="run calibration procedures")
@@ -63,3 +128,4 @@ def register(sub: argparse._SubParsersAction) -> None:
     from sassi_bench.spectra.cli import register_response
 
     register_response(groups)
+    _register_guide(groups)
