@@ -43,7 +43,7 @@ import re
 import shutil
 import uuid
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -326,6 +326,40 @@ class Session:
         info_bytes = file.read_bytes()
         info = _parse_info(info_bytes, file)
         return cls(path, info, info_bytes)
+
+    @classmethod
+    def resume_or_plan(
+        cls,
+        rig_description: RigDescription,
+        make_plan: Callable[[], Plan],
+        *,
+        session_id: str,
+        data: str | os.PathLike[str] | None = None,
+    ) -> Session:
+        """Resume session ``session_id`` with its stored plan, or create it from ``make_plan()``.
+
+        ``make_plan`` is called only for a new session: planning may run auto-exposure
+        on the devices, which a resumed capture must not repeat (nor change).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import load_rig_description
+        >>> root, rig = tmp.name, load_rig_description("sim")
+        >>> plan = lambda: Plan("dark", [Step("spectral", "off", 0.1, {"kind": "blank"})])
+        >>> a = Session.resume_or_plan(rig, plan, session_id="d", data=root)
+        >>> b = Session.resume_or_plan(rig, lambda: 1 / 0, session_id="d", data=root)
+        >>> a.path == b.path
+        True
+        >>> tmp.cleanup()
+        """
+        try:
+            existing = cls.open(session_id, data=data)
+        except SessionError:
+            return cls.create(rig_description, make_plan(), session_id=session_id, data=data)
+        return cls.open_or_create(rig_description, existing.plan, session_id=session_id, data=data)
 
     @classmethod
     def open_or_create(

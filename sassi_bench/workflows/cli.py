@@ -5,7 +5,42 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-__all__ = ["register"]
+__all__ = ["print_checks", "register"]
+
+
+def print_checks(checks) -> None:
+    """One line per quality check: PASS/FAIL, name, value, tolerance."""
+    for check in checks:
+        mark = "PASS" if check.passed else "FAIL"
+        limit = f"{check.comparison} {check.tolerance:g} {check.unit}"
+        print(f"  {mark}  {check.name:40s} {check.value:10.4f} {limit}")
+
+
+def _full(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.workflows.full import run_full_calibration
+    from sassi_bench.workflows.procedure import load_procedure
+
+    procedure = load_procedure("full_calibration", args.procedure)
+    rig = open_rig(args.rig)
+    result = run_full_calibration(
+        rig,
+        procedure,
+        session_id=args.session,
+        data=args.data,
+        out=args.out,
+        progress=not args.quiet,
+        allow_failed=args.allow_failed,
+    )
+    print(f"\nfull calibration of rig {rig.description.name!r}")
+    print_checks(result.checks)
+    if result.bundle_path is not None:
+        print(f"  bundle: {result.bundle_path}")
+    else:
+        print("  bundle: not published (a tolerance failed; --allow-failed publishes it marked)")
+    print(f"  report: {result.report_html}")
+    print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
+    return 0 if result.passed else 1
 
 
 def _spectral(args: argparse.Namespace) -> int:
@@ -25,10 +60,7 @@ def _spectral(args: argparse.Namespace) -> int:
         allow_failed=args.allow_failed,
     )
     print(f"\nspectral calibration of rig {rig.description.name!r}")
-    for check in result.checks:
-        mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g} {check.unit}"
-        print(f"  {mark}  {check.name:32s} {check.value:10.4f} {limit}")
+    print_checks(result.checks)
     print(
         f"  {result.dispersion.bins.count} wavelength bins, "
         f"{result.dispersion.bins.centres_nm[0]:.1f}-{result.dispersion.bins.centres_nm[-1]:.1f} nm"
@@ -67,10 +99,7 @@ def _guide(args: argparse.Namespace) -> int:
     q = result.registration.quality
     print(f"\nguide -> SLM registration of rig {rig.description.name!r} (bundle {bundle.version})")
     print(f"  rendering: {result.reference.rendering}; scan stride {list(result.reference.stride)}")
-    for check in result.checks:
-        mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g} {check.unit}"
-        print(f"  {mark}  {check.name:32s} {check.value:10.4f} {limit}")
+    print_checks(result.checks)
     if q.dense_correlation is not None:
         print(f"  dense refinement: correlation {q.dense_correlation:.4f}")
     print("  homography (guide p, q, 1 -> SLM u, v, 1):")
@@ -106,8 +135,28 @@ def _register_guide(groups: argparse._SubParsersAction) -> None:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``calibrate`` command group to the top-level parser."""
-    calibrate = sub.add_parser("calibrate", help="run calibration procedures")
-    groups = calibrate.add_subparsers(dest="calibrate_command", metavar="PROCEDURE", required=True)
+    calibrate = sub.add_parser(
+        "calibrate",
+        help="run calibration procedures (no PROCEDURE: the whole chain)",
+        description=(
+            "Without a PROCEDURE, run the whole chain from procedures/full_calibration.yaml: "
+            "spectral sweeps and fits, radiometric response, guide homography and Macbeth "
+            "validation, publishing one bundle and its report."
+        ),
+    )
+    calibrate.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    calibrate.add_argument(
+        "--procedure", help="procedure YAML (default: procedures/full_calibration.yaml)"
+    )
+    calibrate.add_argument("--data", help="data root for sessions, bundles and reports")
+    calibrate.add_argument("--session", help="session id; an existing one resumes the chain")
+    calibrate.add_argument("--out", help="report folder (default: <data>/reports/<session>)")
+    calibrate.add_argument(
+        "--allow-failed", action="store_true", help="publish even if a tolerance failed"
+    )
+    calibrate.add_argument("--quiet", action="store_true", help="no progress bars")
+    calibrate.set_defaults(func=_full)
+    groups = calibrate.add_subparsers(dest="calibrate_command", metavar="PROCEDURE")
     spectral = groups.add_parser(
         "spectral", help="laser sweeps, dispersion and blur fits; publishes a bundle"
     )

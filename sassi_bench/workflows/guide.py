@@ -14,9 +14,8 @@ guide camera again without a new scan.
 
 from __future__ import annotations
 
-import io
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -28,7 +27,7 @@ from numpy.typing import NDArray
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.runner import run_plan
-from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
 from sassi_bench.calibrate.guide_registration import Registration, register_guide
 from sassi_bench.calibrate.guide_render import (
@@ -109,16 +108,6 @@ class GuideRegistration:
 
 def _stamp() -> str:
     return "guide-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-
-
-def _session(rig: Rig, make_plan: Callable[[], Plan], session_id: str, data) -> Session:
-    """Resume ``session_id`` with its stored plan, or create it with ``make_plan()``
-    (called only then: planning runs auto-exposure on the devices)."""
-    try:
-        existing = Session.open(session_id, data=data)
-    except SessionError:
-        return Session.create(rig.description, make_plan(), session_id=session_id, data=data)
-    return Session.open_or_create(rig.description, existing.plan, session_id=session_id, data=data)
 
 
 def _check_resumed(session: Session, expected: Mapping[str, Any]) -> None:
@@ -205,7 +194,7 @@ def scan_reference(
         )
         return coarse_scan_plan(rig.slm.shape, light, exposure, pitch, stride, scene)
 
-    session = _session(rig, make_plan, session_id, data)
+    session = Session.resume_or_plan(rig.description, make_plan, session_id=session_id, data=data)
     _check_resumed(
         session, {"scene": scene, "light": light, "pitch": list(pitch), "stride": list(stride)}
     )
@@ -245,7 +234,7 @@ def capture_guide(
         steps += [Step("guide", "off", exposure, blank, {"role": "guide_dark"}) for _ in range(n)]
         return Plan("guide-capture", tuple(steps), {"scene": scene, "light": light})
 
-    session = _session(rig, make_plan, session_id, data)
+    session = Session.resume_or_plan(rig.description, make_plan, session_id=session_id, data=data)
     _check_resumed(session, {"scene": scene, "light": light})
     run_plan(rig, session.plan, session, progress=progress)
     lit = session.read_frames(session.plan.select(role="guide")).astype(np.float64)
@@ -374,17 +363,12 @@ def run_guide_registration(
     )
     if figures:
         from sassi_bench.plots.guide import guide_figures
+        from sassi_bench.plots.png import figure_png
 
-        result.figures = {name: _png(fig) for name, fig in guide_figures(result).items()}
+        result.figures = {name: figure_png(fig) for name, fig in guide_figures(result).items()}
     if publish_bundle:
         result.bundle_path = publish_guide(result, bundle, data=data, allow_failed=allow_failed)
     return result
-
-
-def _png(fig) -> bytes:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    return buffer.getvalue()
 
 
 def publish_guide(

@@ -19,7 +19,7 @@ import numpy as np
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
-from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
 from sassi_bench.calibrate.radiometry import (
     read_reference_csv,
@@ -35,14 +35,6 @@ __all__ = ["ScanRun", "run_response", "run_scan"]
 
 def _stamp(prefix: str) -> str:
     return f"{prefix}-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-
-
-def _session(rig: Rig, plan: Plan, session_id: str, data) -> Session:
-    try:
-        existing = Session.open(session_id, data=data)
-    except SessionError:
-        return Session.create(rig.description, plan, session_id=session_id, data=data)
-    return Session.open_or_create(rig.description, existing.plan, session_id=session_id, data=data)
 
 
 def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) -> Plan:
@@ -82,8 +74,12 @@ def run_response(
     The source spectrum is a blackbody at ``temperature_k`` (default: the rig's
     ``light.halogen_k``) or a reference CSV (wavelength_nm, power).
     """
-    plan = _plan(rig, "white", light, pitch, every, 0.6)
-    session = _session(rig, plan, session_id or _stamp("response"), data)
+    session = Session.resume_or_plan(
+        rig.description,
+        lambda: _plan(rig, "white", light, pitch, every, 0.6),
+        session_id=session_id or _stamp("response"),
+        data=data,
+    )
     run_plan(rig, session.plan, session, progress=progress)
     scan = assemble_scan(session, bundle, progress=progress)
     good = scan.quality == 0
@@ -195,8 +191,12 @@ def run_scan(
                 "load this rig's bundle",
             )
         )
-    plan = _plan(rig, scene, light, pitch, 1, 0.6)
-    session = _session(rig, plan, session_id or _stamp(f"scan-{scene}"), data)
+    session = Session.resume_or_plan(
+        rig.description,
+        lambda: _plan(rig, scene, light, pitch, 1, 0.6),
+        session_id=session_id or _stamp(f"scan-{scene}"),
+        data=data,
+    )
     run_plan(rig, session.plan, session, progress=progress)
     scan = assemble_scan(session, bundle, roi=roi, progress=progress)
     return ScanRun(scan, bundle.response is not None, session, bundle)

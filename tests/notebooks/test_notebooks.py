@@ -99,6 +99,14 @@ def test_03_pinhole_scan_writes_a_cube(lab):
     assert load(rig="sim", data=lab).response is not None
 
 
+def test_04_guide_homography_publishes_the_homography(lab):
+    book = _run("04_guide_homography.ipynb", lab)
+    assert not _errors(book)
+    assert _images(book) >= 2  # matches, checkerboard
+    bundle = load(rig="sim", data=lab)
+    assert bundle.guide_to_slm is not None
+
+
 def test_05_macbeth_validation_writes_a_passing_report(lab):
     book = _run("05_macbeth_validation.ipynb", lab, white_reference="patch")
     assert not _errors(book)
