@@ -9,6 +9,7 @@ from sassi_bench.notebook.widgets import (
     excluded_region,
     pick_chart_corners,
     pick_excluded_region,
+    pick_exposure,
     pick_lasers,
     show_png,
 )
@@ -20,6 +21,7 @@ __all__ = [
     "excluded_region",
     "pick_chart_corners",
     "pick_excluded_region",
+    "pick_exposure",
     "pick_lasers",
     "show",
     "show_png",

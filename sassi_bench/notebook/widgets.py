@@ -19,6 +19,7 @@ __all__ = [
     "excluded_region",
     "pick_chart_corners",
     "pick_excluded_region",
+    "pick_exposure",
     "pick_lasers",
     "show_png",
 ]
@@ -57,6 +58,31 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
         value=chosen,
         rows=min(len(options), 8),
         description="Lasers",
+    )
+
+
+def pick_exposure(procedure: Mapping[str, Any]):
+    """A slider for the auto-exposure target (fraction of full scale), the procedure's value.
+
+    Returns
+    -------
+    ipywidgets.FloatSlider
+
+    Examples
+    --------
+    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> pick_exposure(load_procedure("spectral_calibration")).value
+    0.6
+    """
+    import ipywidgets as widgets
+
+    return widgets.FloatSlider(
+        value=float(procedure["exposure"]["target_fraction"]),
+        min=0.1,
+        max=0.95,
+        step=0.05,
+        description="Exposure",
+        tooltip="brightest pixel of an all-open frame, as a fraction of full scale",
     )
 
 

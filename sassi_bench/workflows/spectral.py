@@ -124,19 +124,23 @@ def _resume(session_id: str, data) -> Session | None:
     return Session.open(session_id, data=data)
 
 
-def _procedure_key(proc: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in proc.items() if k != "source"}
+def _capture_settings(proc: Mapping[str, Any]) -> dict[str, Any]:
+    """The parts of a procedure that decide what is captured, as JSON values (so 450 and
+    450.0 nm are the same laser). Fit settings and tolerances may change between capture
+    and analysis (a person excluding a region in the notebook); these may not."""
+    blur = {k: v for k, v in thaw(proc.get("blur", {})).items() if k != "window_sigmas"}
+    settings = {k: thaw(proc.get(k)) for k in ("lasers_nm", "sweep", "exposure")}
+    return json.loads(json.dumps({**settings, "blur": blur}))
 
 
 def _check_same_procedure(session: Session, proc: Mapping[str, Any]) -> None:
     stored = session.plan.parameters.get("procedure")
-    # Compared as JSON values (not their text), so 450 and 450.0 nm are the same laser.
-    given = json.loads(json.dumps(_procedure_key(proc)))
-    if stored is not None and json.loads(json.dumps(thaw(stored))) != given:
+    if stored is not None and _capture_settings(stored) != _capture_settings(proc):
         raise ConfigError(
             step_error(
                 f"resume session {session.id}",
-                "it was captured with a different procedure than the one given now",
+                "it was captured with different lasers, sweep, exposure or blur settings "
+                "than the procedure given now",
                 "resume with the same procedure file, or start a new --session",
             )
         )

@@ -86,5 +86,19 @@ def test_resuming_with_another_procedure_is_refused(tmp_path):
     plan = sweep_plan(proc, rig.slm.shape, {450.0: 0.01}, None, {})
     plan = type(plan)(plan.name, plan.steps[:2], {"procedure": {"lasers_nm": [450]}})
     Session.create(rig.description, plan, session_id="old-sweep", data=tmp_path)
-    with pytest.raises(ConfigError, match="different procedure"):
+    with pytest.raises(ConfigError, match="different lasers"):
         run_spectral_calibration(rig, proc, session_id="old", data=tmp_path, progress=False)
+
+
+def test_fit_settings_may_change_between_capture_and_analysis():
+    from types import MappingProxyType, SimpleNamespace
+
+    from sassi_bench.workflows.spectral import _check_same_procedure
+
+    proc = load_procedure("spectral_calibration")
+    stored = MappingProxyType({k: v for k, v in proc.items() if k != "source"})
+    session = SimpleNamespace(id="s", plan=SimpleNamespace(parameters={"procedure": stored}))
+    edited = {**proc, "fit": {**proc["fit"], "exclude_regions_slm_px": [[0, 0, 10, 10]]}}
+    _check_same_procedure(session, edited)  # analysis-only change: resumes
+    with pytest.raises(ConfigError, match="different lasers"):
+        _check_same_procedure(session, {**proc, "exposure": {**proc["exposure"], "max_s": 1.0}})
