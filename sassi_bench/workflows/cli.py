@@ -111,25 +111,29 @@ def _guide(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _run_arguments(parser: argparse.ArgumentParser, kind: str, publish: bool = True) -> None:
+    """The options every calibration procedure takes."""
+    parser.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    parser.add_argument("--procedure", help=f"procedure YAML (default: procedures/{kind}.yaml)")
+    parser.add_argument("--data", help="data root for sessions and bundles")
+    parser.add_argument("--session", help="session id; an existing one resumes its capture")
+    parser.add_argument(
+        "--allow-failed", action="store_true", help="publish even if a tolerance failed"
+    )
+    if publish:
+        parser.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
 def _register_guide(groups: argparse._SubParsersAction) -> None:
     guide = groups.add_parser(
         "guide", help="guide camera -> SLM homography from a scan; publishes a new bundle"
     )
-    guide.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    guide.add_argument(
-        "--procedure", help="procedure YAML (default: procedures/guide_registration.yaml)"
-    )
+    _run_arguments(guide, "guide_registration")
     guide.add_argument("--bundle", help="bundle version (default: latest) or folder")
-    guide.add_argument("--data", help="data root for sessions and bundles")
-    guide.add_argument("--session", help="session id; an existing one resumes its capture")
     guide.add_argument(
         "--full", action="store_true", help="full Nyquist scan instead of the coarse route"
     )
-    guide.add_argument(
-        "--allow-failed", action="store_true", help="publish even if a tolerance failed"
-    )
-    guide.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
-    guide.add_argument("--quiet", action="store_true", help="no progress bars")
     guide.set_defaults(func=_guide)
 
 
@@ -144,35 +148,14 @@ def register(sub: argparse._SubParsersAction) -> None:
             "validation, publishing one bundle and its report."
         ),
     )
-    calibrate.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    calibrate.add_argument(
-        "--procedure", help="procedure YAML (default: procedures/full_calibration.yaml)"
-    )
-    calibrate.add_argument("--data", help="data root for sessions, bundles and reports")
-    calibrate.add_argument("--session", help="session id; an existing one resumes the chain")
+    _run_arguments(calibrate, "full_calibration", publish=False)
     calibrate.add_argument("--out", help="report folder (default: <data>/reports/<session>)")
-    calibrate.add_argument(
-        "--allow-failed", action="store_true", help="publish even if a tolerance failed"
-    )
-    calibrate.add_argument("--quiet", action="store_true", help="no progress bars")
     calibrate.set_defaults(func=_full)
     groups = calibrate.add_subparsers(dest="calibrate_command", metavar="PROCEDURE")
     spectral = groups.add_parser(
         "spectral", help="laser sweeps, dispersion and blur fits; publishes a bundle"
     )
-    spectral.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    spectral.add_argument(
-        "--procedure", help="procedure YAML (default: procedures/spectral_calibration.yaml)"
-    )
-    spectral.add_argument("--data", help="data root for sessions and bundles")
-    spectral.add_argument("--session", help="session id; an existing one resumes its capture")
-    spectral.add_argument(
-        "--allow-failed",
-        action="store_true",
-        help="publish even if a tolerance failed (marked failed)",
-    )
-    spectral.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
-    spectral.add_argument("--quiet", action="store_true", help="no progress bars")
+    _run_arguments(spectral, "spectral_calibration")
     spectral.set_defaults(func=_spectral)
     from sassi_bench.spectra.cli import register_response
 
