@@ -21,7 +21,7 @@ from sassi_bench.rig.sim.devices import (
     SimSpectralCamera,
     SimTrigger,
 )
-from sassi_bench.rig.sim.truth import BenchTruth, register_bench, truth
+from sassi_bench.rig.sim.ground_truth import BenchTruth, register_bench, truth
 
 __all__ = ["BenchTruth", "VirtualBench", "build_sim_rig", "truth"]
 

@@ -2,9 +2,9 @@ import colour
 import numpy as np
 import pytest
 
+from sassi_bench.rig.sim import truth
 from sassi_bench.rig.sim.otsu import OTSU2018_WAVELENGTHS_NM, xyz_to_reflectance_otsu2018
 from sassi_bench.rig.sim.scenes import make_scene, natural_scene
-from sassi_bench.rig.sim.truth import truth
 
 GRID = np.arange(390.0, 721.0, 2.0)
 

@@ -35,6 +35,7 @@ class BenchTruth:
     Examples
     --------
     >>> from sassi_bench import open_rig
+    >>> from sassi_bench.rig.sim import truth
     >>> t = truth(open_rig("sim"))
     >>> x, y = t.slm_to_camera(320, 200, 550.0)
     >>> round(t.contrast_eps, 4)
