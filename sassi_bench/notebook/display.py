@@ -7,8 +7,8 @@ from sassi_bench.plots.png import figure_png
 __all__ = ["show"]
 
 
-def show(fig) -> None:
-    """Display a matplotlib figure as a PNG output of the current cell.
+def show(figure) -> None:
+    """Display a matplotlib figure, or PNG bytes, as a PNG output of the current cell.
 
     Examples
     --------
@@ -17,4 +17,5 @@ def show(fig) -> None:
     """
     from IPython.display import Image, display
 
-    display(Image(data=figure_png(fig), format="png"))
+    png = figure if isinstance(figure, bytes) else figure_png(figure)
+    display(Image(data=png, format="png"))

@@ -246,8 +246,8 @@ def excluded_regions(u: NDArray, v: NDArray, regions) -> NDArray[np.bool_]:
 
     Examples
     --------
-    >>> excluded_regions(np.array([5.0, 50.0]), np.array([5.0, 5.0]), [[0, 0, 10, 10]])
-    array([ True, False])
+    >>> excluded_regions(np.array([5.0, 50.0]), np.array([5.0, 5.0]), [[0, 0, 10, 10]]).tolist()
+    [True, False]
     """
     out = np.zeros(np.shape(u), dtype=bool)
     for row0, col0, row1, col1 in regions:
