@@ -33,6 +33,7 @@ __all__ = [
     "gray_code",
     "gray_pattern",
     "lines_pattern",
+    "open_pixels",
     "periodic_pattern",
     "pinhole_pattern",
     "render_pattern",
@@ -150,6 +151,29 @@ def pinhole_pattern(
     out = np.zeros(shape, dtype=np.uint8)
     out[offset[1] :: pitch[1], offset[0] :: pitch[0]] = 255
     return out
+
+
+def open_pixels(
+    descriptor: Mapping[str, Any], shape: tuple[int, int]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """(rows, cols) of the open (non-zero) pixels of a pattern, in row-major order.
+
+    Pinhole grids are enumerated directly, without rendering the whole SLM.
+
+    Examples
+    --------
+    >>> rows, cols = open_pixels({"kind": "pinholes", "pitch": [6, 5], "offset": [1, 2]}, (10, 12))
+    >>> rows.tolist(), cols.tolist()
+    ([2, 2, 7, 7], [1, 7, 1, 7])
+    """
+    if descriptor.get("kind") == "pinholes":
+        px, py = (int(p) for p in descriptor["pitch"])
+        ox, oy = (int(o) for o in descriptor.get("offset", (0, 0)))
+        rows, cols = np.meshgrid(
+            np.arange(oy, shape[0], py), np.arange(ox, shape[1], px), indexing="ij"
+        )
+        return rows.ravel(), cols.ravel()
+    return np.nonzero(render_pattern(descriptor, shape))
 
 
 def render_pattern(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
