@@ -51,13 +51,17 @@ def streak_footprint(
     x1 = np.clip(np.ceil(right) + 1, 0, w).astype(np.intp)
     y0 = np.clip(np.floor(geometry.y[:, core].min(axis=1) - reach_y), 0, h).astype(np.intp)
     y1 = np.clip(np.ceil(geometry.y[:, core].max(axis=1) + reach_y) + 1, 0, h).astype(np.intp)
-    # Paint all rectangles at once with a 2-D difference array.
-    diff = np.zeros((h + 1, w + 1), dtype=np.int32)
-    np.add.at(diff, (y0, x0), 1)
-    np.add.at(diff, (y0, x1), -1)
-    np.add.at(diff, (y1, x0), -1)
-    np.add.at(diff, (y1, x1), 1)
-    return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:h, :w] > 0
+    # Paint every rectangle row by row into a difference array along the rows, then one
+    # cumulative sum along the rows (contiguous, unlike a 2-D difference array's second
+    # cumulative sum down the columns, which is several times slower on camera frames).
+    heights = np.maximum(y1 - y0, 0)
+    rect = np.repeat(np.arange(heights.size), heights)
+    first = np.cumsum(heights) - heights
+    row = y0[rect] + np.arange(rect.size) - first[rect]
+    size = h * (w + 1)
+    diff = np.bincount(row * (w + 1) + x0[rect], minlength=size)
+    diff -= np.bincount(row * (w + 1) + x1[rect], minlength=size)
+    return np.cumsum(diff.reshape(h, w + 1), axis=1)[:, :w] > 0
 
 
 def _extend(centres, values, first: float, last: float, axis: int):

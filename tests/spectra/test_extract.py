@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sassi_bench.spectra.extract import StreakGeometry, extract_spectra, spill_matrix
+from sassi_bench.spectra.extract import (
+    NEGLIGIBLE_COUPLING,
+    StreakGeometry,
+    extract_spectra,
+    spill_matrix,
+)
 
 
 def _stacked_frame(sigma, rng, height=120, width=200):
@@ -28,9 +33,13 @@ def _stacked_frame(sigma, rng, height=120, width=200):
 @pytest.mark.parametrize("sigma", [0.5, 2.0, 3.5])
 def test_overlapping_pinholes_of_a_column_are_separated(sigma):
     frame, geometry, amplitude = _stacked_frame(sigma, np.random.default_rng(0))
-    spectra, off = extract_spectra(frame, geometry)
+    spectra, off = extract_spectra(frame, geometry, coupling_floor=0.0)
     assert not off.any()
     assert spectra == pytest.approx(amplitude, rel=1e-6)
+    # Neglecting couplings under the floor costs at most the floor (times the
+    # neighbours' amplitude ratio, here <= 2).
+    default, _ = extract_spectra(frame, geometry)
+    assert default == pytest.approx(amplitude, rel=2 * NEGLIGIBLE_COUPLING)
 
 
 def test_plain_window_sums_would_mix_neighbours():

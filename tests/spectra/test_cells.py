@@ -1,0 +1,105 @@
+"""Cells: column cumulative sums, cell sums, the banded solver and the geometry helpers."""
+
+import numpy as np
+import pytest
+
+from sassi_bench.bundle import load
+from sassi_bench.spectra.cells import (
+    _solve_banded,
+    cell_layout,
+    cell_sums,
+    column_cumsum,
+)
+from sassi_bench.spectra.extract import SpectralDeblur, spill_matrix
+from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
+
+
+def test_column_cumsum_matches_numpy():
+    image = np.random.default_rng(0).integers(0, 65535, (37, 23), dtype=np.uint16)
+    expected = np.vstack([np.zeros((1, 23)), np.cumsum(image, axis=0, dtype=np.float64)])
+    assert np.array_equal(column_cumsum(image), expected)
+
+
+def test_cell_sums_match_direct_sums():
+    rng = np.random.default_rng(1)
+    image = rng.normal(size=(30, 40))
+    geo = StreakGeometry(
+        rows=np.array([0, 5]),
+        cols=np.array([2, 2]),
+        x_left=np.array([[10.3, 12.1], [10.6, 11.9]]),
+        x_right=np.array([[12.1, 13.0], [11.9, 14.2]]),
+        y=np.array([[8.2, 8.4], [13.6, 13.9]]),
+        sigma=np.array([1.0, 2.0]),
+        guard=0,
+    )
+    layout = cell_layout(geo, image.shape)
+    sums = cell_sums(column_cumsum(image), layout)
+    cols = np.arange(40)
+    for n in range(2):  # a test oracle: a loop over four cells
+        for b in range(2):
+            weight = np.clip(
+                np.minimum(cols + 0.5, geo.x_right[n, b])
+                - np.maximum(cols - 0.5, geo.x_left[n, b]),
+                0,
+                1,
+            )
+            rows = image[layout.top[n, b] : layout.bottom[n, b]].sum(axis=0)
+            assert sums[n, b] == pytest.approx(rows @ weight, rel=1e-12)
+    # The two stacked pixels share the rows between them.
+    assert np.array_equal(layout.bottom[0], layout.top[1])
+
+
+def _dense(bands, m, size):
+    a = np.zeros((size, size))
+    for d, v in bands.items():
+        i = np.arange(size)
+        ok = (i + d >= 0) & (i + d < size)
+        a[i[ok], i[ok] + d] = v[ok, m]
+    return a
+
+
+@pytest.mark.parametrize("diagonal", [1.0, 0.3], ids=["eliminated", "lapack"])
+def test_banded_solver_matches_a_dense_solve(diagonal):
+    rng = np.random.default_rng(2)
+    size, systems, p = 25, 6, 2
+    bands = {d: rng.uniform(0, 0.2, (size, systems)) for d in range(-p, p + 1) if d}
+    bands[0] = rng.uniform(diagonal, diagonal + 0.2, (size, systems))
+    for d in range(1, p + 1):  # entries that would leave the system
+        bands[d][size - d :] = 0
+        bands[-d][:d] = 0
+    rhs = rng.normal(size=(size, systems))
+    dense = [_dense(bands, m, size) for m in range(systems)]
+    x = _solve_banded({d: v.copy() for d, v in bands.items()}, rhs.copy())
+    for m in range(systems):
+        assert dense[m] @ x[:, m] == pytest.approx(rhs[:, m], abs=1e-10)
+
+
+def test_deblur_solves_each_pixels_regularised_problem(calibrated_sim):
+    _, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    deblur = SpectralDeblur.from_bundle(bundle, full_scale=65535.0)
+    row, col = deblur.grid_v[2], deblur.grid_u[4]  # a field point: its own operators
+    geo = streak_geometry(bundle, [row], [col])
+    a = spill_matrix(geo.x_left, geo.x_right, geo.sigma)[0]
+    n = a.shape[0]
+    penalty = (geo.sigma[1:-1] / geo.sigma.max())[:, None] * np.diff(np.eye(n), 2, axis=0)
+    gram = a.T @ a
+    spectrum = 1000.0 * (1.2 + np.sin(np.linspace(0, 3, n)))
+    values = (a @ spectrum)[None] * np.array([[1.0], [0.01]])  # bright and dark pixels
+    unmixed = deblur.apply(values, np.array([row, row]), np.array([col, col]))
+    for y, x, s in zip(values, unmixed, deblur.smoothing(values), strict=True):
+        normal = gram + s**2 * (np.trace(gram) / n) * (penalty.T @ penalty)
+        assert x == pytest.approx(np.linalg.solve(normal, a.T @ y), rel=1e-6, abs=1e-9)
+
+
+def test_reached_rows_hold_every_streak(calibrated_sim):
+    rig, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    top, bottom = reached_rows(bundle, rig.description.spectral_camera.height)
+    h, w = bundle.slm_shape
+    rng = np.random.default_rng(3)
+    geo = streak_geometry(bundle, rng.integers(0, h, 500), rng.integers(0, w, 500))
+    assert top <= geo.y.min() - 3 * geo.sigma.max()
+    assert geo.y.max() + 3 * geo.sigma.max() < bottom
+    shifted = geo.shifted(top).select(np.arange(10))
+    assert np.allclose(shifted.y, geo.y[:10] - top)
