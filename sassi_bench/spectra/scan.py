@@ -2,47 +2,59 @@
 
 A Nyquist pinhole scan opens SLM pixels on a grid (100 px apart horizontally, 5 px
 vertically by default) and shifts it through every offset, so every SLM pixel is open
-in exactly one of the 100 x 5 = 500 frames. Assembly streams the frames from the
-session twice, one frame in memory at a time:
+in exactly one of the 100 x 5 = 500 frames. Assembly reads every frame from the session
+once, a few frames in memory at a time (threads work on several frames at once):
 
-1. **Offset.** Every frame carries the same smooth background (closed pixels leak
+1. **Reading pass.** Every frame carries the same smooth background (closed pixels leak
    ``1/contrast`` of the light; plus the dark level). A camera pixel outside the
    predicted streak footprints of a frame sees only that background, and across the
    shifted frames every camera pixel is free in dozens of frames, so the background is
    averaged per pixel over those frames. No closed-SLM frame is needed (one, when the
-   plan has it, only checks the estimate).
-2. **Spectra.** Each frame minus the background is extracted at the bundle's bins
-   (:func:`~sassi_bench.spectra.extract.extract_spectra`) and the spectra land in the
-   cube at their SLM pixels. Frames with NaNs or the wrong shape, and streaks that are
-   saturated or leave the camera, are reported by frame and SLM pixel and flagged in a
-   quality mask instead of being filled in.
+   plan has it, only checks the estimate). The same pass keeps each open pixel's raw
+   cell sums (:mod:`~sassi_bench.spectra.cells`), which are linear in the frame, in the
+   cube's own memory, and flags streaks that are saturated or leave the camera.
+2. **Spectra pass.** With the background known, its cell sums are subtracted, the
+   stacked pixels unmixed and the spectra deblurred
+   (:mod:`~sassi_bench.spectra.extract`), in place. Frames with NaNs or the wrong shape,
+   and streaks that are saturated or leave the camera, are reported by frame and SLM
+   pixel and flagged in a quality mask instead of being filled in.
+
+Only the camera rows that light of the SLM can reach are processed; the background is
+NaN on the others.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import os
+import threading
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
+from threadpoolctl import threadpool_limits
 
-from sassi_bench.acquire.patterns import render_pattern
+from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import step_error
-from sassi_bench.spectra.extract import (
-    SpectralDeblur,
-    StreakGeometry,
-    extract_spectra,
-    streak_geometry,
-)
+from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
+from sassi_bench.spectra.extract import SpectralDeblur
+from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.offset import estimate_background, streak_footprint
 
 __all__ = ["QUALITY_FLAGS", "ScanCube", "assemble_scan", "scan_plan"]
 
 #: Bits of the quality mask.
 QUALITY_FLAGS = {"not_measured": 1, "off_camera": 2, "saturated": 4, "bad_frame": 8}
+
+#: SLM rows beyond an ROI that are extracted too, so that the ROI's edge pixels are
+#: unmixed from their stacked neighbours: the row unmixing's inverse decays by a factor
+#: of about 2.3 per neighbour at the blurriest bins (sigma 3.4 px, 5 px pitch), so twenty
+#: neighbours (100 rows) leave less than 1e-6 of the light.
+ROI_MARGIN_ROWS = 100
 
 
 def scan_plan(
@@ -94,7 +106,8 @@ class ScanCube:
     origin
         (row, column) of the cube's first pixel on the SLM (an ROI's corner).
     background
-        The background estimate (H_cam, W_cam) in camera units.
+        The background estimate (H_cam, W_cam) in camera units; NaN on camera rows that
+        no streak reaches.
     background_check_rms
         RMS difference between the estimate and the closed-SLM frame, if one was taken.
     problems
@@ -112,51 +125,174 @@ class ScanCube:
     problems: list[str] = field(default_factory=list)
 
 
-def _open_pixels(step: Step, slm_shape, roi) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    rows, cols = np.nonzero(render_pattern(step.pattern, slm_shape))
-    if roi is not None:
-        r0, c0, r1, c1 = roi
-        keep = (rows >= r0) & (rows < r1) & (cols >= c0) & (cols < c1)
-        rows, cols = rows[keep], cols[keep]
-    return rows, cols
-
-
-def _frame(session: Session, index: int, shape, problems: list[str]) -> NDArray[np.float64] | None:
-    data = np.asarray(session.read_frame(index), dtype=np.float64)
-    if data.shape != shape:
-        problems.append(f"frame {index}: shape {data.shape}, expected {shape}; frame skipped")
-        return None
-    return data
-
-
-def _background(session, bundle, steps: Iterable[int], slm_shape, camera_shape, progress):
-    total = np.zeros(camera_shape)
-    count = np.zeros(camera_shape)
-    scratch: list[str] = []
-    for index in _progress(steps, "scan offset", progress):
-        data = _frame(session, index, camera_shape, scratch)
-        if data is None:
-            continue
-        rows, cols = _open_pixels(session.plan.steps[index], slm_shape, None)
-        free = ~streak_footprint(streak_geometry(bundle, rows, cols), camera_shape)
-        free &= np.isfinite(data)
-        total += np.where(free, data, 0.0)
-        count += free
-    background = np.divide(total, count, out=np.full(camera_shape, np.nan), where=count > 0)
-    if np.isnan(background).any():  # pixels never free: fill from their surroundings
-        known = ~np.isnan(background)
-        filled = estimate_background(np.nan_to_num(background), ~known)
-        background = np.where(known, background, filled.image)
-    return background, count
-
-
-def _progress(items, label: str, enabled: bool):
+def _progress(total: int, label: str, enabled: bool):
     if not enabled:
-        return items
+        return None
     from tqdm.auto import tqdm
 
-    items = list(items)
-    return tqdm(items, desc=label, unit="frame")
+    return tqdm(total=total, desc=label, unit="frame")
+
+
+def _run_frames(task, items: list, label: str, progress: bool, workers: int) -> list:
+    """``task(item)`` for every frame, ``workers`` at a time, results in order.
+
+    Threads suffice: the work is numpy and decompression, which release the GIL. At most
+    twice ``workers`` frames are in flight, so memory stays bounded.
+    """
+    bar = _progress(len(items), label, progress)
+    results = []
+    if workers == 1:  # in this thread (profilers and debuggers see the work)
+        for item in items:
+            results.append(task(item))
+            if bar is not None:
+                bar.update()
+        if bar is not None:
+            bar.close()
+        return results
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        pending: deque = deque()
+        for item in items:
+            pending.append(pool.submit(task, item))
+            if len(pending) >= 2 * workers:
+                results.append(pending.popleft().result())
+                if bar is not None:
+                    bar.update()
+        while pending:
+            results.append(pending.popleft().result())
+            if bar is not None:
+                bar.update()
+    if bar is not None:
+        bar.close()
+    return results
+
+
+@dataclass
+class _Frame:
+    """What the reading pass keeps of a frame for the spectra pass."""
+
+    index: int
+    rows: NDArray[np.intp]  # SLM pixels extracted (the work area's)
+    cols: NDArray[np.intp]
+    problems: list[str]
+    usable: bool
+
+
+class _Assembly:
+    """The state of one assembly: the work area of the cube and the background sums.
+
+    The work area covers the ROI's columns, and rows beyond it so that the ROI's edge
+    pixels are unmixed from their neighbours outside it too. Frames write disjoint SLM
+    pixels (each is open in one frame), so threads fill it without locking; the
+    background sums are shared and locked.
+    """
+
+    def __init__(self, session: Session, bundle: CalibrationBundle, roi, deblur: bool):
+        rig = session.rig
+        self.session, self.bundle = session, bundle
+        self.slm_shape = (int(rig["slm"]["height"]), int(rig["slm"]["width"]))
+        self.camera_shape = (
+            int(rig["spectral_camera"]["height"]),
+            int(rig["spectral_camera"]["width"]),
+        )
+        self.saturation = 2 ** int(rig["spectral_camera"]["bit_depth"]) - 1
+        if tuple(bundle.slm_shape) != self.slm_shape:
+            raise ValueError(
+                step_error(
+                    "scan assembly",
+                    f"the bundle is for a {bundle.slm_shape} SLM, the session's rig has "
+                    f"{self.slm_shape}",
+                    "load the bundle of the rig the scan was taken on",
+                )
+            )
+        self.unmix = (
+            SpectralDeblur.from_bundle(bundle, full_scale=self.saturation) if deblur else None
+        )
+        self.roi = roi if roi is not None else (0, 0, *self.slm_shape)
+        r0, c0, r1, c1 = self.roi
+        self.w0, self.w1 = 0, self.slm_shape[0]
+        if roi is not None:
+            self.w0 = max(0, r0 - ROI_MARGIN_ROWS)
+            self.w1 = min(self.slm_shape[0], r1 + ROI_MARGIN_ROWS)
+        area = (self.w1 - self.w0, c1 - c0)
+        self.n_bins = bundle.wavelengths.size
+        self.work = np.zeros((*area, self.n_bins), dtype=np.float32)  # raw sums, then cube
+        self.guards = np.zeros((*area, 2 * GUARD_BINS), dtype=np.float32)
+        self.quality = np.full(area, QUALITY_FLAGS["not_measured"], dtype=np.uint8)
+        # Only the camera rows that light of the SLM can reach are processed.
+        self.top, bottom = reached_rows(bundle, self.camera_shape[0], guard=GUARD_BINS)
+        self.box = (bottom - self.top, self.camera_shape[1])
+        self.total = np.zeros(self.box)
+        self.count = np.zeros(self.box, dtype=np.int32)
+        self.lock = threading.Lock()
+        self.background_cumulative: NDArray[np.float64] | None = None
+
+    def _local(self, geo: StreakGeometry) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        return geo.rows - self.w0, geo.cols - self.roi[1]
+
+    def read(self, index: int) -> _Frame:
+        """Reading pass of one frame: background samples, raw cell sums and flags."""
+        problems: list[str] = []
+        data = np.asarray(self.session.read_frame(index))
+        rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
+        _, c0, _, c1 = self.roi
+        keep = (rows >= self.w0) & (rows < self.w1) & (cols >= c0) & (cols < c1)
+        if data.shape != self.camera_shape:
+            problems.append(
+                f"frame {index}: shape {data.shape}, expected {self.camera_shape}; frame skipped"
+            )
+            self.quality[rows[keep] - self.w0, cols[keep] - c0] = QUALITY_FLAGS["bad_frame"]
+            return _Frame(index, rows[keep], cols[keep], problems, usable=False)
+        window = data[self.top : self.top + self.box[0]]
+        everything = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
+        free = ~streak_footprint(everything, self.box)
+        if window.dtype.kind == "f":
+            free &= np.isfinite(window)
+            contribution = np.where(free, window, 0.0)
+        else:  # integers: exact sums, whatever the order of the frames
+            contribution = window * free
+        with self.lock:
+            self.total += contribution
+            self.count += free
+        geo = everything.select(keep)
+        if geo.rows.size == 0:
+            return _Frame(index, geo.rows, geo.cols, problems, usable=True)
+        layout = cell_layout(geo, self.box)
+        finite = np.nan_to_num(window) if window.dtype.kind == "f" else window
+        sums = cell_sums(column_cumsum(finite), layout).astype(np.float32)
+        local = self._local(geo)
+        self.work[local] = sums[:, geo.core]
+        self.guards[local] = np.concatenate([sums[:, : geo.guard], sums[:, geo.core.stop :]], 1)
+        flags = np.where(layout.off[:, geo.core].any(axis=1), QUALITY_FLAGS["off_camera"], 0)
+        flags = flags.astype(np.uint8) | _pixel_flags(window, geo, self.saturation, index, problems)
+        self.quality[local] = flags
+        return _Frame(index, geo.rows, geo.cols, problems, usable=True)
+
+    def background(self) -> NDArray[np.float64]:
+        """The background estimate on the whole camera (NaN where no light reaches)."""
+        background = np.full(self.camera_shape, np.nan)
+        inside = _mean_background(self.total, self.count)
+        background[self.top : self.top + self.box[0]] = inside
+        self.background_cumulative = column_cumsum(inside)
+        return background
+
+    def spectra(self, frame: _Frame) -> tuple[float, int]:
+        """Spectra pass of one frame: subtract the background's cell sums and unmix."""
+        if not frame.usable or frame.rows.size == 0:
+            return 0.0, 0
+        geo = streak_geometry(self.bundle, frame.rows, frame.cols, GUARD_BINS).shifted(self.top)
+        layout = cell_layout(geo, self.box)
+        local = self._local(geo)
+        guards = self.guards[local]
+        raw = np.concatenate([guards[:, : geo.guard], self.work[local], guards[:, geo.guard :]], 1)
+        raw -= cell_sums(self.background_cumulative, layout)
+        amplitudes = unmix_rows(raw, layout, geo)
+        if self.unmix is not None:
+            amplitudes = self.unmix.apply(amplitudes, geo.rows, geo.cols)
+        signal = amplitudes[:, geo.core]
+        exposure = self.session.plan.steps[frame.index].exposure_s
+        self.work[local] = (signal / exposure).astype(np.float32)
+        good = self.quality[local] == 0
+        return float(signal[good].sum()), int(good.sum()) * self.n_bins
 
 
 def assemble_scan(
@@ -166,8 +302,15 @@ def assemble_scan(
     roi: tuple[int, int, int, int] | None = None,
     deblur: bool = True,
     progress: bool = True,
+    workers: int | None = None,
 ) -> ScanCube:
     """Assemble a pinhole-scan session into a cube on the SLM grid.
+
+    Every frame is read once. The reading pass adds the frame's pixels outside the
+    predicted streaks to the background estimate and keeps the raw cell sums of its open
+    pixels (linear in the frame); the spectra pass then subtracts the background's cell
+    sums and unmixes, without reading frames again. Only the camera rows that streaks can
+    reach are processed.
 
     Parameters
     ----------
@@ -181,66 +324,59 @@ def assemble_scan(
     deblur
         Undo the spill of each bin into its neighbours along the streak (see
         :mod:`sassi_bench.spectra.extract`).
+    progress
+        Show progress bars.
+    workers
+        Frames processed at once (threads; default: the number of CPUs).
 
     Returns
     -------
     ScanCube
+
+    Examples
+    --------
+    >>> scan = assemble_scan(session, bundle)  # doctest: +SKIP
+    >>> scan.cube.shape  # doctest: +SKIP
+    (400, 640, 68)
     """
-    rig = session.rig
-    slm_shape = (int(rig["slm"]["height"]), int(rig["slm"]["width"]))
-    camera_shape = (int(rig["spectral_camera"]["height"]), int(rig["spectral_camera"]["width"]))
-    saturation = 2 ** int(rig["spectral_camera"]["bit_depth"]) - 1
-    if tuple(bundle.slm_shape) != slm_shape:
-        raise ValueError(
-            step_error(
-                "scan assembly",
-                f"the bundle is for a {bundle.slm_shape} SLM, the session's rig has {slm_shape}",
-                "load the bundle of the rig the scan was taken on",
-            )
-        )
-    unmix = SpectralDeblur.from_bundle(bundle, full_scale=saturation) if deblur else None
-    r0, c0, r1, c1 = roi if roi is not None else (0, 0, *slm_shape)
-    n_bins = bundle.wavelengths.size
-    cube = np.zeros((r1 - r0, c1 - c0, n_bins), dtype=np.float32)
-    quality = np.full((r1 - r0, c1 - c0), QUALITY_FLAGS["not_measured"], dtype=np.uint8)
+    workers = max(1, workers or os.cpu_count() or 1)
+    assembly = _Assembly(session, bundle, roi, deblur)
     steps = [i for i in session.plan.select(role="pinholes") if i in session.completed]
-    problems: list[str] = []
-    background, _ = _background(session, bundle, steps, slm_shape, camera_shape, progress)
+    # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and BLAS's
+    # spinning threads contend with ours or with any other load (deblurring one frame
+    # took 445 ms with two BLAS threads on a busy machine, 12 ms with one).
+    with threadpool_limits(limits=1, user_api="blas"):
+        frames = _run_frames(assembly.read, steps, "scan frames", progress, workers)
+        background = assembly.background()
+        signals = _run_frames(assembly.spectra, frames, "scan spectra", progress, workers)
     check = None
     closed = [i for i in session.plan.select(role="closed") if i in session.completed]
     if closed:
-        check = float(np.sqrt(np.mean((session.read_frame(closed[0]) - background) ** 2)))
-    signal_sum, signal_count = 0.0, 0
-    for index in _progress(steps, "scan spectra", progress):
-        step = session.plan.steps[index]
-        rows, cols = _open_pixels(step, slm_shape, roi)
-        if rows.size == 0:
-            continue
-        data = _frame(session, index, camera_shape, problems)
-        local = (rows - r0, cols - c0)
-        if data is None:
-            quality[local] = QUALITY_FLAGS["bad_frame"]
-            continue
-        geo = streak_geometry(bundle, rows, cols)
-        spectra, off = extract_spectra(data - background, geo, unmix)
-        flags = np.where(off.any(axis=1), QUALITY_FLAGS["off_camera"], 0).astype(np.uint8)
-        flags |= _pixel_flags(data, geo, saturation, index, problems)
-        cube[local] = (spectra / step.exposure_s).astype(np.float32)
-        quality[local] = flags
-        good = flags == 0
-        signal_sum += float(spectra[good].sum())
-        signal_count += int(good.sum()) * n_bins
+        residual = session.read_frame(closed[0]) - background
+        check = float(np.sqrt(np.nanmean(residual**2)))
+    r0, c0, r1, _ = assembly.roi
+    crop = slice(r0 - assembly.w0, r1 - assembly.w0)
     return ScanCube(
-        cube=cube,
-        quality=quality,
+        cube=assembly.work if roi is None else assembly.work[crop].copy(),
+        quality=assembly.quality if roi is None else assembly.quality[crop].copy(),
         wavelengths_nm=np.asarray(bundle.wavelengths),
         bin_edges_nm=np.asarray(bundle.bin_edges),
         origin=(r0, c0),
         background=background,
         background_check_rms=check,
-        mean_streak_signal=signal_sum / max(signal_count, 1),
-        problems=problems,
+        mean_streak_signal=sum(s for s, _ in signals) / max(sum(c for _, c in signals), 1),
+        problems=[line for frame in frames for line in frame.problems],
     )
+
+
+def _mean_background(total: NDArray, count: NDArray) -> NDArray[np.float64]:
+    """Per-pixel mean of the free samples; pixels never free are filled from around."""
+    background = np.divide(total, count, out=np.full(total.shape, np.nan), where=count > 0)
+    if np.isnan(background).any():
+        known = ~np.isnan(background)
+        filled = estimate_background(np.nan_to_num(background), ~known)
+        background = np.where(known, background, filled.image)
+    return background
 
 
 def _pixel_flags(data, geo: StreakGeometry, saturation: int, index: int, problems: list[str]):
@@ -250,6 +386,8 @@ def _pixel_flags(data, geo: StreakGeometry, saturation: int, index: int, problem
     x1 = np.clip(np.ceil(geo.x_right.max(axis=1)).astype(np.intp), 0, w - 1)
     y = np.clip(np.rint(geo.y.mean(axis=1)).astype(np.intp), 0, h - 1)
     bad = (data >= saturation) | ~np.isfinite(data)
+    if not bad.any():
+        return np.zeros(geo.rows.size, dtype=np.uint8)
     # Any bad pixel on the streak's centre row segment (cumulative sums per row).
     cum = np.concatenate([np.zeros((h, 1)), np.cumsum(bad, axis=1)], axis=1)
     hit = (cum[y, x1 + 1] - cum[y, x0]) > 0

@@ -10,6 +10,7 @@ from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.rig.sim import truth
+from sassi_bench.spectra.cells import NEGLIGIBLE_COUPLING
 from sassi_bench.spectra.cube_io import write_envi, write_netcdf
 from sassi_bench.spectra.scan import QUALITY_FLAGS, assemble_scan, scan_plan
 from sassi_bench.workflows.scan import ScanRun
@@ -36,7 +37,10 @@ def test_background_matches_the_closed_pixel_leak(white_scan):
     exposure = 0.1
     electrons = (bench._background_rate() + bench.sensor.dark_current_e_per_s) * exposure
     true_background = electrons / bench.sensor.gain_e_per_adu + bench.sensor.dark_offset_adu
-    error = np.sqrt(np.mean((scan.background - true_background) ** 2))
+    # Estimated on the camera rows that streaks reach (NaN elsewhere: not needed).
+    estimated = np.isfinite(scan.background)
+    assert estimated.mean() > 0.8
+    error = np.sqrt(np.mean((scan.background - true_background)[estimated] ** 2))
     # Issue target: offset residual <= 1 % of the mean streak signal.
     assert error <= 0.01 * scan.mean_streak_signal
     assert (
@@ -107,3 +111,17 @@ def test_a_scan_killed_midway_resumes_to_the_same_cube(calibrated_sim):
     b = assemble_scan(resumed, bundle, progress=False)
     np.testing.assert_array_equal(a.cube, b.cube)
     np.testing.assert_array_equal(a.quality, b.quality)
+
+
+def test_an_roi_cube_is_the_full_cubes_region(white_scan):
+    _, bundle, session, scan = white_scan
+    part = assemble_scan(session, bundle, roi=(100, 200, 180, 330), progress=False, workers=1)
+    assert part.origin == (100, 200) and part.cube.shape[:2] == (80, 130)
+    region = (slice(100, 180), slice(200, 330))
+    assert np.array_equal(part.quality, scan.quality[region])
+    good = part.quality == 0
+    full = scan.cube[region][good]
+    # The ROI's edge rows are unmixed with their neighbours outside it, as in the full cube;
+    # which couplings fall under the floor is decided per frame, hence the tolerance.
+    assert np.abs(part.cube[good] - full).max() <= NEGLIGIBLE_COUPLING * np.abs(full).max()
+    assert np.array_equal(part.background, scan.background, equal_nan=True)

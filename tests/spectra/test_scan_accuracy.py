@@ -53,5 +53,6 @@ def test_full_scan_offset_residual(colorchecker_scan):
     bench.set_light("led")
     electrons = (bench._background_rate() + bench.sensor.dark_current_e_per_s) * exposure
     true_background = electrons / bench.sensor.gain_e_per_adu + bench.sensor.dark_offset_adu
-    residual = np.sqrt(np.mean((scan.background - true_background) ** 2))
+    estimated = np.isfinite(scan.background)  # the rows that streaks reach
+    residual = np.sqrt(np.mean((scan.background - true_background)[estimated] ** 2))
     assert residual <= 0.01 * scan.mean_streak_signal
