@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
+from tqdm.auto import tqdm
 
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan, Step
@@ -125,44 +126,29 @@ class ScanCube:
     problems: list[str] = field(default_factory=list)
 
 
-def _progress(total: int, label: str, enabled: bool):
-    if not enabled:
-        return None
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=label, unit="frame")
-
-
 def _run_frames(task, items: list, label: str, progress: bool, workers: int) -> list:
     """``task(item)`` for every frame, ``workers`` at a time, results in order.
 
     Threads suffice: the work is numpy and decompression, which release the GIL. At most
     twice ``workers`` frames are in flight, so memory stays bounded.
     """
-    bar = _progress(len(items), label, progress)
     results = []
-    if workers == 1:  # in this thread (profilers and debuggers see the work)
-        for item in items:
-            results.append(task(item))
-            if bar is not None:
+    with tqdm(total=len(items), desc=label, unit="frame", disable=not progress) as bar:
+        if workers == 1:  # in this thread (profilers and debuggers see the work)
+            for item in items:
+                results.append(task(item))
                 bar.update()
-        if bar is not None:
-            bar.close()
-        return results
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        pending: deque = deque()
-        for item in items:
-            pending.append(pool.submit(task, item))
-            if len(pending) >= 2 * workers:
-                results.append(pending.popleft().result())
-                if bar is not None:
+            return results
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            pending: deque = deque()
+            for item in items:
+                pending.append(pool.submit(task, item))
+                if len(pending) >= 2 * workers:
+                    results.append(pending.popleft().result())
                     bar.update()
-        while pending:
-            results.append(pending.popleft().result())
-            if bar is not None:
+            while pending:
+                results.append(pending.popleft().result())
                 bar.update()
-    if bar is not None:
-        bar.close()
     return results
 
 
@@ -207,12 +193,19 @@ class _Assembly:
         self.unmix = (
             SpectralDeblur.from_bundle(bundle, full_scale=self.saturation) if deblur else None
         )
-        self.roi = roi if roi is not None else (0, 0, *self.slm_shape)
+        self.roi = tuple(int(v) for v in roi) if roi is not None else (0, 0, *self.slm_shape)
         r0, c0, r1, c1 = self.roi
-        self.w0, self.w1 = 0, self.slm_shape[0]
-        if roi is not None:
-            self.w0 = max(0, r0 - ROI_MARGIN_ROWS)
-            self.w1 = min(self.slm_shape[0], r1 + ROI_MARGIN_ROWS)
+        h, w = self.slm_shape
+        if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
+            raise ValueError(
+                step_error(
+                    "scan assembly",
+                    f"the ROI {roi} is not a region of the {h} x {w} SLM",
+                    f"give (row0, col0, row1, col1) with 0 <= row0 < row1 <= {h} and "
+                    f"0 <= col0 < col1 <= {w}",
+                )
+            )
+        self.w0, self.w1 = max(0, r0 - ROI_MARGIN_ROWS), min(h, r1 + ROI_MARGIN_ROWS)
         area = (self.w1 - self.w0, c1 - c0)
         self.n_bins = bundle.wavelengths.size
         self.work = np.zeros((*area, self.n_bins), dtype=np.float32)  # raw sums, then cube

@@ -125,3 +125,5 @@ def test_an_roi_cube_is_the_full_cubes_region(white_scan):
     # which couplings fall under the floor is decided per frame, hence the tolerance.
     assert np.abs(part.cube[good] - full).max() <= NEGLIGIBLE_COUPLING * np.abs(full).max()
     assert np.array_equal(part.background, scan.background, equal_nan=True)
+    with pytest.raises(ValueError, match=r"scan assembly.*ROI"):
+        assemble_scan(session, bundle, roi=(100, 200, 90, 330), progress=False)
