@@ -121,6 +121,26 @@ def legendre2d_terms(degree: int) -> tuple[tuple[int, int], ...]:
     return tuple((i, total - i) for total in range(int(degree) + 1) for i in range(total, -1, -1))
 
 
+def _horner(s: ArrayLike, coeffs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``sum_k coeffs[k] * s**k`` (``coeffs[k]`` broadcasting with ``s``), in place.
+
+    numpy's ``polyval`` allocates a new array at every step; on the streak geometry of a
+    prototype-scale frame (4320 pixels x 137 wavelengths) this is twice as fast.
+
+    Examples
+    --------
+    >>> _horner(np.array([2.0]), np.array([1.0, 0.0, 3.0])).tolist()
+    [13.0]
+    """
+    s = np.asarray(s, dtype=np.float64)
+    out = np.empty(np.broadcast_shapes(s.shape, coeffs.shape[1:]))
+    out[...] = coeffs[-1]
+    for c in coeffs[-2::-1]:
+        out *= s
+        out += c
+    return out
+
+
 def legendre2d_design(u_hat: ArrayLike, v_hat: ArrayLike, degree: int) -> NDArray[np.float64]:
     """Design matrix of the 2D Legendre field basis.
 
@@ -358,11 +378,13 @@ class DispersionModel:
         u_hat, v_hat = field_coordinates(u, v, self.slm_shape)
         design = legendre2d_design(u_hat, v_hat, self.field_degree)
         # Per field point, the polynomial coefficients in s (power k on the first axis).
-        cx = np.moveaxis(design @ self.x_coeffs.T, -1, 0)
-        cy = np.moveaxis(design @ self.y_coeffs.T, -1, 0)
-        x = polynomial.polyval(self.spectral_x(wavelength_nm), cx, tensor=False)
-        y = polynomial.polyval(self.spectral_y(wavelength_nm), cy, tensor=False)
-        return np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+        # One 2-D product: a stacked matmul over (N, 1, terms) would do N tiny products.
+        terms = design.reshape(-1, design.shape[-1])
+        cx = np.moveaxis((terms @ self.x_coeffs.T).reshape(*design.shape[:-1], -1), -1, 0)
+        cy = np.moveaxis((terms @ self.y_coeffs.T).reshape(*design.shape[:-1], -1), -1, 0)
+        return _horner(self.spectral_x(wavelength_nm), cx), _horner(
+            self.spectral_y(wavelength_nm), cy
+        )
 
     def to_manifest(
         self, x_name: str = "dispersion_x_coeffs", y_name: str = "dispersion_y_coeffs"
