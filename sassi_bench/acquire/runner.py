@@ -49,7 +49,7 @@ def _sigint_deferred() -> Iterator[None]:
         signal.signal(
             signal.SIGINT, previous if previous is not None else signal.default_int_handler
         )
-    if received:
+    if received and previous is not signal.SIG_IGN:  # a background job ignores Ctrl-C
         raise KeyboardInterrupt
 
 

@@ -137,11 +137,36 @@ def test_ctrl_c_while_storing_a_frame_waits_for_the_frame(plan, data, monkeypatc
         original(self, step_index, frame)
 
     monkeypatch.setattr(Session, "write_frame", interrupted_write)
-    with pytest.raises(KeyboardInterrupt):
-        run_plan(rig, plan, session, progress=False)
+    # Python's own Ctrl-C handler, also when the tests run as a background job (SIG_IGN).
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            run_plan(rig, plan, session, progress=False)
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)
     assert session.completed == {0, 1}
     assert Session.open("s", data=data).verify() == 2
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_is_not_raised_where_it_is_ignored(plan, data, monkeypatch):
+    rig = open_rig("sim")
+    session = create(rig, plan, data, "s")
+    original = Session.write_frame
+
+    def interrupted_write(self, step_index, frame):
+        if step_index == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+        original(self, step_index, frame)
+
+    monkeypatch.setattr(Session, "write_frame", interrupted_write)
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        run_plan(rig, plan, session, progress=False)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert session.completed == set(range(len(plan)))
 
 
 def test_progress_bar_counts_the_whole_plan(plan, data, capsys):
