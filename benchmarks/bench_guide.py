@@ -20,8 +20,9 @@ import copy
 import tempfile
 import time
 
+from _bundle import bundle_for
+
 from sassi_bench import open_rig
-from sassi_bench.bundle import load
 from sassi_bench.calibrate.guide_registration import (
     RegistrationError,
     field_discrepancy_px,
@@ -31,7 +32,6 @@ from sassi_bench.rig.config import rig_description_from_dict
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import capture_guide, run_guide_registration
 from sassi_bench.workflows.procedure import load_procedure
-from sassi_bench.workflows.spectral import run_spectral_calibration
 
 
 def _accuracy(rig, result, proc, data, tag: str) -> tuple[float, float, float]:
@@ -60,13 +60,7 @@ def main() -> None:
     turned["guide_camera"].update(rotation_deg=3.0, scale=0.8, homography=None)
     rotated = open_rig(rig_description_from_dict(turned))
     with tempfile.TemporaryDirectory() as data:
-        if args.bundle:
-            bundle = load(args.bundle)
-        else:
-            print("calibrating the rig first ...")
-            proc = load_procedure("spectral_calibration")
-            result = run_spectral_calibration(rig, proc, data=data, progress=False, figures=False)
-            bundle = load(result.bundle_path)
+        bundle = bundle_for(rig, args.bundle, data)
         print(
             f"{'stride':>7} {'frames':>6} {'time':>8} {'ratio':>6} | default rig: rms  max  "
             "(features only) | rotated 3 deg, x0.8: rms  max  (features only)"

@@ -19,14 +19,13 @@ import tempfile
 import time
 import tracemalloc
 
+from _bundle import bundle_for
+
 from sassi_bench import open_rig
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.bundle import load
 from sassi_bench.spectra.scan import assemble_scan, scan_plan
-from sassi_bench.workflows.procedure import load_procedure
-from sassi_bench.workflows.spectral import run_spectral_calibration
 
 
 def main() -> None:
@@ -38,13 +37,7 @@ def main() -> None:
     args = parser.parse_args()
     rig = open_rig(args.rig)
     with tempfile.TemporaryDirectory() as data:
-        if args.bundle:
-            bundle = load(args.bundle)
-        else:
-            print("calibrating the rig first ...")
-            proc = load_procedure("spectral_calibration")
-            result = run_spectral_calibration(rig, proc, data=data, progress=False, figures=False)
-            bundle = load(result.bundle_path)
+        bundle = bundle_for(rig, args.bundle, data)
         plan = scan_plan(rig.slm.shape, "led", 0.1, scene="colorchecker", closed_check=False)
         if args.every > 1:
             plan = Plan(plan.name, plan.steps[:: args.every], plan.parameters)
