@@ -126,9 +126,8 @@ def test_device_errors_disarm_the_trigger_and_keep_frames(plan, data):
     assert not rig.trigger.armed and session.completed == {0}
 
 
-def test_ctrl_c_while_storing_a_frame_waits_for_the_frame(plan, data, monkeypatch):
-    rig = open_rig("sim")
-    session = create(rig, plan, data, "s")
+def _ctrl_c_while_storing_frame_1(monkeypatch):
+    """Send SIGINT to this process in the middle of storing frame 1."""
     original = Session.write_frame
 
     def interrupted_write(self, step_index, frame):
@@ -137,6 +136,12 @@ def test_ctrl_c_while_storing_a_frame_waits_for_the_frame(plan, data, monkeypatc
         original(self, step_index, frame)
 
     monkeypatch.setattr(Session, "write_frame", interrupted_write)
+
+
+def test_ctrl_c_while_storing_a_frame_waits_for_the_frame(plan, data, monkeypatch):
+    rig = open_rig("sim")
+    session = create(rig, plan, data, "s")
+    _ctrl_c_while_storing_frame_1(monkeypatch)
     # Python's own Ctrl-C handler, also when the tests run as a background job (SIG_IGN).
     before = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
@@ -152,14 +157,7 @@ def test_ctrl_c_while_storing_a_frame_waits_for_the_frame(plan, data, monkeypatc
 def test_ctrl_c_is_not_raised_where_it_is_ignored(plan, data, monkeypatch):
     rig = open_rig("sim")
     session = create(rig, plan, data, "s")
-    original = Session.write_frame
-
-    def interrupted_write(self, step_index, frame):
-        if step_index == 1:
-            os.kill(os.getpid(), signal.SIGINT)
-        original(self, step_index, frame)
-
-    monkeypatch.setattr(Session, "write_frame", interrupted_write)
+    _ctrl_c_while_storing_frame_1(monkeypatch)
     before = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         run_plan(rig, plan, session, progress=False)
