@@ -202,7 +202,8 @@ def extract_spectra(
         The within-streak unmixing (:meth:`SpectralDeblur.from_bundle`); None keeps each
         bin's raw column sum (spectrally blurred, but no noise amplification).
     coupling_floor
-        Couplings between stacked pixels smaller than this are neglected (0 keeps all).
+        Stacked neighbours that can couple less than this into a cell are neglected
+        (:func:`~sassi_bench.spectra.cells.coupling_reach`; 0 keeps all).
 
     Returns
     -------

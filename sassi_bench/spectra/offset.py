@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import RectBivariateSpline, griddata
 
 from sassi_bench.errors import step_error
+from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.extract import StreakGeometry
 
 __all__ = ["Background", "estimate_background", "streak_footprint"]
@@ -51,17 +52,9 @@ def streak_footprint(
     x1 = np.clip(np.ceil(right) + 1, 0, w).astype(np.intp)
     y0 = np.clip(np.floor(geometry.y[:, core].min(axis=1) - reach_y), 0, h).astype(np.intp)
     y1 = np.clip(np.ceil(geometry.y[:, core].max(axis=1) + reach_y) + 1, 0, h).astype(np.intp)
-    # Paint every rectangle row by row into a difference array along the rows, then one
-    # cumulative sum along the rows (contiguous, unlike a 2-D difference array's second
-    # cumulative sum down the columns, which is several times slower on camera frames).
-    heights = np.maximum(y1 - y0, 0)
-    rect = np.repeat(np.arange(heights.size), heights)
-    first = np.cumsum(heights) - heights
-    row = y0[rect] + np.arange(rect.size) - first[rect]
-    size = h * (w + 1)
-    diff = np.bincount(row * (w + 1) + x0[rect], minlength=size)
-    diff -= np.bincount(row * (w + 1) + x1[rect], minlength=size)
-    return np.cumsum(diff.reshape(h, w + 1), axis=1)[:, :w] > 0
+    footprint = np.zeros((h, w), dtype=np.bool_)
+    _kernels.paint_rectangles(y0, y1, x0, x1, footprint)
+    return footprint
 
 
 def _extend(centres, values, first: float, last: float, axis: int):

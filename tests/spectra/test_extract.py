@@ -12,9 +12,9 @@ from sassi_bench.spectra.extract import (
 )
 
 
-def _stacked_frame(sigma, rng, height=120, width=200):
-    """Two SLM columns of six pinholes each (5 rows apart), five one-column bins."""
-    rows = np.repeat(np.arange(6) * 5 + 10, 2)
+def _stacked_frame(sigma, rng, height=120, width=200, pitch=5):
+    """Two SLM columns of six pinholes each (``pitch`` rows apart), five one-column bins."""
+    rows = np.repeat(np.arange(6) * pitch + 10, 2)
     cols = np.tile([20, 120], 6)
     bins = 5
     x_left = cols[:, None] + 29.5 + np.arange(bins)[None, :]
@@ -40,6 +40,14 @@ def test_overlapping_pinholes_of_a_column_are_separated(sigma):
     # neighbours' amplitude ratio, here <= 2).
     default, _ = extract_spectra(frame, geometry)
     assert default == pytest.approx(amplitude, rel=2 * NEGLIGIBLE_COUPLING)
+
+
+def test_pinholes_closer_than_their_blur_are_separated():
+    # At a 2 px pitch and sigma 3.5 px a pixel keeps less light in its cell than its
+    # neighbours put there: the systems are not diagonally dominant and need pivoting.
+    frame, geometry, amplitude = _stacked_frame(3.5, np.random.default_rng(2), pitch=2)
+    spectra, _ = extract_spectra(frame, geometry, coupling_floor=0.0)
+    assert spectra == pytest.approx(amplitude, rel=1e-6)
 
 
 def test_plain_window_sums_would_mix_neighbours():
