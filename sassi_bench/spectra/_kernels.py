@@ -74,6 +74,18 @@ def paint_rectangles(top, bottom, left, right, mask):  # pragma: no cover - comp
 
 
 @njit(nogil=True, error_model="numpy")
+def add_free_pixels(image, covered, total, count):  # pragma: no cover - compiled
+    """Add the finite pixels of ``image`` outside ``covered`` to ``total``, count them."""
+    height, width = image.shape
+    for r in range(height):
+        for c in range(width):
+            value = float(image[r, c])
+            if not covered[r, c] and math.isfinite(value):
+                total[r, c] += value
+                count[r, c] += 1
+
+
+@njit(nogil=True, error_model="numpy")
 def cell_bounds(
     y, sigma, index, reach_sigmas, height, width, x_left, x_right, lo, hi, off
 ):  # pragma: no cover - compiled

@@ -41,6 +41,7 @@ from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import step_error
+from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
 from sassi_bench.spectra.extract import SpectralDeblur
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
@@ -237,16 +238,10 @@ class _Assembly:
             return _Frame(index, rows[keep], cols[keep], problems, usable=False)
         window = data[self.top : self.top + self.box[0]]
         everything = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
-        free = ~streak_footprint(everything, self.box)
-        if window.dtype.kind == "f":
-            free &= np.isfinite(window)
-            contribution = np.where(free, window, 0.0)
-        else:  # integers: exact sums, whatever the order of the frames
-            contribution = window * free
+        covered = streak_footprint(everything, self.box)
         with self.lock:
-            self.total += contribution
-            self.count += free
-        geo = everything.select(keep)
+            _kernels.add_free_pixels(window, covered, self.total, self.count)
+        geo = everything if keep.all() else everything.select(keep)
         if geo.rows.size == 0:
             return _Frame(index, geo.rows, geo.cols, problems, usable=True)
         layout = cell_layout(geo, self.box)
