@@ -35,3 +35,19 @@ def test_banded_lu_matches_a_dense_solve(p, diagonal):
     x = rhs.copy()
     _kernels._solve_band(band, x, size, p)
     assert x == pytest.approx(np.linalg.solve(dense, rhs), rel=1e-9, abs=1e-9)
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32])
+def test_free_pixels_are_added_and_counted(dtype):
+    rng = np.random.default_rng(5)
+    image = rng.integers(0, 4000, (6, 7)).astype(dtype)
+    covered = rng.random((6, 7)) < 0.4
+    finite = np.ones((6, 7), dtype=bool)
+    if dtype == np.float32:
+        image[2, 3], image[4, 1] = np.nan, np.inf
+        finite[2, 3] = finite[4, 1] = False
+    total, count = np.full((6, 7), 10.0), np.ones((6, 7), dtype=np.int32)
+    _kernels.add_free_pixels(image, covered, total, count)
+    use = ~covered & finite
+    assert np.array_equal(total, 10.0 + np.where(use, image, 0).astype(np.float64))
+    assert np.array_equal(count, 1 + use)
