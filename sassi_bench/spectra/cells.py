@@ -190,8 +190,9 @@ def unmix_rows(
     and bin); neighbours farther than :func:`coupling_reach` are neglected.
 
     Each system ``A[s, s + d]`` (light of pixel ``s + d`` in cell ``s``, exact Gaussian
-    integrals) is solved by banded LU with partial pivoting, so systems that are not
-    diagonally dominant (a pitch finer than the blur) are solved as reliably as the rest.
+    integrals) is solved exactly: by elimination without pivoting where it is diagonally
+    dominant (the usual case, and stable there), else by banded LU with partial pivoting,
+    so a pitch finer than the blur is solved as reliably as the standard one.
 
     Examples
     --------
