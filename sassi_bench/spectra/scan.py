@@ -130,8 +130,8 @@ class ScanCube:
 def _run_frames(task, items: list, label: str, progress: bool, workers: int) -> list:
     """``task(item)`` for every frame, ``workers`` at a time, results in order.
 
-    Threads suffice: the work is numpy and decompression, which release the GIL. At most
-    twice ``workers`` frames are in flight, so memory stays bounded.
+    Threads suffice: the work is numpy, compiled loops and decompression, which release
+    the GIL. At most twice ``workers`` frames are in flight, so memory stays bounded.
     """
     results = []
     with tqdm(total=len(items), desc=label, unit="frame", disable=not progress) as bar:
@@ -239,7 +239,7 @@ class _Assembly:
         window = data[self.top : self.top + self.box[0]]
         everything = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
         covered = streak_footprint(everything, self.box)
-        with self.lock:
+        with self.lock:  # integer frames sum exactly, whatever the order of the frames
             _kernels.add_free_pixels(window, covered, self.total, self.count)
         geo = everything if keep.all() else everything.select(keep)
         if geo.rows.size == 0:
