@@ -37,13 +37,15 @@ CDF_TABLE = np.stack(
 
 @njit(nogil=True, error_model="numpy")
 def normal_cdf(z, table):  # pragma: no cover - compiled
-    """Standard normal CDF at ``z`` from :data:`CDF_TABLE` (cubic Hermite)."""
+    """Standard normal CDF at ``z`` from :data:`CDF_TABLE` (cubic Hermite); NaN stays NaN."""
     t = (z + CDF_RANGE) * CDF_STEPS_PER_UNIT
+    if t != t:
+        return t
     if t <= 0.0:
         return 0.0
-    i = int(t)
-    if i >= table.shape[1] - 1:
+    if t >= table.shape[1] - 1:  # also +inf, before the conversion to an index
         return 1.0
+    i = int(t)
     u = t - i
     u2 = u * u
     u3 = u2 * u
@@ -96,10 +98,12 @@ def cell_bounds(
     The cell of (pixel, bin) is the rows nearer to its bin centre than to the stacked
     neighbours' (``index``: (G, S) pixels of an SLM column, top to bottom, -1 pads at the
     end), at most ``reach_sigmas`` blur sigmas away; a row belongs to a cell when its
-    upper edge lies in the cell.
+    upper edge lies in the cell. Returns how many (pixel, bin) have a non-finite centre or
+    column bound (their cells are left unset: the caller refuses such a geometry).
     """
     groups, stack = index.shape
     bins = y.shape[1]
+    bad = 0
     for g in range(groups):
         for s in range(stack):
             n = index[g, s]
@@ -109,6 +113,13 @@ def cell_bounds(
             down = index[g, s + 1] if s + 1 < stack else -1
             for b in range(bins):
                 centre = y[n, b]
+                if not (
+                    math.isfinite(centre)
+                    and math.isfinite(x_left[n, b])
+                    and math.isfinite(x_right[n, b])
+                ):
+                    bad += 1
+                    continue
                 reach = reach_sigmas * sigma[b]
                 upper = centre - reach
                 if up >= 0:
@@ -126,6 +137,7 @@ def cell_bounds(
                     or x_left[n, b] < -0.5
                     or x_right[n, b] > width - 0.5
                 )
+    return bad
 
 
 @njit(nogil=True, error_model="numpy")

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench.errors import step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.geometry import StreakGeometry
 
@@ -129,7 +130,24 @@ def cell_layout(geometry: StreakGeometry, shape: tuple[int, int]) -> CellLayout:
     y, x_left, x_right = _floats(geo.y), _floats(geo.x_left), _floats(geo.x_right)
     lo, hi = np.empty_like(y), np.empty_like(y)
     off = np.empty(y.shape, dtype=np.bool_)
-    _kernels.cell_bounds(y, _floats(geo.sigma), index, 3.0, h, w, x_left, x_right, lo, hi, off)
+    sigma = _floats(geo.sigma)
+    if not np.all(sigma > 0):
+        raise ValueError(
+            step_error(
+                "spectrum extraction",
+                f"the blur widths {sigma.min():.3g}..{sigma.max():.3g} px are not all positive",
+                "load a bundle whose blur fit passed its checks (sassi-bench bundle verify)",
+            )
+        )
+    bad = _kernels.cell_bounds(y, sigma, index, 3.0, h, w, x_left, x_right, lo, hi, off)
+    if bad:
+        raise ValueError(
+            step_error(
+                "spectrum extraction",
+                f"{bad} (pixel, bin) positions of the streak geometry are not finite",
+                "load a bundle whose dispersion fit passed its checks (sassi-bench bundle verify)",
+            )
+        )
     return CellLayout(lo, hi, off, index, x_left, x_right, (int(h), int(w)))
 
 

@@ -74,3 +74,17 @@ def test_reached_rows_hold_every_streak(calibrated_sim):
     assert geo.y.max() + 3 * geo.sigma.max() < bottom
     shifted = geo.shifted(top).select(np.arange(10))
     assert np.allclose(shifted.y, geo.y[:10] - top)
+
+
+def test_a_geometry_with_nan_is_refused():
+    geo = StreakGeometry(
+        rows=np.array([0]),
+        cols=np.array([0]),
+        x_left=np.array([[2.0, np.nan]]),
+        x_right=np.array([[4.0, 5.0]]),
+        y=np.array([[3.0, 3.0]]),
+        sigma=np.array([0.3, 0.3]),
+        guard=0,
+    )
+    with pytest.raises(ValueError, match=r"spectrum extraction.*not finite.*bundle verify"):
+        cell_layout(geo, (8, 8))

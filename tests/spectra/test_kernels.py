@@ -11,6 +11,8 @@ def test_tabulated_normal_cdf_matches_scipy():
     z = np.linspace(-12.0, 12.0, 100_001)
     table = np.array([_kernels.normal_cdf(v, _kernels.CDF_TABLE) for v in z[::7]])
     assert np.abs(table - ndtr(z[::7])).max() < 1e-9
+    ends = [_kernels.normal_cdf(v, _kernels.CDF_TABLE) for v in (-np.inf, np.inf, np.nan)]
+    assert ends[:2] == [0.0, 1.0] and np.isnan(ends[2])
 
 
 def _random_band(rng, size, p, diagonal):
