@@ -70,19 +70,32 @@ def streak_geometry(
     edges = bundle.bin_edges.size
     wavelengths = np.concatenate([bundle.bin_edges, bundle.wavelengths])
     x, y = bundle.slm_to_camera(cols[:, None], rows[:, None], wavelengths[None, :])
-    x_edges, y = x[:, :edges], y[:, edges:]
-    lo = np.minimum(x_edges[:, :-1], x_edges[:, 1:])
-    hi = np.maximum(x_edges[:, :-1], x_edges[:, 1:])
-    sigma = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
+    x_edges, y_centres = x[:, :edges], y[:, edges:]
+    n, bins = y_centres.shape
+    core = slice(guard, guard + bins)
+    # Written into preallocated arrays: stacking and repeating copies took most of the time.
+    x_left = np.empty((n, bins + 2 * guard))
+    x_right = np.empty_like(x_left)
+    np.minimum(x_edges[:, :-1], x_edges[:, 1:], out=x_left[:, core])
+    np.maximum(x_edges[:, :-1], x_edges[:, 1:], out=x_right[:, core])
+    # One-pixel guard bins below the band and above it.
     steps = np.arange(guard, 0, -1, dtype=np.float64)
-    left_lo = lo[:, :1] - steps  # one-pixel guard bins below the band ...
-    right_lo = hi[:, -1:] + steps[::-1] - 1.0  # ... and above it
+    np.subtract(x_left[:, guard : guard + 1], steps, out=x_left[:, :guard])
+    np.add(x_right[:, core.stop - 1 : core.stop], steps[::-1], out=x_left[:, core.stop :])
+    x_left[:, core.stop :] -= 1.0
+    np.add(x_left[:, :guard], 1.0, out=x_right[:, :guard])
+    np.add(x_left[:, core.stop :], 1.0, out=x_right[:, core.stop :])
+    y_all = np.empty_like(x_left)
+    y_all[:, core] = y_centres
+    y_all[:, :guard] = y_centres[:, :1]
+    y_all[:, core.stop :] = y_centres[:, -1:]
+    sigma = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
     return StreakGeometry(
         rows=rows,
         cols=cols,
-        x_left=np.hstack([left_lo, lo, right_lo]),
-        x_right=np.hstack([left_lo + 1.0, hi, right_lo + 1.0]),
-        y=np.hstack([np.repeat(y[:, :1], guard, 1), y, np.repeat(y[:, -1:], guard, 1)]),
+        x_left=x_left,
+        x_right=x_right,
+        y=y_all,
         sigma=np.concatenate([np.full(guard, sigma[0]), sigma, np.full(guard, sigma[-1])]),
         guard=guard,
     )
