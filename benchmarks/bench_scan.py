@@ -2,8 +2,8 @@
 
 Captures a pinhole scan of the ColorChecker (all 500 frames, or every n-th with
 ``--every``) into a session, then times (a) reading every frame back from the session
-store (the faster of two reads) and (b) assembling the cube (reading pass + spectra
-pass), printing the ratio; the target is <= 3x at the sim-prototype scale for the full
+store and (b) assembling the cube (reading pass + spectra pass), each the faster of two
+runs, printing the ratio; the target is <= 3x at the sim-prototype scale for the full
 500 frames. (With ``--every`` the costs that scale with the SLM, not with the frames,
 such as the first touch of the cube's memory, weigh up to n times more per frame.) The
 first assembly in the process, which also compiles the kernels, is timed and printed
@@ -59,9 +59,11 @@ def main() -> None:
         start = time.perf_counter()
         assemble_scan(session, bundle, progress=False, workers=args.workers)
         first = time.perf_counter() - start
-        start = time.perf_counter()
-        scan = assemble_scan(session, bundle, progress=False, workers=args.workers)
-        assemble = time.perf_counter() - start
+        assemble = float("inf")
+        for _ in range(2):  # the faster of two, like the reads
+            start = time.perf_counter()
+            scan = assemble_scan(session, bundle, progress=False, workers=args.workers)
+            assemble = min(assemble, time.perf_counter() - start)
         # Memory in a third run: tracing every allocation would slow the timed ones.
         tracemalloc.start()
         assemble_scan(session, bundle, progress=False, workers=args.workers)
