@@ -375,16 +375,38 @@ class DispersionModel:
         evaluated only on the broadcast shape of ``(u, v)``, so a grid of field points against a
         vector of wavelengths (``u[:, None]``, ``wavelength_nm[None, :]``) is cheap.
         """
-        u_hat, v_hat = field_coordinates(u, v, self.slm_shape)
-        design = legendre2d_design(u_hat, v_hat, self.field_degree)
-        # Per field point, the polynomial coefficients in s (power k on the first axis).
-        # One 2-D product: a stacked matmul over (N, 1, terms) would do N tiny products.
-        terms = design.reshape(-1, design.shape[-1])
-        cx = np.moveaxis((terms @ self.x_coeffs.T).reshape(*design.shape[:-1], -1), -1, 0)
-        cy = np.moveaxis((terms @ self.y_coeffs.T).reshape(*design.shape[:-1], -1), -1, 0)
+        cx, cy = self.field_coefficients(u, v)
         return _horner(self.spectral_x(wavelength_nm), cx), _horner(
             self.spectral_y(wavelength_nm), cy
         )
+
+    def field_coefficients(
+        self, u: ArrayLike, v: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The polynomials of SLM pixel ``(u, v)``: ``x = sum_k cx[k] s_x**k``, likewise y.
+
+        Returns
+        -------
+        cx, cy : ndarray
+            ``(K, *broadcast shape of u and v)``; power ``k`` on the first axis.
+
+        Examples
+        --------
+        >>> x = np.zeros((3, 1)); x[:, 0] = [100.0, -3.0, 0.5]
+        >>> model = DispersionModel("N-BK7", (1.03961212, 0.231792344, 1.01046945),
+        ...                         (0.00600069867, 0.0200179144, 103.560653), 1.52, 0.005,
+        ...                         550.0, 150.0, (400, 640), 0, x, np.zeros((3, 1)))
+        >>> cx, cy = model.field_coefficients([0, 639], [0, 399])
+        >>> cx.shape, cx[:, 1].tolist()
+        ((3, 2), [100.0, -3.0, 0.5])
+        """
+        u_hat, v_hat = field_coordinates(u, v, self.slm_shape)
+        design = legendre2d_design(u_hat, v_hat, self.field_degree)
+        # One 2-D product: a stacked matmul over (N, 1, terms) would do N tiny products.
+        terms = design.reshape(-1, design.shape[-1])
+        cx = (terms @ self.x_coeffs.T).reshape(*design.shape[:-1], self.x_coeffs.shape[0])
+        cy = (terms @ self.y_coeffs.T).reshape(*design.shape[:-1], self.y_coeffs.shape[0])
+        return np.moveaxis(cx, -1, 0), np.moveaxis(cy, -1, 0)
 
     def to_manifest(
         self, x_name: str = "dispersion_x_coeffs", y_name: str = "dispersion_y_coeffs"

@@ -58,6 +58,45 @@ def normal_cdf(z, table):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, error_model="numpy")
+def _polynomial(coeffs, n, s):  # pragma: no cover - compiled
+    """``sum_k coeffs[n, k] * s**k`` by Horner's rule."""
+    value = coeffs[n, coeffs.shape[1] - 1]
+    for k in range(coeffs.shape[1] - 2, -1, -1):
+        value = value * s + coeffs[n, k]
+    return value
+
+
+@njit(nogil=True, error_model="numpy")
+def streak_bins(
+    cx, cy, s_edges, s_centres, guard, x_left, x_right, y
+):  # pragma: no cover - compiled
+    """Column bounds and centre rows of every bin of every pixel, guard bins included.
+
+    ``cx``, ``cy`` (N, K) are each pixel's polynomials in the spectral coordinates
+    ``s_edges`` (the bin edges', for x) and ``s_centres`` (the bin centres', for y). The
+    ``guard`` one-pixel bins at each end continue the band's first and last bins
+    outwards on their rows.
+    """
+    bins = s_centres.size
+    stop = guard + bins
+    for n in range(cx.shape[0]):
+        previous = _polynomial(cx, n, s_edges[0])
+        for b in range(bins):
+            edge = _polynomial(cx, n, s_edges[b + 1])
+            x_left[n, guard + b] = min(previous, edge)
+            x_right[n, guard + b] = max(previous, edge)
+            previous = edge
+            y[n, guard + b] = _polynomial(cy, n, s_centres[b])
+        for k in range(guard):
+            x_left[n, k] = x_left[n, guard] - (guard - k)
+            x_right[n, k] = x_left[n, k] + 1.0
+            y[n, k] = y[n, guard]
+            x_left[n, stop + k] = x_right[n, stop - 1] + k
+            x_right[n, stop + k] = x_left[n, stop + k] + 1.0
+            y[n, stop + k] = y[n, stop - 1]
+
+
+@njit(nogil=True, error_model="numpy")
 def column_cumsum(image, out):  # pragma: no cover - compiled
     """``out[r + 1, c] = out[r, c] + image[r, c]``, ``out[0] = 0``, row by row."""
     height, width = image.shape
