@@ -117,15 +117,49 @@ def paint_rectangles(top, bottom, left, right, mask):  # pragma: no cover - comp
 
 
 @njit(nogil=True, error_model="numpy")
-def add_free_pixels(image, covered, total, count):  # pragma: no cover - compiled
-    """Add the finite pixels of ``image`` outside ``covered`` to ``total``, count them."""
+def read_window(
+    image, top, bottom, left, right, saturation, cumulative, total, count, marks
+):  # pragma: no cover - compiled
+    """One pass over a frame: what the scan's reading pass needs of every pixel.
+
+    - ``cumulative``: the column cumulative sum (as :func:`column_cumsum`), non-finite
+      pixels counted as 0;
+    - the finite pixels outside every rectangle ``[top, bottom) x [left, right)`` (the
+      streak footprints, bounds within the image) added to ``total`` and counted in
+      ``count``;
+    - returns how many pixels are ``>= saturation`` or not finite.
+
+    The rectangles are not painted: each adds +1 and -1 at its column bounds of its rows
+    in ``marks`` ((H, W + 1) integers, zero on entry and left zero), and a running sum
+    along each row tells whether a pixel is covered. Painting the prototype's stacked,
+    overlapping footprints wrote 10 million pixels a frame; this writes 0.2 million.
+    """
     height, width = image.shape
+    for k in range(top.size):
+        for r in range(top[k], bottom[k]):
+            marks[r, left[k]] += 1
+            marks[r, right[k]] -= 1
+    free = np.empty(width, dtype=np.bool_)
+    bad = 0
+    for c in range(width):
+        cumulative[0, c] = 0.0
     for r in range(height):
+        depth = 0
+        for c in range(width):
+            depth += marks[r, c]
+            free[c] = depth == 0
+        marks[r, :] = 0
+        # Without branches, so that the compiler vectorises the pass over the pixels.
         for c in range(width):
             value = float(image[r, c])
-            if not covered[r, c] and math.isfinite(value):
-                total[r, c] += value
-                count[r, c] += 1
+            finite = abs(value) < math.inf  # False for NaN too
+            value = value if finite else 0.0
+            bad += (not finite) or value >= saturation
+            cumulative[r + 1, c] = cumulative[r, c] + value
+            use = free[c] and finite
+            total[r, c] += value if use else 0.0
+            count[r, c] += use
+    return bad
 
 
 @njit(nogil=True, error_model="numpy")

@@ -19,28 +19,29 @@ from sassi_bench.errors import step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.extract import StreakGeometry
 
-__all__ = ["Background", "estimate_background", "streak_footprint"]
+__all__ = ["Background", "estimate_background", "footprint_rectangles", "streak_footprint"]
 
 
-def streak_footprint(
+def footprint_rectangles(
     geometry: StreakGeometry,
     shape: tuple[int, int],
     reach_sigmas: float = 3.0,
     margin_px: float = 3.0,
-) -> NDArray[np.bool_]:
-    """Camera pixels that light of the open pixels can reach (True), as one mask.
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The rectangle each open pixel's light can reach: ``top, bottom, left, right``.
 
-    Each open pixel's streak is covered by a rectangle from its first bin's left edge to
-    its last bin's right edge (the bundle's bins, 400-700 nm), widened by ``margin_px``
-    for light just outside the band and by ``reach_sigmas`` blur sigmas of the bin at
-    each end; vertically by ``reach_sigmas`` of the widest blur.
+    Each open pixel's streak is covered from its first bin's left edge to its last bin's
+    right edge (the bundle's bins, 400-700 nm), widened by ``margin_px`` for light just
+    outside the band and by ``reach_sigmas`` blur sigmas of the bin at each end;
+    vertically by ``reach_sigmas`` of the widest blur. Bounds are clipped to the camera
+    ``shape`` (H, W); ``bottom`` and ``right`` are exclusive.
 
     Examples
     --------
     >>> geo = StreakGeometry(np.array([0]), np.array([0]), np.array([[10.0]]),
     ...                      np.array([[20.0]]), np.array([[5.0]]), np.array([1.0]), guard=0)
-    >>> streak_footprint(geo, (12, 30), reach_sigmas=1, margin_px=0).sum(axis=1)[3:8].tolist()
-    [0, 13, 13, 13, 0]
+    >>> [int(b[0]) for b in footprint_rectangles(geo, (12, 30), 1, 0)]
+    [4, 7, 9, 22]
     """
     h, w = shape
     core = geometry.core
@@ -52,8 +53,29 @@ def streak_footprint(
     x1 = np.clip(np.ceil(right) + 1, 0, w).astype(np.intp)
     y0 = np.clip(np.floor(geometry.y[:, core].min(axis=1) - reach_y), 0, h).astype(np.intp)
     y1 = np.clip(np.ceil(geometry.y[:, core].max(axis=1) + reach_y) + 1, 0, h).astype(np.intp)
-    footprint = np.zeros((h, w), dtype=np.bool_)
-    _kernels.paint_rectangles(y0, y1, x0, x1, footprint)
+    return y0, y1, x0, x1
+
+
+def streak_footprint(
+    geometry: StreakGeometry,
+    shape: tuple[int, int],
+    reach_sigmas: float = 3.0,
+    margin_px: float = 3.0,
+) -> NDArray[np.bool_]:
+    """Camera pixels that light of the open pixels can reach (True), as one mask: the
+    union of their :func:`footprint_rectangles`.
+
+    Examples
+    --------
+    >>> geo = StreakGeometry(np.array([0]), np.array([0]), np.array([[10.0]]),
+    ...                      np.array([[20.0]]), np.array([[5.0]]), np.array([1.0]), guard=0)
+    >>> streak_footprint(geo, (12, 30), reach_sigmas=1, margin_px=0).sum(axis=1)[3:8].tolist()
+    [0, 13, 13, 13, 0]
+    """
+    footprint = np.zeros(shape, dtype=np.bool_)
+    _kernels.paint_rectangles(
+        *footprint_rectangles(geometry, shape, reach_sigmas, margin_px), footprint
+    )
     return footprint
 
 

@@ -45,7 +45,7 @@ from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
 from sassi_bench.spectra.extract import SpectralDeblur
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
-from sassi_bench.spectra.offset import estimate_background, streak_footprint
+from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
 
 __all__ = ["QUALITY_FLAGS", "ScanCube", "assemble_scan", "scan_plan"]
 
@@ -153,6 +153,18 @@ def _run_frames(task, items: list, label: str, progress: bool, workers: int) -> 
     return results
 
 
+class _Scratch:
+    """One thread's share of the reading pass: its background sums (free pixels' total and
+    count over the frames it read) and a frame's working buffers, reused from frame to
+    frame."""
+
+    def __init__(self, box: tuple[int, int]):
+        self.total = np.zeros(box)
+        self.count = np.zeros(box, dtype=np.int32)
+        self.cumulative = np.empty((box[0] + 1, box[1]))
+        self.marks = np.zeros((box[0], box[1] + 1), dtype=np.int32)
+
+
 @dataclass
 class _Frame:
     """What the reading pass keeps of a frame for the spectra pass."""
@@ -169,8 +181,8 @@ class _Assembly:
 
     The work area covers the ROI's columns, and rows beyond it so that the ROI's edge
     pixels are unmixed from their neighbours outside it too. Frames write disjoint SLM
-    pixels (each is open in one frame), so threads fill it without locking; the
-    background sums are shared and locked.
+    pixels (each is open in one frame), so threads fill it without locking; each thread
+    keeps its own background sums (:class:`_Scratch`), added up once all frames are read.
     """
 
     def __init__(self, session: Session, bundle: CalibrationBundle, roi, deblur: bool):
@@ -215,10 +227,19 @@ class _Assembly:
         # Only the camera rows that light of the SLM can reach are processed.
         self.top, bottom = reached_rows(bundle, self.camera_shape[0], guard=GUARD_BINS)
         self.box = (bottom - self.top, self.camera_shape[1])
-        self.total = np.zeros(self.box)
-        self.count = np.zeros(self.box, dtype=np.int32)
         self.lock = threading.Lock()
+        self.scratches: list[_Scratch] = []
+        self.thread = threading.local()
         self.background_cumulative: NDArray[np.float64] | None = None
+
+    def _scratch(self) -> _Scratch:
+        """This thread's background sums and working buffers (made on first use)."""
+        scratch = getattr(self.thread, "scratch", None)
+        if scratch is None:
+            scratch = self.thread.scratch = _Scratch(self.box)
+            with self.lock:
+                self.scratches.append(scratch)
+        return scratch
 
     def _local(self, geo: StreakGeometry) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         return geo.rows - self.w0, geo.cols - self.roi[1]
@@ -238,27 +259,39 @@ class _Assembly:
             return _Frame(index, rows[keep], cols[keep], problems, usable=False)
         window = data[self.top : self.top + self.box[0]]
         everything = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
-        covered = streak_footprint(everything, self.box)
-        with self.lock:  # integer frames sum exactly, whatever the order of the frames
-            _kernels.add_free_pixels(window, covered, self.total, self.count)
+        scratch = self._scratch()
+        # Per-thread sums: integer frames sum exactly, whatever the order of the frames.
+        bad = _kernels.read_window(
+            window,
+            *footprint_rectangles(everything, self.box),
+            self.saturation,
+            scratch.cumulative,
+            scratch.total,
+            scratch.count,
+            scratch.marks,
+        )
         geo = everything if keep.all() else everything.select(keep)
         if geo.rows.size == 0:
             return _Frame(index, geo.rows, geo.cols, problems, usable=True)
         layout = cell_layout(geo, self.box)
-        finite = np.nan_to_num(window) if window.dtype.kind == "f" else window
-        sums = cell_sums(column_cumsum(finite), layout).astype(np.float32)
+        sums = cell_sums(scratch.cumulative, layout).astype(np.float32)
         local = self._local(geo)
         self.work[local] = sums[:, geo.core]
         self.guards[local] = np.concatenate([sums[:, : geo.guard], sums[:, geo.core.stop :]], 1)
         flags = np.where(layout.off[:, geo.core].any(axis=1), QUALITY_FLAGS["off_camera"], 0)
-        flags = flags.astype(np.uint8) | _pixel_flags(window, geo, self.saturation, index, problems)
+        if bad:
+            flags = flags | _pixel_flags(window, geo, self.saturation, index, problems)
         self.quality[local] = flags
         return _Frame(index, geo.rows, geo.cols, problems, usable=True)
 
     def background(self) -> NDArray[np.float64]:
         """The background estimate on the whole camera (NaN where no light reaches)."""
         background = np.full(self.camera_shape, np.nan)
-        inside = _mean_background(self.total, self.count)
+        total, count = np.zeros(self.box), np.zeros(self.box, dtype=np.int64)
+        for scratch in self.scratches:
+            total += scratch.total
+            count += scratch.count
+        inside = _mean_background(total, count)
         background[self.top : self.top + self.box[0]] = inside
         self.background_cumulative = column_cumsum(inside)
         return background

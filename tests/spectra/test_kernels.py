@@ -40,16 +40,30 @@ def test_banded_lu_matches_a_dense_solve(p, diagonal):
 
 
 @pytest.mark.parametrize("dtype", [np.uint16, np.float32])
-def test_free_pixels_are_added_and_counted(dtype):
+def test_reading_a_window_sums_free_pixels_cumulates_and_counts_bad_ones(dtype):
     rng = np.random.default_rng(5)
-    image = rng.integers(0, 4000, (6, 7)).astype(dtype)
-    covered = rng.random((6, 7)) < 0.4
-    finite = np.ones((6, 7), dtype=bool)
+    h, w = 9, 12
+    image = rng.integers(0, 4000, (h, w)).astype(dtype)
+    image[1, 2] = image[7, 11] = 4095  # saturated
+    finite = np.ones((h, w), dtype=bool)
     if dtype == np.float32:
         image[2, 3], image[4, 1] = np.nan, np.inf
         finite[2, 3] = finite[4, 1] = False
-    total, count = np.full((6, 7), 10.0), np.ones((6, 7), dtype=np.int32)
-    _kernels.add_free_pixels(image, covered, total, count)
+    # Overlapping rectangles, one empty, one reaching the right and bottom edges.
+    top, bottom = np.array([0, 2, 5, 3, 6]), np.array([3, 6, 5, 4, 9])
+    left, right = np.array([1, 4, 0, 3, 8]), np.array([5, 7, 9, 3, 12])
+    covered = np.zeros((h, w), dtype=bool)
+    for y0, y1, x0, x1 in zip(top, bottom, left, right, strict=True):
+        covered[y0:y1, x0:x1] = True
+    total, count = np.full((h, w), 10.0), np.ones((h, w), dtype=np.int32)
+    cumulative = np.full((h + 1, w), np.nan)
+    marks = np.zeros((h, w + 1), dtype=np.int32)
+    rectangles = (top, bottom, left, right)
+    bad = _kernels.read_window(image, *rectangles, 4095, cumulative, total, count, marks)
     use = ~covered & finite
-    assert np.array_equal(total, 10.0 + np.where(use, image, 0).astype(np.float64))
+    values = np.where(finite, image, 0).astype(np.float64)
+    assert np.array_equal(total, 10.0 + np.where(use, values, 0))
     assert np.array_equal(count, 1 + use)
+    assert np.array_equal(cumulative, np.vstack([np.zeros((1, w)), np.cumsum(values, axis=0)]))
+    assert bad == 2 + (~finite).sum()
+    assert not marks.any()  # left clean for the next frame
