@@ -19,7 +19,9 @@ model in two separable, vectorised steps:
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -166,21 +168,39 @@ class SpectralDeblur:
         level = np.clip(values[:, guard : values.shape[1] - guard].mean(axis=1), 1e-12, None)
         return np.maximum(self.strength * np.sqrt(self.full_scale / level), MIN_SMOOTHING)
 
-    def apply(self, values: NDArray[np.float64], rows, cols) -> NDArray[np.float64]:
+    @cached_property
+    def _single(self) -> tuple[NDArray[np.float32], ...]:
+        """The operators in single precision (for :meth:`apply` on float32 values)."""
+        return tuple(a.astype(np.float32) for a in (self.project, self.eigenvalues, self.expand))
+
+    def apply(self, values: NDArray[np.floating], rows, cols) -> NDArray[np.floating]:
         """Unmix (N, B') column sums of pixels at SLM (rows, cols), each solved exactly for
-        its own smoothing weight with the operators of its nearest field point."""
-        extra = self.smoothing(values) ** 2 - MIN_SMOOTHING**2
+        its own smoothing weight with the operators of its nearest field point.
+
+        Computes in the precision of ``values``: float32 halves the cost of the products
+        and changes the result by about 5e-7 of the spectrum (float32 cubes keep 6e-8).
+        """
+        dtype = np.float32 if values.dtype == np.float32 else np.float64
+        if dtype == np.float32:
+            project, eigenvalues, expand = self._single
+        else:
+            project, eigenvalues, expand = self.project, self.eigenvalues, self.expand
+        extra = (self.smoothing(values) ** 2 - MIN_SMOOTHING**2).astype(dtype)
         fv = np.interp(rows, self.grid_v, np.arange(self.grid_v.size))
         fu = np.interp(cols, self.grid_u, np.arange(self.grid_u.size))
         point = np.rint(fv).astype(np.intp) * self.grid_u.size + np.rint(fu).astype(np.intp)
-        out = np.empty_like(values)
+        # Pixels sorted by field point, so that each point's are one contiguous block.
         order = np.argsort(point, kind="stable")
-        bounds = np.flatnonzero(np.diff(point[order])) + 1
-        for members in np.split(order, bounds):  # one pass per field point
-            g = np.unravel_index(point[members[0]], self.eigenvalues.shape[:2])
-            coords = values[members] @ self.project[g].T
-            coords /= 1.0 + extra[members, None] * self.eigenvalues[g]
-            out[members] = coords @ self.expand[g].T
+        point, extra = point[order], extra[order, None]
+        ordered = values[order].astype(dtype, copy=False)
+        edges = np.unique(np.r_[0, np.flatnonzero(np.diff(point)) + 1, point.size])
+        for start, stop in itertools.pairwise(edges):  # one pass per field point
+            g = np.unravel_index(point[start], eigenvalues.shape[:2])
+            coords = ordered[start:stop] @ project[g].T
+            coords /= 1.0 + extra[start:stop] * eigenvalues[g]
+            np.matmul(coords, expand[g].T, out=ordered[start:stop])
+        out = np.empty(values.shape, dtype)
+        out[order] = ordered
         return out
 
 

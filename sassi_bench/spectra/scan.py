@@ -308,12 +308,13 @@ class _Assembly:
         raw -= cell_sums(self.background_cumulative, layout)
         amplitudes = unmix_rows(raw, layout, geo)
         if self.unmix is not None:
-            amplitudes = self.unmix.apply(amplitudes, geo.rows, geo.cols)
+            # In single precision, like the cube (see SpectralDeblur.apply).
+            amplitudes = self.unmix.apply(amplitudes.astype(np.float32), geo.rows, geo.cols)
         signal = amplitudes[:, geo.core]
         exposure = self.session.plan.steps[frame.index].exposure_s
         self.work[local] = (signal / exposure).astype(np.float32)
         good = self.quality[local] == 0
-        return float(signal[good].sum()), int(good.sum()) * self.n_bins
+        return float(signal[good].sum(dtype=np.float64)), int(good.sum()) * self.n_bins
 
 
 def assemble_scan(

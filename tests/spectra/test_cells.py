@@ -63,6 +63,24 @@ def test_deblur_solves_each_pixels_regularised_problem(calibrated_sim):
         assert x == pytest.approx(np.linalg.solve(normal, a.T @ y), rel=1e-6, abs=1e-9)
 
 
+def test_deblur_in_single_precision_follows_double(calibrated_sim):
+    _, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    deblur = SpectralDeblur.from_bundle(bundle, full_scale=65535.0)
+    h, w = bundle.slm_shape
+    rng = np.random.default_rng(6)
+    rows, cols = rng.integers(0, h, 400), rng.integers(0, w, 400)
+    geo = streak_geometry(bundle, rows, cols)
+    a = spill_matrix(geo.x_left, geo.x_right, geo.sigma)
+    spectra = rng.uniform(0.5, 1.5, (400, 1)) * (1.2 + np.sin(np.linspace(0, 3, a.shape[-1])))
+    values = np.einsum("nij,nj->ni", a, 10.0 ** rng.uniform(0, 4, (400, 1)) * spectra)
+    double = deblur.apply(values, rows, cols)
+    single = deblur.apply(values.astype(np.float32), rows, cols)
+    assert single.dtype == np.float32 and double.dtype == np.float64
+    error = np.linalg.norm(single - double, axis=1) / np.linalg.norm(double, axis=1)
+    assert error.max() < 1e-6
+
+
 def test_reached_rows_hold_every_streak(calibrated_sim):
     rig, _, data = calibrated_sim
     bundle = load(rig="sim", data=data)
