@@ -1,26 +1,30 @@
 """Pinhole-scan assembly speed and memory, against merely reading the frames.
 
 Captures a pinhole scan of the ColorChecker (all 500 frames, or every n-th with
-``--every``) into a session, then times (a) reading every frame back from the session
-store and (b) assembling the cube (reading pass + spectra pass), each the faster of two
-runs, printing the ratio; the target is <= 3x at the sim-prototype scale for the full
-500 frames. (With ``--every`` the costs that scale with the SLM, not with the frames,
-such as the first touch of the cube's memory, weigh up to n times more per frame.) The
-first assembly in the process, which also compiles the kernels, is timed and printed
-apart. Peak memory of the assembly is printed beside the size of all frames, to show it
-streams (a few frames in memory at a time).
+``--every``) into a session, then, in each of ``--rounds`` rounds, times (a) reading
+every frame back from the session store and (b) assembling the cube (reading pass +
+spectra pass), and prints the round's ratio; the target is <= 3x at the sim-prototype
+scale for the full 500 frames. Reads and assemblies alternate because a shared machine's
+speed drifts by tens of per cent within minutes: a ratio of two timings taken side by
+side is steadier than one of two best times taken apart. The median of the rounds' ratios
+is the figure to quote. (With ``--every`` the costs that scale with the SLM, not with the
+frames, such as the first touch of the cube's memory, weigh up to n times more per
+frame.) The first assembly in the process, which also compiles the kernels, is timed and
+printed apart. Peak memory of the assembly is printed beside the size of all frames, to
+show it streams (a few frames in memory at a time).
 
 A bundle for the rig is needed: ``--bundle PATH``, or the spectral calibration runs first.
 ``--session ID --data DIR`` times a scan session captured before (yours, or an earlier
-run's) instead of capturing one (rendering 500 prototype frames takes about 15 minutes).
+run's) instead of capturing one (rendering 500 prototype frames takes about 6-15 minutes).
 
-Run: ``python benchmarks/bench_scan.py [--rig sim-prototype] [--every 1] [--bundle DIR]
-[--workers N] [--session ID --data DIR]``
+Run: ``python benchmarks/bench_scan.py [--rig sim-prototype] [--every 1] [--rounds 3]
+[--bundle DIR] [--workers N] [--session ID --data DIR]``
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import tempfile
 import time
 import tracemalloc
@@ -38,6 +42,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rig", default="sim-prototype")
     parser.add_argument("--every", type=int, default=1, help="keep every n-th scan frame")
+    parser.add_argument("--rounds", type=int, default=3, help="read/assemble rounds")
     parser.add_argument("--bundle", help="bundle folder for the rig (default: calibrate first)")
     parser.add_argument("--workers", type=int, help="assembly threads (default: all CPUs)")
     parser.add_argument("--session", help="time this captured scan session instead")
@@ -53,27 +58,33 @@ def main() -> None:
         else:
             session = _capture(rig, args.every, scratch)
         frames = sorted(session.completed)
-        read, size = min(_read_all(session, frames) for _ in range(2))  # the faster read
         # The first assembly in a process also compiles the kernels (numba, once per
-        # process); the second is the steady state a lab's long scans see.
+        # process); the later ones are the steady state a lab's long scans see.
         start = time.perf_counter()
         assemble_scan(session, bundle, progress=False, workers=args.workers)
         first = time.perf_counter() - start
-        assemble = float("inf")
-        for _ in range(2):  # the faster of two, like the reads
+        rounds = []
+        for _ in range(args.rounds):
+            read, size = _read_all(session, frames)
             start = time.perf_counter()
             scan = assemble_scan(session, bundle, progress=False, workers=args.workers)
-            assemble = min(assemble, time.perf_counter() - start)
-        # Memory in a third run: tracing every allocation would slow the timed ones.
+            rounds.append((read, time.perf_counter() - start))
+        # Memory in a last run: tracing every allocation would slow the timed ones.
         tracemalloc.start()
         assemble_scan(session, bundle, progress=False, workers=args.workers)
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
-    frames = len(frames)
-    print(f"read all frames from the store: {read:8.2f} s  ({1e3 * read / frames:6.1f} ms/frame)")
+    n = len(frames)
+    for i, (read, assemble) in enumerate(rounds, 1):
+        print(
+            f"round {i}: read all frames {read:6.2f} s ({1e3 * read / n:5.1f} ms/frame), "
+            f"assemble {assemble:6.2f} s ({1e3 * assemble / n:5.1f} ms/frame): "
+            f"{assemble / read:4.2f}x"
+        )
+    ratios = sorted(assemble / read for read, assemble in rounds)
     print(
-        f"assemble the cube:              {assemble:8.2f} s  ({1e3 * assemble / frames:6.1f} "
-        f"ms/frame) = {assemble / read:5.1f}x reading (target <= 3x)"
+        f"assembly / reading: median {statistics.median(ratios):4.2f}x "
+        f"(range {ratios[0]:4.2f}-{ratios[-1]:4.2f}x over {len(ratios)} rounds; target <= 3x)"
     )
     print(f"first assembly in this process (compiles the kernels): {first:8.2f} s")
     print(
