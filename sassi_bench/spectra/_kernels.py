@@ -218,8 +218,9 @@ def cell_bounds(
 def cell_sums(cumulative, x_left, x_right, lo, hi, out):  # pragma: no cover - compiled
     """Sum of each cell of an image from its column cumulative sum ``(H + 1, W)``.
 
-    Columns count with the fraction of ``[c - 0.5, c + 0.5]`` inside the bin; rows and
-    columns beyond the frame are clipped to it (such cells are flagged ``off``).
+    Columns count with the fraction of ``[c - 0.5, c + 0.5]`` inside the bin: the first
+    and last column of a bin with their fractions, those between whole. Rows and columns
+    beyond the frame are clipped to it (such cells are flagged ``off``).
     """
     height = cumulative.shape[0] - 1
     width = cumulative.shape[1]
@@ -229,14 +230,28 @@ def cell_sums(cumulative, x_left, x_right, lo, hi, out):  # pragma: no cover - c
             top = min(max(math.floor(lo[n, b] + 0.5), 0), height)
             bottom = min(max(math.floor(hi[n, b] + 0.5), 0), height)
             left, right = x_left[n, b], x_right[n, b]
+            first, last = math.floor(left + 0.5), math.floor(right + 0.5)
             total = 0.0
-            for c in range(math.floor(left + 0.5), math.floor(right + 0.5) + 1):
-                weight = min(c + 0.5, right) - max(c - 0.5, left)
-                if weight > 0.0:
-                    column = min(max(c, 0), width - 1)
-                    total += min(weight, 1.0) * (
-                        cumulative[bottom, column] - cumulative[top, column]
+            if first >= 0 and last < width:
+                if first == last:
+                    total = (right - left) * (cumulative[bottom, first] - cumulative[top, first])
+                elif first < last:
+                    total = (first + 0.5 - left) * (
+                        cumulative[bottom, first] - cumulative[top, first]
                     )
+                    for c in range(first + 1, last):
+                        total += cumulative[bottom, c] - cumulative[top, c]
+                    total += (right - last + 0.5) * (
+                        cumulative[bottom, last] - cumulative[top, last]
+                    )
+            else:  # partly off the frame: the edge columns stand in for those beyond
+                for c in range(first, last + 1):
+                    weight = min(c + 0.5, right) - max(c - 0.5, left)
+                    if weight > 0.0:
+                        column = min(max(c, 0), width - 1)
+                        total += min(weight, 1.0) * (
+                            cumulative[bottom, column] - cumulative[top, column]
+                        )
             out[n, b] = total
 
 
