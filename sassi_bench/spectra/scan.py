@@ -291,6 +291,9 @@ class _Assembly:
         for scratch in self.scratches:
             total += scratch.total
             count += scratch.count
+        # The reading pass is over: free the threads' sums and buffers for the spectra pass.
+        self.scratches.clear()
+        self.thread = threading.local()
         inside = _mean_background(total, count)
         background[self.top : self.top + self.box[0]] = inside
         self.background_cumulative = column_cumsum(inside)
