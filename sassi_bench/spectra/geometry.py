@@ -73,7 +73,7 @@ def streak_geometry(
     # pixels, so it is evaluated as the pixels' coefficients (one small product) and a
     # compiled loop that writes every bin once (broadcast numpy evaluation and stacking
     # took 5 ms of the 6 for a prototype frame).
-    cx, cy = model.field_coefficients(cols.astype(np.float64), rows.astype(np.float64))
+    cx, cy = model.field_coefficients(cols, rows)
     bins = bundle.wavelengths.size
     x_left = np.empty((rows.size, bins + 2 * guard))
     x_right, y = np.empty_like(x_left), np.empty_like(x_left)
