@@ -19,6 +19,21 @@ class ConfigError(SassiBenchError, ValueError):
     """
 
 
+class ProcedureError(SassiBenchError, ValueError):
+    """A procedure was given input it cannot work with.
+
+    The message names the step, the cause and the fix (see :func:`step_error`). It is a
+    :class:`SassiBenchError`, so the command line prints it as one line without a
+    traceback, and a ``ValueError``, so ``except ValueError`` keeps working.
+
+    Examples
+    --------
+    >>> err = ProcedureError(step_error("scan", "unknown scene 'x'", "use white"))
+    >>> isinstance(err, ValueError), str(err)
+    (True, "scan: unknown scene 'x'. Fix: use white")
+    """
+
+
 class DeviceError(SassiBenchError, RuntimeError):
     """A device refused a command or is in the wrong state."""
 

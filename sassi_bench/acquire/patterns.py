@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = [
     "gray_bit_count",
@@ -66,7 +66,7 @@ def gray_bit_count(length: int, block: int) -> int:
 
 def _axis_shape(shape: tuple[int, int], axis: str) -> int:
     if axis not in ("x", "y"):
-        raise ValueError(
+        raise ProcedureError(
             step_error("pattern", f"axis {axis!r} is not 'x' or 'y'", "use 'x' or 'y'")
         )
     return shape[1] if axis == "x" else shape[0]
@@ -91,7 +91,7 @@ def gray_pattern(
     length = _axis_shape(shape, axis)
     bits = gray_bit_count(length, block)
     if not 0 <= bit < bits:
-        raise ValueError(
+        raise ProcedureError(
             step_error("pattern", f"Gray bit {bit} out of range", f"use 0..{bits - 1}")
         )
     code = gray_code(np.arange(length) // block)
@@ -112,7 +112,7 @@ def periodic_pattern(
     """
     profile = np.asarray(profile)
     if profile.ndim != 1 or profile.size < 2 or profile.min() < 0 or profile.max() > 255:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "pattern", "periodic profile must be 1-D grey levels 0..255", "check the plan"
             )
@@ -202,7 +202,7 @@ def render_pattern(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDA
         )
     if kind == "pinholes":
         return pinhole_pattern(shape, tuple(d["pitch"]), tuple(d.get("offset", (0, 0))))
-    raise ValueError(
+    raise ProcedureError(
         step_error(
             "pattern",
             f"unknown pattern kind {kind!r}",

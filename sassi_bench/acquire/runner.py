@@ -19,7 +19,7 @@ from tqdm.auto import tqdm
 from sassi_bench.acquire.patterns import render_pattern
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session import Session, SessionError
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.protocols import Camera
 from sassi_bench.rig.rig import Rig
 
@@ -77,7 +77,7 @@ def _check_inputs(rig: Rig, plan: Plan, session: Session, todo: tuple[int, ...])
         step = plan.steps[i]
         lo, hi = _camera(rig, step.camera).exposure_range_s
         if not lo <= step.exposure_s <= hi:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     f"run plan {plan.name!r} step {i}",
                     f"exposure {step.exposure_s:g} s is outside the {step.camera} camera's "
@@ -88,7 +88,7 @@ def _check_inputs(rig: Rig, plan: Plan, session: Session, todo: tuple[int, ...])
         try:
             render_pattern(step.pattern, rig.slm.shape)
         except (ValueError, KeyError, TypeError) as exc:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     f"run plan {plan.name!r} step {i}",
                     f"pattern {dict(step.pattern)!r} cannot be rendered ({exc})",
@@ -158,7 +158,7 @@ def run_plan(
     if stop_after is not None and (
         isinstance(stop_after, bool) or not isinstance(stop_after, int) or stop_after < 0
     ):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 f"run plan {plan.name!r}",
                 f"stop_after={stop_after!r} is not a non-negative integer",

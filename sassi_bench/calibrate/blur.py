@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle.models import BlurModel
 from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["BlurFit", "SpotWidths", "fit_blur", "measure_spot_widths"]
 
@@ -104,7 +104,7 @@ def measure_spot_widths(
             hit = sat[np.clip(rows, 0, sat.shape[0] - 1), np.clip(cols, 0, sat.shape[1] - 1)]
             valid &= ~hit.any(axis=(1, 2))
         if not valid.any():
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     "blur measurement",
                     "no spot could be measured (all off the frame, dark or saturated)",
@@ -147,7 +147,7 @@ def fit_blur(
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     sig = np.asarray(sigma_px, dtype=np.float64)
     if lam.size < 3:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "blur fit",
                 f"only {lam.size} line(s) measured; a quadratic needs three",

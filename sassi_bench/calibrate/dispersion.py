@@ -27,7 +27,7 @@ from sassi_bench.bundle.models import (
     legendre2d_design,
 )
 from sassi_bench.calibrate.field import FieldFit
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.glass import Glass, get_glass
 
 __all__ = ["DispersionFit", "LaserMap", "fit_dispersion", "wavelength_bins"]
@@ -144,7 +144,7 @@ def fit_dispersion(
     g = glass if isinstance(glass, Glass) else get_glass(glass)
     lam = np.array([m.wavelength_nm for m in maps], dtype=np.float64)
     if lam.size < order + 1:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "dispersion fit",
                 f"{lam.size} laser line(s) cannot fix a degree-{order} dispersion model",
@@ -152,7 +152,7 @@ def fit_dispersion(
             )
         )
     if np.unique(lam).size != lam.size:
-        raise ValueError(
+        raise ProcedureError(
             step_error("dispersion fit", "a laser wavelength appears twice", "list each line once")
         )
     n_ref = float(g.index(LAMBDA_REF_NM))
@@ -264,7 +264,7 @@ def wavelength_bins(
     lam = np.linspace(band_nm[0] - 30.0, band_nm[1] + 30.0, 36001)
     x, _ = model.evaluate((w - 1) / 2, (h - 1) / 2, lam)
     if np.any(np.diff(x) <= 0):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "wavelength bins",
                 "the fitted streak is not monotonic in wavelength at the field centre",

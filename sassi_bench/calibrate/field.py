@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle.models import field_coordinates, legendre2d_design
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["FieldFit", "fit_field"]
 
@@ -101,13 +101,13 @@ def fit_field(
     values = np.asarray(values, dtype=np.float64).ravel()
     n_terms = (degree + 1) * (degree + 2) // 2
     if not (u.size == v.size == values.size):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "field fit", "u, v and values differ in length", "pass 1-D arrays of equal length"
             )
         )
     if u.size < 3 * n_terms:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "field fit",
                 f"{u.size} samples cannot constrain a degree-{degree} polynomial ({n_terms} terms)",

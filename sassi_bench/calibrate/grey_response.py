@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
 from scipy.stats import trim_mean
 
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["GreyResponse", "harmonic_distortion", "measure_grey_response", "sinusoid_profile"]
 
@@ -79,7 +79,7 @@ class GreyResponse:
             or levels[-1] != 255
             or np.any(np.diff(levels) <= 0)
         ):
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     _STEP,
                     f"levels {levels.tolist()} are not strictly increasing integers from 0 to 255",
@@ -87,11 +87,11 @@ class GreyResponse:
                 )
             )
         if response.shape != levels.shape or not np.all(np.isfinite(response)):
-            raise ValueError(
+            raise ProcedureError(
                 step_error(_STEP, "response must be finite, one value per level", "check inputs")
             )
         if np.any(np.diff(response) < 0) or response[0] != 0.0 or response[-1] != 1.0:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     _STEP,
                     "response must be non-decreasing from 0 (level 0) to 1 (level 255)",
@@ -155,7 +155,7 @@ def _lit_mask(span: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 def _check_inputs(levels: NDArray[np.integer], frames: NDArray, dark: ArrayLike) -> None:
     if frames.ndim != 3 or frames.shape[0] != levels.size:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 _STEP,
                 f"frames have shape {frames.shape} for {levels.size} levels",
@@ -163,7 +163,7 @@ def _check_inputs(levels: NDArray[np.integer], frames: NDArray, dark: ArrayLike)
             )
         )
     if np.ndim(dark) not in (0, 2) or (np.ndim(dark) == 2 and np.shape(dark) != frames.shape[1:]):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 _STEP,
                 f"dark has shape {np.shape(dark)}, frames are {frames.shape[1:]}",
@@ -171,7 +171,7 @@ def _check_inputs(levels: NDArray[np.integer], frames: NDArray, dark: ArrayLike)
             )
         )
     if levels.size < 3 or len(set(levels.tolist())) != levels.size:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 _STEP,
                 f"levels {levels.tolist()} are too few or repeated",
@@ -179,11 +179,13 @@ def _check_inputs(levels: NDArray[np.integer], frames: NDArray, dark: ArrayLike)
             )
         )
     if 0 not in levels or 255 not in levels:
-        raise ValueError(
+        raise ProcedureError(
             step_error(_STEP, "levels 0 and 255 are both needed", "add them to the capture plan")
         )
     if levels.min() < 0 or levels.max() > 255:
-        raise ValueError(step_error(_STEP, "levels must lie in 0..255", "check the capture plan"))
+        raise ProcedureError(
+            step_error(_STEP, "levels must lie in 0..255", "check the capture plan")
+        )
 
 
 def _enforce_monotonic(
@@ -195,7 +197,7 @@ def _enforce_monotonic(
     bad = np.flatnonzero(drop > allowed)
     if bad.size:
         i = int(bad[0])
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 _STEP,
                 f"transmission falls from {mean[i]:.4f} at level {levels[i]} to "
@@ -268,7 +270,7 @@ def measure_grey_response(
     if saturation_level is not None and use.shape == span.shape:
         use = use & ~np.any(frames >= saturation_level, axis=0)
     if use.shape != span.shape or not np.any(use):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 _STEP,
                 "no usable lit pixels (mask empty or of the wrong shape, level 255 not "
@@ -303,7 +305,7 @@ def sinusoid_profile(period: int, response: GreyResponse | None = None) -> NDArr
     [255, 128, 0, 128]
     """
     if isinstance(period, bool) or not isinstance(period, (int, np.integer)) or period < 3:
-        raise ValueError(
+        raise ProcedureError(
             step_error("sinusoid profile", f"period {period!r} is not an integer >= 3", "use 16")
         )
     # Rounded so that mirror samples (j, period - j) get the same level despite float noise.
@@ -327,7 +329,7 @@ def harmonic_distortion(transmission: ArrayLike) -> float:
     if samples.size % 2 == 0:
         spectrum[-1] *= 0.5  # the Nyquist bin holds its harmonic once, not twice
     if spectrum.size < 3 or spectrum[1] == 0:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "harmonic distortion",
                 "need at least 4 samples of one period with a non-zero fundamental",

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from sassi_bench.errors import SassiBenchError, step_error
+from sassi_bench.errors import ProcedureError, SassiBenchError, step_error
 
 __all__ = [
     "METHODS",
@@ -318,7 +318,7 @@ def register_guide(
     True
     """
     if method not in METHODS:
-        raise ValueError(
+        raise ProcedureError(
             step_error(STEP, f"unknown method {method!r}", f"use one of {list(METHODS)}")
         )
     slm_arr = np.asarray(slm_image)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.errors import ConfigError, ProcedureError, step_error
 
 __all__ = ["camera_sensitivities", "render_rgb", "rendering_sensitivities", "upsample_lattice"]
 
@@ -79,7 +79,7 @@ def rendering_sensitivities(
     'camera: Nikon 5100 (NPL)'
     """
     if method not in ("auto", "camera", "cie"):
-        raise ValueError(
+        raise ProcedureError(
             step_error(STEP, f"unknown rendering {method!r}", "use auto, camera or cie")
         )
     if method == "cie":
@@ -147,7 +147,7 @@ def render_rgb(
     data = np.asarray(cube, dtype=np.float64)
     wl = np.asarray(wavelengths_nm, dtype=np.float64)
     if data.ndim != 3 or data.shape[-1] != wl.size:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 STEP,
                 f"cube of shape {data.shape} does not match {wl.size} wavelengths",
@@ -159,7 +159,7 @@ def render_rgb(
     if sensitivities is not None:
         weights = np.asarray(sensitivities, dtype=np.float64)
         if weights.shape != (3, wl.size):
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     STEP, f"sensitivities have shape {weights.shape}", f"pass (3, {wl.size})"
                 )

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.calibrate.field import FieldFit, fit_field
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["LineCentres", "fit_line_axis", "line_centres"]
 
@@ -107,7 +107,7 @@ def line_centres(
         xs.append(along)
         ys.append(across)
     if not coords:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "line sweep",
                 f"no frame of axis {axis!r} showed its lines clearly",

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.optics.sources import blackbody_power
 
 __all__ = ["read_reference_csv", "response_from_white", "source_photons_in_bins"]
@@ -110,7 +110,7 @@ def response_from_white(
     """
     data = np.asarray(spectra, dtype=np.float64)
     if data.ndim != 2 or data.shape[0] < 10:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "radiometric response",
                 f"need spectra of at least ten white pixels, got shape {data.shape}",

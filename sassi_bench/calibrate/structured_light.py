@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.acquire.patterns import gray_bit_count
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = [
     "REASONS",
@@ -63,7 +63,7 @@ def _stack(frames: ArrayLike, step: str, name: str, minimum: int = 1) -> NDArray
     """``frames`` as an (N, H, W) array (dtype kept; converted frame by frame later)."""
     arr = np.asarray(frames)
     if arr.ndim != 3 or arr.shape[0] < minimum:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"{name} has shape {arr.shape}",
@@ -75,7 +75,7 @@ def _stack(frames: ArrayLike, step: str, name: str, minimum: int = 1) -> NDArray
 
 def _check_frame_shape(shape: tuple[int, ...], expected: tuple[int, ...], step: str, name: str):
     if tuple(shape) != tuple(expected):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"{name} frames are {tuple(shape)}, the others are {tuple(expected)}",
@@ -167,7 +167,7 @@ def decode_gray(
     pos = _stack(positive, step, "positive")
     neg = _stack(negative, step, "negative")
     if neg.shape != pos.shape:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"positive frames {pos.shape} and negative frames {neg.shape} differ",
@@ -182,7 +182,7 @@ def decode_gray(
 
 def _check_block(block: int, step: str) -> None:
     if isinstance(block, bool) or not isinstance(block, (int, np.integer)) or block < 1:
-        raise ValueError(
+        raise ProcedureError(
             step_error(step, f"block {block!r} is not a positive integer", "use e.g. block=8")
         )
 
@@ -193,7 +193,7 @@ def _phase_solver(shifts: NDArray[np.float64], period: float, step: str) -> NDAr
     delta = 2.0 * np.pi * shifts / period
     design = np.stack([np.ones_like(delta), np.cos(delta), np.sin(delta)], axis=1)
     if np.linalg.matrix_rank(design) < 3:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"phase shifts {shifts.tolist()} px do not span a period of {period} px",
@@ -249,13 +249,13 @@ def decode_phase(
     step = "phase decoding"
     stack = _stack(frames, step, "phase frames", minimum=3)
     if not np.isfinite(period) or period <= 0:
-        raise ValueError(step_error(step, f"period {period!r} is not positive", "use e.g. 16"))
+        raise ProcedureError(step_error(step, f"period {period!r} is not positive", "use e.g. 16"))
     count = stack.shape[0]
     if shifts is None:
         shifts = np.arange(count) * period // count
     shifts = np.asarray(shifts, dtype=np.float64)
     if shifts.shape != (count,):
-        raise ValueError(
+        raise ProcedureError(
             step_error(step, f"{shifts.size} shifts for {count} frames", "pass one per frame")
         )
     solver = _phase_solver(shifts, float(period), step)
@@ -408,7 +408,7 @@ def _check_axis_inputs(
     _check_frame_shape(full.shape, shape, step, "full")
     _check_block(block, step)
     if isinstance(length, bool) or not isinstance(length, (int, np.integer)) or length < 1:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"length {length!r} is not a positive integer",
@@ -417,7 +417,7 @@ def _check_axis_inputs(
         )
     bits = gray_bit_count(length, block)
     if pos.shape[0] != bits:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"{pos.shape[0]} Gray bits given; {length} px in blocks of {block} need {bits}",
@@ -425,7 +425,7 @@ def _check_axis_inputs(
             )
         )
     if not 0 <= tolerance < period / 2 or block / 2 > period / 2 - tolerance:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"Gray blocks of {block} px cannot pick a period of {period} px with "
@@ -637,7 +637,7 @@ def decode_correspondences(x_axis: AxisDecode, y_axis: AxisDecode) -> Correspond
     """
     step = "correspondences"
     if x_axis.coord.shape != y_axis.coord.shape:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"x axis is {x_axis.coord.shape}, y axis is {y_axis.coord.shape}",
@@ -649,7 +649,7 @@ def decode_correspondences(x_axis: AxisDecode, y_axis: AxisDecode) -> Correspond
     valid = reason == 0
     counts = _counts(reason)
     if not np.any(valid):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 step,
                 f"no pixel was decoded on both axes (counts {counts})",

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.frame import Frame, FrameMeta
 
 __all__ = ["CameraBase", "LightSourceBase", "SlmBase", "TriggerBase", "check_pattern"]
@@ -44,7 +44,7 @@ def check_pattern(pattern: ArrayLike, shape: tuple[int, int]) -> NDArray[np.uint
     """
     arr = np.asarray(pattern)
     if arr.shape != tuple(shape):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "SLM show",
                 f"pattern has shape {arr.shape}, the SLM is {tuple(shape)} (height, width)",
@@ -54,7 +54,7 @@ def check_pattern(pattern: ArrayLike, shape: tuple[int, int]) -> NDArray[np.uint
     if arr.dtype == np.bool_:
         return arr.astype(np.uint8) * np.uint8(255)
     if arr.dtype != np.uint8:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "SLM show",
                 f"pattern dtype is {arr.dtype}, expected bool or uint8",
@@ -139,7 +139,7 @@ class CameraBase(ABC):
         except (TypeError, ValueError):
             value = float("nan")
         if not lo <= value <= hi:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     f"{self.name} camera exposure",
                     f"{seconds!r} s is outside the camera's range [{lo:g}, {hi:g}] s",
@@ -192,7 +192,7 @@ class LightSourceBase(ABC):
             with contextlib.suppress(ValueError):
                 key = f"laser:{float(key[6:]):g}"
         if key not in self._available:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     "light select",
                     f"{name!r} is not a light of this rig",
@@ -232,7 +232,7 @@ class TriggerBase(ABC):
 
     def set_divider(self, n: int) -> None:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 65535:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     "trigger divider",
                     f"{n!r} is not an integer in 1..65535",

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.protocols import Camera, LightSource, Slm, Trigger
 
@@ -42,8 +43,10 @@ class Rig:
     def set_scene(self, name: str) -> None:
         """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...)."""
         if name not in SCENES:
-            raise ValueError(
-                f"set scene: unknown scene {name!r}. Fix: use one of {', '.join(SCENES)}"
+            raise ProcedureError(
+                step_error(
+                    "set scene", f"unknown scene {name!r}", f"use one of {', '.join(SCENES)}"
+                )
             )
         self.scene_setter(name)
         self.scene = name

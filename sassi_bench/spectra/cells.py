@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.geometry import StreakGeometry
 
@@ -132,7 +132,7 @@ def cell_layout(geometry: StreakGeometry, shape: tuple[int, int]) -> CellLayout:
     off = np.empty(y.shape, dtype=np.bool_)
     sigma = _floats(geo.sigma)
     if not np.all(sigma > 0):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "spectrum extraction",
                 f"the blur widths {sigma.min():.3g}..{sigma.max():.3g} px are not all positive",
@@ -141,7 +141,7 @@ def cell_layout(geometry: StreakGeometry, shape: tuple[int, int]) -> CellLayout:
         )
     bad = _kernels.cell_bounds(y, sigma, index, 3.0, h, w, x_left, x_right, lo, hi, off)
     if bad:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "spectrum extraction",
                 f"{bad} (pixel, bin) positions of the streak geometry are not finite",

@@ -29,7 +29,7 @@ from scipy.linalg import eigh
 from scipy.special import ndtr
 
 from sassi_bench.bundle import CalibrationBundle
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra.cells import (
     NEGLIGIBLE_COUPLING,
     cell_layout,
@@ -234,7 +234,7 @@ def extract_spectra(
     """
     image = np.asarray(image, dtype=np.float64)
     if image.ndim != 2:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "spectrum extraction", f"frame has shape {image.shape}", "pass one 2-D frame"
             )

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import RectBivariateSpline, griddata
 
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.extract import StreakGeometry
 
@@ -136,7 +136,7 @@ def estimate_background(
     tiles = padded.reshape(ny, by, nx, bx).transpose(0, 2, 1, 3).reshape(ny, nx, by * bx)
     free = np.isfinite(tiles).mean(axis=2)
     if not (free >= min_free).any():
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "offset removal",
                 "the streaks cover the whole frame, leaving no background pixels",

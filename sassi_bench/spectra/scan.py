@@ -40,7 +40,7 @@ from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
 from sassi_bench.spectra.extract import SpectralDeblur
@@ -195,7 +195,7 @@ class _Assembly:
         )
         self.saturation = 2 ** int(rig["spectral_camera"]["bit_depth"]) - 1
         if tuple(bundle.slm_shape) != self.slm_shape:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     "scan assembly",
                     f"the bundle is for a {bundle.slm_shape} SLM, the session's rig has "
@@ -210,7 +210,7 @@ class _Assembly:
         r0, c0, r1, c1 = self.roi
         h, w = self.slm_shape
         if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     "scan assembly",
                     f"the ROI {roi} is not a region of the {h} x {w} SLM",

@@ -17,7 +17,7 @@ from itertools import product
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["CHART_COLS", "CHART_ROWS", "ChartGrid", "detect_chart", "grid_from_corners"]
 
@@ -27,7 +27,7 @@ CHART_ROWS, CHART_COLS = 4, 6
 CORNER_PATCHES = np.array([[0.0, 0.0], [5.0, 0.0], [5.0, 3.0], [0.0, 3.0]])
 
 
-class LocateError(ValueError):
+class LocateError(ProcedureError):
     """The chart could not be found automatically."""
 
 
@@ -126,7 +126,7 @@ def grid_from_corners(corners: ArrayLike) -> ChartGrid:
 
     pts = np.asarray(corners, dtype=np.float64)
     if pts.shape != (4, 2) or not np.all(np.isfinite(pts)):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth patch corners",
                 f"expected four (u, v) points, got an array of shape {pts.shape}",
@@ -137,7 +137,7 @@ def grid_from_corners(corners: ArrayLike) -> ChartGrid:
     d1, d2 = pts[2] - pts[0], pts[3] - pts[1]
     area = 0.5 * abs(d1[0] * d2[1] - d1[1] * d2[0])
     if area < 1.0:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth patch corners",
                 "the four points enclose no area",

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.bundle import QualityCheck
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.validate.colorimetry import (
     delta_e2000,
     reflectance_to_lab,
@@ -224,7 +224,7 @@ def validate_macbeth(
     white = np.asarray(white, dtype=np.float64)
     white_mean = white if white.ndim == 1 else np.mean(white, axis=0)
     if not np.all(np.isfinite(white_mean)) or np.max(white_mean) <= 0:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth validation",
                 "the white reference has no positive signal",
@@ -233,7 +233,7 @@ def validate_macbeth(
         )
     if np.any(chart.count == 0):
         missing = ", ".join(str(i + 1) for i in np.flatnonzero(chart.count == 0))
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth validation",
                 f"no measured pixels inside patch(es) {missing}",
@@ -342,7 +342,7 @@ def white_from_diffuser(white: PatchStatistics, reflectance: float) -> NDArray[n
     """
     if np.any(white.count == 0):
         missing = ", ".join(str(i + 1) for i in np.flatnonzero(white.count == 0))
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth white reference",
                 f"the diffuser scan has no measured pixels where patch(es) {missing} lie",

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.bundle import CalibrationBundle
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanCube
 from sassi_bench.validate.colorimetry import cube_to_srgb, reflectance_to_xyz
@@ -60,7 +60,7 @@ def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np
     from sassi_bench.acquire.exposure import auto_exposure
 
     if bundle.guide_to_slm is None:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth patch localisation",
                 f"bundle {bundle.rig_name}/{bundle.version} has no guide -> SLM homography",
@@ -163,7 +163,7 @@ def validate_scans(
     """
     source = procedure["white_reference"]["source"]
     if source == "diffuser" and white is None:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth white reference",
                 "the procedure asks for a white diffuser scan and none was given",
@@ -172,7 +172,7 @@ def validate_scans(
         )
     for scan, what in ((chart, "chart"), (white, "diffuser")):
         if scan is not None and not np.allclose(scan.wavelengths_nm, bundle.wavelengths):
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     "Macbeth validation",
                     f"the {what} scan was assembled with other wavelength bins than bundle "
@@ -182,7 +182,7 @@ def validate_scans(
             )
     reference = reference_chart(procedure["reference"]["data"])
     if procedure["localisation"]["method"] == "corners" and corners is None:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "Macbeth patch localisation",
                 "the procedure asks for manual corners and none were given",

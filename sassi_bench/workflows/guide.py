@@ -35,7 +35,7 @@ from sassi_bench.calibrate.guide_render import (
     rendering_sensitivities,
     upsample_lattice,
 )
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import assemble_scan, scan_plan
 
@@ -115,7 +115,7 @@ def _check_resumed(session: Session, expected: Mapping[str, Any]) -> None:
     stored = session.plan.parameters
     differ = {k: v for k, v in expected.items() if _plain(stored.get(k)) != _plain(v)}
     if differ:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 STEP,
                 f"session {session.id!r} was planned with "
@@ -313,7 +313,7 @@ def run_guide_registration(
     """
     proc = {k: v for k, v in dict(procedure).items() if k != "source"}
     if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 STEP,
                 f"bundle is for a {bundle.slm_shape} SLM, the rig has {rig.slm.shape}",
@@ -326,7 +326,7 @@ def run_guide_registration(
             rig, bundle, proc, session_id=f"{base}-scan", data=data, progress=progress
         )
     elif reference.scene != proc["scene"]:
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 STEP,
                 f"the reference rendering shows scene {reference.scene!r}, the procedure "

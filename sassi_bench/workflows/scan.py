@@ -26,7 +26,7 @@ from sassi_bench.calibrate.radiometry import (
     response_from_white,
     source_photons_in_bins,
 )
-from sassi_bench.errors import step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanCube, assemble_scan, scan_plan
 
@@ -184,7 +184,7 @@ def run_scan(
 ) -> ScanRun:
     """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``."""
     if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
-        raise ValueError(
+        raise ProcedureError(
             step_error(
                 "scan",
                 f"bundle is for a {bundle.slm_shape} SLM, the rig has {rig.slm.shape}",

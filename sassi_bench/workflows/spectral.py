@@ -35,7 +35,7 @@ from sassi_bench.calibrate.grey_response import (
 )
 from sassi_bench.calibrate.line_sweep import fit_line_axis, line_centres
 from sassi_bench.calibrate.structured_light import decode_axis
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
@@ -153,7 +153,7 @@ def _frames(session: Session, indices: list[int]) -> NDArray[np.float32]:
 def _one(session: Session, **tags) -> NDArray[np.float32]:
     indices = session.plan.select(**tags)
     if not indices:
-        raise ValueError(
+        raise ProcedureError(
             step_error("spectral analysis", f"no frame tagged {tags}", "re-run the capture")
         )
     return _frames(session, indices).mean(axis=0)
@@ -268,7 +268,7 @@ def analyse_sweep(
         decode = _structured_decode if proc["sweep"]["mode"] == "structured" else _line_decode
         x, y, u, v, fraction, counts = decode(session, proc, laser, slm_shape, saturation)
         if x.size < 1000:
-            raise ValueError(
+            raise ProcedureError(
                 step_error(
                     f"sweep decoding at {laser:g} nm",
                     f"only {x.size} camera pixels decoded ({counts})",

@@ -16,6 +16,7 @@ import numpy as np
 
 from sassi_bench.acquire.patterns import gray_bit_count
 from sassi_bench.acquire.plan import Plan, Step
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["grey_levels", "grey_plan", "laser_light", "sweep_plan"]
 
@@ -109,9 +110,13 @@ def _structured_steps(
         for s in range(steps_count):
             shift = s * period / steps_count
             if shift != int(shift):
-                raise ValueError(
-                    f"sweep.phase_steps: {steps_count} steps do not divide the period {period} px "
-                    "into whole pixels. Fix: choose a period that is a multiple of phase_steps"
+                raise ProcedureError(
+                    step_error(
+                        "sweep.phase_steps",
+                        f"{steps_count} steps do not divide the period {period} px"
+                        " into whole pixels",
+                        "choose a period that is a multiple of phase_steps",
+                    )
                 )
             pattern = {"kind": "periodic", "axis": axis, "profile": profile, "shift": int(shift)}
             steps.append(
