@@ -17,6 +17,7 @@ Examples
 
 from sassi_bench.bundle.archive import ImportedBundle, export_zip, import_zip, verify_zip
 from sassi_bench.bundle.bundle import CalibrationBundle, Streak
+from sassi_bench.bundle.derive import publish_derived
 from sassi_bench.bundle.diff import BundleDiff, diff_bundles, format_diff
 from sassi_bench.bundle.errors import (
     BundleError,
@@ -67,6 +68,7 @@ __all__ = [
     "legendre2d_terms",
     "load",
     "publish",
+    "publish_derived",
     "verify",
     "verify_zip",
 ]

@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from sassi_bench.acquire.session import Session
-from sassi_bench.bundle import QualityCheck, load, publish
+from sassi_bench.bundle import QualityCheck, load, publish_derived
+from sassi_bench.bundle.derive import derived_checks
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.procedure import load_procedure, with_changes
@@ -43,13 +44,6 @@ class FullCalibration:
 
 def _stage_procedure(kind: str, name_or_path: str) -> dict[str, Any]:
     return load_procedure(kind, None if name_or_path == kind else name_or_path)
-
-
-def _prefixed(stage: str, checks) -> list[QualityCheck]:
-    return [
-        QualityCheck(f"{stage}.{c.name}", c.value, c.tolerance, c.unit, c.passed, c.comparison)
-        for c in checks
-    ]
 
 
 def run_full_calibration(
@@ -124,7 +118,6 @@ def run_full_calibration(
             session_id=f"{base}-response", data=staging, progress=progress, allow_failed=True,
         )
     )  # fmt: skip
-    response_checks = staged.manifest["quality"]["checks"]
     guide = run_guide_registration(
         rig, staged, guide_proc, session_id=f"{base}-guide", data=staging, progress=progress,
         allow_failed=True,
@@ -136,31 +129,26 @@ def run_full_calibration(
     )  # fmt: skip
     html, json_path = write_report(macbeth, staged, macbeth_proc, report_dir)
 
-    checks = (
-        _prefixed("spectral", spectral.checks)
-        + _prefixed("response", [QualityCheck(**dict(c)) for c in response_checks])
-        + _prefixed("guide", guide.checks)
-        + _prefixed("macbeth", macbeth.checks)
-    )
+    # The staged bundle carries the spectral, response and guide checks.
+    checks = derived_checks(staged, "macbeth", macbeth.checks)
     reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in spectral.figures.items()}
     reports.update({f"guide_{k}.png": v for k, v in guide.figures.items()})
     reports.update({"macbeth_report.html": html, "macbeth_report.json": json_path})
     chart = Session.open(macbeth.settings["chart_session"], data=staging)
-    chart_input = {"id": chart.id, "sha256": chart.sha256(), "kind": "session"}
     bundle_path = None
     if all(c.passed for c in checks) or allow_failed:
-        bundle_path = publish(
-            staged.models,
+        bundle_path = publish_derived(
+            staged,
+            stage="macbeth",
             rig=rig.description,
-            quality={"checks": checks, "residuals": {"macbeth": macbeth.summary()}},
-            procedure={
+            checks=macbeth.checks,
+            residuals=macbeth.summary(),
+            procedure={  # the response and guide procedures come with the staged bundle
                 "full_calibration": dict(procedure),
                 "spectral_calibration": spectral_proc,
-                "guide_registration": guide_proc,
                 "macbeth_validation": macbeth_proc,
-                "response": dict(response_cfg),
             },
-            inputs=[dict(i) for i in staged.manifest["inputs"]] + [chart_input],
+            inputs=[{"id": chart.id, "sha256": chart.sha256(), "kind": "session"}],
             reports=reports,
             allow_failed=allow_failed,
             data=root,

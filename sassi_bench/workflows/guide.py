@@ -28,7 +28,8 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
+from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
+from sassi_bench.bundle.derive import check_parent
 from sassi_bench.calibrate.guide_registration import Registration, register_guide
 from sassi_bench.calibrate.guide_render import (
     render_rgb,
@@ -291,7 +292,8 @@ def run_guide_registration(
     data
         Data root for sessions and bundles.
     publish_bundle, allow_failed
-        Publish a bundle; refuse one that failed its checks unless ``allow_failed``.
+        Publish a bundle; refuse one that failed its checks, or a ``bundle`` published
+        with an override (checked before the scan), unless ``allow_failed``.
     figures
         Make the match and checkerboard figures (kept in the bundle's ``report/``).
 
@@ -320,6 +322,8 @@ def run_guide_registration(
                 "load this rig's bundle",
             )
         )
+    if publish_bundle:
+        check_parent(bundle, "guide", allow_failed=allow_failed)
     base = session_id or _stamp()
     if reference is None:
         reference = scan_reference(
@@ -378,8 +382,12 @@ def publish_guide(
     data=None,
     allow_failed: bool = False,
 ) -> Path:
-    """Publish ``bundle``'s models plus the guide homography as a new bundle version."""
-    old = bundle.models
+    """Publish ``bundle``'s models plus the guide homography as a new, derived bundle version.
+
+    The new version carries ``bundle``'s quality checks (see
+    :func:`~sassi_bench.bundle.publish_derived`): a parent published with an override is
+    refused unless ``allow_failed``.
+    """
     ref = result.reference
     info = {
         **result.registration.info(),
@@ -388,34 +396,23 @@ def publish_guide(
         "scan_stride_px": list(ref.stride),
         "guide_shape": list(result.guide_image.shape[:2]),
     }
-    models = CalibrationModels(
-        dispersion=old.dispersion,
-        bins=old.bins,
-        blur=old.blur,
-        guide_to_slm=result.homography,
-        guide_info=info,
-        offset=old.offset,
-        response=old.response,
-    )
-    manifest = bundle.manifest
-    inputs = [dict(i) for i in manifest["inputs"]] + [
-        {"id": s.id, "sha256": s.sha256(), "kind": "session"}
-        for s in (ref.session, result.guide_session)
-    ]
     q = result.registration.quality
-    return publish(
-        models,
+    return publish_derived(
+        bundle,
+        stage="guide",
         rig=result.rig_description,
-        quality={
-            "checks": result.checks,
-            "residuals": {
-                "guide_reprojection_rms_px": q.rms_px,
-                "guide_matches": q.matches,
-                "guide_inliers": q.inliers,
-            },
+        models={"guide_to_slm": result.homography, "guide_info": info},
+        checks=result.checks,
+        residuals={
+            "guide_reprojection_rms_px": q.rms_px,
+            "guide_matches": q.matches,
+            "guide_inliers": q.inliers,
         },
-        procedure={**dict(manifest["procedure"]), "guide_registration": result.procedure},
-        inputs=inputs,
+        procedure={"guide_registration": result.procedure},
+        inputs=[
+            {"id": s.id, "sha256": s.sha256(), "kind": "session"}
+            for s in (ref.session, result.guide_session)
+        ],
         reports={f"{name}.png": png for name, png in result.figures.items()},
         allow_failed=allow_failed,
         data=data,

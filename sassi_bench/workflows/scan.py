@@ -20,7 +20,8 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.bundle import CalibrationBundle, CalibrationModels, QualityCheck, publish
+from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
+from sassi_bench.bundle.derive import check_parent
 from sassi_bench.calibrate.radiometry import (
     read_reference_csv,
     response_from_white,
@@ -72,8 +73,11 @@ def run_response(
     """Measure the per-bin response on a white diffuser and publish it in a new bundle.
 
     The source spectrum is a blackbody at ``temperature_k`` (default: the rig's
-    ``light.halogen_k``) or a reference CSV (wavelength_nm, power).
+    ``light.halogen_k``) or a reference CSV (wavelength_nm, power). The new bundle
+    carries ``bundle``'s quality checks; a parent published with an override is refused
+    (before anything is captured) unless ``allow_failed``.
     """
+    check_parent(bundle, "response", allow_failed=allow_failed)
     session = Session.resume_or_plan(
         rig.description,
         lambda: _plan(rig, "white", light, pitch, every, 0.6),
@@ -99,40 +103,34 @@ def run_response(
         QualityCheck("response_positive", float(positive), 1.0, "1", positive, ">="),
         QualityCheck.at_most("white_uniformity", spread, 0.1, "1"),
     ]
-    old = bundle.models
-    models = CalibrationModels(
-        dispersion=old.dispersion,
-        bins=old.bins,
-        blur=old.blur,
-        guide_to_slm=old.guide_to_slm,
-        guide_info=old.guide_info,
-        offset={
-            "method": "per-pixel mean of streak-free frames",
-            "fallback": "block-median spline",
-        },
-        response=response,
+    source_label = (
+        str(reference_csv)
+        if reference_csv
+        else f"blackbody {temperature_k or rig.description.light.halogen_k} K"
     )
-    manifest = bundle.manifest
-    inputs = [dict(i) for i in manifest["inputs"]] + [
-        {"id": session.id, "sha256": session.sha256(), "kind": "session"}
-    ]
-    return publish(
-        models,
+    return publish_derived(
+        bundle,
+        stage="response",
         rig=rig.description,
-        quality={"checks": checks, "residuals": {"white_relative_spread": spread}},
+        models={
+            "offset": {
+                "method": "per-pixel mean of streak-free frames",
+                "fallback": "block-median spline",
+            },
+            "response": response,
+        },
+        checks=checks,
+        residuals={"white_relative_spread": spread},
         procedure={
-            **dict(manifest["procedure"]),
             "response": {
                 "light": light,
                 "pitch": list(pitch),
                 "every": every,
                 "reflectance": reflectance,
-                "source": str(reference_csv)
-                if reference_csv
-                else f"blackbody {temperature_k or rig.description.light.halogen_k} K",
+                "source": source_label,
             },
         },
-        inputs=inputs,
+        inputs=[{"id": session.id, "sha256": session.sha256(), "kind": "session"}],
         allow_failed=allow_failed,
         data=data,
     )

@@ -24,6 +24,7 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationModels, QualityCheck, publish
+from sassi_bench.bundle.derive import stage_checks
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
 from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap, fit_dispersion
@@ -552,10 +553,10 @@ def render_figures(result: SpectralCalibration) -> None:
 
 
 def quality_section(result: SpectralCalibration) -> dict[str, Any]:
-    """The ``quality`` section of the bundle manifest."""
+    """The ``quality`` section of the bundle manifest (checks named ``spectral.<check>``)."""
     disp = result.dispersion
     return {
-        "checks": result.checks,
+        "checks": stage_checks("spectral", result.checks),
         "residuals": {
             "correspondence_rms_px": {
                 f"{d.wavelength_nm:g}": d.residual_rms_px for d in result.lasers

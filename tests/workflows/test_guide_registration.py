@@ -16,6 +16,7 @@ from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import (
     capture_guide,
     coarse_scan_plan,
+    publish_guide,
     run_guide_registration,
     scan_reference,
 )
@@ -156,3 +157,26 @@ def test_resuming_a_session_with_another_procedure_is_refused(guide_run):
     proc["scan"]["stride_px"] = [2, 1]
     with pytest.raises(ValueError, match=r"planned with stride=\[4, 1\].*stride=\[2, 1\]"):
         scan_reference(rig, parent, proc, session_id="g-scan", data=data, progress=False)
+
+
+def test_a_guide_bundle_carries_its_parents_checks_and_failure(guide_run, tmp_path):
+    from sassi_bench.bundle import BundleQualityError, QualityCheck, publish
+
+    rig, parent, result, data = guide_run
+    child = load(rig="sim", data=data)
+    carried = {c["name"] for c in parent.manifest["quality"]["checks"]}
+    names = {c["name"] for c in child.manifest["quality"]["checks"]}
+    assert carried < names and "guide.guide_reprojection_rms_px" in names
+    failing = QualityCheck.at_most("spectral.blur_fit_rms_px", 0.9, 0.25, "px")
+    failed = load(
+        publish(parent.models, rig=rig.description, quality={"checks": [failing]},
+                procedure={}, allow_failed=True, data=tmp_path)
+    )  # fmt: skip
+    with pytest.raises(BundleQualityError, match="parent bundle sim/v0001 failed"):
+        publish_guide(result, failed, data=tmp_path)
+    marked = load(publish_guide(result, failed, data=tmp_path, allow_failed=True))
+    assert not marked.passed and marked.override
+    # A second registration supersedes the first one's checks instead of repeating them.
+    again = load(publish_guide(result, marked, data=tmp_path, allow_failed=True))
+    names = [c["name"] for c in again.manifest["quality"]["checks"]]
+    assert names.count("guide.guide_inliers") == 1 and "spectral.blur_fit_rms_px" in names
