@@ -34,6 +34,7 @@ from sassi_bench.bundle.layout import (
     versions,
 )
 from sassi_bench.bundle.loader import load, verify
+from sassi_bench.bundle.quality import unit_suffix
 from sassi_bench.paths import data_root
 
 __all__ = ["register"]
@@ -234,10 +235,10 @@ def describe(bundle: CalibrationBundle) -> str:
     passed = sum(1 for c in checks if c["passed"])
     lines.append(f"  quality     {passed}/{len(checks)} checks passed")
     for c in checks:
-        comparison = c.get("comparison", "<=")
+        comparison, unit = c.get("comparison", "<="), unit_suffix(c["unit"])
         lines.append(
-            f"    {'PASS' if c['passed'] else 'FAIL'}  {c['name']}: {c['value']:.4g} {c['unit']} "
-            f"(tolerance {comparison} {c['tolerance']:.4g} {c['unit']})"
+            f"    {'PASS' if c['passed'] else 'FAIL'}  {c['name']}: {c['value']:.4g}{unit} "
+            f"(tolerance {comparison} {c['tolerance']:.4g}{unit})"
         )
     return "\n".join(lines)
 

@@ -35,7 +35,7 @@ from sassi_bench.bundle.errors import BundleError, BundleQualityError
 from sassi_bench.bundle.integrity import MANIFEST_NAME, sha256_bytes
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.bundle.quality import QualityCheck
-from sassi_bench.bundle.writer import publish
+from sassi_bench.bundle.writer import ReportSource, publish
 from sassi_bench.errors import step_error
 
 __all__ = ["check_parent", "derived_checks", "publish_derived", "stage_checks"]
@@ -156,7 +156,7 @@ def publish_derived(
     residuals: Mapping[str, Any] | None = None,
     procedure: Mapping[str, Any] | None = None,
     inputs: Iterable[Mapping[str, Any]] = (),
-    reports: Mapping[str, bytes | str | os.PathLike[str]] | None = None,
+    reports: Mapping[str, ReportSource] | None = None,
     allow_failed: bool = False,
     data: str | os.PathLike[str] | None = None,
 ) -> Path:

@@ -15,7 +15,18 @@ from sassi_bench.bundle.errors import BundleError
 from sassi_bench.bundle.jsonio import to_jsonable
 from sassi_bench.errors import step_error
 
-__all__ = ["QualityCheck", "normalize_quality"]
+__all__ = ["QualityCheck", "normalize_quality", "unit_suffix"]
+
+
+def unit_suffix(unit: str) -> str:
+    """``" px"`` for a unit, ``""`` for a dimensionless value (unit ``"1"`` or empty).
+
+    Examples
+    --------
+    >>> f"0.2{unit_suffix('px')}", f"0.97{unit_suffix('1')}"
+    ('0.2 px', '0.97')
+    """
+    return "" if unit in ("1", "") else f" {unit}"
 
 
 @dataclass(frozen=True)
@@ -74,11 +85,18 @@ class QualityCheck:
         }
 
     def describe(self) -> str:
-        """``"dispersion_rms = 0.12 px (tolerance <= 0.5 px)"``."""
+        """``"dispersion_rms = 0.12 px (tolerance <= 0.5 px)"``.
+
+        Examples
+        --------
+        >>> QualityCheck.at_least("valid_fraction", 0.97, 0.7, "1").describe()
+        'valid_fraction = 0.97 (tolerance >= 0.7)'
+        """
+        unit = unit_suffix(self.unit)
         return (
-            f"{self.name} = {self.value:.4g} {self.unit} "
-            f"(tolerance {self.comparison} {self.tolerance:.4g} {self.unit})"
-        ).replace("  ", " ")
+            f"{self.name} = {self.value:.4g}{unit} "
+            f"(tolerance {self.comparison} {self.tolerance:.4g}{unit})"
+        )
 
 
 def _check(item: Any, index: int) -> QualityCheck:

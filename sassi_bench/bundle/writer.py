@@ -11,6 +11,7 @@ folder or a complete one.
 
 from __future__ import annotations
 
+import copy
 import errno
 import functools
 import io
@@ -21,7 +22,7 @@ import shutil
 import subprocess
 import tempfile
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as package_version
@@ -55,7 +56,12 @@ from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION, validate_mani
 from sassi_bench.errors import step_error
 from sassi_bench.paths import shared_mode
 
-__all__ = ["publish", "software_info"]
+__all__ = ["ReportSource", "publish", "software_info"]
+
+ReportSource = bytes | str | os.PathLike[str] | Callable[[Mapping[str, Any]], bytes | str]
+"""What a bundle report file is made from: bytes, text, a file to copy, or a function of
+the bundle's own manifest (without ``reports``), so a report can name the version it is
+published as."""
 
 STEP = "bundle publish"
 _ARRAY_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_-]{0,63}$")
@@ -148,12 +154,15 @@ def _npy(name: str, value: ArrayLike) -> tuple[bytes, dict[str, Any]]:
     return data, entry
 
 
-def _report_bytes(name: str, value: Any) -> bytes:
+def _check_report_name(name: str) -> None:
     if not _REPORT_NAME.match(name) or ".." in name:
         raise _bad(
             f"report name {name!r} is not a plain file name",
             "use letters, digits, '_', '-' and '.', e.g. 'dispersion_residuals.png'",
         )
+
+
+def _report_bytes(name: str, value: Any) -> bytes:
     if isinstance(value, (bytes, bytearray)):
         return bytes(value)
     if isinstance(value, str):
@@ -167,7 +176,7 @@ def _report_bytes(name: str, value: Any) -> bytes:
             ) from exc
     raise _bad(
         f"report {name!r} is a {type(value).__name__}",
-        "pass bytes, text (str) or a pathlib.Path to copy",
+        "pass bytes, text (str), a pathlib.Path to copy, or a function of the manifest",
     )
 
 
@@ -215,7 +224,7 @@ def publish(
     inputs: Iterable[Mapping[str, Any]] = (),
     rig_name: str | None = None,
     extra_arrays: Mapping[str, ArrayLike] | None = None,
-    reports: Mapping[str, bytes | str | os.PathLike[str]] | None = None,
+    reports: Mapping[str, ReportSource] | None = None,
     allow_failed: bool = False,
     data: str | os.PathLike[str] | None = None,
 ) -> Path:
@@ -239,8 +248,11 @@ def publish(
     extra_arrays
         More numeric arrays to keep in the bundle (residual maps...), by name.
     reports
-        Report files to keep under ``report/``, by file name: bytes, text, or a
-        :class:`pathlib.Path` to copy.
+        Report files to keep under ``report/``, by file name: bytes, text, a
+        :class:`pathlib.Path` to copy, or a function called with the new bundle's
+        manifest (everything but ``reports``: its ``version``, ``created``, ``passed``,
+        ``quality``...) that returns the file's bytes or text, so a report names the
+        bundle it is published in.
     allow_failed
         Publish even if a quality check failed; the manifest then has ``passed: false`` and
         ``override: true``.
@@ -308,7 +320,14 @@ def publish(
             raise _bad(f"extra array {key!r} has the name of a model array", "rename it")
         arrays[key] = value
     payload = {key: _npy(key, value) for key, value in arrays.items()}
-    report_payload = {key: _report_bytes(key, value) for key, value in (reports or {}).items()}
+    for key in reports or {}:
+        _check_report_name(key)
+    report_payload = {
+        key: _report_bytes(key, value)
+        for key, value in (reports or {}).items()
+        if not callable(value)
+    }
+    rendered = {key: value for key, value in (reports or {}).items() if callable(value)}
 
     base = {
         "schema": SCHEMA_NAME,
@@ -325,10 +344,6 @@ def publish(
         "passed": not failed,
         "override": bool(failed),
         "arrays": {key: entry for key, (_, entry) in payload.items()},
-        "reports": {
-            key: {"file": f"{REPORT_DIR}/{key}", "sha256": sha256_bytes(raw)}
-            for key, raw in report_payload.items()
-        },
     }
 
     folder = rig_dir(name, data)
@@ -344,11 +359,11 @@ def publish(
         (staging / ARRAYS_DIR).mkdir()
         for raw, entry in payload.values():
             _write(staging / entry["file"], raw)
-        if report_payload:
+        if report_payload or rendered:
             (staging / REPORT_DIR).mkdir()
             for key, raw in report_payload.items():
                 _write(staging / REPORT_DIR / key, raw)
-        return _rename_into_place(staging, folder, base)
+        return _rename_into_place(staging, folder, base, report_payload, rendered)
     except OSError as exc:
         raise _bad(
             f"writing the bundle under {folder} failed ({exc})", "check free space and permissions"
@@ -358,8 +373,34 @@ def publish(
             shutil.rmtree(staging, ignore_errors=True)
 
 
-def _rename_into_place(staging: Path, folder: Path, base: dict[str, Any]) -> Path:
-    """Give the staged bundle the next free version; retry when another process wins a number."""
+def _render_reports(
+    staging: Path,
+    manifest: dict[str, Any],
+    written: Mapping[str, bytes],
+    rendered: Mapping[str, Callable[[Mapping[str, Any]], bytes | str]],
+) -> dict[str, Any]:
+    """Write the reports rendered for this manifest; every report's manifest entry."""
+    contents = dict(written)
+    for key, render in rendered.items():
+        contents[key] = _report_bytes(key, render(copy.deepcopy(manifest)))
+        _write(staging / REPORT_DIR / key, contents[key])
+    return {
+        key: {"file": f"{REPORT_DIR}/{key}", "sha256": sha256_bytes(raw)}
+        for key, raw in sorted(contents.items())
+    }
+
+
+def _rename_into_place(
+    staging: Path,
+    folder: Path,
+    base: dict[str, Any],
+    written: Mapping[str, bytes],
+    rendered: Mapping[str, Callable[[Mapping[str, Any]], bytes | str]],
+) -> Path:
+    """Give the staged bundle the next free version; retry when another process wins a number.
+
+    Reports rendered from the manifest are rendered again for each number tried.
+    """
     candidate = 1
     for _ in range(_MAX_ATTEMPTS):
         existing = [version_number(v) or 0 for v in versions(folder)]
@@ -371,6 +412,7 @@ def _rename_into_place(staging: Path, folder: Path, base: dict[str, Any]) -> Pat
             "version": version,
             "parent": format_version(max(older)) if older else None,
         }
+        manifest["reports"] = _render_reports(staging, manifest, written, rendered)
         validate_manifest(manifest, step=STEP, name="the new manifest")
         _write_manifest(staging, manifest)
         read_bundle(staging, step=STEP)  # the same checks a consumer will run

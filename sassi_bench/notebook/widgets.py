@@ -95,13 +95,16 @@ def checks_table(checks: Iterable[Any]) -> str:
     >>> "PASS" in checks_table([QualityCheck.at_most("rms", 0.02, 0.1, "px")])
     True
     """
+    from sassi_bench.bundle.quality import unit_suffix
+
     rows = []
     for check in checks:
         mark = "PASS" if check.passed else "FAIL"
         colour = "#1a7f37" if check.passed else "#cf222e"
         rows.append(
-            f"<tr><td>{html.escape(check.name)}</td><td>{check.value:.4g} "
-            f"{html.escape(check.unit)}</td><td>{check.comparison} {check.tolerance:g}</td>"
+            f"<tr><td>{html.escape(check.name)}</td><td>{check.value:.4g}"
+            f"{html.escape(unit_suffix(check.unit))}</td>"
+            f"<td>{check.comparison} {check.tolerance:g}</td>"
             f'<td style="color:{colour};font-weight:bold">{mark}</td></tr>'
         )
     head = "<tr><th>check</th><th>value</th><th>tolerance</th><th></th></tr>"

@@ -43,7 +43,7 @@ def spectra_figure(result) -> tuple[Any, dict[str, Any]]:
         ax.plot(lam, mean, color=colour, lw=1.6, label="measured")
         ax.plot(lam, mean, color="black", lw=0.4, alpha=0.6)
         ax.set_title(
-            f"{k + 1} {result.patch_names[k][:16]}\ndE00 {result.de00[k]:.2f}, "
+            f"{k + 1} {result.patch_names[k]}\ndE00 {result.de00[k]:.2f}, "
             f"{result.angle_deg[k]:.2f}°",
             fontsize=8,
         )
@@ -125,6 +125,15 @@ def chart_figure(result) -> tuple[Any, dict[str, Any]]:
     return fig, data
 
 
+def _located(grid) -> str:
+    """How the 24 measured patches were placed, e.g. "24 patches, lattice fitted to 23 found"."""
+    if grid.method == "corners":
+        return "24 patches from 4 clicked centres"
+    if grid.detected >= 24:
+        return "24 patches, all found by the detector"
+    return f"24 patches, lattice fitted to the {grid.detected} the detector found"
+
+
 def grid_figure(picture, origin: tuple[int, int], grid, interior: float):
     """A picture of the chart with a patch grid's interiors drawn on it.
 
@@ -164,7 +173,7 @@ def grid_figure(picture, origin: tuple[int, int], grid, interior: float):
     ax.set_ylabel("SLM v (px)")
     if picture is None:
         ax.invert_yaxis()
-    ax.set_title(f"Patch localisation ({grid.method}, {grid.detected} patches found)", fontsize=10)
+    ax.set_title(f"Patch localisation: {_located(grid)}", fontsize=10)
     return fig
 
 
@@ -197,14 +206,12 @@ def wavelength_figure(result, bundle) -> tuple[Any, dict[str, Any]]:
     axes[1].set_ylabel("white signal / peak")
     lo, hi = result.band_nm
     axes[1].set_title(f"Usable band {lo:.0f}-{hi:.0f} nm (unshaded)", fontsize=10)
-    checks = list(bundle.manifest.get("quality", {}).get("checks", []))
     data = {
         "bin_centres_nm": lam.tolist(),
         "bin_edges_nm": edges.tolist(),
         "bin_resolution_nm": np.asarray(bundle.bin_resolution_nm).tolist(),
         "white_relative": result.white_relative.tolist(),
         "usable_band_nm": [lo, hi],
-        "bundle_checks": [dict(c) for c in checks],
     }
     return fig, data
 

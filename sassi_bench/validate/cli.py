@@ -32,6 +32,7 @@ def _procedure(args) -> dict:
 
 
 def _macbeth(args: argparse.Namespace) -> int:
+    from sassi_bench.bundle.quality import unit_suffix
     from sassi_bench.rig import open_rig
     from sassi_bench.validate.report import write_report
     from sassi_bench.validate.run import run_macbeth
@@ -55,7 +56,7 @@ def _macbeth(args: argparse.Namespace) -> int:
     print(f"  usable band {lo:.0f}-{hi:.0f} nm; white reference: {white}")
     for check in result.checks:
         mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g} {check.unit}"
+        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
         print(f"  {mark}  {check.name:24s} {check.value:10.4f} {limit}")
     print(f"  report: {html_path}\n  data:   {json_path}")
     print("VALIDATION PASSED" if result.passed else "VALIDATION FAILED")

@@ -3,6 +3,13 @@
 The HTML embeds its plots as base64 PNGs (no other files, opens anywhere, can be mailed);
 the JSON holds the data behind every figure, the checks and the provenance, so numbers
 can be re-plotted or compared between bundles.
+
+A report describes one bundle: its version, publication time, status and every quality
+check of every stage. :func:`render_report` makes the figures once; the returned
+:class:`MacbethReport` then writes the HTML and JSON for a bundle's manifest, so a report
+published inside a new bundle (``publish(..., reports={"x.html": report.html})``) names
+the version it is published as, and states whether that bundle's models are the ones the
+scan was assembled with.
 """
 
 from __future__ import annotations
@@ -13,6 +20,7 @@ import io
 import json
 import os
 from collections.abc import Mapping
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -21,10 +29,11 @@ import numpy as np
 
 from sassi_bench import __version__
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.bundle.quality import unit_suffix
 from sassi_bench.plots.macbeth import macbeth_figures
 from sassi_bench.validate.macbeth import MacbethResult
 
-__all__ = ["report_data", "write_report"]
+__all__ = ["MacbethReport", "render_report", "report_data", "write_report"]
 
 _CSS = """
 body { font-family: system-ui, sans-serif; margin: 24px auto; max-width: 1320px; color: #222; }
@@ -35,7 +44,7 @@ h1 { font-size: 22px; margin-bottom: 4px; } h2 { font-size: 17px; margin-top: 28
 table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
 td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; }
 th { background: #f2f2f2; } td.l, th.l { text-align: left; }
-td.bad { color: #c62828; font-weight: bold; }
+td.bad, span.bad { color: #c62828; font-weight: bold; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 6px 0; }
 .note { background: #fff8e1; border-left: 4px solid #f9a825; padding: 6px 12px; margin: 6px 0;
         font-size: 14px; }
@@ -66,7 +75,8 @@ def _jsonable(value: Any) -> Any:
 def report_data(
     result: MacbethResult, bundle: CalibrationBundle, procedure: Mapping[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The report's JSON document and the figures (name -> matplotlib figure)."""
+    """The report's JSON document (without its ``bundle`` section) and the figures
+    (name -> matplotlib figure)."""
     figures = macbeth_figures(result, bundle, procedure)
     doc = {
         "kind": "macbeth_validation",
@@ -104,21 +114,103 @@ def _table(header: list[str], rows: list[list[str]], left: int = 1) -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def _html(doc: Mapping[str, Any], images: Mapping[str, str], bundle: CalibrationBundle) -> str:
+def _array_hashes(manifest: Mapping[str, Any]) -> dict[str, str]:
+    return {name: str(entry["sha256"]) for name, entry in manifest.get("arrays", {}).items()}
+
+
+def bundle_identity(manifest: Mapping[str, Any], scanned_with: Mapping[str, Any]) -> dict[str, Any]:
+    """What a report says about the bundle it describes (the ``bundle`` of its JSON).
+
+    Parameters
+    ----------
+    manifest
+        The manifest of the bundle the report describes (published, or about to be; a
+        ``version`` of None: not published, e.g. a chain that failed a tolerance).
+    scanned_with
+        The manifest of the bundle the scans were assembled with.
+
+    Examples
+    --------
+    >>> m = {"rig_name": "sim", "version": "v0002", "created": "2025-01-01T00:00:00Z",
+    ...      "passed": True, "override": False, "quality": {"checks": []},
+    ...      "arrays": {"x": {"sha256": "ab"}}}
+    >>> identity = bundle_identity(m, {**m, "version": "v0001"})
+    >>> identity["version"], identity["scanned_with"], identity["models_identical"]
+    ('v0002', 'sim/v0001', True)
+    """
+    version = manifest.get("version")
+    return {
+        "rig_name": str(manifest["rig_name"]),
+        "version": None if version is None else str(version),
+        "created": str(manifest["created"]),
+        "passed": bool(manifest["passed"]),
+        "override": bool(manifest.get("override", False)),
+        "checks": [dict(c) for c in manifest["quality"]["checks"]],
+        "scanned_with": f"{scanned_with['rig_name']}/{scanned_with['version']}",
+        "models_identical": _array_hashes(manifest) == _array_hashes(scanned_with),
+    }
+
+
+def _number(value: float, fmt: str = ".4g") -> str:
+    return f"{value:{fmt}}"
+
+
+def _check_rows(checks: list[Mapping[str, Any]], fmt: str) -> list[list[str]]:
     esc = html.escape
-    verdict = "PASS" if doc["passed"] else "FAIL"
-    checks = _table(
-        ["check", "value", "tolerance", "result"],
+    return [
         [
-            [
-                f'<td class="l">{esc(c["name"])}</td>',
-                f"{c['value']:.3f} {esc(c['unit']) if c['unit'] != '1' else ''}",
-                f"{esc(c['comparison'])} {c['tolerance']:g}",
-                "pass" if c["passed"] else '<td class="bad">FAIL</td>',
-            ]
-            for c in doc["checks"]
-        ],
+            f'<td class="l">{esc(str(c["name"]))}</td>',
+            f"{_number(c['value'], fmt)}{esc(unit_suffix(c['unit']))}",
+            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:g}"
+            f"{esc(unit_suffix(c['unit']))}",
+            "pass" if c["passed"] else '<td class="bad">FAIL</td>',
+        ]
+        for c in checks
+    ]
+
+
+def _setting(key: str, value: Any) -> str:
+    if key == "patches_detected" and isinstance(value, int) and value < 24:
+        return f"{value} of 24 (the 6 x 4 lattice was fitted to them)"
+    return str(value)
+
+
+def _bundle_paragraph(ident: Mapping[str, Any]) -> str:
+    esc = html.escape
+    checks = ident["checks"]
+    passed = sum(1 for c in checks if c["passed"])
+    status = "passed" if ident["passed"] else "FAILED (published with an override)"
+    name = f"{ident['rig_name']}/{ident['version']}"
+    if ident["version"] is None:
+        return (
+            f"Not published: {len(checks) - passed} of {len(checks)} quality checks of the "
+            f"calibration failed (see below). The scans were assembled with "
+            f"{esc(ident['scanned_with'])} (a staging version)."
+        )
+    if ident["scanned_with"] == name:
+        scan = "The scans were assembled with this bundle."
+    elif ident["models_identical"]:
+        scan = (
+            f"The scans were assembled with {esc(ident['scanned_with'])} (a staging version), "
+            "whose model arrays are identical to this bundle's."
+        )
+    else:
+        scan = (
+            f'<span class="bad">The scans were assembled with {esc(ident["scanned_with"])}, '
+            "whose models differ from this bundle's.</span>"
+        )
+    return (
+        f"Bundle {esc(name)}, created {esc(ident['created'])}, quality {status} "
+        f"({passed} of {len(checks)} checks passed). {scan}"
     )
+
+
+def _html(doc: Mapping[str, Any], images: Mapping[str, str]) -> str:
+    esc = html.escape
+    ident = doc["bundle"]
+    name = f"{esc(ident['rig_name'])} / {esc(ident['version'] or 'not published')}"
+    verdict = "PASS" if doc["passed"] else "FAIL"
+    checks = _table(["check", "value", "tolerance", "result"], _check_rows(doc["checks"], ".3f"))
     tol = doc["tolerances"]
     patches = _table(
         ["patch", "pixels", "angle (deg)", "RMSE", "dE00"],
@@ -135,24 +227,17 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str], bundle: Calibration
             for p in doc["patches"]
         ],
     )
+    shown = {k: v for k, v in doc["settings"].items() if k not in ("bundle", "bundle_passed")}
     settings = _table(
         ["setting", "value"],
-        [[f'<td class="l">{esc(k)}</td>', f'<td class="l">{esc(str(v))}</td>']
-         for k, v in doc["settings"].items()],
+        [[f'<td class="l">{esc(k)}</td>', f'<td class="l">{esc(_setting(k, v))}</td>']
+         for k, v in shown.items()],
         left=2,
     )  # fmt: skip
     wl = doc["figures"]["wavelength_calibration"]
     bundle_checks = _table(
-        ["wavelength calibration check", "value", "tolerance", "result"],
-        [
-            [
-                f'<td class="l">{esc(str(c.get("name")))}</td>',
-                f"{c.get('value', float('nan')):.4g} {esc(str(c.get('unit', '')))}",
-                f"{esc(str(c.get('comparison', '')))} {c.get('tolerance', '')}",
-                "pass" if c.get("passed") else '<td class="bad">FAIL</td>',
-            ]
-            for c in wl["bundle_checks"]
-        ],
+        ["bundle quality check (every stage)", "value", "tolerance", "result"],
+        _check_rows(ident["checks"], ".4g"),
     )
     notes = "".join(f'<div class="note">{esc(n)}</div>' for n in doc["notes"])
     summary = doc["summary"]
@@ -160,14 +245,15 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str], bundle: Calibration
     res = np.asarray(wl["bin_resolution_nm"])
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
-<title>Macbeth validation {esc(bundle.rig_name)}/{esc(bundle.version)}: {verdict}</title>
+<title>Macbeth validation {name}: {verdict}</title>
 <style>{_CSS}</style></head><body>
-<h1>Macbeth ColorChecker validation: {esc(bundle.rig_name)} / {esc(bundle.version)}</h1>
+<h1>Macbeth ColorChecker validation: {name}</h1>
 <p><span class="verdict {"pass" if doc["passed"] else "fail"}">{verdict}</span>
 &nbsp; mean dE00 {summary["mean_de00"]:.2f}, max dE00 {summary["max_de00"]:.2f},
 mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
 {doc["usable_band_nm"][0]:.0f}-{doc["usable_band_nm"][1]:.0f} nm &nbsp;
-<small>{esc(doc["created"])}, {esc(doc["software"])}</small></p>
+<small>validated {esc(doc["created"])}, {esc(doc["software"])}</small></p>
+<p>{_bundle_paragraph(ident)}</p>
 <div class="flex"><div><h2>Tolerances</h2>{checks}</div><div><h2>Run</h2>{settings}</div></div>
 {notes}
 <h2>Patch spectra</h2>{img["spectra"]}
@@ -175,14 +261,77 @@ mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
 <h2>Measured chart and reference</h2>{img["chart"]}
 <div class="flex"><div><h2>Per patch</h2>{patches}</div>
 <div><h2>Patch localisation</h2>{img["localisation"]}</div></div>
-<h2>Wavelength calibration of the bundle</h2>
+<h2>The bundle: wavelength bins and quality checks</h2>
 <p>{len(wl["bin_centres_nm"])} bins from {wl["bin_edges_nm"][0]:.1f} to
-{wl["bin_edges_nm"][-1]:.1f} nm, resolution {res.min():.1f}-{res.max():.1f} nm per bin;
-bundle published {esc(bundle.created)}, quality {"passed" if bundle.passed else "FAILED"}.</p>
+{wl["bin_edges_nm"][-1]:.1f} nm, resolution {res.min():.1f}-{res.max():.1f} nm per bin.</p>
 {img["wavelength_calibration"]}
 {bundle_checks}
 </body></html>
 """
+
+
+@dataclass(frozen=True)
+class MacbethReport:
+    """A rendered report (figures done) that writes its HTML and JSON for a bundle.
+
+    Attributes
+    ----------
+    doc
+        The JSON document without its ``bundle`` section.
+    images
+        Base64 PNG of every figure, by name.
+    scanned_with
+        Manifest of the bundle the scans were assembled with.
+    """
+
+    doc: Mapping[str, Any]
+    images: Mapping[str, str]
+    scanned_with: Mapping[str, Any]
+
+    @property
+    def passed(self) -> bool:
+        """Whether the validation passed its tolerances."""
+        return bool(self.doc["passed"])
+
+    def document(self, manifest: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """The JSON document for the bundle of ``manifest`` (default: the scanned one)."""
+        ident = bundle_identity(manifest or self.scanned_with, self.scanned_with)
+        return _jsonable({**self.doc, "bundle": ident})
+
+    def html(self, manifest: Mapping[str, Any] | None = None) -> str:
+        """The self-contained HTML page for the bundle of ``manifest``."""
+        return _html(self.document(manifest), self.images)
+
+    def json(self, manifest: Mapping[str, Any] | None = None) -> str:
+        """The JSON text for the bundle of ``manifest``."""
+        return json.dumps(self.document(manifest), indent=1, allow_nan=False)
+
+    def write(
+        self, out: str | os.PathLike[str], manifest: Mapping[str, Any] | None = None
+    ) -> tuple[Path, Path]:
+        """Write ``macbeth_report.html`` and ``macbeth_report.json`` into folder ``out``."""
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        html_path = folder / "macbeth_report.html"
+        json_path = folder / "macbeth_report.json"
+        html_path.write_text(self.html(manifest), encoding="utf-8")
+        json_path.write_text(self.json(manifest), encoding="utf-8")
+        return html_path, json_path
+
+
+def render_report(
+    result: MacbethResult, bundle: CalibrationBundle, procedure: Mapping[str, Any]
+) -> MacbethReport:
+    """Make the report's figures once; write it for any bundle with the same models.
+
+    Examples
+    --------
+    >>> report = render_report(result, staged_bundle, procedure)  # doctest: +SKIP
+    >>> publish(models, ..., reports={"macbeth_report.html": report.html})  # doctest: +SKIP
+    """
+    doc, figures = report_data(result, bundle, procedure)
+    images = {name: _png(fig) for name, fig in figures.items()}
+    return MacbethReport(doc, images, bundle.manifest)
 
 
 def write_report(
@@ -202,12 +351,4 @@ def write_report(
     >>> write_report(result, bundle, procedure, "report/")  # doctest: +SKIP
     (PosixPath('report/macbeth_report.html'), PosixPath('report/macbeth_report.json'))
     """
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    doc, figures = report_data(result, bundle, procedure)
-    images = {name: _png(fig) for name, fig in figures.items()}
-    html_path = folder / "macbeth_report.html"
-    json_path = folder / "macbeth_report.json"
-    html_path.write_text(_html(doc, images, bundle), encoding="utf-8")
-    json_path.write_text(json.dumps(doc, indent=1, allow_nan=False), encoding="utf-8")
-    return html_path, json_path
+    return render_report(result, bundle, procedure).write(out)

@@ -10,9 +10,11 @@ __all__ = ["print_checks", "register"]
 
 def print_checks(checks) -> None:
     """One line per quality check: PASS/FAIL, name, value, tolerance."""
+    from sassi_bench.bundle.quality import unit_suffix
+
     for check in checks:
         mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g} {check.unit}"
+        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
         print(f"  {mark}  {check.name:40s} {check.value:10.4f} {limit}")
 
 

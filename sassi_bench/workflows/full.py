@@ -11,6 +11,7 @@ checks, procedures, input sessions and figures, and the Macbeth report in ``repo
 from __future__ import annotations
 
 import os
+import shutil
 from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -20,6 +21,7 @@ from typing import Any
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import QualityCheck, load, publish_derived
 from sassi_bench.bundle.derive import derived_checks
+from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.procedure import load_procedure, with_changes
@@ -85,7 +87,7 @@ def run_full_calibration(
     >>> result.passed, result.bundle_path  # doctest: +SKIP
     (True, PosixPath('calib_data/sim/v0001'))
     """
-    from sassi_bench.validate.report import write_report
+    from sassi_bench.validate.report import render_report
     from sassi_bench.validate.run import run_macbeth
     from sassi_bench.workflows.guide import run_guide_registration
     from sassi_bench.workflows.scan import run_response
@@ -127,13 +129,14 @@ def run_full_calibration(
         rig, staged, macbeth_proc, session_id=f"{base}-macbeth", data=staging,
         progress=progress,
     )  # fmt: skip
-    html, json_path = write_report(macbeth, staged, macbeth_proc, report_dir)
+    report = render_report(macbeth, staged, macbeth_proc)
 
     # The staged bundle carries the spectral, response and guide checks.
     checks = derived_checks(staged, "macbeth", macbeth.checks)
     reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in spectral.figures.items()}
     reports.update({f"guide_{k}.png": v for k, v in guide.figures.items()})
-    reports.update({"macbeth_report.html": html, "macbeth_report.json": json_path})
+    # Rendered against the published manifest, so the report names its own version.
+    reports.update({"macbeth_report.html": report.html, "macbeth_report.json": report.json})
     chart = Session.open(macbeth.settings["chart_session"], data=staging)
     bundle_path = None
     if all(c.passed for c in checks) or allow_failed:
@@ -153,5 +156,18 @@ def run_full_calibration(
             allow_failed=allow_failed,
             data=root,
         )
+        report_dir.mkdir(parents=True, exist_ok=True)
+        for name in ("macbeth_report.html", "macbeth_report.json"):
+            shutil.copyfile(bundle_path / "report" / name, report_dir / name)
+        html = report_dir / "macbeth_report.html"
+    else:
+        unpublished = {
+            **thaw(staged.manifest),
+            "version": None,
+            "created": datetime.now(UTC).isoformat(timespec="seconds"),
+            "passed": False,
+            "quality": {"checks": [c.to_manifest() for c in checks]},
+        }
+        html, _ = report.write(report_dir, unpublished)
     stages = {"spectral": spectral, "guide": guide, "macbeth": macbeth, "staging": staging}
     return FullCalibration(checks, bundle_path, html, stages)

@@ -1,0 +1,96 @@
+"""The Macbeth report names the bundle it is published in and shows every stage's checks."""
+
+import dataclasses
+import json
+import re
+from types import SimpleNamespace
+
+import pytest
+
+from sassi_bench.acquire.plan import Plan, Step
+from sassi_bench.acquire.session import Session
+from sassi_bench.bundle import QualityCheck, load, publish, publish_derived
+from sassi_bench.bundle.jsonio import thaw
+from sassi_bench.plots.macbeth import localisation_figure, spectra_figure
+from sassi_bench.validate.run import validate_scans
+from sassi_bench.workflows import full
+from sassi_bench.workflows.procedure import load_procedure
+
+
+@pytest.fixture(scope="module")
+def validated(chart_scan, patch_procedure):
+    _, bundle, _, run = chart_scan
+    return validate_scans(run.scan, bundle, patch_procedure)
+
+
+def _staged_stages(monkeypatch, rig, calibrated, result):
+    """Stand-ins for the chain's stages: each publishes a staging version as the real one
+    would (spectral v0001, response v0002, guide v0003), without new scans."""
+
+    def spectral(rig_, proc, *, session_id, data, progress, allow_failed):
+        path = publish(
+            calibrated.models, rig=rig.description, quality=thaw(calibrated.manifest["quality"]),
+            procedure=thaw(calibrated.manifest["procedure"]), data=data, allow_failed=True,
+        )  # fmt: skip
+        return SimpleNamespace(checks=[], figures={}, bundle_path=path)
+
+    def response(rig_, parent, *, data, **_):
+        uniform = QualityCheck.at_most("white_uniformity", 0.014, 0.1, "1")
+        return publish_derived(parent, stage="response", rig=rig.description,
+                               checks=[uniform], data=data)  # fmt: skip
+
+    def guide(rig_, parent, proc, *, session_id, data, progress, allow_failed):
+        checks = [QualityCheck.at_least("guide_inliers", 147, 30, "1")]
+        path = publish_derived(parent, stage="guide", rig=rig.description, checks=checks,
+                               data=data)  # fmt: skip
+        return SimpleNamespace(checks=checks, figures={}, bundle_path=path)
+
+    def macbeth(rig_, bundle, proc, *, session_id, data, progress):
+        plan = Plan("chart", [Step("spectral", "led", 0.1, {"kind": "blank"})])
+        chart = Session.create(rig.description, plan, session_id=session_id, data=data)
+        settings = {**result.settings, "chart_session": chart.id}
+        return dataclasses.replace(result, settings=settings)
+
+    monkeypatch.setattr("sassi_bench.workflows.spectral.run_spectral_calibration", spectral)
+    monkeypatch.setattr("sassi_bench.workflows.scan.run_response", response)
+    monkeypatch.setattr("sassi_bench.workflows.guide.run_guide_registration", guide)
+    monkeypatch.setattr("sassi_bench.validate.run.run_macbeth", macbeth)
+
+
+def test_a_chain_bundles_report_names_its_published_version(
+    chart_scan, validated, monkeypatch, tmp_path
+):
+    rig, calibrated, _, _ = chart_scan
+    _staged_stages(monkeypatch, rig, calibrated, validated)
+    root = tmp_path / "lab"
+    procedure = load_procedure("full_calibration")
+    outcome = full.run_full_calibration(rig, procedure, session_id="chain", data=root,
+                                        progress=False)  # fmt: skip
+    bundle = load(outcome.bundle_path)
+    assert bundle.version == "v0001"  # the staging versions went up to v0003
+    doc = json.loads((bundle.path / "report" / "macbeth_report.json").read_text())
+    assert doc["bundle"]["version"] == "v0001" and doc["bundle"]["created"] == bundle.created
+    assert doc["bundle"]["scanned_with"] == "sim/v0003" and doc["bundle"]["models_identical"]
+    names = [c["name"] for c in doc["bundle"]["checks"]]
+    assert names == [c["name"] for c in bundle.manifest["quality"]["checks"]]
+    stages = {name.split(".")[0] for name in names}
+    assert stages == {"spectral", "response", "guide", "macbeth"}
+    html = (bundle.path / "report" / "macbeth_report.html").read_text()
+    assert "validation: sim / v0001</h1>" in html and "v0003</h1>" not in html
+    assert bundle.created in html
+    # The copy beside the data is the bundle's own report, byte for byte.
+    copy = root / "reports" / "chain" / "macbeth_report.html"
+    assert copy.read_bytes() == (bundle.path / "report" / "macbeth_report.html").read_bytes()
+    # No dimensionless value is printed with a unit "1".
+    assert not re.search(r"\d 1</td>", html)
+
+
+def test_figure_titles_are_whole_and_count_the_measured_patches(validated):
+    fig, _ = spectra_figure(validated)
+    titles = [ax.get_title() for ax in fig.axes]
+    for k, name in enumerate(validated.patch_names):
+        assert titles[k].startswith(f"{k + 1} {name}\n")
+    fig, _ = localisation_figure(validated, 0.5)
+    title = fig.axes[0].get_title()
+    assert title.startswith("Patch localisation: 24 patches")
+    assert f"{validated.grid.detected}" in title
