@@ -1,8 +1,10 @@
 """``sassi-bench bundle ...``: list, show, verify, diff, export and import calibration bundles.
 
 Every subcommand accepts ``--data DIR`` (the data root; see :func:`sassi_bench.paths.data_root`).
-A bundle is named by a version of ``--rig`` (``v0003``, ``3`` or ``latest``) or by the path of
-its folder.
+A bundle is named the same way everywhere (:func:`~sassi_bench.bundle.layout.resolve_bundle_ref`):
+a version of ``--rig`` (``v0003``, ``3`` or ``latest``) or the path of its folder (``verify``
+also takes an exported zip). Other commands' ``--bundle`` options use the same rule through
+:func:`add_bundle_options` and :func:`bundle_from_args`.
 
 Examples
 --------
@@ -23,12 +25,12 @@ import numpy as np
 from sassi_bench.bundle.archive import export_zip, import_zip, verify_zip
 from sassi_bench.bundle.bundle import CalibrationBundle
 from sassi_bench.bundle.diff import diff_bundles, format_diff
-from sassi_bench.bundle.errors import BundleError, BundleIntegrityError, BundleSchemaError
+from sassi_bench.bundle.errors import BundleIntegrityError, BundleSchemaError
 from sassi_bench.bundle.integrity import MANIFEST_NAME
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.bundle.layout import (
     latest_version,
-    normalize_version,
+    resolve_bundle_ref,
     rig_dir,
     rig_names,
     versions,
@@ -37,7 +39,7 @@ from sassi_bench.bundle.loader import load, verify
 from sassi_bench.bundle.quality import unit_suffix
 from sassi_bench.paths import data_root
 
-__all__ = ["register"]
+__all__ = ["add_bundle_options", "bundle_from_args", "register"]
 
 DEFAULT_RIG = "sim"
 
@@ -84,7 +86,10 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_show)
 
     p = sub.add_parser("verify", parents=[common], help="check the schema and every checksum")
-    p.add_argument("path", metavar="PATH", help="a bundle folder or an exported .zip")
+    p.add_argument(
+        "path", metavar="VERSION", nargs="?", default="latest", help=ref_help + ", or a .zip"
+    )
+    p.add_argument("--rig", default=DEFAULT_RIG, help=rig_help)
     p.set_defaults(func=cmd_verify)
 
     p = sub.add_parser("diff", parents=[common], help="what changed between two bundles")
@@ -108,15 +113,39 @@ def register(subparsers: Any) -> None:
 
 def _load_ref(ref: str, rig: str, data: str | None) -> CalibrationBundle:
     """Load a bundle named by a version of ``rig`` or by a folder path."""
-    try:
-        version = normalize_version(ref)
-    except BundleError:
-        return load(Path(ref))
-    return load(rig=rig, version=version, data=data)
+    return load(resolve_bundle_ref(ref, rig=rig, data=data))
 
 
 def _bundle_path(ref: str, rig: str, data: str | None) -> Path:
     return _load_ref(ref, rig, data).path
+
+
+def add_bundle_options(parser: argparse.ArgumentParser) -> None:
+    """``--bundle`` and ``--bundle-rig``, for commands that use a bundle with a rig.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_bundle_options(parser)
+    >>> vars(parser.parse_args(["--bundle", "v0002"]))
+    {'bundle': 'v0002', 'bundle_rig': None}
+    """
+    parser.add_argument(
+        "--bundle", help="bundle: a version (latest, v0003, 3; default latest) or a folder"
+    )
+    parser.add_argument("--bundle-rig", help="rig folder of the bundle (default: the rig's name)")
+
+
+def bundle_from_args(args: argparse.Namespace, rig_name: str) -> CalibrationBundle:
+    """Load the bundle ``--bundle``/``--bundle-rig``/``--data`` name (see
+    :func:`~sassi_bench.bundle.layout.resolve_bundle_ref`).
+
+    Examples
+    --------
+    >>> bundle_from_args(args, rig.description.name)  # doctest: +SKIP
+    """
+    rig = getattr(args, "bundle_rig", None) or rig_name
+    return _load_ref(args.bundle, rig, getattr(args, "data", None))
 
 
 # -- list ---------------------------------------------------------------------------------------
@@ -254,9 +283,10 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_verify(args: argparse.Namespace) -> int:
     """``bundle verify``: exit 0 with "OK", or 1 naming the failing file and why."""
-    path = Path(args.path)
+    given = Path(args.path)
+    is_zip = given.is_file() and given.name != MANIFEST_NAME
+    path = given if is_zip else resolve_bundle_ref(args.path, rig=args.rig, data=args.data)
     try:
-        is_zip = path.is_file() and path.name != MANIFEST_NAME
         files = verify_zip(path) if is_zip else verify(path)
     except (BundleIntegrityError, BundleSchemaError) as exc:
         failing = getattr(exc, "file", None)

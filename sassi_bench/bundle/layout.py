@@ -28,6 +28,7 @@ __all__ = [
     "latest_version",
     "normalize_version",
     "resolve_bundle_dir",
+    "resolve_bundle_ref",
     "rig_dir",
     "rig_names",
     "update_latest",
@@ -267,6 +268,67 @@ def resolve_bundle_dir(
                 "bundle load",
                 f"rig {rig!r} has no version {wanted} under {folder.parent} (published: {known})",
                 "pick a published version (sassi-bench bundle list)",
+            )
+        )
+    return path
+
+
+def resolve_bundle_ref(
+    ref: str | os.PathLike[str] | None,
+    *,
+    rig: str = "sim",
+    data: str | os.PathLike[str] | None = None,
+) -> Path:
+    """Folder of the bundle a person named: the one rule of every ``--bundle`` and
+    ``bundle`` subcommand.
+
+    A version of ``rig`` (``latest``, ``v0003``, ``3``; None means ``latest``) is looked
+    up under the data root; anything else is the path of a bundle folder (write
+    ``./v0003`` for a folder that is named like a version).
+
+    Parameters
+    ----------
+    ref
+        A version, ``latest``, None, or a folder path.
+    rig
+        Rig folder the version belongs to.
+    data
+        Data root (``--data DIR``; see :func:`sassi_bench.paths.data_root`).
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    BundleError
+        If the version is not published, or the path is not a folder.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> resolve_bundle_ref(folder) == Path(folder)
+    True
+    >>> resolve_bundle_ref("latest", data="/nonexistent")  # doctest: +IGNORE_EXCEPTION_DETAIL
+    Traceback (most recent call last):
+    BundleError: bundle load: no calibration bundle is published for rig 'sim'...
+    """
+    text = "latest" if ref is None else os.fspath(ref)
+    try:
+        version = normalize_version(text)
+    except BundleError:
+        path = Path(text)
+    else:
+        return resolve_bundle_dir(rig, version, data)
+    if not path.exists():
+        raise BundleError(
+            step_error(
+                "bundle",
+                f"{text!r} is not a version (latest, v0003, 3) and not a bundle folder "
+                "(nothing is there)",
+                "name a version of --rig (see: sassi-bench bundle list) or the path of a "
+                "bundle folder",
             )
         )
     return path

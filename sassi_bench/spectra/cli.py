@@ -3,19 +3,16 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+
+from sassi_bench.bundle.cli import add_bundle_options
 
 __all__ = ["register", "register_response"]
 
 
 def _bundle(args):
-    from sassi_bench.bundle import load
+    from sassi_bench.bundle.cli import bundle_from_args
 
-    if args.bundle and Path(args.bundle).is_dir():
-        return load(args.bundle)
-    return load(
-        rig=args.bundle_rig or args.rig_name, version=args.bundle or "latest", data=args.data
-    )
+    return bundle_from_args(args, args.rig_name)
 
 
 def _scan(args: argparse.Namespace) -> int:
@@ -61,8 +58,7 @@ def _response(args: argparse.Namespace) -> int:
 
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    parser.add_argument("--bundle", help="bundle version (default: latest) or folder")
-    parser.add_argument("--bundle-rig", help="rig folder of the bundle (default: the rig's name)")
+    add_bundle_options(parser)
     parser.add_argument("--data", help="data root for sessions and bundles")
     parser.add_argument("--session", help="session id; an existing one resumes its capture")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -3,19 +3,16 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+
+from sassi_bench.bundle.cli import add_bundle_options
 
 __all__ = ["register"]
 
 
 def _bundle(args):
-    from sassi_bench.bundle import load
+    from sassi_bench.bundle.cli import bundle_from_args
 
-    if args.bundle and Path(args.bundle).is_dir():
-        return load(args.bundle)
-    return load(
-        rig=args.bundle_rig or args.rig_name, version=args.bundle or "latest", data=args.data
-    )
+    return bundle_from_args(args, args.rig_name)
 
 
 def _procedure(args) -> dict:
@@ -72,8 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="scan a ColorChecker, compare with reference reflectances, write an HTML report",
     )
     macbeth.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    macbeth.add_argument("--bundle", help="bundle version (default: latest) or folder")
-    macbeth.add_argument("--bundle-rig", help="rig folder of the bundle (default: the rig's name)")
+    add_bundle_options(macbeth)
     macbeth.add_argument("--data", help="data root for sessions and bundles")
     macbeth.add_argument("--out", required=True, help="folder for the HTML and JSON report")
     macbeth.add_argument(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 __all__ = ["print_checks", "register"]
 
@@ -75,7 +74,7 @@ def _spectral(args: argparse.Namespace) -> int:
 
 
 def _guide(args: argparse.Namespace) -> int:
-    from sassi_bench.bundle import load
+    from sassi_bench.bundle.cli import bundle_from_args
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.guide import run_guide_registration
     from sassi_bench.workflows.procedure import load_procedure
@@ -84,10 +83,7 @@ def _guide(args: argparse.Namespace) -> int:
     if args.full:
         procedure["scan"]["stride_px"] = [1, 1]
     rig = open_rig(args.rig)
-    if args.bundle and Path(args.bundle).is_dir():
-        bundle = load(args.bundle)
-    else:
-        bundle = load(rig=rig.description.name, version=args.bundle or "latest", data=args.data)
+    bundle = bundle_from_args(args, rig.description.name)
     result = run_guide_registration(
         rig,
         bundle,
@@ -128,11 +124,13 @@ def _run_arguments(parser: argparse.ArgumentParser, kind: str, publish: bool = T
 
 
 def _register_guide(groups: argparse._SubParsersAction) -> None:
+    from sassi_bench.bundle.cli import add_bundle_options
+
     guide = groups.add_parser(
         "guide", help="guide camera -> SLM homography from a scan; publishes a new bundle"
     )
     _run_arguments(guide, "guide_registration")
-    guide.add_argument("--bundle", help="bundle version (default: latest) or folder")
+    add_bundle_options(guide)
     guide.add_argument(
         "--full", action="store_true", help="full Nyquist scan instead of the coarse route"
     )

@@ -105,3 +105,42 @@ def test_bundle_requires_a_subcommand(capsys):
     with pytest.raises(SystemExit) as info:
         main(["bundle"])
     assert info.value.code == 2
+
+
+def test_every_subcommand_names_a_bundle_the_same_way(capsys, data_root: Path, synthetic):
+    synthetic.publish_synthetic(data_root)
+    synthetic.publish_synthetic(data_root)
+    data = ["--data", str(data_root)]
+    for ref in ("latest", "v0002", "2", str(data_root / "sim" / "v0002")):
+        code, out, err = run(capsys, "bundle", "verify", ref, "--rig", "sim", *data)
+        assert code == 0 and "v0002" in out, (ref, err)
+        code, out, _ = run(capsys, "bundle", "show", ref, "--rig", "sim", *data)
+        assert code == 0 and out.startswith("sim/v0002")
+    code, out, _ = run(capsys, "bundle", "verify", *data)  # latest of the default rig
+    assert code == 0 and "v0002" in out
+    code, _, err = run(capsys, "bundle", "verify", "v0009", *data)
+    assert code == 2 and "published: v0001, v0002" in err
+    code, _, err = run(capsys, "bundle", "verify", "no/such/folder", *data)
+    assert code == 2 and "not a version (latest, v0003, 3) and not a bundle folder" in err
+
+
+def test_bundle_options_of_other_commands_use_the_same_rule(data_root: Path, synthetic):
+    import argparse
+
+    from sassi_bench.bundle.cli import add_bundle_options, bundle_from_args
+    from sassi_bench.cli import build_parser
+
+    synthetic.publish_synthetic(data_root)
+    parser = argparse.ArgumentParser()
+    add_bundle_options(parser)
+    parser.add_argument("--data")
+    for ref in (["--bundle", "1"], ["--bundle", "v0001"], [], ["--bundle", "latest"]):
+        args = parser.parse_args([*ref, "--data", str(data_root)])
+        assert bundle_from_args(args, "sim").version == "v0001"
+    args = parser.parse_args(["--bundle", str(data_root / "sim" / "v0001"), "--bundle-rig", "x"])
+    assert bundle_from_args(args, "sim").version == "v0001"
+    # Every command with a bundle option accepts --bundle and --bundle-rig.
+    for command in (["scan", "--out", "c.nc"], ["calibrate", "response"],
+                    ["calibrate", "guide"], ["validate", "macbeth", "--out", "r"]):  # fmt: skip
+        args = build_parser().parse_args([*command, "--bundle", "v0001", "--bundle-rig", "sim"])
+        assert (args.bundle, args.bundle_rig) == ("v0001", "sim")
