@@ -1,9 +1,19 @@
 """Where the workbench keeps its data.
 
-Bundles and raw sessions live under one data root: ``calib_data/`` in the current
-directory by default, the ``SASSI_BENCH_DATA`` environment variable when set, or the
-``--data DIR`` option of every command (which wins over both). Scripts and tests pass a
-temporary directory so they never touch the repository's own ``calib_data/``.
+Bundles, raw sessions, staging folders and reports live under one data root, resolved
+the same way from any folder, first match wins:
+
+1. an explicit directory: the ``--data DIR`` option of every command, or ``data=`` of
+   the Python functions;
+2. the ``SASSI_BENCH_DATA`` environment variable;
+3. ``calib_data/`` of the nearest enclosing sassi_bench checkout: the first folder,
+   walking up from the current directory, that holds ``pyproject.toml`` and
+   ``sassi_bench/__init__.py`` (so a notebook run from ``notebooks/``, whose working
+   directory is that folder, uses the repository's ``calib_data/``);
+4. ``calib_data/`` in the current directory.
+
+Scripts and tests pass a temporary directory so they never touch the repository's own
+``calib_data/``.
 """
 
 from __future__ import annotations
@@ -11,13 +21,34 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["DATA_ENV_VAR", "data_root", "shared_mode"]
+__all__ = ["DATA_ENV_VAR", "checkout_root", "data_root", "shared_mode"]
 
 DATA_ENV_VAR = "SASSI_BENCH_DATA"
 
 
+DATA_DIR_NAME = "calib_data"
+
+
+def checkout_root(start: str | os.PathLike[str] | None = None) -> Path | None:
+    """The nearest folder at or above ``start`` (default: the current directory) that is
+    a sassi_bench checkout (holds ``pyproject.toml`` and ``sassi_bench/__init__.py``).
+
+    Examples
+    --------
+    >>> checkout_root("/") is None
+    True
+    """
+    here = Path.cwd() if start is None else Path(start)
+    for folder in (here, *here.parents):
+        if (folder / "pyproject.toml").is_file() and (
+            folder / "sassi_bench" / "__init__.py"
+        ).is_file():
+            return folder
+    return None
+
+
 def data_root(explicit: str | os.PathLike[str] | None = None) -> Path:
-    """Resolve the data root.
+    """Resolve the data root (see the module docstring for the rule).
 
     Parameters
     ----------
@@ -39,7 +70,10 @@ def data_root(explicit: str | os.PathLike[str] | None = None) -> Path:
     env = os.environ.get(DATA_ENV_VAR)
     if env:
         return Path(env)
-    return Path("calib_data")
+    checkout = checkout_root()
+    if checkout is not None:
+        return checkout / DATA_DIR_NAME
+    return Path(DATA_DIR_NAME)
 
 
 def shared_mode(directory: bool) -> int:
