@@ -135,6 +135,8 @@ def run_plan(
     ------
     SessionError
         If ``session`` was made for another plan or rig.
+    SessionLockedError
+        If another process (or session object) is writing the session.
     ValueError
         If a remaining step's exposure or pattern is invalid (checked before capturing).
     KeyboardInterrupt
@@ -155,6 +157,14 @@ def run_plan(
     True
     >>> tmp.cleanup()
     """
+    with session.writing():  # one writer per session, across processes
+        return _capture(rig, plan, session, progress=progress, stop_after=stop_after)
+
+
+def _capture(
+    rig: Rig, plan: Plan, session: Session, *, progress: bool, stop_after: int | None
+) -> Session:
+    """:func:`run_plan` with the session locked for writing."""
     if stop_after is not None and (
         isinstance(stop_after, bool) or not isinstance(stop_after, int) or stop_after < 0
     ):

@@ -10,12 +10,22 @@ Layout of ``<data_root>/sessions/<session_id>/``::
     events.jsonl     one JSON line per stored frame, appended and fsync'd after its
                      chunk, so an event exists only for a fully written frame
     events.torn      (only after a crash) bytes of a torn last event line, kept aside
+    write.lock       advisory lock of the session's writer (``fcntl.flock``), holding
+                     its pid, host, command and start time
 
 A camera's array is created when its first frame is written, with that frame's shape
 and dtype; later frames must match. A step is *completed* when its event is in the log.
 A torn last line (a crash while appending) is ignored, reported as a
 :class:`SessionWarning`, and moved to ``events.torn`` before the next append; its step
 is simply captured again. Completed steps are never overwritten. Metadata is JSON only.
+
+One writer at a time: :meth:`Session.writing` (which
+:func:`~sassi_bench.acquire.runner.run_plan` holds for a whole run) and every
+:meth:`Session.write_frame` take an exclusive advisory lock on ``write.lock``, released at
+the end of the block (or by :meth:`Session.close`) and by the operating system when the
+process dies. A second writer, in another
+process or through another ``Session`` object, gets :class:`SessionLockedError` naming the
+holder. Reading never locks.
 
 Examples
 --------
@@ -35,12 +45,15 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import json
 import os
 import re
 import shutil
+import socket
+import sys
 import uuid
 import warnings
 from collections.abc import Callable, Iterable, Iterator
@@ -54,9 +67,14 @@ from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 from zarr.storage import LocalStore
 
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX: no advisory locks
+    fcntl = None  # type: ignore[assignment]
+
 from sassi_bench.acquire.plan import Plan, PlanError, canonical_json, to_json_value
 from sassi_bench.errors import SassiBenchError, step_error
-from sassi_bench.paths import data_root
+from sassi_bench.paths import data_root, shared_mode
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.frame import Frame
 
@@ -66,6 +84,7 @@ __all__ = [
     "Session",
     "SessionError",
     "SessionIntegrityError",
+    "SessionLockedError",
     "SessionWarning",
     "frame_sha256",
 ]
@@ -76,6 +95,7 @@ SESSION_FILE = "session.json"
 FRAMES_DIR = "frames.zarr"
 EVENTS_FILE = "events.jsonl"
 TORN_FILE = "events.torn"
+LOCK_FILE = "write.lock"
 
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,199}$")
 _INFO_KEYS = ("schema", "version", "id", "created", "rig", "rig_sha256", "plan", "plan_sha256")
@@ -88,6 +108,10 @@ class SessionError(SassiBenchError, ValueError):
 
 class SessionIntegrityError(SessionError):
     """Stored frames or session files no longer match what was recorded."""
+
+
+class SessionLockedError(SessionError):
+    """Another process (or Session object) is writing the session."""
 
 
 class SessionWarning(UserWarning):
@@ -184,6 +208,7 @@ class Session:
         self._good_size = 0
         self._torn: bytes = b""
         self._problems: list[str] = []
+        self._lock: Any = None  # the open write.lock while this object holds it
         self._load_events()
 
     # -- creating and opening ---------------------------------------------------------
@@ -478,22 +503,108 @@ class Session:
         )
 
     # -- writing ----------------------------------------------------------------------
+    @property
+    def locked_for_writing(self) -> bool:
+        """Whether this object holds the session's write lock."""
+        return self._lock is not None
+
+    def lock_for_writing(self) -> None:
+        """Take the session's write lock (held until :meth:`close` or process exit).
+
+        The event log is read again once the lock is held if another writer added to it
+        since this object read it, so the frames it stored count as completed.
+
+        Raises
+        ------
+        SessionLockedError
+            If another process or Session object holds it; the message names the
+            holder's pid, host, command and start time.
+        """
+        if self._lock is not None or fcntl is None:
+            return
+        fd = os.open(self._path / LOCK_FILE, os.O_RDWR | os.O_CREAT, shared_mode(directory=False))
+        lock = os.fdopen(fd, "r+b")
+        try:
+            fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = _describe_holder(lock.read())
+            lock.close()
+            raise _error(
+                f"session {self.id!r} write",
+                f"another writer holds the session ({holder})",
+                "let it finish or stop it, then resume; one process at a time may capture "
+                "into a session (reading it is always fine)",
+                SessionLockedError,
+            ) from None
+        lock.seek(0)
+        lock.truncate()
+        lock.write(json.dumps(_holder()).encode("utf-8"))
+        lock.flush()
+        self._lock = lock
+        if (self._path / EVENTS_FILE).stat().st_size != self._good_size + len(self._torn):
+            self._reload_events()
+
+    def close(self) -> None:
+        """Release the write lock, if this object holds it (reading stays possible)."""
+        lock, self._lock = self._lock, None
+        if lock is not None:
+            with contextlib.suppress(OSError):
+                lock.truncate(0)
+            lock.close()  # closing the file releases the lock
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[Session]:
+        """Hold the write lock for a block (released at its end unless held before).
+
+        Examples
+        --------
+        >>> with session.writing():  # doctest: +SKIP
+        ...     session.write_frame(0, frame)
+        """
+        held = self._lock is not None
+        self.lock_for_writing()
+        try:
+            yield self
+        finally:
+            if not held:
+                self.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _reload_events(self) -> None:
+        self._events, self._log_order = {}, []
+        self._good_size, self._torn, self._problems = 0, b"", []
+        self._load_events()
+
     def write_frame(self, step_index: int, frame: Frame) -> None:
         """Store the frame of step ``step_index``, then log its event.
 
         The chunk is written and fsync'd first; the event line is appended and fsync'd
         after, so a crash never leaves an event without its frame.
 
+        The session's write lock is held while the frame is stored (for the whole run
+        inside :meth:`writing`, as :func:`~sassi_bench.acquire.runner.run_plan` does).
+
         Raises
         ------
         SessionError
             For an index out of range, a completed step, a frame from the other camera,
             or a shape/dtype that differs from the camera's earlier frames.
+        SessionLockedError
+            If another writer holds the session.
 
         Examples
         --------
         See the module docstring.
         """
+        with self.writing():
+            self._write_frame(step_index, frame)
+
+    def _write_frame(self, step_index: int, frame: Frame) -> None:
         i = self._check_index(step_index)
         step = self._plan.steps[i]
         where = f"session {self.id!r} write step {i}"
@@ -851,6 +962,27 @@ class Session:
     def _report(self, message: str) -> None:
         self._problems.append(message)
         warnings.warn(f"session {self.id!r}: {message}", SessionWarning, stacklevel=4)
+
+
+def _holder() -> dict[str, Any]:
+    """Who takes a write lock: written into ``write.lock`` for the next writer to read."""
+    return {
+        "pid": os.getpid(),
+        "host": socket.gethostname(),
+        "command": " ".join(sys.argv)[:300],
+        "since": _utc_now().isoformat(timespec="seconds").replace("+00:00", "Z"),
+    }
+
+
+def _describe_holder(raw: bytes) -> str:
+    try:
+        info = json.loads(raw.decode("utf-8"))
+        return (
+            f"pid {int(info['pid'])} on {info['host']}, since {info['since']}: "
+            f"{info['command'] or 'python'}"
+        )
+    except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        return "a process that has not yet written its pid"
 
 
 def _check_id(session_id: str) -> None:

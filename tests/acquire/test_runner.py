@@ -214,3 +214,16 @@ def test_scene_parameter_is_set_before_capturing(data, pinhole_step):
     session = run_plan(rig, plan, create(rig, plan, data, "s"), progress=False)
     assert rig.scene == "colorchecker"
     assert session.events()[0]["meta"]["extra"]["scene"] == "colorchecker"
+
+
+def test_a_session_being_written_elsewhere_is_refused_before_any_device_moves(plan, data):
+    from sassi_bench.acquire.session import SessionLockedError
+
+    log: list = []
+    rig = recorded_rig(log)
+    holder = create(rig, plan, data, "busy")
+    with holder.writing():
+        with pytest.raises(SessionLockedError, match="another writer holds the session"):
+            run_plan(rig, plan, Session.open("busy", data=data), progress=False)
+    assert log == [] and Session.open("busy", data=data).completed == frozenset()
+    assert run_plan(rig, plan, Session.open("busy", data=data), progress=False).is_complete

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import subprocess
+import sys
 import tracemalloc
 from datetime import datetime
 from pathlib import Path
@@ -17,6 +20,7 @@ from sassi_bench.acquire.session import (
     Session,
     SessionError,
     SessionIntegrityError,
+    SessionLockedError,
     SessionWarning,
     frame_sha256,
 )
@@ -270,12 +274,57 @@ def test_a_damaged_line_before_the_end_is_an_integrity_error(
         Session.open("s1", data=data)
 
 
-def test_a_second_writer_is_detected_not_truncated(rig_description, mixed_plan, data, make_frame):
+def test_writers_in_turn_see_each_others_frames(rig_description, mixed_plan, data, make_frame):
+    """Two Session objects of one session write in turn: the lock makes each read the
+    frames the other stored, so nothing is truncated or captured twice."""
     first = new_session(rig_description, mixed_plan, data)
     second = Session.open("s1", data=data)
     fill(first, make_frame, [0])
-    with pytest.raises(SessionError, match="changed since the session was opened"):
-        fill(second, make_frame, [2])
+    fill(second, make_frame, [2])
+    assert second.completed == {0, 2}
+    with pytest.raises(SessionError, match="already stored"):
+        fill(second, make_frame, [0])
+    assert Session.open("s1", data=data).completed == {0, 2}
+
+
+def test_a_writer_holds_the_session_against_others(rig_description, mixed_plan, data, make_frame):
+    first = new_session(rig_description, mixed_plan, data)
+    second = Session.open("s1", data=data)
+    with first.writing():
+        assert first.locked_for_writing
+        with pytest.raises(SessionLockedError, match=rf"pid {os.getpid()} on .*Fix: let it"):
+            fill(second, make_frame, [1])
+        assert Session.open("s1", data=data).completed == frozenset()  # reading is fine
+    fill(second, make_frame, [1])
+    assert not first.locked_for_writing and second.completed == {1}
+
+
+_HOLD = """
+import sys, time
+from sassi_bench.acquire.session import Session
+session = Session.open(sys.argv[1], data=sys.argv[2])
+session.lock_for_writing()
+print("locked", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_second_process_gets_the_holders_pid(rig_description, mixed_plan, data, make_frame):
+    new_session(rig_description, mixed_plan, data)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", _HOLD, "s1", str(data)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        session = Session.open("s1", data=data)
+        with pytest.raises(SessionLockedError, match=rf"pid {holder.pid} on "):
+            fill(session, make_frame, [0])
+        assert session.completed == frozenset()
+    finally:
+        holder.kill()
+        holder.wait()
+    # The lock of a process that died is released by the operating system.
+    fill(session, make_frame, [0])
     assert Session.open("s1", data=data).completed == {0}
 
 
