@@ -23,6 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
     from sassi_bench.bundle import cli as bundle_cli
     from sassi_bench.rig import cli as rig_cli
     from sassi_bench.spectra import cli as scan_cli
+    from sassi_bench.storage import cli as data_cli
     from sassi_bench.validate import cli as validate_cli
     from sassi_bench.workflows import cli as workflow_cli
 
@@ -39,6 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     scan_cli.register(sub)
     bundle_cli.register(sub)
     validate_cli.register(sub)
+    data_cli.register(sub)
     return parser
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 __all__ = ["print_checks", "register"]
 
@@ -40,8 +41,24 @@ def _full(args: argparse.Namespace) -> int:
     else:
         print("  bundle: not published (a tolerance failed; --allow-failed publishes it marked)")
     print(f"  report: {result.report_html}")
+    _print_data_use(result.stages["staging"], result.bundle_path, args.data)
     print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
     return 0 if result.passed else 1
+
+
+def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -> None:
+    """Where the run's raw data went, how big it is, and how to clean up."""
+    from sassi_bench.storage.inventory import folder_size, format_size
+
+    size, _ = folder_size(staging)
+    kept = f", the inputs of {bundle_path.parent.name}/{bundle_path.name}" if bundle_path else ""
+    where = f" --data {data}" if data else ""
+    print(f"  raw data: {staging} ({format_size(size)}: this run's sessions{kept})")
+    print(
+        f"  disk: `sassi-bench data list{where}` shows everything kept; "
+        f"`sassi-bench data clean{where}` what can go (a dry run; its raw frames need "
+        "--include-referenced)"
+    )
 
 
 def _spectral(args: argparse.Namespace) -> int:

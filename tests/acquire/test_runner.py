@@ -222,8 +222,8 @@ def test_a_session_being_written_elsewhere_is_refused_before_any_device_moves(pl
     log: list = []
     rig = recorded_rig(log)
     holder = create(rig, plan, data, "busy")
-    with holder.writing():
-        with pytest.raises(SessionLockedError, match="another writer holds the session"):
-            run_plan(rig, plan, Session.open("busy", data=data), progress=False)
+    locked = pytest.raises(SessionLockedError, match="another writer holds the session")
+    with holder.writing(), locked:
+        run_plan(rig, plan, Session.open("busy", data=data), progress=False)
     assert log == [] and Session.open("busy", data=data).completed == frozenset()
     assert run_plan(rig, plan, Session.open("busy", data=data), progress=False).is_complete
