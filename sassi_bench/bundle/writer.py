@@ -19,7 +19,6 @@ import os
 import platform
 import re
 import shutil
-import subprocess
 import tempfile
 import warnings
 from collections.abc import Callable, Iterable, Mapping
@@ -55,6 +54,7 @@ from sassi_bench.bundle.quality import normalize_quality
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION, validate_manifest
 from sassi_bench.errors import step_error
 from sassi_bench.paths import shared_mode
+from sassi_bench.provenance import read_build_info, source_provenance
 
 __all__ = ["ReportSource", "publish", "software_info"]
 
@@ -74,8 +74,9 @@ _MAX_ATTEMPTS = 1000
 def software_info() -> dict[str, Any]:
     """Versions of the software publishing a bundle (the manifest's ``software``).
 
-    ``git_commit`` and ``git_dirty`` are filled in when the package runs from a git checkout
-    with at least one commit, and are None otherwise.
+    ``git_commit`` and ``git_dirty`` come from git when the package runs from a checkout,
+    from what the build recorded for a regular install (see :mod:`sassi_bench.provenance`),
+    and are None otherwise.
 
     Examples
     --------
@@ -85,40 +86,16 @@ def software_info() -> dict[str, Any]:
     try:
         version = package_version("sassi-bench")
     except PackageNotFoundError:  # a source tree that was never installed
-        version = "0+unknown"
-    commit, dirty = _git_state(Path(__file__).resolve().parents[2])
+        version = (read_build_info() or {}).get("version") or "0+unknown"
+    source = source_provenance()
     return {
         "name": "sassi-bench",
         "version": version,
-        "git_commit": commit,
-        "git_dirty": dirty,
+        "git_commit": source["git_commit"],
+        "git_dirty": source["git_dirty"],
         "python": platform.python_version(),
         "numpy": np.__version__,
     }
-
-
-def _git_state(root: Path) -> tuple[str | None, bool | None]:
-    if not (root / ".git").exists():
-        return None, None
-
-    def git(*args: str) -> str | None:
-        try:
-            done = subprocess.run(
-                ["git", "-C", str(root), *args],
-                capture_output=True,
-                text=True,
-                timeout=5,
-                check=False,
-            )
-        except (OSError, subprocess.SubprocessError):
-            return None
-        return done.stdout if done.returncode == 0 else None
-
-    commit = (git("rev-parse", "HEAD") or "").strip()
-    if not re.fullmatch(r"[0-9a-f]{7,64}", commit):
-        return None, None
-    status = git("status", "--porcelain", "--untracked-files=no")
-    return commit, None if status is None else bool(status.strip())
 
 
 def _bad(cause: str, fix: str) -> BundleError:
