@@ -35,11 +35,18 @@ def data_root(explicit: str | os.PathLike[str] | None = None) -> Path:
     '/tmp/lab'
     """
     if explicit is not None:
-        return Path(explicit)
-    env = os.environ.get(DATA_ENV_VAR)
-    if env:
-        return Path(env)
-    return Path("calib_data")
+        root = Path(explicit)
+    elif os.environ.get(DATA_ENV_VAR):
+        root = Path(os.environ[DATA_ENV_VAR])
+    else:
+        root = Path("calib_data")
+    if root.exists() and not root.is_dir():
+        from sassi_bench.errors import ConfigError, step_error
+
+        raise ConfigError(
+            step_error("data root", f"{root} is a file, not a folder", "give a folder")
+        )
+    return root
 
 
 def shared_mode(directory: bool) -> int:
