@@ -38,9 +38,9 @@ def _four_line_rig():
 
 
 @pytest.fixture(scope="module", params=["default", "odd", "four-lines"])
-def calibrated(request, tmp_path_factory, calibrated_sim):
+def calibrated(request, tmp_path_factory):
     if request.param == "default":
-        return calibrated_sim
+        return request.getfixturevalue("calibrated_sim")
     rig = _odd_rig() if request.param == "odd" else _four_line_rig()
     data = tmp_path_factory.mktemp(f"data-{request.param}")
     result = run_spectral_calibration(
