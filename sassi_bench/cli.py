@@ -11,11 +11,17 @@ Examples
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from collections.abc import Sequence
+from datetime import UTC, datetime
 
 from sassi_bench import __version__
 from sassi_bench.errors import SassiBenchError
+
+__all__ = ["build_parser", "main", "new_session", "resume_command"]
+
+PROG = "sassi-bench"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -28,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     from sassi_bench.workflows import cli as workflow_cli
 
     parser = argparse.ArgumentParser(
-        prog="sassi-bench",
+        prog=PROG,
         description=(
             "Calibrate a SASSI hyperspectral camera, on real hardware or the virtual bench."
         ),
@@ -44,8 +50,71 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
+    """The session id option ``dest`` of a command that captures: the one given (checked
+    before anything is captured), else a new ``<prefix>-<UTC time>``, stored back in
+    ``args`` so an interrupted run can be resumed with it.
+
+    A command that captures registers its session options as ``resume_options`` (see
+    :func:`resume_command`).
+
+    Examples
+    --------
+    >>> args = argparse.Namespace(session=None)
+    >>> new_session(args, "session", "scan").startswith("scan-"), args.session[:5]
+    (True, 'scan-')
+    """
+    from sassi_bench.acquire.session import check_session_id
+
+    value = getattr(args, dest)
+    if value is None:
+        value = f"{prefix}-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+        setattr(args, dest, value)
+    check_session_id(value)
+    return value
+
+
+def resume_command(argv: Sequence[str], args: argparse.Namespace) -> str | None:
+    """The command line that resumes an interrupted run: the one that started it, with the
+    session options (``args.resume_options``: (dest, flag) pairs) set to the sessions the
+    run used. None for a command that keeps nothing to resume.
+
+    Examples
+    --------
+    >>> args = argparse.Namespace(session="full-1", resume_options=(("session", "--session"),))
+    >>> resume_command(["calibrate", "--rig", "sim", "--quiet"], args)
+    'sassi-bench calibrate --rig sim --quiet --session full-1'
+    >>> resume_command(["calibrate", "--session=old", "--quiet"], args)
+    'sassi-bench calibrate --quiet --session full-1'
+    """
+    options = getattr(args, "resume_options", ())
+    if not options:
+        return None
+    flags = {flag for _, flag in options}
+    kept: list[str] = []
+    skip = False
+    for token in argv:
+        if skip:
+            skip = False
+        elif token in flags:
+            skip = True
+        elif not token.startswith(tuple(f"{flag}=" for flag in flags)):
+            kept.append(token)
+    for dest, flag in options:
+        value = getattr(args, dest, None)
+        if value is not None:
+            kept += [flag, str(value)]
+    return shlex.join([PROG, *kept])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the process exit status."""
+    """Run the command line; returns the process exit status.
+
+    A workbench error is printed as one line (exit status 2). Ctrl-C ends a run with
+    exit status 130 and, for a command that captures, the command that resumes it (every
+    frame already stored is kept).
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -53,6 +122,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SassiBenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        resume = resume_command(argv, args)
+        if resume is None:
+            print("interrupted", file=sys.stderr)
+        else:
+            print(
+                "interrupted; the frames captured so far are kept. Resume with:\n  " + resume,
+                file=sys.stderr,
+            )
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -7,6 +7,9 @@ values), so ``except ValueError`` keeps working.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 
 class SassiBenchError(Exception):
     """Base class for every error the workbench raises on purpose."""
@@ -61,3 +64,18 @@ def step_error(step: str, cause: str, fix: str) -> str:
     'SLM show: pattern has shape (3, 3). Fix: pass a (400, 640) array'
     """
     return f"{step}: {cause}. Fix: {fix}"
+
+
+def did_you_mean(value: object, choices: Iterable[object]) -> str:
+    """A hint naming the choice closest to a mistyped ``value``, or ``""`` if none is close.
+
+    Examples
+    --------
+    >>> did_you_mean("colorchekcer", ["white", "colorchecker"])
+    " (did you mean 'colorchecker'?)"
+    >>> did_you_mean("zzz", ["white", "colorchecker"])
+    ''
+    """
+    names = {str(choice): choice for choice in choices}
+    close = difflib.get_close_matches(str(value), list(names), n=1)
+    return f" (did you mean {names[close[0]]!r}?)" if close else ""

@@ -66,14 +66,20 @@ def data_root(explicit: str | os.PathLike[str] | None = None) -> Path:
     '/tmp/lab'
     """
     if explicit is not None:
-        return Path(explicit)
-    env = os.environ.get(DATA_ENV_VAR)
-    if env:
-        return Path(env)
-    checkout = checkout_root()
-    if checkout is not None:
-        return checkout / DATA_DIR_NAME
-    return Path(DATA_DIR_NAME)
+        root = Path(explicit)
+    elif os.environ.get(DATA_ENV_VAR):
+        root = Path(os.environ[DATA_ENV_VAR])
+    elif (checkout := checkout_root()) is not None:
+        root = checkout / DATA_DIR_NAME
+    else:
+        root = Path(DATA_DIR_NAME)
+    if root.exists() and not root.is_dir():
+        from sassi_bench.errors import ConfigError, step_error
+
+        raise ConfigError(
+            step_error("data root", f"{root} is a file, not a folder", "give a folder")
+        )
+    return root
 
 
 def shared_mode(directory: bool) -> int:

@@ -7,12 +7,11 @@ key for typos.
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
 import jsonschema
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.errors import ConfigError, did_you_mean, step_error
 
 __all__ = ["validate_against_schema"]
 
@@ -24,28 +23,29 @@ def _allowed_keys(schema: dict[str, Any], path: list[str | int]) -> list[str]:
     return list(node.get("properties", {}))
 
 
-def _format_error(error: jsonschema.ValidationError, schema: dict[str, Any]) -> str:
-    where = ".".join(str(p) for p in error.absolute_path) or "(top level)"
+def _cause_and_fix(error: jsonschema.ValidationError, schema: dict[str, Any]) -> tuple[str, str]:
+    """What is wrong at one place of the document, and what to do about it."""
+    where = ".".join(str(p) for p in error.absolute_path)
     if error.validator == "additionalProperties":
         allowed = _allowed_keys(schema, list(error.absolute_path))
         extras = sorted(set(error.instance) - set(allowed))
-        hints = []
-        for key in extras:
-            close = difflib.get_close_matches(key, allowed, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            hints.append(f"{key!r}{hint}")
-        prefix = "" if where == "(top level)" else f"{where}."
+        hints = [f"{key!r}{did_you_mean(key, allowed)}" for key in extras]
+        key = f"{where}.{extras[0]}" if where else (extras[0] if extras else "?")
         return (
-            f"{prefix}{extras[0] if extras else '?'}: unknown key {', '.join(hints)}. "
-            f"Fix: remove it or use one of {', '.join(allowed)}"
+            f"{key}: unknown key {', '.join(hints)}",
+            f"remove it or use one of {', '.join(allowed)}",
         )
+    where = where or "(top level)"
     if error.validator == "required":
-        return f"{where}: {error.message}. Fix: add the missing key"
-    return f"{where}: {error.message}"
+        return f"{where}: {error.message}", "add the missing key"
+    return f"{where}: {error.message}", f"correct {where}"
 
 
 def validate_against_schema(data: Any, schema: dict[str, Any], what: str) -> None:
-    """Raise :class:`ConfigError` listing (up to five) schema violations of ``data``.
+    """Raise :class:`ConfigError` naming (up to five) schema violations of ``data``.
+
+    The message is one line, ``"<what>: <key>: <cause>. Fix: <fix>"``, with the causes
+    and fixes of several violations joined by semicolons.
 
     Parameters
     ----------
@@ -60,14 +60,16 @@ def validate_against_schema(data: Any, schema: dict[str, Any], what: str) -> Non
     --------
     >>> schema = {"type": "object", "properties": {"width": {"type": "integer"}},
     ...           "additionalProperties": False}
-    >>> validate_against_schema({"widht": 3}, schema, "demo")
-    Traceback (most recent call last):
-    ...
-    sassi_bench.errors.ConfigError: demo is invalid:
-      widht: unknown key 'widht' (did you mean 'width'?). Fix: remove it or use one of width
+    >>> try:
+    ...     validate_against_schema({"widht": 3}, schema, "demo")
+    ... except ConfigError as exc:
+    ...     print(exc)
+    demo: widht: unknown key 'widht' (did you mean 'width'?). Fix: remove it or use one of width
     """
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(data), key=lambda e: list(map(str, e.absolute_path)))
     if errors:
-        lines = [_format_error(e, schema) for e in errors[:5]]
-        raise ConfigError(f"{what} is invalid:\n  " + "\n  ".join(lines))
+        pairs = [_cause_and_fix(e, schema) for e in errors[:5]]
+        causes = "; ".join(cause for cause, _ in pairs)
+        fixes = "; ".join(dict.fromkeys(fix for _, fix in pairs))
+        raise ConfigError(step_error(what, causes, fixes))

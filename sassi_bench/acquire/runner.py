@@ -209,7 +209,7 @@ def _capture(
         if progress:
             bar.write(
                 f"{plan.name}: interrupted; {len(session.completed)}/{len(plan)} frames are "
-                f"stored in {session.path}. Run run_plan again with this session to resume."
+                f"stored in {session.path} and kept; a run with this session resumes there."
             )
         raise
     finally:

@@ -86,6 +86,7 @@ __all__ = [
     "SessionIntegrityError",
     "SessionLockedError",
     "SessionWarning",
+    "check_session_id",
     "frame_sha256",
 ]
 
@@ -383,6 +384,8 @@ class Session:
         try:
             existing = cls.open(session_id, data=data)
         except SessionError:
+            existing = None  # planned outside the handler: its errors are not chained to this
+        if existing is None:
             return cls.create(rig_description, make_plan(), session_id=session_id, data=data)
         return cls.open_or_create(rig_description, existing.plan, session_id=session_id, data=data)
 
@@ -992,6 +995,16 @@ def _check_id(session_id: str) -> None:
             f"{session_id!r} is not a valid session id",
             "use 1-200 letters, digits, '.', '_' or '-', starting with a letter or digit",
         )
+
+
+def check_session_id(session_id: str) -> None:
+    """Refuse a session id that is not a plain folder name (before anything is captured).
+
+    Examples
+    --------
+    >>> check_session_id("lab-2026-11-22")
+    """
+    _check_id(session_id)
 
 
 def _check_frame_camera(where: str, camera: str, frame_camera: str, data: NDArray[Any]) -> None:

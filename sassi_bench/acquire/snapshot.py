@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.acquire.patterns import pinhole_pattern
-from sassi_bench.errors import SassiBenchError, step_error
+from sassi_bench.errors import ProcedureError, SassiBenchError, step_error
 from sassi_bench.rig.frame import Frame
 from sassi_bench.rig.rig import Rig
 
@@ -55,6 +55,10 @@ def take_snapshot(
     >>> files = take_snapshot(open_rig("sim"), Path("snapshot"))  # doctest: +SKIP
     """
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ProcedureError(
+            step_error("rig snapshot", f"{out} is a file, not a folder", "give --out a folder")
+        )
     written = []
     for name, frame in capture_views(rig, scene, light).items():
         written += save_frame(frame, out / name)

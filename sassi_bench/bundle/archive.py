@@ -86,6 +86,14 @@ def export_zip(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> Pat
                 "choose another file name or delete it",
             )
         )
+    if not out_path.parent.is_dir():
+        raise BundleError(
+            step_error(
+                "bundle export",
+                f"the folder {out_path.parent} does not exist",
+                "create it first, or write the zip elsewhere",
+            )
+        )
     order = sorted(
         verified.files, key=lambda f: (f not in (MANIFEST_NAME, MANIFEST_CHECKSUM_NAME), f)
     )

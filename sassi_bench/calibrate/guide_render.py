@@ -12,59 +12,23 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
+from sassi_bench.optics.datasets import camera_sensitivities
 
 __all__ = ["camera_sensitivities", "render_rgb", "rendering_sensitivities", "upsample_lattice"]
 
 STEP = "guide registration"
 
 
-def camera_sensitivities(name: str, wavelengths_nm: ArrayLike) -> NDArray[np.float64]:
-    """RGB spectral sensitivities (3, L) of a named camera, sampled at ``wavelengths_nm``.
-
-    The names are those of colour-science's camera sensitivity data sets
-    (``colour.MSDS_CAMERA_SENSITIVITIES``); a rig description names its guide camera's
-    sensor in ``guide_camera.sensitivities``. Peak normalised to 1, zero outside the data.
-
-    Raises
-    ------
-    ConfigError
-        If colour-science does not know the camera.
-
-    Examples
-    --------
-    >>> s = camera_sensitivities("Nikon 5100 (NPL)", [450.0, 550.0, 650.0])
-    >>> s.shape, int(np.argmax(s[:, 0])), int(np.argmax(s[:, 2]))
-    ((3, 3), 2, 0)
-    """
-    import colour
-
-    if name not in colour.MSDS_CAMERA_SENSITIVITIES:
-        raise ConfigError(
-            step_error(
-                STEP,
-                f"unknown guide camera sensitivities {name!r}",
-                f"name one of {sorted(colour.MSDS_CAMERA_SENSITIVITIES)} in the rig's "
-                "guide_camera.sensitivities, or render with method='cie'",
-            )
-        )
-    msds = colour.MSDS_CAMERA_SENSITIVITIES[name]
-    values = np.asarray(msds.values, dtype=np.float64)
-    grid = np.asarray(wavelengths_nm, dtype=np.float64)
-    out = np.stack(
-        [np.interp(grid, msds.wavelengths, values[:, c], left=0.0, right=0.0) for c in range(3)]
-    )
-    return out / out.max()
-
-
 def rendering_sensitivities(
-    sensor: str, method: str, wavelengths_nm: ArrayLike
+    sensor: str | None, method: str, wavelengths_nm: ArrayLike
 ) -> tuple[NDArray[np.float64] | None, str]:
     """The sensitivities :func:`render_rgb` should use, and a label for the bundle.
 
     Parameters
     ----------
     sensor
-        The guide sensor the rig description names (``guide_camera.sensitivities``).
+        The guide sensor the rig description names (``guide_camera.sensitivities``;
+        None when a real rig does not name it).
     method
         ``"camera"`` (the sensor's sensitivities, an error if unknown), ``"cie"``
         (CIE 1931 -> sRGB) or ``"auto"`` (the sensor's when known, else CIE).
@@ -75,6 +39,8 @@ def rendering_sensitivities(
     --------
     >>> rendering_sensitivities("a lab camera", "auto", [500.0, 600.0])
     (None, 'cie')
+    >>> rendering_sensitivities(None, "auto", [500.0, 600.0])
+    (None, 'cie')
     >>> rendering_sensitivities("Nikon 5100 (NPL)", "auto", [500.0, 600.0])[1]
     'camera: Nikon 5100 (NPL)'
     """
@@ -82,8 +48,16 @@ def rendering_sensitivities(
         raise ProcedureError(
             step_error(STEP, f"unknown rendering {method!r}", "use auto, camera or cie")
         )
-    if method == "cie":
+    if method == "cie" or (sensor is None and method == "auto"):
         return None, "cie"
+    if sensor is None:
+        raise ConfigError(
+            step_error(
+                STEP,
+                "the rendering is 'camera' but the rig does not name its guide sensor",
+                "name it in the rig's guide_camera.sensitivities, or render with 'auto' or 'cie'",
+            )
+        )
     try:
         return camera_sensitivities(sensor, wavelengths_nm), f"camera: {sensor}"
     except ConfigError:

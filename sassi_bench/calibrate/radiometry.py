@@ -31,11 +31,21 @@ def read_reference_csv(
     try:
         table = np.genfromtxt(Path(path), delimiter=",", comments="#", dtype=np.float64)
     except OSError as exc:
-        raise ConfigError(f"reference spectrum: cannot read {path} ({exc})") from exc
+        raise ConfigError(
+            step_error(
+                "reference spectrum",
+                f"cannot read {path} ({exc})",
+                "give the path of a CSV of wavelength_nm,power",
+            )
+        ) from exc
     table = table[np.all(np.isfinite(table), axis=1)] if table.ndim == 2 else table
     if table.ndim != 2 or table.shape[1] < 2 or table.shape[0] < 3:
         raise ConfigError(
-            f"reference spectrum {path}: expected at least three rows of 'wavelength_nm,power'"
+            step_error(
+                f"reference spectrum {path}",
+                "fewer than three rows of numbers",
+                "give at least three rows of 'wavelength_nm,power'",
+            )
         )
     order = np.argsort(table[:, 0])
     return table[order, 0], table[order, 1]
@@ -81,7 +91,13 @@ def source_photons_in_bins(
     elif temperature_k is not None:
         spectrum = blackbody_power(fine, temperature_k)
     else:
-        raise ConfigError("radiometric response: give the source's temperature or a reference")
+        raise ConfigError(
+            step_error(
+                "radiometric response",
+                "the source spectrum is unknown",
+                "give the source's temperature or a reference spectrum",
+            )
+        )
     photons = spectrum * fine
     cumulative = np.concatenate([[0.0], np.cumsum((photons[1:] + photons[:-1]) / 2 * step_nm)])
     at_edges = np.interp(edges, fine, cumulative)

@@ -50,8 +50,11 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
     import ipywidgets as widgets
 
     options = [(f"{float(nm):g} nm", float(nm)) for nm in available_nm]
+    pinned = procedure.get("lasers_nm")
     chosen = tuple(
-        float(nm) for nm in procedure["lasers_nm"] if float(nm) in dict(options).values()
+        float(nm)
+        for nm in (available_nm if pinned is None else pinned)
+        if float(nm) in dict(options).values()
     )
     return widgets.SelectMultiple(
         options=options,

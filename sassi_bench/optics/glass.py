@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.errors import ConfigError, did_you_mean, step_error
 
 __all__ = ["GLASSES", "Glass", "get_glass", "refractive_index", "sellmeier_index"]
 
@@ -120,8 +120,12 @@ def get_glass(name: str) -> Glass:
             return glass
     known = ", ".join(GLASSES)
     raise ConfigError(
-        f"prism.glass: unknown glass {name!r}. Fix: use one of {known}, "
-        "or add its Sellmeier coefficients to sassi_bench.optics.glass.GLASSES"
+        step_error(
+            "prism.glass",
+            f"unknown glass {name!r}{did_you_mean(name, GLASSES)}",
+            f"use one of {known}, or add its Sellmeier coefficients to "
+            "sassi_bench.optics.glass.GLASSES",
+        )
     )
 
 

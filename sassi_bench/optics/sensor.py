@@ -31,7 +31,7 @@ QE_CURVES: dict[str, dict[float, float]] = {
 }  # fmt: skip
 
 
-def qe_curve(spec: str | Mapping[float, float]) -> PchipInterpolator:
+def qe_curve(spec: str | Mapping[float, float], key: str = "qe") -> PchipInterpolator:
     """Build a QE interpolant from a named curve or a mapping nm -> QE.
 
     Examples
@@ -40,17 +40,25 @@ def qe_curve(spec: str | Mapping[float, float]) -> PchipInterpolator:
     >>> 0.8 < float(qe(550.0)) < 0.85
     True
     """
-    from sassi_bench.errors import ConfigError
+    from sassi_bench.errors import ConfigError, did_you_mean, step_error
 
     if isinstance(spec, str):
         if spec not in QE_CURVES:
-            raise ConfigError(f"qe: unknown curve {spec!r}. Fix: use one of {list(QE_CURVES)}")
+            raise ConfigError(
+                step_error(
+                    key,
+                    f"unknown curve {spec!r}{did_you_mean(spec, QE_CURVES)}",
+                    f"use one of {', '.join(QE_CURVES)} or a mapping nm -> QE",
+                )
+            )
         spec = QE_CURVES[spec]
     points = sorted((float(k), float(v)) for k, v in spec.items())
     lam = np.array([p[0] for p in points])
     val = np.array([p[1] for p in points])
     if lam.size < 2 or np.any(val < 0) or np.any(val > 1):
-        raise ConfigError("qe: need at least two points with 0 <= QE <= 1")
+        raise ConfigError(
+            step_error(key, "the curve is not two or more points", "give QE values from 0 to 1")
+        )
     return PchipInterpolator(lam, val, extrapolate=True)
 
 

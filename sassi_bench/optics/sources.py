@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ConfigError
+from sassi_bench.optics.datasets import require_dataset
 
 __all__ = [
     "SpectralSamples",
@@ -117,7 +118,9 @@ def blackbody_power(wavelength_nm: ArrayLike, temperature_k: float) -> NDArray[n
     return 1.0 / (lam**5 * np.expm1(_C2_NM_K / (lam * temperature_k)))
 
 
-def colour_illuminant_power(name: str, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+def colour_illuminant_power(
+    name: str, wavelength_nm: ArrayLike, key: str = "light"
+) -> NDArray[np.float64]:
     """Relative spectral power of a colour-science illuminant (e.g. ``"LED-B3"``, ``"FL2"``).
 
     Examples
@@ -126,12 +129,7 @@ def colour_illuminant_power(name: str, wavelength_nm: ArrayLike) -> NDArray[np.f
     >>> bool(p[0] < 0.1 * p[1])  # CIE LED spectra have almost no power at 400 nm
     True
     """
-    import colour
-
-    if name not in colour.SDS_ILLUMINANTS:
-        known = ", ".join(k for k in colour.SDS_ILLUMINANTS if k.startswith(("LED", "FL")))
-        raise ConfigError(f"light: unknown illuminant {name!r}. Fix: use one of {known}")
-    sd = colour.SDS_ILLUMINANTS[name]
+    sd = require_dataset("illuminant", name, key)
     lam = np.asarray(wavelength_nm, dtype=np.float64)
     return np.interp(lam, sd.wavelengths, sd.values, left=0.0, right=0.0)
 

@@ -8,7 +8,6 @@ or exposure fails identically on the virtual bench and on hardware.
 
 from __future__ import annotations
 
-import contextlib
 import time
 from abc import ABC, abstractmethod
 from typing import Any
@@ -18,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.frame import Frame, FrameMeta
+from sassi_bench.rig.rig import check_light
 
 __all__ = ["CameraBase", "LightSourceBase", "SlmBase", "TriggerBase", "check_pattern"]
 
@@ -187,18 +187,7 @@ class LightSourceBase(ABC):
         return self._current
 
     def select(self, name: str) -> None:
-        key = str(name).strip().lower()
-        if key.startswith("laser:"):
-            with contextlib.suppress(ValueError):
-                key = f"laser:{float(key[6:]):g}"
-        if key not in self._available:
-            raise ProcedureError(
-                step_error(
-                    "light select",
-                    f"{name!r} is not a light of this rig",
-                    f"use one of {', '.join(self._available)}",
-                )
-            )
+        key = check_light(name, self._available)
         self._switch(key)
         self._current = key
 

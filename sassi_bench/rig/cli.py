@@ -21,9 +21,13 @@ def _show(args: argparse.Namespace) -> int:
 
 def _snapshot(args: argparse.Namespace) -> int:
     from sassi_bench.acquire.snapshot import take_snapshot
-    from sassi_bench.rig import open_rig
+    from sassi_bench.rig import load_rig_description, open_rig
+    from sassi_bench.rig.rig import check_light, check_scene
 
-    rig = open_rig(args.rig)
+    desc = load_rig_description(args.rig)
+    check_scene(args.scene, step="rig snapshot")
+    check_light(args.light, desc.light_names, step="rig snapshot")
+    rig = open_rig(desc)
     files = take_snapshot(rig, Path(args.out), scene=args.scene, light=args.light)
     for path in files:
         print(path)

@@ -1,8 +1,15 @@
 """Rig descriptions: YAML files that say what a bench is made of.
 
 A rig YAML is validated against the JSON Schema shipped beside this module (types,
-ranges, no unknown keys) and then against physics (the SLM's image and its spectral
-streaks must fit on the spectral camera). Errors name the key as a dotted path.
+ranges, no unknown keys), then against physics (the SLM's image and its spectral
+streaks must fit on the spectral camera, the lasers must lie on the spectral grid) and
+the data sets it names (glass, lamps, guide sensor, QE curve), all when it is loaded.
+Errors name the key as a dotted path, with the closest valid name for a typo.
+
+Keys whose values are the virtual bench's own parts (its guide sensor, its halogen
+lamp's temperature, ...) default to those values only on a ``backend: sim`` rig
+(:data:`SIM_DEFAULTS`); a real rig that leaves them out gets None, and the workbench
+uses the documented fallback.
 
 Examples
 --------
@@ -24,10 +31,11 @@ from typing import Any
 import numpy as np
 import yaml
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.schema_validation import validate_against_schema
 
 __all__ = [
+    "SIM_DEFAULTS",
     "BlurConfig",
     "GuideCameraConfig",
     "LightConfig",
@@ -39,9 +47,21 @@ __all__ = [
     "SpectralCameraConfig",
     "SpectralGridConfig",
     "available_rigs",
+    "light_names",
     "load_rig_description",
     "rig_description_from_dict",
 ]
+
+
+def light_names(lasers_nm: tuple[float, ...]) -> tuple[str, ...]:
+    """The light names of a rig with these laser lines.
+
+    Examples
+    --------
+    >>> light_names((450.0, 532.5))
+    ('off', 'laser:450', 'laser:532.5', 'led', 'halogen', 'fluorescent')
+    """
+    return ("off", *(f"laser:{x:g}" for x in lasers_nm), "led", "halogen", "fluorescent")
 
 
 @dataclass(frozen=True)
@@ -62,7 +82,7 @@ class SpectralCameraConfig:
     bit_depth: int
     dark_offset_adu: float = 100.0
     dark_current_e_per_s: float = 0.5
-    qe: str | dict[str, float] = "scmos"
+    qe: str | dict[str, float] | None = None
     exposure_range_s: tuple[float, float] = (1e-5, 10.0)
 
 
@@ -100,7 +120,7 @@ class GuideCameraConfig:
     read_noise_e: float = 3.0
     full_well_e: float = 10000.0
     bit_depth: int = 12
-    sensitivities: str = "Nikon 5100 (NPL)"
+    sensitivities: str | None = None
     blur_px: float = 0.6
     exposure_range_s: tuple[float, float] = (1e-5, 10.0)
 
@@ -110,9 +130,9 @@ class LightConfig:
     laser_fwhm_nm: float = 1.0
     laser_flux: float = 2.0e6
     broadband_flux: float = 2.0e7
-    led: str = "LED-B3"
-    halogen_k: float = 3000.0
-    fluorescent: str = "FL2"
+    led: str | None = None
+    halogen_k: float | None = None
+    fluorescent: str | None = None
 
 
 @dataclass(frozen=True)
@@ -154,6 +174,18 @@ class RigDescription:
     scenes: ScenesConfig = field(default_factory=ScenesConfig)
     hardware: dict[str, Any] | None = None
     source: str | None = None
+
+    @property
+    def light_names(self) -> tuple[str, ...]:
+        """The names of the rig's lights: ``off``, ``laser:<nm>`` per line, ``led``,
+        ``halogen`` and ``fluorescent``.
+
+        Examples
+        --------
+        >>> load_rig_description("sim").light_names[:3]
+        ('off', 'laser:450', 'laser:520')
+        """
+        return light_names(self.lasers_nm)
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical JSON-compatible form (the ``source`` path is left out)."""
@@ -208,10 +240,23 @@ def _validate_schema(data: dict[str, Any], source: str) -> None:
     validate_against_schema(data, _schema(), f"rig description {source}")
 
 
+#: Values a ``backend: sim`` rig gets for keys it leaves out (or sets to null): the parts
+#: of the virtual bench itself. A real rig never gets them: these keys stay None there
+#: (the guide rendering then uses CIE 1931 -> sRGB, the radiometric response needs the
+#: lamp's temperature or a reference spectrum, the rest describe simulated parts).
+SIM_DEFAULTS: dict[str, dict[str, Any]] = {
+    "spectral_camera": {"qe": "scmos"},
+    "guide_camera": {"sensitivities": "Nikon 5100 (NPL)"},
+    "light": {"led": "LED-B3", "halogen_k": 3000.0, "fluorescent": "FL2"},
+}
+
+
 def _build(data: dict[str, Any], source: str | None) -> RigDescription:
     kwargs: dict[str, Any] = {k: v for k, v in data.items() if k not in _SECTIONS}
     for key, cls in _SECTIONS.items():
-        section = dict(data.get(key, {}))
+        section = {k: v for k, v in data.get(key, {}).items() if v is not None}
+        if data["backend"] == "sim":
+            section = {**SIM_DEFAULTS.get(key, {}), **section}
         for name, value in list(section.items()):
             if isinstance(value, list):
                 section[name] = tuple(tuple(v) if isinstance(v, list) else v for v in value)
@@ -222,39 +267,125 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
     return RigDescription(source=source, **kwargs)
 
 
+def _error(desc: RigDescription, key: str, cause: str, fix: str) -> ConfigError:
+    """A :class:`ConfigError` naming the description and the key."""
+    return ConfigError(
+        step_error(f"rig description {desc.source or desc.name}", f"{key}: {cause}", fix)
+    )
+
+
 def _check_backend(desc: RigDescription) -> None:
     if desc.backend == "hardware" and desc.hardware is None:
-        raise ConfigError(
-            "hardware: backend 'hardware' needs a hardware section "
-            "(see procedures/rigs/lab-example.yaml)"
+        raise _error(
+            desc,
+            "hardware",
+            "backend 'hardware' needs a hardware section",
+            "add one (see procedures/rigs/lab-example.yaml)",
         )
     if desc.backend != "hardware" and desc.hardware is not None:
-        raise ConfigError(
-            f"hardware: only read with backend 'hardware' (this rig's backend is "
-            f"{desc.backend!r}); remove the section or change the backend"
+        raise _error(
+            desc,
+            "hardware",
+            f"only read with backend 'hardware' (this rig's backend is {desc.backend!r})",
+            "remove the section or change the backend",
         )
 
 
-def _check_physics(desc: RigDescription) -> None:
-    if desc.spectral_grid.stop_nm - desc.spectral_grid.start_nm < 10:
-        raise ConfigError("spectral_grid: stop_nm must exceed start_nm by at least 10 nm")
-    if desc.spectral_grid.start_nm > 400 or desc.spectral_grid.stop_nm < 700:
-        raise ConfigError("spectral_grid: must cover 400-700 nm (the calibrated band)")
+def _check_ranges(desc: RigDescription) -> None:
+    grid = desc.spectral_grid
+    if grid.stop_nm - grid.start_nm < 10:
+        raise _error(
+            desc, "spectral_grid", "stop_nm must exceed start_nm by at least 10 nm", "widen it"
+        )
+    if grid.start_nm > 400 or grid.stop_nm < 700:
+        raise _error(
+            desc,
+            "spectral_grid",
+            f"{grid.start_nm:g}-{grid.stop_nm:g} nm does not cover the calibrated band, 400-700 nm",
+            "set start_nm <= 400 and stop_nm >= 700",
+        )
+    outside = [x for x in desc.lasers_nm if not grid.start_nm <= x <= grid.stop_nm]
+    if outside:
+        raise _error(
+            desc,
+            "lasers_nm",
+            f"{', '.join(f'{x:g}' for x in outside)} nm lie outside the spectral grid "
+            f"{grid.start_nm:g}-{grid.stop_nm:g} nm",
+            "remove them or widen spectral_grid",
+        )
     for key, rng in (
         ("spectral_camera.exposure_range_s", desc.spectral_camera.exposure_range_s),
         ("guide_camera.exposure_range_s", desc.guide_camera.exposure_range_s),
     ):
         if not 0 < rng[0] < rng[1]:
-            raise ConfigError(f"{key}: need 0 < min < max, got {list(rng)}")
+            raise _error(desc, key, f"got {list(rng)}", "give [min, max] with 0 < min < max")
     if desc.guide_camera.homography is not None:
         h = np.asarray(desc.guide_camera.homography, dtype=float)
         if abs(np.linalg.det(h)) < 1e-12:
-            raise ConfigError("guide_camera.homography: matrix is singular")
-    if desc.spectral_camera.dark_offset_adu >= 2**desc.spectral_camera.bit_depth - 1:
-        raise ConfigError("spectral_camera.dark_offset_adu: must be below the ADC range")
+            raise _error(
+                desc, "guide_camera.homography", "the matrix is singular", "give an invertible 3x3"
+            )
+    cam = desc.spectral_camera
+    if cam.dark_offset_adu >= 2**cam.bit_depth - 1:
+        raise _error(
+            desc,
+            "spectral_camera.dark_offset_adu",
+            f"{cam.dark_offset_adu:g} ADU is not below the {cam.bit_depth}-bit ADC range",
+            "give the camera's black level in ADU",
+        )
+
+
+def _check_named_data(desc: RigDescription) -> None:
+    """Every glass, lamp, sensor and curve the description names must exist."""
+    from sassi_bench.optics.datasets import require_dataset
     from sassi_bench.optics.glass import get_glass
+    from sassi_bench.optics.sensor import qe_curve
 
     get_glass(desc.prism.glass)
+    if desc.spectral_camera.qe is not None:
+        qe_curve(desc.spectral_camera.qe, key="spectral_camera.qe")
+    if desc.guide_camera.sensitivities is not None:
+        require_dataset("camera", desc.guide_camera.sensitivities, "guide_camera.sensitivities")
+    for key in ("led", "fluorescent"):
+        name = getattr(desc.light, key)
+        if name is not None:
+            require_dataset("illuminant", name, f"light.{key}")
+    if desc.backend == "sim":  # the scenes are the virtual bench's
+        from sassi_bench.rig.sim.scenes import photo_loader
+
+        require_dataset("colourchecker", desc.scenes.colorchecker_data, "scenes.colorchecker_data")
+        photo_loader(desc.scenes.natural_image)
+
+
+def _check_streaks_fit(desc: RigDescription) -> None:
+    """The SLM's image with its 400-700 nm streaks (and 3 sigma of blur) must lie on the
+    spectral camera, by the description's nominal optics (a ray trace through the prism)."""
+    from sassi_bench.optics.blur import BlurModel, line_spread_sigma
+    from sassi_bench.rig.sim.geometry import SpectralRelay
+
+    band = np.array([400.0, 700.0])
+    blur = BlurModel(desc.blur.sigma_px)(band)
+    h, w = desc.slm.height, desc.slm.width
+    hc, wc = desc.spectral_camera.height, desc.spectral_camera.width
+    relay = SpectralRelay((h, w), (hc, wc), desc.relay, desc.prism)
+    u = np.array([0.0, w - 1, 0.0, w - 1])[:, None]
+    v = np.array([0.0, 0.0, h - 1, h - 1])[:, None]
+    x, y = relay.forward(u, v, band[None, :])
+    reach = 3.0 * float(line_spread_sigma(blur, desc.relay.scale, desc.slm.fill_factor).max())
+    x0, x1, y0, y1 = x.min() - reach, x.max() + reach, y.min() - reach, y.max() + reach
+    if not np.all(np.isfinite(x)) or x0 < 0 or x1 > wc - 1 or y0 < 0 or y1 > hc - 1:
+        raise _error(
+            desc,
+            "relay",
+            f"the SLM's image with its 400-700 nm streaks spans camera x {x0:.0f}..{x1:.0f}, "
+            f"y {y0:.0f}..{y1:.0f}, outside the {wc}x{hc} camera",
+            "lower relay.scale or prism.spread_px, or move relay.offset_px",
+        )
+
+
+#: The checks a description passes after its schema, in order. Each takes the built
+#: description and raises :class:`ConfigError` naming the key.
+_CHECKS = (_check_backend, _check_ranges, _check_named_data, _check_streaks_fit)
 
 
 def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> RigDescription:
@@ -269,19 +400,25 @@ def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> R
     --------
     >>> base = load_rig_description("sim").to_dict()
     >>> base["prism"]["apex_deg"] = 120
-    >>> rig_description_from_dict(base)
-    Traceback (most recent call last):
-    ...
-    sassi_bench.errors.ConfigError: rig description <dict> is invalid:
-      prism.apex_deg: 120 is greater than the maximum of 75
+    >>> try:  # doctest: +ELLIPSIS
+    ...     rig_description_from_dict(base)
+    ... except ConfigError as exc:
+    ...     print(exc)
+    rig description <dict>: prism.apex_deg: 120 is greater than the maximum of 75. Fix: correct ...
     """
     if not isinstance(data, dict):
-        raise ConfigError(f"rig description {source}: expected a mapping at the top level")
+        raise ConfigError(
+            step_error(
+                f"rig description {source}",
+                f"expected a mapping of keys at the top level, got {type(data).__name__}",
+                "write the rig as YAML keys (see procedures/rigs/sim.yaml)",
+            )
+        )
     data = json.loads(json.dumps(data))  # YAML int keys -> str, tuples -> lists
     _validate_schema(data, source)
     desc = _build(data, source if source != "<dict>" else None)
-    _check_backend(desc)
-    _check_physics(desc)
+    for check in _CHECKS:
+        check(desc)
     return desc
 
 
@@ -313,20 +450,35 @@ def load_rig_description(name_or_path: str | os.PathLike[str]) -> RigDescription
     # A folder named like a rig (the data root keeps bundles in ``<rig>/``) is not a path.
     if path.suffix in (".yaml", ".yml") or path.is_file():
         if not path.is_file():
-            raise ConfigError(f"rig description: no such file {str(path)!r}")
+            raise ConfigError(
+                step_error(
+                    "rig description",
+                    f"no such file {str(path)!r}",
+                    f"check the path, or use one of the shipped rigs {', '.join(available_rigs())}",
+                )
+            )
         text = path.read_text()
         source = str(path)
     else:
         resource = resources.files("sassi_bench.procedures").joinpath("rigs", f"{path}.yaml")
         if not resource.is_file():
             raise ConfigError(
-                f"rig description: unknown rig {str(name_or_path)!r}. "
-                f"Fix: use one of {available_rigs()} or a path to a YAML file"
+                step_error(
+                    "rig description",
+                    f"unknown rig {str(name_or_path)!r}{did_you_mean(path, available_rigs())}",
+                    f"use one of {', '.join(available_rigs())} or a path to a YAML file",
+                )
             )
         text = resource.read_text()
         source = f"procedures/rigs/{path}.yaml"
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise ConfigError(f"rig description {source}: not valid YAML ({exc})") from exc
+        raise ConfigError(
+            step_error(
+                f"rig description {source}",
+                f"not valid YAML ({' '.join(str(exc).split())})",
+                "correct the YAML syntax at the line named",
+            )
+        ) from exc
     return rig_description_from_dict(data, source)

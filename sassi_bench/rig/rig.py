@@ -2,16 +2,67 @@
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.errors import ProcedureError, did_you_mean, step_error
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.protocols import Camera, LightSource, Slm, Trigger
 
-__all__ = ["SCENES", "Rig"]
+__all__ = ["SCENES", "Rig", "check_light", "check_scene"]
 
 SCENES = ("white", "colorchecker", "natural", "pcb")
+
+
+def check_scene(name: str, step: str = "set scene") -> None:
+    """Refuse a scene name the workbench does not know, suggesting the closest one.
+
+    Examples
+    --------
+    >>> check_scene("colorchecker")
+    >>> check_scene("colorchekcer")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: set scene: ... (did you mean 'colorchecker'?). Fix: ...
+    """
+    if name not in SCENES:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"unknown scene {name!r}{did_you_mean(name, SCENES)}",
+                f"use one of {', '.join(SCENES)}",
+            )
+        )
+
+
+def check_light(name: str, available: tuple[str, ...], step: str = "light select") -> str:
+    """The normalised name of light ``name`` if the rig has it (``"laser:532.0"`` ->
+    ``"laser:532"``); otherwise an error naming the rig's lights and the closest one.
+
+    Examples
+    --------
+    >>> lights = ("off", "laser:532", "led")
+    >>> check_light("Laser:532.0", lights)
+    'laser:532'
+    >>> check_light("lazer:532", lights)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: light select: ... (did you mean 'laser:532'?). Fix: ...
+    """
+    key = str(name).strip().lower()
+    if key.startswith("laser:"):
+        with contextlib.suppress(ValueError):
+            key = f"laser:{float(key[6:]):g}"
+    if key not in available:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"{name!r} is not a light of this rig{did_you_mean(key, available)}",
+                f"use one of {', '.join(available)}",
+            )
+        )
+    return key
 
 
 @dataclass
@@ -42,11 +93,6 @@ class Rig:
 
     def set_scene(self, name: str) -> None:
         """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...)."""
-        if name not in SCENES:
-            raise ProcedureError(
-                step_error(
-                    "set scene", f"unknown scene {name!r}", f"use one of {', '.join(SCENES)}"
-                )
-            )
+        check_scene(name)
         self.scene_setter(name)
         self.scene = name

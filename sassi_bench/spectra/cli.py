@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from sassi_bench.bundle.cli import add_bundle_options
+from sassi_bench.cli import new_session
 
 __all__ = ["register", "register_response"]
 
@@ -15,15 +17,31 @@ def _bundle(args):
     return bundle_from_args(args, args.rig_name)
 
 
+def _check_output(path: str, option: str) -> None:
+    """Refuse an output file whose folder does not exist, before anything is captured."""
+    from sassi_bench.errors import ProcedureError, step_error
+
+    folder = Path(path).resolve().parent
+    if not folder.is_dir():
+        raise ProcedureError(
+            step_error("scan", f"{option} {path}: the folder {folder} does not exist", "create it")
+        )
+
+
 def _scan(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.spectra.cube_io import write_envi, write_netcdf
-    from sassi_bench.workflows.scan import run_scan
+    from sassi_bench.workflows.scan import check_scan, run_scan
 
     rig = open_rig(args.rig)
+    roi = tuple(args.roi) if args.roi else None
+    check_scan(rig, args.scene, args.light, tuple(args.pitch), roi)
+    _check_output(args.out, "--out")
+    if args.envi:
+        _check_output(args.envi, "--envi")
     args.rig_name = rig.description.name
     bundle = _bundle(args)
-    roi = tuple(args.roi) if args.roi else None
+    new_session(args, "session", f"scan-{args.scene}")
     run = run_scan(
         rig, bundle, scene=args.scene, light=args.light, pitch=tuple(args.pitch), roi=roi,
         session_id=args.session, data=args.data, progress=not args.quiet,
@@ -42,11 +60,14 @@ def _scan(args: argparse.Namespace) -> int:
 
 def _response(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
-    from sassi_bench.workflows.scan import run_response
+    from sassi_bench.workflows.scan import check_scan, response_source, run_response
 
     rig = open_rig(args.rig)
+    check_scan(rig, "white", args.light, (100, 5))
+    response_source(rig, args.temperature, args.reference)
     args.rig_name = rig.description.name
     bundle = _bundle(args)
+    new_session(args, "session", "response")
     path = run_response(
         rig, bundle, light=args.light, temperature_k=args.temperature, reference_csv=args.reference,
         session_id=args.session, data=args.data, progress=not args.quiet,
@@ -62,6 +83,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", help="data root for sessions and bundles")
     parser.add_argument("--session", help="session id; an existing one resumes its capture")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.set_defaults(resume_options=(("session", "--session"),))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -47,7 +47,7 @@ from sassi_bench.spectra.extract import SpectralDeblur
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
 
-__all__ = ["QUALITY_FLAGS", "ScanCube", "assemble_scan", "scan_plan"]
+__all__ = ["QUALITY_FLAGS", "ScanCube", "assemble_scan", "check_pitch", "check_roi", "scan_plan"]
 
 #: Bits of the quality mask.
 QUALITY_FLAGS = {"not_measured": 1, "off_camera": 2, "saturated": 4, "bad_frame": 8}
@@ -57,6 +57,54 @@ QUALITY_FLAGS = {"not_measured": 1, "off_camera": 2, "saturated": 4, "bad_frame"
 #: of about 2.3 per neighbour at the blurriest bins (sigma 3.4 px, 5 px pitch), so twenty
 #: neighbours (100 rows) leave less than 1e-6 of the light.
 ROI_MARGIN_ROWS = 100
+
+
+def check_roi(
+    roi: tuple[int, int, int, int] | None, slm_shape: tuple[int, int], step: str = "scan assembly"
+) -> tuple[int, int, int, int]:
+    """A region (row0, col0, row1, col1) of the SLM, or the whole SLM for None.
+
+    Examples
+    --------
+    >>> check_roi(None, (400, 640)), check_roi([10, 20, 30, 40], (400, 640))
+    ((0, 0, 400, 640), (10, 20, 30, 40))
+    """
+    h, w = slm_shape
+    if roi is None:
+        return (0, 0, h, w)
+    r0, c0, r1, c1 = (int(v) for v in roi)
+    if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
+        raise ProcedureError(
+            step_error(
+                step,
+                f"the ROI {tuple(roi)} is not a region of the {h} x {w} SLM",
+                f"give (row0, col0, row1, col1) with 0 <= row0 < row1 <= {h} and "
+                f"0 <= col0 < col1 <= {w}",
+            )
+        )
+    return (r0, c0, r1, c1)
+
+
+def check_pitch(pitch: tuple[int, int], slm_shape: tuple[int, int]) -> tuple[int, int]:
+    """The (horizontal, vertical) pinhole pitch of a scan, checked against the SLM.
+
+    Examples
+    --------
+    >>> check_pitch((100, 5), (400, 640))
+    (100, 5)
+    """
+    px, py = (int(p) for p in pitch)
+    h, w = slm_shape
+    if not (1 <= px <= w and 1 <= py <= h):
+        raise ProcedureError(
+            step_error(
+                "pinhole scan",
+                f"pitch {tuple(pitch)} px does not fit the {h} x {w} SLM",
+                f"give a horizontal pitch of 1..{w} and a vertical one of 1..{h} SLM px "
+                "(the Nyquist scan: 100 5)",
+            )
+        )
+    return px, py
 
 
 def scan_plan(
@@ -75,7 +123,7 @@ def scan_plan(
     >>> len(plan.select(role="pinholes")), plan.steps[0].tags["role"]
     (500, 'closed')
     """
-    px, py = int(pitch[0]), int(pitch[1])
+    px, py = check_pitch(pitch, slm_shape)
     steps = []
     if closed_check:
         steps.append(Step("spectral", light, exposure_s, {"kind": "blank"}, {"role": "closed"}))
@@ -206,18 +254,9 @@ class _Assembly:
         self.unmix = (
             SpectralDeblur.from_bundle(bundle, full_scale=self.saturation) if deblur else None
         )
-        self.roi = tuple(int(v) for v in roi) if roi is not None else (0, 0, *self.slm_shape)
+        self.roi = check_roi(roi, self.slm_shape)
         r0, c0, r1, c1 = self.roi
-        h, w = self.slm_shape
-        if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
-            raise ProcedureError(
-                step_error(
-                    "scan assembly",
-                    f"the ROI {roi} is not a region of the {h} x {w} SLM",
-                    f"give (row0, col0, row1, col1) with 0 <= row0 < row1 <= {h} and "
-                    f"0 <= col0 < col1 <= {w}",
-                )
-            )
+        h = self.slm_shape[0]
         self.w0, self.w1 = max(0, r0 - ROI_MARGIN_ROWS), min(h, r1 + ROI_MARGIN_ROWS)
         area = (self.w1 - self.w0, c1 - c0)
         self.n_bins = bundle.wavelengths.size

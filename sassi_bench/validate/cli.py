@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from sassi_bench.bundle.cli import add_bundle_options
+from sassi_bench.cli import new_session
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["register"]
 
@@ -31,19 +34,35 @@ def _procedure(args) -> dict:
 def _macbeth(args: argparse.Namespace) -> int:
     from sassi_bench.bundle.quality import unit_suffix
     from sassi_bench.rig import open_rig
+    from sassi_bench.validate.locate import grid_from_corners
+    from sassi_bench.validate.reference import reference_chart
     from sassi_bench.validate.report import write_report
     from sassi_bench.validate.run import run_macbeth
+    from sassi_bench.workflows.scan import check_scan
 
     procedure = _procedure(args)
     rig = open_rig(args.rig)
-    args.rig_name = rig.description.name
-    bundle = _bundle(args)
+    scan_cfg = procedure["scan"]
+    roi = tuple(args.roi) if args.roi else None
+    check_scan(rig, scan_cfg["scene"], scan_cfg["light"], tuple(scan_cfg["pitch_px"]), roi)
+    reference_chart(procedure["reference"]["data"])
     corners = None
     if args.corners:
         corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
+        grid_from_corners(corners)
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ProcedureError(
+            step_error("validate macbeth", f"--out {args.out} is a file", "give a folder")
+        )
+    args.rig_name = rig.description.name
+    bundle = _bundle(args)
+    new_session(args, "session", f"scan-{scan_cfg['scene']}")
+    if procedure["white_reference"]["source"] == "diffuser":
+        scene = procedure["white_reference"]["diffuser_scene"]
+        new_session(args, "white_session", f"scan-{scene}")
     result = run_macbeth(
         rig, bundle, procedure, corners=corners, session_id=args.session,
-        white_session_id=args.white_session, roi=tuple(args.roi) if args.roi else None,
+        white_session_id=args.white_session, roi=roi,
         data=args.data, progress=not args.quiet,
     )  # fmt: skip
     html_path, json_path = write_report(result, bundle, procedure, args.out)
@@ -92,4 +111,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     macbeth.add_argument("--white-session", help="diffuser scan session id; reused if it exists")
     macbeth.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
     macbeth.add_argument("--quiet", action="store_true", help="no progress bars")
-    macbeth.set_defaults(func=_macbeth)
+    macbeth.set_defaults(
+        func=_macbeth,
+        resume_options=(("session", "--session"), ("white_session", "--white-session")),
+    )

@@ -5,7 +5,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sassi_bench.cli import new_session
+
 __all__ = ["print_checks", "register"]
+
+
+def _check_report_folder(out: str | None) -> None:
+    """Refuse a report folder that cannot be one, before the chain runs for minutes."""
+    from sassi_bench.errors import ProcedureError, step_error
+
+    if out is not None and Path(out).exists() and not Path(out).is_dir():
+        raise ProcedureError(
+            step_error("calibrate", f"--out {out} is a file", "give a folder for the report")
+        )
 
 
 def print_checks(checks) -> None:
@@ -25,6 +37,8 @@ def _full(args: argparse.Namespace) -> int:
 
     procedure = load_procedure("full_calibration", args.procedure)
     rig = open_rig(args.rig)
+    _check_report_folder(args.out)
+    new_session(args, "session", "full")
     result = run_full_calibration(
         rig,
         procedure,
@@ -68,6 +82,7 @@ def _spectral(args: argparse.Namespace) -> int:
 
     procedure = load_procedure("spectral_calibration", args.procedure)
     rig = open_rig(args.rig)
+    new_session(args, "session", "spectral")
     result = run_spectral_calibration(
         rig,
         procedure,
@@ -101,6 +116,7 @@ def _guide(args: argparse.Namespace) -> int:
         procedure["scan"]["stride_px"] = [1, 1]
     rig = open_rig(args.rig)
     bundle = bundle_from_args(args, rig.description.name)
+    new_session(args, "session", "guide")
     result = run_guide_registration(
         rig,
         bundle,
@@ -138,6 +154,7 @@ def _run_arguments(parser: argparse.ArgumentParser, kind: str, publish: bool = T
     if publish:
         parser.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.set_defaults(resume_options=(("session", "--session"),))
 
 
 def _register_guide(groups: argparse._SubParsersAction) -> None:

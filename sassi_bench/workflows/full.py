@@ -90,9 +90,12 @@ def run_full_calibration(
     from sassi_bench.validate.report import render_report
     from sassi_bench.validate.run import run_macbeth
     from sassi_bench.workflows.guide import run_guide_registration
-    from sassi_bench.workflows.scan import run_response
+    from sassi_bench.workflows.scan import check_scan, response_source, run_response
     from sassi_bench.workflows.spectral import run_spectral_calibration
 
+    response_cfg = procedure["response"]
+    check_scan(rig, "white", response_cfg["light"], (100, 5))
+    response_source(rig)  # the lamp's spectrum must be known before anything is captured
     base = session_id or "full-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     root = data_root(data)
     staging = root / "staging" / base
@@ -112,7 +115,6 @@ def run_full_calibration(
         rig, spectral_proc, session_id=f"{base}-spectral", data=staging, progress=progress,
         allow_failed=True,
     )  # fmt: skip
-    response_cfg = procedure["response"]
     staged = load(
         run_response(
             rig, load(spectral.bundle_path), light=response_cfg["light"],

@@ -14,7 +14,7 @@ from typing import Any
 
 import yaml
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.schema_validation import validate_against_schema
 
@@ -40,8 +40,8 @@ def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None
     Examples
     --------
     >>> proc = load_procedure("spectral_calibration")
-    >>> proc["lasers_nm"]
-    [450, 520, 532, 635, 670]
+    >>> proc["lasers_nm"] is None  # every laser of the rig
+    True
     """
     if name_or_path is None:
         resource = resources.files("sassi_bench.procedures").joinpath(f"{kind}.yaml")
@@ -49,12 +49,24 @@ def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None
     else:
         path = Path(name_or_path)
         if not path.is_file():
-            raise ConfigError(f"procedure: no such file {str(path)!r}")
+            raise ConfigError(
+                step_error(
+                    f"{kind} procedure",
+                    f"no such file {str(path)!r}",
+                    f"check the path, or leave the option out for procedures/{kind}.yaml",
+                )
+            )
         text, source = path.read_text(), str(path)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise ConfigError(f"procedure {source}: not valid YAML ({exc})") from exc
+        raise ConfigError(
+            step_error(
+                f"procedure {source}",
+                f"not valid YAML ({' '.join(str(exc).split())})",
+                "correct the YAML syntax at the line named",
+            )
+        ) from exc
     data = json.loads(json.dumps(data))
     _validate(kind, data, f"procedure {source}")
     data["source"] = source

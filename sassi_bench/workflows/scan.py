@@ -28,14 +28,75 @@ from sassi_bench.calibrate.radiometry import (
     source_photons_in_bins,
 )
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.rig.rig import Rig
-from sassi_bench.spectra.scan import ScanCube, assemble_scan, scan_plan
+from sassi_bench.rig.rig import Rig, check_light, check_scene
+from sassi_bench.spectra.scan import ScanCube, assemble_scan, check_pitch, check_roi, scan_plan
 
-__all__ = ["ScanRun", "run_response", "run_scan"]
+__all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
 
 
 def _stamp(prefix: str) -> str:
     return f"{prefix}-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+
+
+def check_scan(
+    rig: Rig,
+    scene: str,
+    light: str,
+    pitch: tuple[int, int],
+    roi: tuple[int, int, int, int] | None = None,
+) -> None:
+    """Refuse a scan the rig cannot take (scene, light, pitch, ROI), before any capture."""
+    check_scene(scene, step="scan")
+    check_light(light, rig.light.available, step="scan")
+    check_pitch(pitch, rig.slm.shape)
+    check_roi(roi, rig.slm.shape, step="scan")
+
+
+@dataclass(frozen=True)
+class ResponseSource:
+    """The spectrum of the source a response scan is taken under: a reference spectrum
+    (wavelengths in nm, relative power) or a blackbody temperature."""
+
+    temperature_k: float | None
+    reference: tuple[np.ndarray, np.ndarray] | None
+    label: str
+
+    def photons_in_bins(self, bin_edges_nm) -> np.ndarray:
+        """Relative photon flux per bin (:func:`source_photons_in_bins`)."""
+        return source_photons_in_bins(
+            bin_edges_nm, temperature_k=self.temperature_k, reference=self.reference
+        )
+
+
+def response_source(
+    rig: Rig,
+    temperature_k: float | None = None,
+    reference_csv: str | os.PathLike[str] | None = None,
+) -> ResponseSource:
+    """The source of a response scan: a reference CSV, else a blackbody at ``temperature_k``
+    or the rig's ``light.halogen_k``; refused before any capture when none is known.
+    """
+    if reference_csv is not None:
+        return ResponseSource(None, read_reference_csv(reference_csv), str(reference_csv))
+    kelvin = temperature_k if temperature_k is not None else rig.description.light.halogen_k
+    if kelvin is None:
+        raise ProcedureError(
+            step_error(
+                "radiometric response",
+                f"rig {rig.description.name!r} does not give its halogen lamp's colour "
+                "temperature (light.halogen_k) and no source spectrum was given",
+                "pass --temperature K or --reference CSV, or set light.halogen_k in the rig",
+            )
+        )
+    if not 1000 <= kelvin <= 10000:
+        raise ProcedureError(
+            step_error(
+                "radiometric response",
+                f"a blackbody of {kelvin:g} K is no lamp",
+                "give the colour temperature in kelvin (1000-10000; halogen: about 3000)",
+            )
+        )
+    return ResponseSource(float(kelvin), None, f"blackbody {kelvin:g} K")
 
 
 def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) -> Plan:
@@ -78,6 +139,8 @@ def run_response(
     (before anything is captured) unless ``allow_failed``.
     """
     check_parent(bundle, "response", allow_failed=allow_failed)
+    check_scan(rig, "white", light, pitch)
+    source = response_source(rig, temperature_k, reference_csv)
     session = Session.resume_or_plan(
         rig.description,
         lambda: _plan(rig, "white", light, pitch, every, 0.6),
@@ -88,26 +151,13 @@ def run_response(
     scan = assemble_scan(session, bundle, progress=progress)
     good = scan.quality == 0
     spectra = scan.cube[good & (np.abs(scan.cube).sum(axis=-1) > 0)]
-    if reference_csv is not None:
-        source = source_photons_in_bins(
-            bundle.bin_edges, reference=read_reference_csv(reference_csv)
-        )
-    else:
-        source = source_photons_in_bins(
-            bundle.bin_edges, temperature_k=temperature_k or rig.description.light.halogen_k
-        )
-    response = response_from_white(spectra, source, reflectance)
+    response = response_from_white(spectra, source.photons_in_bins(bundle.bin_edges), reflectance)
     positive = bool(np.all(np.isfinite(response)) and np.all(response > 0))
     spread = float(np.median(np.std(spectra, axis=0) / np.abs(np.mean(spectra, axis=0))))
     checks = [
         QualityCheck("response_positive", float(positive), 1.0, "1", positive, ">="),
         QualityCheck.at_most("white_uniformity", spread, 0.1, "1"),
     ]
-    source_label = (
-        str(reference_csv)
-        if reference_csv
-        else f"blackbody {temperature_k or rig.description.light.halogen_k} K"
-    )
     return publish_derived(
         bundle,
         stage="response",
@@ -127,7 +177,7 @@ def run_response(
                 "pitch": list(pitch),
                 "every": every,
                 "reflectance": reflectance,
-                "source": source_label,
+                "source": source.label,
             },
         },
         inputs=[{"id": session.id, "sha256": session.sha256(), "kind": "session"}],
@@ -181,6 +231,7 @@ def run_scan(
     progress: bool = True,
 ) -> ScanRun:
     """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``."""
+    check_scan(rig, scene, light, pitch, roi)
     if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
         raise ProcedureError(
             step_error(

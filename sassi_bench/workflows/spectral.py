@@ -49,6 +49,7 @@ __all__ = [
     "analyse_sweep",
     "capture_spectral_sweeps",
     "measure_response",
+    "procedure_lasers",
     "publish_spectral",
     "render_figures",
     "run_spectral_calibration",
@@ -103,6 +104,21 @@ def _session_id(base: str | None) -> str:
     if base:
         return base
     return "spectral-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+
+
+def procedure_lasers(procedure: Mapping[str, Any], lasers_nm) -> list[float]:
+    """The laser lines a spectral calibration sweeps: the procedure's ``lasers_nm`` when it
+    pins them, else every laser of the rig (``lasers_nm``, from its description).
+
+    Examples
+    --------
+    >>> procedure_lasers({"lasers_nm": None}, (405, 488, 561, 640))
+    [405.0, 488.0, 561.0, 640.0]
+    >>> procedure_lasers({"lasers_nm": [450, 532, 670]}, (450, 520, 532, 635, 670))
+    [450.0, 532.0, 670.0]
+    """
+    pinned = procedure.get("lasers_nm")
+    return [float(x) for x in (pinned if pinned is not None else lasers_nm)]
 
 
 def _check_lasers(rig: Rig, lasers: list[float]) -> None:
@@ -408,7 +424,7 @@ def capture_spectral_sweeps(
     >>> sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")  # doctest: +SKIP
     """
     proc = dict(procedure)
-    lasers = [float(x) for x in proc["lasers_nm"]]
+    lasers = procedure_lasers(proc, rig.description.lasers_nm)
     extra = [float(x) for x in proc["blur"].get("extra_lasers_nm", [])]
     _check_lasers(rig, lasers + extra)
     base = _session_id(session_id)

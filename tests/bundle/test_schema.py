@@ -26,6 +26,7 @@ from sassi_bench.bundle import (
     loader,
 )
 from sassi_bench.bundle.integrity import format_manifest_checksum, sha256_bytes
+from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.bundle.migrations import MigrationRegistry
 from sassi_bench.bundle.schema import SCHEMA_VERSION, manifest_schema
 from sassi_bench.errors import SassiBenchError
@@ -218,16 +219,26 @@ def test_mutated_manifests_fail_cleanly(template: Path, data):
     bundle_dir = fresh_copy(template)
     write_manifest(bundle_dir, mutated)
     outcome = load_outcome(bundle_dir)
-    if isinstance(outcome, BundleError):
+    # The oracle: the manifest schema itself, applied here independently of the loader.
+    schema_valid = not any(Draft202012Validator(manifest_schema()).iter_errors(mutated))
+    if not schema_valid:
+        assert isinstance(outcome, BundleError), (
+            f"{action} {path}: loaded a manifest the schema refuses"
+        )
         assert str(outcome)
-    else:
-        assert isinstance(outcome, CalibrationBundle)
-        assert outcome.wavelengths.shape == (68,)  # complete, usable
+    elif isinstance(outcome, CalibrationBundle):
+        # Loaded: complete and usable, and it is the mutated manifest (nothing dropped).
+        assert thaw(outcome.manifest) == mutated
+        assert outcome.wavelengths.shape == (68,)
         x, _ = outcome.slm_to_camera(10, 10, outcome.wavelengths)
         assert np.all(np.isfinite(x))
+    else:
+        # Schema-valid but refused: only a check beyond the schema (array checksums,
+        # shapes, model contract) may refuse it, and it says so.
+        assert isinstance(outcome, BundleError) and str(outcome)
     required = manifest_schema()["required"]
     if action == "delete" and len(path) == 1 and path[0] in required:
-        assert isinstance(outcome, BundleError)
+        assert not schema_valid and isinstance(outcome, BundleError)
 
 
 @HYPOTHESIS

@@ -20,7 +20,7 @@ def test_camera_sensitivities_known_and_unknown():
     assert peaks[2] < peaks[1] < peaks[0]  # blue, green, red peaks in order
     with pytest.raises(ConfigError, match=r"guide_camera\.sensitivities"):
         camera_sensitivities("no such camera", [500.0])
-    with pytest.raises(ConfigError, match="unknown guide camera"):
+    with pytest.raises(ConfigError, match="unknown camera sensitivities"):
         rendering_sensitivities("no such camera", "camera", [500.0])
     assert rendering_sensitivities("Nikon 5100 (NPL)", "cie", [500.0]) == (None, "cie")
     with pytest.raises(ValueError, match="unknown rendering"):

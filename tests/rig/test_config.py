@@ -99,6 +99,7 @@ def test_yaml_file_of_a_custom_rig_loads(tmp_path, sim_dict):
 
     sim_dict["name"] = "my-bench"
     sim_dict["prism"]["glass"] = "F2"
+    sim_dict["relay"]["offset_px"] = [30.0, 3.0]  # F2 spreads the blue further: recentre
     path = tmp_path / "my-bench.yaml"
     path.write_text(yaml.safe_dump(sim_dict))
     desc = load_rig_description(path)
@@ -112,3 +113,90 @@ def test_a_folder_named_like_a_rig_does_not_shadow_it(tmp_path, monkeypatch):
     (tmp_path / "sim").mkdir()
     monkeypatch.chdir(tmp_path)
     assert load_rig_description("sim").name == "sim"
+
+
+def _hardware_dict(sim_dict):
+    """The sim rig's optics as a real rig (``backend: hardware``) of the lab example."""
+    lab = load_rig_description("lab-example").to_dict()
+    data = {k: v for k, v in sim_dict.items() if k not in ("light", "scenes")}
+    data.update(backend="hardware", hardware=lab["hardware"])
+    return data
+
+
+def test_streaks_off_the_camera_are_refused_at_load_for_every_backend(sim_dict):
+    sim_dict["relay"]["offset_px"] = [300.0, 3.0]
+    with pytest.raises(ConfigError, match=r"relay: .*spans camera x 286\.\.1072.*800x512 camera"):
+        rig_description_from_dict(sim_dict)
+    hardware = _hardware_dict(sim_dict)
+    with pytest.raises(ConfigError, match=r"relay: .*outside the 800x512 camera"):
+        rig_description_from_dict(hardware)
+
+
+def test_the_streak_check_follows_the_ray_trace(sim_dict):
+    # The ray trace puts the sim rig's SLM corner at 400 nm at camera x 11.2 and the spot
+    # reaches 3 sigma = 10.7 px (the blur at 700 nm, 3.56 px, with the SLM pixel's
+    # aperture): 0.5 px to spare at the shipped offset of 14 px, none at 13.
+    assert rig_description_from_dict(sim_dict).relay.offset_px == (14.0, 3.0)
+    sim_dict["relay"]["offset_px"] = [13.0, 3.0]
+    with pytest.raises(ConfigError, match=r"camera x -1\.\.7\d\d, y 29\.\.487"):
+        rig_description_from_dict(sim_dict)
+
+
+def test_lasers_off_the_spectral_grid_are_refused(sim_dict):
+    sim_dict["lasers_nm"] = [450, 520, 532, 635, 780]
+    with pytest.raises(ConfigError, match=r"lasers_nm: 780 nm lie outside the spectral grid"):
+        rig_description_from_dict(sim_dict)
+    sim_dict["spectral_grid"]["stop_nm"] = 800
+    assert rig_description_from_dict(sim_dict).lasers_nm[-1] == 780
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "pattern"),
+    [
+        ("light", "led", "LED-B33", r"light\.led: unknown illuminant 'LED-B33' \(did you mean"),
+        ("light", "fluorescent", "FL22", r"light\.fluorescent: unknown illuminant 'FL22'"),
+        (
+            "guide_camera",
+            "sensitivities",
+            "Nikon 5100",
+            r"guide_camera\.sensitivities: unknown camera sensitivities 'Nikon 5100' "
+            r"\(did you mean 'Nikon 5100 \(NPL\)'\?\)",
+        ),
+        ("spectral_camera", "qe", "scmoss", r"spectral_camera\.qe: unknown curve 'scmoss' \(did"),
+        ("spectral_camera", "qe", {"400": 0.5, "700": 1.5}, r"spectral_camera\.qe: .*0 to 1"),
+        ("prism", "glass", "N-BK8", r"prism\.glass: unknown glass 'N-BK8' \(did you mean 'N-BK7'"),
+        ("scenes", "colorchecker_data", "BabelColor", r"scenes\.colorchecker_data: unknown"),
+        ("scenes", "natural_image", "cofee", r"scenes\.natural_image: .*did you mean 'coffee'"),
+    ],
+)
+def test_named_data_are_checked_at_load(sim_dict, section, key, value, pattern):
+    sim_dict[section][key] = value
+    with pytest.raises(ConfigError, match=pattern):
+        rig_description_from_dict(sim_dict)
+
+
+def test_sim_defaults_apply_to_sim_rigs_only(sim_dict):
+    explicit = rig_description_from_dict(sim_dict)
+    for section, keys in (
+        ("guide_camera", ["sensitivities"]),
+        ("light", ["led", "halogen_k", "fluorescent"]),
+        ("spectral_camera", ["qe"]),
+    ):
+        for key in keys:
+            del sim_dict[section][key]
+    implicit = rig_description_from_dict(sim_dict)
+    # A sim rig that leaves them out is the same rig as one that names the bench's parts.
+    assert implicit.to_dict() == explicit.to_dict()
+    assert implicit.guide_camera.sensitivities == "Nikon 5100 (NPL)"
+    assert implicit.light.halogen_k == 3000.0
+    hardware = rig_description_from_dict(_hardware_dict(sim_dict))
+    assert hardware.guide_camera.sensitivities is None
+    assert hardware.light.halogen_k is None and hardware.light.led is None
+    assert hardware.spectral_camera.qe is None
+    # None survives the round trip through the canonical form a bundle stores.
+    assert rig_description_from_dict(hardware.to_dict()).sha256() == hardware.sha256()
+
+
+def test_the_lab_example_names_no_virtual_bench_part():
+    lab = load_rig_description("lab-example")
+    assert lab.guide_camera.sensitivities is None and lab.light.halogen_k is None

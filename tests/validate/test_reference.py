@@ -12,7 +12,18 @@ def test_datasets_load_in_reading_order():
     babel = reference_chart()
     ohta = reference_chart("ohta")
     assert babel.name == "BabelColor Average" and ohta.name == "ColorChecker N Ohta"
-    assert babel.reflectance.shape[0] == ohta.reflectance.shape[0] == 24
+    for chart in (babel, ohta):
+        sds = colour.SDS_COLOURCHECKERS[chart.name]
+        assert chart.patch_names == tuple(sds)
+        for row, sd in zip(chart.reflectance, sds.values(), strict=True):
+            np.testing.assert_array_equal(chart.wavelengths_nm, sd.wavelengths)
+            np.testing.assert_array_equal(row, sd.values)
+        # Reading order, from the reflectances themselves: white (19) brightest, black
+        # (24) darkest, blue (13), green (14) and red (15) peak where their names say.
+        mean = chart.reflectance.mean(axis=1)
+        assert int(np.argmax(mean)) == WHITE_PATCH == 18 and int(np.argmin(mean)) == 23
+        peak = chart.wavelengths_nm[np.argmax(chart.reflectance, axis=1)]
+        assert peak[12] < 500 and 500 < peak[13] < 580 and peak[14] > 600
     assert babel.patch_names[0] == "dark skin" and "white" in babel.patch_names[WHITE_PATCH]
     # The two data sets describe the same chart: close, not identical.
     at = np.arange(400.0, 701.0, 10.0)
@@ -25,15 +36,23 @@ def test_datasets_load_in_reading_order():
 
 def test_bin_average_is_the_mean_over_each_bin():
     chart = reference_chart()
+    edges = np.array([400.0, 433.3, 500.0, 512.5, 600.0, 700.0])
+    got = chart.bin_average(edges)
+    assert got.shape == (24, 5)
+    # Independently: colour-science's linear interpolation on a 0.01 nm grid, box-averaged.
+    for row, sd in zip(got, colour.SDS_COLOURCHECKERS["BabelColor Average"].values(), strict=True):
+        fine = sd.copy().interpolate(
+            colour.SpectralShape(380, 730, 0.01), interpolator=colour.LinearInterpolator
+        )
+        lam, val = np.asarray(fine.wavelengths), np.asarray(fine.values)
+        for b in range(edges.size - 1):
+            inside = (lam >= edges[b]) & (lam <= edges[b + 1])
+            expected = np.trapezoid(val[inside], lam[inside]) / (lam[inside][-1] - lam[inside][0])
+            assert row[b] == pytest.approx(expected, abs=2e-4)
+    # Narrow bins reproduce the tabulated values at their centres.
     sd = colour.SDS_COLOURCHECKERS["BabelColor Average"]["red"]
-    fine = np.arange(500.0, 600.01, 0.01)
-    expected = np.mean(np.interp(fine, sd.wavelengths, sd.values))
-    got = chart.bin_average([500.0, 600.0])[14, 0]
-    assert got == pytest.approx(expected, rel=1e-4)
-    # Narrow bins reproduce the tabulated values at the bin centres.
-    lam = np.asarray(sd.wavelengths)
-    narrow = chart.bin_average(np.r_[lam[2:20] - 0.05, lam[19] + 0.05].reshape(-1))
-    assert narrow.shape[1] == 18
+    for lam, value in zip(sd.wavelengths[2:20], sd.values[2:20], strict=True):
+        assert chart.bin_average([lam - 0.05, lam + 0.05])[14, 0] == pytest.approx(value, abs=1e-3)
 
 
 def test_bins_outside_the_data_are_refused():

@@ -1,7 +1,9 @@
 """Spectral calibration scored against the virtual bench's ground truth.
 
-Each rig is calibrated once per test module (about a minute each): the default rig and
-an odd one (SLM rotated 2 degrees, a dense flint prism, three times the read noise).
+Each rig is calibrated once per test module (about a minute each): the default rig, an
+odd one (SLM rotated 2 degrees, a dense flint prism, three times the read noise) and one
+with another set of four laser lines (405, 488, 561, 640 nm), calibrated with the shipped
+procedure, which sweeps the rig's own lasers.
 The default rig already uses N-BK7 (it reproduces the paper's 2-10 nm/px bins), so the
 odd rig swaps in F2, whose stronger dispersion makes the field dependence harsher.
 """
@@ -28,11 +30,18 @@ def _odd_rig():
     return open_rig(rig_description_from_dict(data))
 
 
-@pytest.fixture(scope="module", params=["default", "odd"])
-def calibrated(request, tmp_path_factory, calibrated_sim):
+def _four_line_rig():
+    data = load_rig_description("sim").to_dict()
+    data["name"] = "sim-four-lines"
+    data["lasers_nm"] = [405, 488, 561, 640]
+    return open_rig(rig_description_from_dict(data))
+
+
+@pytest.fixture(scope="module", params=["default", "odd", "four-lines"])
+def calibrated(request, tmp_path_factory):
     if request.param == "default":
-        return calibrated_sim
-    rig = _odd_rig()
+        return request.getfixturevalue("calibrated_sim")
+    rig = _odd_rig() if request.param == "odd" else _four_line_rig()
     data = tmp_path_factory.mktemp(f"data-{request.param}")
     result = run_spectral_calibration(
         rig, load_procedure("spectral_calibration"), data=data, progress=False, session_id="acc"
@@ -50,6 +59,8 @@ def test_every_quality_check_passes_and_a_bundle_is_published(calibrated):
         p.name for p in (bundle.path / "report").iterdir()
     )
     assert [i["id"] for i in bundle.manifest["inputs"]] == ["acc-grey", "acc-sweep"]
+    assert [d.wavelength_nm for d in result.lasers] == list(rig.description.lasers_nm)
+    assert set(result.dispersion.leave_one_out) == set(rig.description.lasers_nm)
 
 
 def test_correspondences_land_where_truth_says(calibrated):

@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 from sassi_bench.errors import DeviceError, step_error
 from sassi_bench.rig.base import LightSourceBase
+from sassi_bench.rig.config import light_names
 
 __all__ = ["ManualLight", "ask_operator"]
 
@@ -53,8 +54,7 @@ class ManualLight(LightSourceBase):
     def __init__(
         self, lasers_nm: tuple[float, ...], prompt: Callable[[str], None] | None = None
     ) -> None:
-        names = ("off", *(f"laser:{x:g}" for x in lasers_nm), "led", "halogen", "fluorescent")
-        super().__init__(names)
+        super().__init__(light_names(lasers_nm))
         self._prompt = prompt or ask_operator
 
     def _switch(self, name: str) -> None:

@@ -7,7 +7,7 @@ import hashlib
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.blur import BlurModel
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
@@ -74,7 +74,6 @@ class VirtualBench:
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
         )
         self.guide = GuideOptics(gc, self.slm_shape, self.grid)
-        self._check_streaks_fit()
         self.scene_seed = int(np.random.SeedSequence([desc.seed, 2]).generate_state(1)[0])
         self._exposures_seen: dict[tuple[str, bytes], int] = {}
         self.sparse_limit = (
@@ -82,45 +81,13 @@ class VirtualBench:
             if sparse_limit is not None
             else max(2000, self.slm_shape[0] * self.slm_shape[1] // 200)
         )
-        self.lights = (
-            "off",
-            *(f"laser:{x:g}" for x in desc.lasers_nm),
-            "led",
-            "halogen",
-            "fluorescent",
-        )
+        self.lights = desc.light_names
         self.light = "off"
         self.pattern = np.zeros(self.slm_shape, dtype=np.uint8)
         self._scenes: dict[str, Scene] = {}
         self._samples: dict[str, SpectralSamples] = {}
         self._background: dict[tuple[str, str], NDArray[np.float32]] = {}
         self.scene = self.scene_named("white")
-
-    # -- configuration checks ---------------------------------------------------------
-    def _check_streaks_fit(self) -> None:
-        h, w = self.slm_shape
-        u = np.array([0, w - 1, 0, w - 1], dtype=np.float64)
-        v = np.array([0, 0, h - 1, h - 1], dtype=np.float64)
-        reach = 3.0 * float(self.renderer.spot_sigma(np.array([400.0, 700.0])).max())
-        xs, ys = [], []
-        for lam in (400.0, 700.0):
-            x, y = self.relay.forward(u, v, lam)
-            xs.append(x)
-            ys.append(y)
-        x, y = np.concatenate(xs), np.concatenate(ys)
-        hc, wc = self.camera_shape
-        if (
-            x.min() - reach < 0
-            or x.max() + reach > wc - 1
-            or y.min() - reach < 0
-            or y.max() + reach > hc - 1
-        ):
-            raise ConfigError(
-                "relay: the SLM's image with its 400-700 nm streaks spans camera x "
-                f"{x.min() - reach:.0f}..{x.max() + reach:.0f}, y {y.min() - reach:.0f}.."
-                f"{y.max() + reach:.0f}, outside the {wc}x{hc} camera. Fix: lower relay.scale "
-                "or prism.spread_px, or move relay.offset_px"
-            )
 
     # -- scene and light ----------------------------------------------------------------
     def scene_named(self, name: str) -> Scene:
@@ -156,16 +123,22 @@ class VirtualBench:
             elif light.startswith("laser:"):
                 samples = laser_samples(float(light[6:]), cfg.laser_fwhm_nm, cfg.laser_flux)
             elif light == "led":
-                power = colour_illuminant_power(cfg.led, self.grid)
+                power = colour_illuminant_power(cfg.led, self.grid, "light.led")
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
             elif light == "fluorescent":
-                power = colour_illuminant_power(cfg.fluorescent, self.grid)
+                power = colour_illuminant_power(cfg.fluorescent, self.grid, "light.fluorescent")
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
             elif light == "halogen":
                 power = blackbody_power(self.grid, cfg.halogen_k)
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
             else:  # pragma: no cover - the light device validates names
-                raise ValueError(f"unknown light {light!r}")
+                raise ProcedureError(
+                    step_error(
+                        "light select",
+                        f"unknown light {light!r}",
+                        "select one of " + ", ".join(self.lights),
+                    )
+                )
             self._samples[light] = samples
         return self._samples[light]
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.glass import Glass, get_glass
 from sassi_bench.optics.prism import min_deviation_incidence_deg, trace_prism
 from sassi_bench.rig.config import PrismConfig, RelayConfig
@@ -109,9 +110,12 @@ class SpectralRelay:
         """Rotation taking the deviated central ray at the reference wavelength to +z."""
         axis = self._trace(np.array([0.0, 0.0, 1.0]), n_ref)
         if not np.all(np.isfinite(axis)):
-            raise ValueError(
-                "prism: the central ray is totally internally reflected; "
-                "Fix: lower prism.apex_deg or change prism.incidence_deg"
+            raise ConfigError(
+                step_error(
+                    "prism",
+                    "the central ray is totally internally reflected",
+                    "lower prism.apex_deg or change prism.incidence_deg",
+                )
             )
         yaw = _rot_y(-np.arctan2(axis[0], axis[2]))
         flat = yaw @ axis

@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.optics.datasets import camera_sensitivities
 from sassi_bench.rig.config import GuideCameraConfig
 
-__all__ = ["GuideOptics", "guide_homography", "sensitivities_on_grid"]
+__all__ = ["GuideOptics", "guide_homography"]
 
 # Fraction of the scene light the beamsplitter sends to the guide camera.
 GUIDE_SPLIT = 0.1
@@ -42,23 +42,6 @@ def guide_homography(cfg: GuideCameraConfig, slm_shape: tuple[int, int]) -> NDAr
     return h
 
 
-def sensitivities_on_grid(name: str, grid: NDArray[np.float64]) -> NDArray[np.float64]:
-    """RGB spectral sensitivities (3, L) of a camera in colour-science's dataset, peak 1."""
-    import colour
-
-    if name not in colour.MSDS_CAMERA_SENSITIVITIES:
-        raise ConfigError(
-            f"guide_camera.sensitivities: unknown camera {name!r}. "
-            f"Fix: use one of {list(colour.MSDS_CAMERA_SENSITIVITIES)}"
-        )
-    msds = colour.MSDS_CAMERA_SENSITIVITIES[name]
-    values = np.asarray(msds.values, dtype=np.float64)
-    out = np.stack(
-        [np.interp(grid, msds.wavelengths, values[:, c], left=0.0, right=0.0) for c in range(3)]
-    )
-    return out / out.max()
-
-
 class GuideOptics:
     """Renders what the guide camera sees of a scene (electron rates per channel).
 
@@ -78,7 +61,7 @@ class GuideOptics:
         self.cfg = cfg
         self.shape = (cfg.height, cfg.width, 3)
         self.guide_to_slm = guide_homography(cfg, slm_shape)
-        self.sensitivities = sensitivities_on_grid(cfg.sensitivities, grid)
+        self.sensitivities = camera_sensitivities(cfg.sensitivities, grid)
         self.grid = grid
         # Guide pixels per SLM pixel, from the homography's local area at the centre.
         self.scale = 1.0 / np.sqrt(abs(np.linalg.det(self.guide_to_slm[:2, :2])))

@@ -17,7 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import ConfigError
+from sassi_bench.errors import ConfigError, did_you_mean, step_error
+from sassi_bench.optics.datasets import require_dataset
+from sassi_bench.rig.rig import check_scene
 
 __all__ = [
     "BasisScene",
@@ -187,15 +189,11 @@ def colorchecker_scene(
     """
     import colour
 
-    if data not in colour.SDS_COLOURCHECKERS:
-        raise ConfigError(
-            f"scenes.colorchecker_data: unknown data {data!r}. "
-            f"Fix: use one of {list(colour.SDS_COLOURCHECKERS)}"
-        )
+    chart = require_dataset("colourchecker", data, "scenes.colorchecker_data")
     shape = colour.SpectralShape(float(grid[0]), float(grid[-1]), float(grid[1] - grid[0]))
     patches = [
         sd.copy().align(shape, extrapolator_kwargs={"method": "Constant"}).values
-        for sd in colour.SDS_COLOURCHECKERS[data].values()
+        for sd in chart.values()
     ]
     spectra = np.vstack([np.full(grid.size, 0.30), np.full(grid.size, 0.03), *patches])
     lay = colorchecker_layout(slm_shape, margin, rotation_deg)
@@ -277,16 +275,31 @@ def pcb_scene(
     return LabelScene("pcb", grid, margin, labels=img.astype(np.intp), spectra=spectra)
 
 
-def _photo(name: str) -> NDArray[np.float64]:
+def photo_loader(name: str):
+    """scikit-image's loader of the data image ``name`` (``scenes.natural_image``).
+
+    Examples
+    --------
+    >>> photo_loader("coffee").__name__
+    'coffee'
+    """
     import skimage.data
 
     loader = getattr(skimage.data, name, None)
-    if loader is None:
+    if loader is None or name.startswith("_") or not callable(loader):
         raise ConfigError(
-            f"scenes.natural_image: scikit-image has no data image {name!r}. "
-            "Fix: use a bundled colour image such as 'coffee', 'astronaut' or 'chelsea'"
+            step_error(
+                "scenes.natural_image",
+                f"scikit-image has no data image {name!r}"
+                f"{did_you_mean(name, [n for n in dir(skimage.data) if not n.startswith('_')])}",
+                "use a bundled colour image such as 'coffee', 'astronaut' or 'chelsea'",
+            )
         )
-    image = np.asarray(loader(), dtype=np.float64)
+    return loader
+
+
+def _photo(name: str) -> NDArray[np.float64]:
+    image = np.asarray(photo_loader(name)(), dtype=np.float64)
     if image.ndim != 3 or image.shape[2] < 3:
         raise ConfigError(f"scenes.natural_image: {name!r} is not a colour image")
     return image[..., :3] / 255.0
@@ -376,4 +389,5 @@ def make_scene(
         return natural_scene(slm_shape, grid, margin, natural_image)
     if name == "pcb":
         return pcb_scene(slm_shape, grid, margin, seed)
-    raise ValueError(f"set scene: unknown scene {name!r}")
+    check_scene(name)
+    raise AssertionError(f"scene {name!r} is known but has no builder")  # pragma: no cover

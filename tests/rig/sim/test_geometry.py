@@ -124,3 +124,25 @@ def test_linear_upsampler_reproduces_linear_functions():
     coarse = np.arange(-8.0, 108.0, 8.0)
     w = linear_upsampler(coarse, 100)
     assert np.allclose(w @ (3 * coarse + 1), 3 * np.arange(100) + 1, atol=1e-4)
+
+
+@pytest.mark.parametrize("du", [0.0, -300.0, 250.0])
+def test_in_plane_rays_follow_the_textbook_prism_deviation(desc, du):
+    """Independent of the 3-D vector trace: Snell's law at both faces in the plane of
+    dispersion (the textbook deviation formula) for SLM pixels on the central row."""
+    from sassi_bench.optics.prism import deviation_deg
+
+    relay = make_relay(
+        desc, relay={"rotation_deg": 0.0, "distortion_k1": 0.0}, prism={"smile_px": 0.0}
+    )
+    lam = np.array([400.0, 450.0, 532.0, 635.0, 700.0])
+    n, n_ref = refractive_index("N-BK7", lam), refractive_index("N-BK7", 550.0)
+    # The collimated beam of pixel u leaves the collimator at theta and meets the first
+    # face at incidence + theta; the camera axis is the deviated 550 nm ray of the centre.
+    theta = np.arctan(du / relay.f1)
+    out = theta - np.deg2rad(deviation_deg(n, 30.0, relay.incidence_deg + np.rad2deg(theta)))
+    axis = -np.deg2rad(deviation_deg(n_ref, 30.0, relay.incidence_deg))
+    x, y = relay.forward(319.5 + du, 199.5, lam)
+    x_axis, y_axis = relay.forward(319.5, 199.5, 550.0)
+    np.testing.assert_allclose(x - x_axis, relay.f2 * np.tan(out - axis), atol=1e-6)
+    np.testing.assert_allclose(y, y_axis, atol=1e-9)  # in-plane rays stay on the row

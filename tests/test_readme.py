@@ -1,0 +1,59 @@
+"""The README's Python examples run as written (they are doctests), on a real bundle."""
+
+from __future__ import annotations
+
+import dataclasses
+import doctest
+import re
+from pathlib import Path
+
+import pytest
+
+from sassi_bench.bundle import load, publish
+from sassi_bench.rig.sim import truth
+
+README = Path(__file__).parents[1] / "README.md"
+
+
+def python_blocks() -> list[str]:
+    """The README's ```python blocks."""
+    return re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+
+
+@pytest.fixture(scope="module")
+def data_with_a_sim_bundle(calibrated_sim, tmp_path_factory):
+    """A data root whose latest sim bundle is the suite's spectral calibration of the sim
+    rig with its guide -> SLM homography (the truth's: the registration is tested
+    elsewhere), as ``sassi-bench calibrate`` would publish it."""
+    rig, result, _ = calibrated_sim
+    root = tmp_path_factory.mktemp("readme")
+    bundle = load(result.bundle_path)
+    models = dataclasses.replace(bundle.models, guide_to_slm=truth(rig).guide_to_slm)
+    publish(
+        models,
+        rig=rig.description,
+        quality={"checks": list(result.checks), "residuals": {}},
+        procedure=dict(bundle.manifest["procedure"]),
+        data=root,
+    )
+    return root
+
+
+def test_every_python_block_of_the_readme_is_a_doctest():
+    blocks = python_blocks()
+    assert len(blocks) >= 2
+    for block in blocks:
+        lines = [line for line in block.splitlines() if line.strip()]
+        assert lines[0].startswith(">>> "), block
+
+
+@pytest.mark.parametrize("index", range(len(python_blocks())))
+def test_readme_examples_run(index, data_with_a_sim_bundle, monkeypatch):
+    monkeypatch.setenv("SASSI_BENCH_DATA", str(data_with_a_sim_bundle))
+    block = python_blocks()[index]
+    test = doctest.DocTestParser().get_doctest(block, {}, f"README block {index}", str(README), 0)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    failures = []
+    runner.run(test, out=failures.append)
+    assert runner.failures == 0, "".join(failures)
+    assert runner.tries == len(test.examples) > 0
