@@ -144,11 +144,10 @@ def measure_samples(
         deblur = SpectralDeblur.from_bundle(bundle, full_scale=full_scale)
     # Only the camera rows that light of the SLM can reach take part.
     top, bottom = reached_rows(bundle, image.shape[0])
-    window = np.asarray(image[top:bottom], dtype=np.float64)
+    window = image[top:bottom]
     geometry = streak_geometry(bundle, rows, cols).shifted(top)
     background = estimate_background(window, streak_footprint(geometry, window.shape))
-    window -= background.image
-    spectra, _ = extract_spectra(window, geometry, deblur)
+    spectra, _ = extract_spectra(window - background.image, geometry, deblur)
     spectra /= exposure_s
     if bundle.response is not None:
         return spectra / np.asarray(bundle.response), RADIANCE_UNITS

@@ -55,8 +55,10 @@ def scene(synthetic_bundle, synthetic_spacing):
 
 def test_spectra_of_the_open_pixels_are_recovered(synthetic_bundle, scene):
     mask, spectra, frame = scene
+    original = frame.copy()
     measured, units = measure_samples(frame, mask, synthetic_bundle, exposure_s=0.5)
     assert units == "relative photon radiance per bin"
+    np.testing.assert_array_equal(frame, original)  # the caller's frame is left alone
     recovered = measured * synthetic_bundle.response * 0.5
     error = np.abs(recovered - spectra) / spectra.max(axis=1, keepdims=True)
     # The background is removed and no streak leaks into another: the median error is
