@@ -202,3 +202,17 @@ def assign_to_samples(
                 if d < distance[rr, cc]:
                     distance[rr, cc] = d
                     labels[rr, cc] = n
+
+
+@numba.njit(**_JIT)
+def spread_regions(ratio, regions, scale, out):  # pragma: no cover
+    """``out[r, c, :] = ratio[regions[r, c], :] * scale[r, c]``: the cube written once (the
+    numpy gather then product passes over the (H, W, B) cube three times)."""
+    h, w = regions.shape
+    bands = ratio.shape[1]
+    for r in range(h):
+        for c in range(w):
+            k = regions[r, c]
+            s = scale[r, c]
+            for b in range(bands):
+                out[r, c, b] = ratio[k, b] * s
