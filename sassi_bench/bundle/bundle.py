@@ -326,12 +326,18 @@ class CalibrationBundle:
 
     # -- mask design --------------------------------------------------------------------------
 
-    def mask_spacing(self, *, blur_sigmas: float = 3.0, margin_px: float = 3.0) -> MaskSpacing:
+    def mask_spacing(
+        self,
+        *,
+        blur_sigmas: float = 3.0,
+        margin_px: float = 3.0,
+        row_sigmas: float | None = None,
+    ) -> MaskSpacing:
         """How far apart open SLM pixels must be so that their streaks never overlap.
 
         The forbidden window of every SLM pixel, from the streak extent (400-700 nm) plus
-        ``blur_sigmas`` blur sigmas at both ends; see :mod:`sassi_bench.bundle.spacing` for
-        the exact rule.
+        ``blur_sigmas`` blur sigmas at both ends (``row_sigmas`` above and below, by default
+        the same); see :mod:`sassi_bench.bundle.spacing` for the exact rule.
 
         Examples
         --------
@@ -341,7 +347,9 @@ class CalibrationBundle:
         """
         from sassi_bench.bundle.spacing import mask_spacing
 
-        return mask_spacing(self, blur_sigmas=blur_sigmas, margin_px=margin_px)
+        return mask_spacing(
+            self, blur_sigmas=blur_sigmas, margin_px=margin_px, row_sigmas=row_sigmas
+        )
 
     # -- other models -------------------------------------------------------------------------
 

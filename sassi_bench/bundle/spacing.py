@@ -22,9 +22,10 @@ Where the numbers come from:
   400 nm end to its 700 nm end (the bundle's first and last bin edges), widened at each end
   by ``margin_px`` (light just outside the band, which the extraction's guard bins absorb)
   and by ``blur_sigmas`` times the blur sigma at that end; and camera rows from the
-  streak's highest to its lowest bin centre widened by ``blur_sigmas`` times the largest
-  blur sigma. These are the rectangles the offset removal treats as lit
-  (:func:`sassi_bench.spectra.offset.footprint_rectangles`, same defaults).
+  streak's highest to its lowest bin centre widened by ``row_sigmas`` (default
+  ``blur_sigmas``) times the largest blur sigma. These are the rectangles the offset
+  removal treats as lit (:func:`sassi_bench.spectra.offset.footprint_rectangles`, same
+  defaults).
 * **right / left.** ``right[v, u]`` is the largest column distance ``d`` such that some pixel
   ``(u + d, v')`` with ``|v' - v| < pitch`` has a camera footprint whose column range
   overlaps that of ``(u, v)`` (exact for every row of the band: the maximum over them);
@@ -88,8 +89,8 @@ class MaskSpacing:
         ``[v, u]`` (its forbidden window is ``u - left .. u + right``, inclusive).
     pitch
         Rows: a pixel forbids rows ``v - pitch + 1 .. v + pitch - 1`` (>= 1).
-    blur_sigmas, margin_px
-        The parameters the footprints were widened with.
+    blur_sigmas, margin_px, row_sigmas
+        The parameters the footprints were widened with (``row_sigmas`` above and below).
 
     Examples
     --------
@@ -105,6 +106,7 @@ class MaskSpacing:
     pitch: int
     blur_sigmas: float
     margin_px: float
+    row_sigmas: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("left", "right"):
@@ -116,6 +118,8 @@ class MaskSpacing:
         if int(self.pitch) < 1:
             raise ValueError(f"pitch must be >= 1, got {self.pitch}")
         object.__setattr__(self, "pitch", int(self.pitch))
+        if self.row_sigmas is None:
+            object.__setattr__(self, "row_sigmas", float(self.blur_sigmas))
 
     @property
     def slm_shape(self) -> tuple[int, int]:
@@ -221,6 +225,7 @@ def mask_spacing(
     *,
     blur_sigmas: float = BLUR_SIGMAS,
     margin_px: float = MARGIN_PX,
+    row_sigmas: float | None = None,
 ) -> MaskSpacing:
     """The separation open SLM pixels need so that their streaks never overlap.
 
@@ -234,6 +239,10 @@ def mask_spacing(
         footprints apart (crosstalk below about 1e-3).
     margin_px
         Camera columns added at each end for light just outside 400-700 nm.
+    row_sigmas
+        Blur sigmas added above and below instead (default: ``blur_sigmas``). The pitch
+        follows the widest blur (at the ends of the band) for every pair; a smaller value
+        packs rows closer at the price of crosstalk where two pixels' blurry ends meet.
 
     Returns
     -------
@@ -280,8 +289,11 @@ def mask_spacing(
         )
     # Vertical extent of a footprint: the rows its bin centres span, plus the blur.
     y_low, y_high = _row_range(cy, model.spectral_y(centres[[0, -1]]))
-    top = y_low - blur_sigmas * sigma_max
-    bottom = y_high + blur_sigmas * sigma_max
+    rows_k = blur_sigmas if row_sigmas is None else row_sigmas
+    if not (np.isfinite(rows_k) and rows_k >= 0):
+        raise BundleError(step_error(step, f"row_sigmas is {row_sigmas}", "pass a number >= 0"))
+    top = y_low - rows_k * sigma_max
+    bottom = y_high + rows_k * sigma_max
     y_mid = 0.5 * (top + bottom)
     rows_per_v = np.abs(np.diff(y_mid, axis=0))  # camera rows per SLM row
     tilt = np.abs(np.diff(y_mid, axis=1)).max()  # camera rows per SLM column
@@ -304,7 +316,7 @@ def mask_spacing(
         if needed <= pitch:
             break
         pitch = needed
-    return MaskSpacing(left, right, pitch, float(blur_sigmas), float(margin_px))
+    return MaskSpacing(left, right, pitch, float(blur_sigmas), float(margin_px), float(rows_k))
 
 
 def _window_reaches(lo, hi, pitch: int, increasing: bool):

@@ -62,6 +62,9 @@ def test_spacing_follows_the_field_and_the_blur(bundle, spacing):
     wider = bundle.mask_spacing(blur_sigmas=5.0)
     assert (wider.right >= spacing.right).all() and wider.right[200, 320] > spacing.right[200, 320]
     assert wider.pitch > spacing.pitch
+    denser = bundle.mask_spacing(row_sigmas=1.0)
+    assert denser.pitch < spacing.pitch
+    assert denser.row_sigmas == 1.0 and spacing.row_sigmas == 3.0
 
 
 def test_pitch_keeps_rows_apart_and_is_tight(bundle, spacing):
