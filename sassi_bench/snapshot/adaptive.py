@@ -5,9 +5,14 @@
    nearest free pixel of its own superpixel, or is dropped when none is free.
 3. The guide image is re-segmented around the samples (one SLIC assignment pass with the
    samples as fixed centres), so every sample owns a region.
-4. Every further pixel that keeps the rule is opened (row by row), so the mask measures as
-   many streaks as the camera can hold; these extra pixels fall in the samples' regions
-   and are measured with them.
+4. Every further pixel that keeps the rule is opened, so the mask measures as many streaks
+   as the camera can hold; these extra pixels fall in the samples' regions and are
+   measured with them. By default the pixels the regions represent worst (the 5 % whose
+   features differ most from their sample's) are tried first, worst first, then the rest
+   row by row: thin structures that no superpixel isolates (PCB tracks) get pixels. On 13
+   tracks 2 px wide across a 400 x 640 SLM (spacing 41 columns by 20 rows), 60
+   superpixels: this order put pixels on 12 tracks, row order on 3, a random mask of the
+   same size on 8 (a uniform one on 1).
 
 Steps 1, 2 and 4 are one compiled pass (:mod:`sassi_bench.snapshot._kernels`); step 3 is
 :func:`segment_around_samples`, public because video mode re-segments frame ``t``'s guide
@@ -201,7 +206,8 @@ def adaptive_mask(
     segments: Superpixels | None = None,
     n_segments: int | None = None,
     compactness: float = 10.0,
-    fill: bool = True,
+    fill: str | None = "residual",
+    residual_share: float = 0.05,
 ) -> AdaptiveMask:
     """The adaptive mask of a guide image on the SLM grid (all four steps).
 
@@ -218,7 +224,10 @@ def adaptive_mask(
     compactness
         SLIC's weight of space against colour (superpixels and re-segmentation).
     fill
-        Open every further pixel that keeps the rule (step 4).
+        Step 4: ``"residual"`` (the worst-represented pixels first, then row order),
+        ``"raster"`` (row order) or None (samples only).
+    residual_share
+        Share of the SLM pixels tried first by the ``"residual"`` fill.
 
     Examples
     --------
@@ -243,14 +252,32 @@ def adaptive_mask(
                 "segment the guide image warped onto the SLM grid (guide_on_slm)",
             )
         )
-    mask, samples = place_samples(segments.labels, spacing, fill=fill)
+    if fill not in ("residual", "raster", None):
+        raise ProcedureError(
+            step_error("adaptive mask", f"fill is {fill!r}", 'pass "residual", "raster" or None')
+        )
+    mask, samples = place_samples(segments.labels, spacing, fill=False)
     if samples.shape[0] == 0:
         raise ProcedureError(
             step_error("adaptive mask", "no superpixel could be sampled", "pass a guide image")
         )
-    labels = segment_around_samples(
-        guide_slm, samples, compactness=compactness, features=segments.features
-    )
+    features = segments.features
+    labels = segment_around_samples(guide_slm, samples, compactness=compactness, features=features)
+    if fill is not None:
+        builder = MaskBuilder.empty(spacing)
+        builder.fill(np.ravel_multi_index((samples[:, 0], samples[:, 1]), (h, w)))
+        if fill == "residual":
+            # How badly each pixel's region sample stands for it (squared feature distance).
+            centres = features[samples[:, 0], samples[:, 1]]
+            residual = np.einsum(
+                "ijc,ijc->ij", features - centres[labels], features - centres[labels]
+            )
+            flat = residual.ravel()
+            count = max(1, int(residual_share * flat.size))
+            worst = np.argpartition(flat, flat.size - count)[flat.size - count :]
+            builder.fill(worst[np.argsort(-flat[worst], kind="stable")])
+        builder.fill()
+        mask = builder.mask
     return AdaptiveMask(mask, samples, labels)
 
 
