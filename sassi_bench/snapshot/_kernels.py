@@ -101,18 +101,24 @@ def label_moments(labels, n_labels):  # pragma: no cover
     box[:, 1] = -1
     box[:, 2] = w
     box[:, 3] = -1
+    # Labels come in runs along a row (about a superpixel wide): one update per run.
     for r in range(h):
-        for c in range(w):
+        c = 0
+        while c < w:
             k = labels[r, c]
-            if k < 0:
-                continue
-            count[k] += 1
-            row_sum[k] += r
-            col_sum[k] += c
-            box[k, 0] = min(box[k, 0], r)
-            box[k, 1] = max(box[k, 1], r)
-            box[k, 2] = min(box[k, 2], c)
-            box[k, 3] = max(box[k, 3], c)
+            end = c
+            while end + 1 < w and labels[r, end + 1] == k:
+                end += 1
+            if k >= 0:
+                run = end - c + 1
+                count[k] += run
+                row_sum[k] += r * run
+                col_sum[k] += (c + end) * run // 2
+                box[k, 0] = min(box[k, 0], r)
+                box[k, 1] = max(box[k, 1], r)
+                box[k, 2] = min(box[k, 2], c)
+                box[k, 3] = max(box[k, 3], end)
+            c = end + 1
     return count, row_sum, col_sum, box
 
 
@@ -123,12 +129,13 @@ def place_samples(
     """The paper's first two steps: every superpixel's centroid as a sample, moved to the
     nearest free pixel of its superpixel when the spacing forbids it, else dropped.
 
-    Superpixels are visited in label order. "Nearest" is the smallest Chebyshev ring
-    around the centroid holding a free pixel of the superpixel, and within it the
-    Euclidean nearest. Writes ``samples`` (n, 2: row, col) and ``owner`` (superpixel ->
-    sample index or -1); returns the number of samples.
+    Superpixels are visited in label order. The rounded centroid is taken when it is in the
+    superpixel and free; else the nearest free pixel (Euclidean, from the centroid) is
+    found by scanning the superpixel's bounding box row by row outwards from the
+    centroid's row, each row's pixels contiguous in memory, stopping once a row is farther
+    than the best pixel found. Writes ``samples`` (n, 2: row, col) and ``owner``
+    (superpixel -> sample index or -1); returns the number of samples.
     """
-    h, w = labels.shape
     count, row_sum, col_sum, box = label_moments(labels, n_labels)
     n = 0
     for k in range(n_labels):
@@ -137,29 +144,41 @@ def place_samples(
             continue
         cr = row_sum[k] / count[k]
         cc = col_sum[k] / count[k]
-        r0 = min(max(int(np.floor(cr + 0.5)), 0), h - 1)
-        c0 = min(max(int(np.floor(cc + 0.5)), 0), w - 1)
-        reach = max(max(r0 - box[k, 0], box[k, 1] - r0), max(c0 - box[k, 2], box[k, 3] - c0))
+        r0 = min(max(int(np.floor(cr + 0.5)), box[k, 0]), box[k, 1])
+        c0 = min(max(int(np.floor(cc + 0.5)), box[k, 2]), box[k, 3])
+        best = np.inf
         best_r = -1
         best_c = -1
-        for d in range(reach + 1):
-            best = np.inf
-            for rr in range(max(r0 - d, box[k, 0]), min(r0 + d, box[k, 1]) + 1):
-                edge = rr == r0 - d or rr == r0 + d
-                first = max(c0 - d, box[k, 2]) if edge else c0 - d
-                last = min(c0 + d, box[k, 3]) if edge else c0 + d
-                step = 1 if edge else 2 * d
-                for ccol in range(first, last + 1, step):
-                    if ccol < box[k, 2] or ccol > box[k, 3] or labels[rr, ccol] != k:
-                        continue
-                    if is_free(rr, ccol, left, right, pitch, blocked, row_cols, row_count):
-                        dist = (rr - cr) ** 2 + (ccol - cc) ** 2
-                        if dist < best:
-                            best = dist
-                            best_r = rr
-                            best_c = ccol
-            if best_r >= 0:
+        # Most centroids are free: take the rounded one without a search.
+        if labels[r0, c0] == k and is_free(
+            r0, c0, left, right, pitch, blocked, row_cols, row_count
+        ):
+            open_pixel(r0, c0, left, right, pitch, blocked, row_cols, row_count, mask)
+            samples[n, 0] = r0
+            samples[n, 1] = c0
+            owner[k] = n
+            n += 1
+            continue
+        for step in range(2 * (box[k, 1] - box[k, 0]) + 2):
+            # Rows r0, r0 + 1, r0 - 1, r0 + 2, ... inside the box.
+            rr = r0 + (step + 1) // 2 if step % 2 else r0 - step // 2
+            if rr < box[k, 0] or rr > box[k, 1]:
+                if abs(rr - r0) > max(r0 - box[k, 0], box[k, 1] - r0):
+                    break
+                continue
+            dr = abs(rr - cr)
+            # Rows alternate sides, so a later row is at most one row nearer than this one.
+            if dr >= 1.0 and (dr - 1.0) ** 2 >= best:
                 break
+            dr2 = dr * dr
+            for c in range(box[k, 2], box[k, 3] + 1):
+                if labels[rr, c] != k or blocked[rr, c]:
+                    continue
+                dist = dr2 + (c - cc) ** 2
+                if dist < best and is_free(rr, c, left, right, pitch, blocked, row_cols, row_count):
+                    best = dist
+                    best_r = rr
+                    best_c = c
         if best_r >= 0:
             open_pixel(best_r, best_c, left, right, pitch, blocked, row_cols, row_count, mask)
             samples[n, 0] = best_r

@@ -55,13 +55,13 @@ def test_a_forbidden_centroid_moves_within_its_superpixel_or_is_dropped(helpers)
 
     spacing = MaskSpacing(np.full((20, 20), 4), np.full((20, 20), 4), 3, 3.0, 3.0)
     labels = np.full((20, 20), 3, np.int32)
-    labels[:, :4] = 0  # centroid (10, 2): sampled first; forbids columns 0..6 of rows 8..12
-    labels[:, 4:8] = 1  # centroid (10, 6) is forbidden: moves to the nearest free column, 7
+    labels[:, :4] = 0  # centroid (9.5, 1.5): a nearest pixel is sampled first
+    labels[:, 4:8] = 1  # centroid (9.5, 5.5) is forbidden: moves right, out of the window
     labels[9:12, 8:10] = 2  # wholly inside the windows of the first two: dropped
     mask, samples = place_samples(labels, spacing, fill=False)
     assert helpers.pairs_in_conflict(mask, spacing) == []
-    assert samples[0].tolist() == [10, 2]
-    assert samples[1, 1] == 7 and samples[1, 0] in (9, 10)
+    assert samples[0].tolist() in ([9, 1], [9, 2], [10, 1], [10, 2])
+    assert samples[1, 1] == samples[0, 1] + 5 and samples[1, 0] in (9, 10)
     assert labels[samples[:, 0], samples[:, 1]].tolist() == [0, 1, 3]
 
 
