@@ -6,7 +6,8 @@ A bundle is a folder ``<data_root>/<rig>/<version>/`` holding ``manifest.json`` 
 ``report/*``), every file checksummed. :func:`publish` writes one atomically and never
 overwrites; :func:`load` returns a :class:`CalibrationBundle` only after the schema and every
 checksum verify. The model contract (how the dispersion, bins and blur are evaluated) is
-documented in :mod:`sassi_bench.bundle.models`.
+documented in :mod:`sassi_bench.bundle.models`; how far apart open SLM pixels must be
+(:meth:`CalibrationBundle.mask_spacing`) in :mod:`sassi_bench.bundle.spacing`.
 
 Examples
 --------
