@@ -6,7 +6,8 @@ A bundle is a folder ``<data_root>/<rig>/<version>/`` holding ``manifest.json`` 
 ``report/*``), every file checksummed. :func:`publish` writes one atomically and never
 overwrites; :func:`load` returns a :class:`CalibrationBundle` only after the schema and every
 checksum verify. The model contract (how the dispersion, bins and blur are evaluated) is
-documented in :mod:`sassi_bench.bundle.models`.
+documented in :mod:`sassi_bench.bundle.models`; how far apart open SLM pixels must be
+(:meth:`CalibrationBundle.mask_spacing`) in :mod:`sassi_bench.bundle.spacing`.
 
 Examples
 --------
@@ -39,6 +40,7 @@ from sassi_bench.bundle.models import (
 )
 from sassi_bench.bundle.quality import QualityCheck
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION
+from sassi_bench.bundle.spacing import MaskSpacing, mask_spacing
 from sassi_bench.bundle.writer import publish
 
 __all__ = [
@@ -55,6 +57,7 @@ __all__ = [
     "CalibrationModels",
     "DispersionModel",
     "ImportedBundle",
+    "MaskSpacing",
     "QualityCheck",
     "Streak",
     "UnsafeArchiveError",
@@ -67,6 +70,7 @@ __all__ = [
     "legendre2d_design",
     "legendre2d_terms",
     "load",
+    "mask_spacing",
     "publish",
     "publish_derived",
     "verify",
