@@ -38,6 +38,7 @@ from sassi_bench.bundle.models import (
 )
 from sassi_bench.bundle.quality import QualityCheck
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION
+from sassi_bench.bundle.spacing import MaskSpacing, mask_spacing
 from sassi_bench.bundle.writer import publish
 
 __all__ = [
@@ -54,6 +55,7 @@ __all__ = [
     "CalibrationModels",
     "DispersionModel",
     "ImportedBundle",
+    "MaskSpacing",
     "QualityCheck",
     "Streak",
     "UnsafeArchiveError",
@@ -66,6 +68,7 @@ __all__ = [
     "legendre2d_design",
     "legendre2d_terms",
     "load",
+    "mask_spacing",
     "publish",
     "verify",
     "verify_zip",

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,6 +25,9 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.errors import step_error
+
+if TYPE_CHECKING:
+    from sassi_bench.bundle.spacing import MaskSpacing
 
 __all__ = ["CalibrationBundle", "Streak"]
 
@@ -320,6 +323,25 @@ class CalibrationBundle:
                     "pass uint8, uint16, int16, float32 or float64 with at most 4 channels",
                 )
             ) from exc
+
+    # -- mask design --------------------------------------------------------------------------
+
+    def mask_spacing(self, *, blur_sigmas: float = 3.0, margin_px: float = 3.0) -> MaskSpacing:
+        """How far apart open SLM pixels must be so that their streaks never overlap.
+
+        The forbidden window of every SLM pixel, from the streak extent (400-700 nm) plus
+        ``blur_sigmas`` blur sigmas at both ends; see :mod:`sassi_bench.bundle.spacing` for
+        the exact rule.
+
+        Examples
+        --------
+        >>> spacing = bundle.mask_spacing()  # doctest: +SKIP
+        >>> spacing.window(320, 200)  # rows v0..v1, columns u0..u1  # doctest: +SKIP
+        (192, 208, 246, 394)
+        """
+        from sassi_bench.bundle.spacing import mask_spacing
+
+        return mask_spacing(self, blur_sigmas=blur_sigmas, margin_px=margin_px)
 
     # -- other models -------------------------------------------------------------------------
 

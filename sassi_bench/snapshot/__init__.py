@@ -1,0 +1,39 @@
+"""Snapshots: adaptive masks and reconstruction from one frame, on a calibration bundle.
+
+The reference consumer of a bundle. It depends only on the public bundle API
+(:mod:`sassi_bench.bundle`) and :mod:`sassi_bench.spectra` extraction, as a reconstruction
+package outside the workbench would:
+
+* :mod:`~sassi_bench.snapshot.masks`: the spacing rule (``bundle.mask_spacing()``) checked
+  on a given mask; uniform and random masks under it;
+* :mod:`~sassi_bench.snapshot.superpixels`: the guide image on the SLM grid, SLIC;
+* :mod:`~sassi_bench.snapshot.adaptive`: the SASSI paper's adaptive mask;
+* :mod:`~sassi_bench.snapshot.reconstruct`: spectra at the open pixels, then the cube by
+  rank-1 per region or by a masked guided filter; cubes on disk like scan cubes;
+* :mod:`~sassi_bench.snapshot.metrics`: PSNR (raw and after an affine fit), SSIM, spectral
+  angle.
+"""
+
+from sassi_bench.snapshot.adaptive import (
+    AdaptiveMask,
+    adaptive_mask,
+    place_samples,
+    segment_around_samples,
+)
+from sassi_bench.snapshot.masks import check_mask, mask_conflicts, random_mask, uniform_mask
+from sassi_bench.snapshot.superpixels import Superpixels, guide_features, guide_on_slm, superpixels
+
+__all__ = [
+    "AdaptiveMask",
+    "Superpixels",
+    "adaptive_mask",
+    "check_mask",
+    "guide_features",
+    "guide_on_slm",
+    "mask_conflicts",
+    "place_samples",
+    "random_mask",
+    "segment_around_samples",
+    "superpixels",
+    "uniform_mask",
+]

@@ -1,0 +1,266 @@
+"""Adaptive masks: the SASSI paper's sampling from superpixels of the guide image.
+
+1. Every superpixel's centroid is a first sample.
+2. The spacing rule is enforced: a sample that the samples before it forbid moves to the
+   nearest free pixel of its own superpixel, or is dropped when none is free.
+3. The guide image is re-segmented around the samples (one SLIC assignment pass with the
+   samples as fixed centres), so every sample owns a region.
+4. Every further pixel that keeps the rule is opened (row by row), so the mask measures as
+   many streaks as the camera can hold; these extra pixels fall in the samples' regions
+   and are measured with them.
+
+Steps 1, 2 and 4 are one compiled pass (:mod:`sassi_bench.snapshot._kernels`); step 3 is
+:func:`segment_around_samples`, public because video mode re-segments frame ``t``'s guide
+image around the samples taken at ``t - 1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from sassi_bench.bundle import MaskSpacing
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.snapshot import _kernels
+from sassi_bench.snapshot.masks import MaskBuilder
+from sassi_bench.snapshot.superpixels import Superpixels, guide_features
+
+__all__ = ["AdaptiveMask", "adaptive_mask", "place_samples", "segment_around_samples"]
+
+
+@dataclass(frozen=True)
+class AdaptiveMask:
+    """An adaptive mask and the regions its samples own.
+
+    Attributes
+    ----------
+    mask
+        (H, W) bool: every open pixel (samples and the pixels added to fill the SLM).
+    samples
+        (N, 2) int32 (row, column) of the samples, the regions' centres.
+    labels
+        (H, W) int32: the sample (index into ``samples``) whose region each SLM pixel is in.
+    """
+
+    mask: NDArray[np.bool_]
+    samples: NDArray[np.int32]
+    labels: NDArray[np.int32]
+
+    @property
+    def open_pixels(self) -> NDArray[np.intp]:
+        """(M, 2) (row, column) of every open pixel, row-major order."""
+        return np.argwhere(self.mask)
+
+
+def place_samples(
+    superpixel_labels: ArrayLike, spacing: MaskSpacing, *, fill: bool = True
+) -> tuple[NDArray[np.bool_], NDArray[np.int32]]:
+    """Steps 1, 2 and (with ``fill``) 4: the mask and its samples, given superpixels.
+
+    Parameters
+    ----------
+    superpixel_labels
+        (H, W) integer labels on the SLM grid, 0 .. K - 1 (negative: no superpixel).
+    spacing
+        The rule (:meth:`CalibrationBundle.mask_spacing`).
+    fill
+        Also open every further pixel that keeps the rule.
+
+    Returns
+    -------
+    mask : ndarray
+        (H, W) bool.
+    samples : ndarray
+        (N, 2) int32 (row, column), N <= K, in superpixel order.
+
+    Examples
+    --------
+    >>> spacing = MaskSpacing(np.full((8, 40), 4), np.full((8, 40), 4), 3, 3.0, 3.0)
+    >>> labels = np.repeat(np.arange(4), 10)[None, :].repeat(8, 0)  # four 10-px strips
+    >>> mask, samples = place_samples(labels, spacing, fill=False)
+    >>> samples.tolist()  # centroids at columns 4.5, 14.5, ...: all fit
+    [[4, 5], [4, 15], [4, 25], [4, 35]]
+    """
+    labels = np.ascontiguousarray(superpixel_labels, dtype=np.int32)
+    if labels.shape != spacing.slm_shape:
+        raise ProcedureError(
+            step_error(
+                "adaptive mask",
+                f"the superpixel labels have shape {labels.shape}, the SLM {spacing.slm_shape}",
+                "segment the guide image warped onto the SLM grid (guide_on_slm)",
+            )
+        )
+    n_labels = int(labels.max()) + 1 if labels.size else 0
+    builder = MaskBuilder.empty(spacing)
+    samples = np.empty((max(n_labels, 0), 2), np.int32)
+    owner = np.empty(max(n_labels, 0), np.int32)
+    n = _kernels.place_samples(
+        labels,
+        n_labels,
+        *builder.rule,
+        builder.blocked,
+        builder.row_cols,
+        builder.row_count,
+        builder.mask,
+        samples,
+        owner,
+    )
+    if fill:
+        builder.fill()
+    return builder.mask, samples[:n].copy()
+
+
+def segment_around_samples(
+    guide_slm: ArrayLike,
+    samples: ArrayLike,
+    *,
+    compactness: float = 10.0,
+    features: ArrayLike | None = None,
+) -> NDArray[np.int32]:
+    """Step 3: give every SLM pixel to a sample, by one SLIC assignment pass.
+
+    Each pixel within ``S`` (Chebyshev) of a sample, ``S = sqrt(H W / N)`` the mean region
+    side, takes the sample minimising ``|f - f_s|^2 + (compactness / S)^2 |p - p_s|^2``
+    (SLIC's distance; ``f`` the CIELAB features of :func:`guide_features`, ``f_s`` their
+    mean over the 3 x 3 pixels around the sample, ``p`` the position). Pixels no sample
+    reaches take the nearest sample.
+
+    Parameters
+    ----------
+    guide_slm
+        (H, W) or (H, W, 3) guide image on the SLM grid.
+    samples
+        (N, 2) (row, column) of the samples, N >= 1.
+    compactness
+        SLIC's weight of space against colour.
+    features
+        Precomputed :func:`guide_features` of ``guide_slm`` (skips the conversion).
+
+    Returns
+    -------
+    ndarray
+        (H, W) int32: index of each pixel's sample.
+
+    Examples
+    --------
+    >>> image = np.zeros((6, 10), np.float32); image[:, 5:] = 1.0
+    >>> segment_around_samples(image, [[2, 1], [3, 8]])[0].tolist()
+    [0, 0, 0, 0, 0, 1, 1, 1, 1, 1]
+    """
+    feats = guide_features(guide_slm) if features is None else np.asarray(features, np.float32)
+    h, w = feats.shape[:2]
+    points = np.asarray(samples)
+    if (
+        points.ndim != 2
+        or points.shape[1] != 2
+        or points.shape[0] == 0
+        or points.dtype.kind not in "iu"
+        or (points < 0).any()
+        or (points[:, 0] >= h).any()
+        or (points[:, 1] >= w).any()
+    ):
+        raise ProcedureError(
+            step_error(
+                "snapshot segmentation",
+                f"the samples (shape {points.shape}, dtype {points.dtype}) are not (row, column) "
+                f"pixels of the {h} x {w} SLM",
+                "pass an (N, 2) integer array of pixels inside the SLM, N >= 1",
+            )
+        )
+    points = np.ascontiguousarray(points, dtype=np.int64)
+    side = max(1.0, float(np.sqrt(h * w / points.shape[0])))
+    labels = np.full((h, w), -1, np.int32)
+    distance = np.full((h, w), np.inf, np.float32)
+    _kernels.assign_to_samples(
+        np.ascontiguousarray(feats),
+        points,
+        int(np.ceil(side)),
+        (compactness / side) ** 2,
+        labels,
+        distance,
+    )
+    missing = labels < 0
+    if missing.any():
+        # Nearest sample for pixels beyond every sample's reach (sparse or uneven samples).
+        seeds = np.full((h, w), True)
+        seeds[points[:, 0], points[:, 1]] = False
+        index = np.full((h, w), -1, np.int32)
+        index[points[:, 0], points[:, 1]] = np.arange(points.shape[0], dtype=np.int32)
+        _, (nr, nc) = ndimage.distance_transform_edt(seeds, return_indices=True)
+        labels[missing] = index[nr[missing], nc[missing]]
+    return labels
+
+
+def adaptive_mask(
+    guide_slm: ArrayLike,
+    spacing: MaskSpacing,
+    *,
+    segments: Superpixels | None = None,
+    n_segments: int | None = None,
+    compactness: float = 10.0,
+    fill: bool = True,
+) -> AdaptiveMask:
+    """The adaptive mask of a guide image on the SLM grid (all four steps).
+
+    Parameters
+    ----------
+    guide_slm
+        (H, W) or (H, W, 3) guide image on the SLM grid (:func:`guide_on_slm`).
+    spacing
+        The rule (:meth:`CalibrationBundle.mask_spacing`).
+    segments
+        Superpixels already computed (:func:`superpixels`); else they are computed here.
+    n_segments
+        Superpixels to ask for; default: as many as a uniform lattice under the rule holds.
+    compactness
+        SLIC's weight of space against colour (superpixels and re-segmentation).
+    fill
+        Open every further pixel that keeps the rule (step 4).
+
+    Examples
+    --------
+    >>> guide_slm = guide_on_slm(bundle, guide)  # doctest: +SKIP
+    >>> result = adaptive_mask(guide_slm, bundle.mask_spacing())  # doctest: +SKIP
+    >>> result.mask.sum(), len(result.samples)  # doctest: +SKIP
+    """
+    from sassi_bench.snapshot.superpixels import superpixels
+
+    h, w = spacing.slm_shape
+    if segments is None:
+        if n_segments is None:
+            n_segments = default_segments(spacing)
+        segments = superpixels(
+            guide_slm, n_segments, compactness=compactness, shape=spacing.slm_shape
+        )
+    elif segments.labels.shape != (h, w):
+        raise ProcedureError(
+            step_error(
+                "adaptive mask",
+                f"the superpixels have shape {segments.labels.shape}, the SLM {(h, w)}",
+                "segment the guide image warped onto the SLM grid (guide_on_slm)",
+            )
+        )
+    mask, samples = place_samples(segments.labels, spacing, fill=fill)
+    if samples.shape[0] == 0:
+        raise ProcedureError(
+            step_error("adaptive mask", "no superpixel could be sampled", "pass a guide image")
+        )
+    labels = segment_around_samples(
+        guide_slm, samples, compactness=compactness, features=segments.features
+    )
+    return AdaptiveMask(mask, samples, labels)
+
+
+def default_segments(spacing: MaskSpacing) -> int:
+    """As many superpixels as a uniform lattice under the rule has pixels.
+
+    Examples
+    --------
+    >>> default_segments(MaskSpacing(np.full((60, 100), 9), np.full((60, 100), 9), 5, 3, 3))
+    120
+    """
+    h, w = spacing.slm_shape
+    return max(1, int(np.ceil(h / spacing.pitch) * np.ceil(w / spacing.uniform_step)))
