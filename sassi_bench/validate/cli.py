@@ -79,6 +79,11 @@ def _snapshot(args: argparse.Namespace) -> int:
         progress=not args.quiet,
     )  # fmt: skip
     html_path, json_path = write_snapshot_report(result, args.out, procedure["scoring"]["points"])
+    if result.scan_dataset is not None:
+        from sassi_bench.spectra.cube_io import write_netcdf
+
+        scan_path = write_netcdf(result.scan_dataset, Path(args.out) / "scan.nc", overwrite=True)
+        print(f"  scan cube: {scan_path} (reuse it with --scan)")
     print(f"\nSnapshot validation of bundle {bundle.rig_name}/{bundle.version} on rig "
           f"{result.rig_name}, scene {result.scene}")  # fmt: skip
     for name, run in result.runs.items():

@@ -162,7 +162,8 @@ class MaskRun:
 
 @dataclass
 class SnapshotValidation:
-    """Everything the report shows."""
+    """Everything the report shows (``scan_dataset``: the scan taken, as an xarray
+    Dataset, so it can be saved and reused with ``--scan``; None when one was given)."""
 
     scene: str
     rig_name: str
@@ -179,6 +180,7 @@ class SnapshotValidation:
     checks: list[QualityCheck]
     settings: dict[str, Any]
     notes: list[str] = field(default_factory=list)
+    scan_dataset: Any = None
     created: str = field(default_factory=lambda: datetime.now(UTC).isoformat(timespec="seconds"))
 
     @property
@@ -335,6 +337,7 @@ def run_snapshot(
     notes: list[str] = []
 
     # 1. The ground truth: a pinhole scan of the scene (or a given scan cube).
+    scan_dataset = None
     if scan_path is not None:
         reference, valid, units = load_scan_cube(scan_path, bundle)
         source = f"scan cube {Path(scan_path).name}"
@@ -344,7 +347,7 @@ def run_snapshot(
             pitch=tuple(procedure["scan"]["pitch_px"]), session_id=f"{prefix}-scan", data=data,
             progress=progress,
         )  # fmt: skip
-        ds = run.dataset()
+        ds = scan_dataset = run.dataset()
         reference = ds["radiance"].transpose("y", "x", "wavelength").values.astype(np.float32)
         valid = run.scan.quality == 0
         units = str(ds["radiance"].attrs.get("units", ""))
@@ -481,4 +484,5 @@ def run_snapshot(
         checks=checks,
         settings=settings,
         notes=notes,
+        scan_dataset=scan_dataset,
     )
