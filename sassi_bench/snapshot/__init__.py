@@ -21,19 +21,45 @@ from sassi_bench.snapshot.adaptive import (
     segment_around_samples,
 )
 from sassi_bench.snapshot.masks import check_mask, mask_conflicts, random_mask, uniform_mask
+from sassi_bench.snapshot.metrics import (
+    affine_fit,
+    band_psnr,
+    mean_spectral_angle_deg,
+    psnr,
+    ssim,
+)
+from sassi_bench.snapshot.reconstruct import (
+    guide_intensity,
+    guided_cube,
+    measure_samples,
+    rank1_cube,
+    snapshot_dataset,
+    write_cube,
+)
 from sassi_bench.snapshot.superpixels import Superpixels, guide_features, guide_on_slm, superpixels
 
 __all__ = [
     "AdaptiveMask",
     "Superpixels",
     "adaptive_mask",
+    "affine_fit",
+    "band_psnr",
     "check_mask",
     "guide_features",
+    "guide_intensity",
     "guide_on_slm",
+    "guided_cube",
     "mask_conflicts",
+    "mean_spectral_angle_deg",
+    "measure_samples",
     "place_samples",
+    "psnr",
     "random_mask",
+    "rank1_cube",
     "segment_around_samples",
+    "snapshot_dataset",
+    "ssim",
     "superpixels",
     "uniform_mask",
+    "write_cube",
 ]

@@ -8,11 +8,12 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from numpy.typing import NDArray
 
 from sassi_bench.errors import SassiBenchError, step_error
 from sassi_bench.spectra.scan import QUALITY_FLAGS, ScanCube
 
-__all__ = ["cube_dataset", "write_envi", "write_netcdf"]
+__all__ = ["cube_dataset", "spectral_cube_dataset", "write_envi", "write_netcdf"]
 
 
 def cube_dataset(scan: ScanCube, *, units: str, attrs: dict[str, Any] | None = None) -> xr.Dataset:
@@ -28,15 +29,50 @@ def cube_dataset(scan: ScanCube, *, units: str, attrs: dict[str, Any] | None = N
     >>> ds["radiance"].dims, int(ds.x[0]), int(ds.y[0])
     (('y', 'x', 'wavelength'), 20, 10)
     """
-    h, w, _ = scan.cube.shape
-    r0, c0 = scan.origin
-    edges = scan.bin_edges_nm
-    ds = xr.Dataset(
+    return spectral_cube_dataset(
+        scan.cube,
+        scan.wavelengths_nm,
+        scan.bin_edges_nm,
+        units=units,
+        quality=scan.quality,
+        origin=scan.origin,
+        title="SASSI pinhole scan",
+        attrs={"background_check_rms": float(scan.background_check_rms or np.nan), **(attrs or {})},
+    )
+
+
+def spectral_cube_dataset(
+    cube: NDArray[np.floating],
+    wavelengths_nm: NDArray[np.floating],
+    bin_edges_nm: NDArray[np.floating],
+    *,
+    units: str,
+    quality: NDArray[np.uint8] | None = None,
+    origin: tuple[int, int] = (0, 0),
+    title: str = "SASSI cube",
+    attrs: dict[str, Any] | None = None,
+) -> xr.Dataset:
+    """Any cube on the SLM grid as an xarray Dataset like a scan's (dims y, x, wavelength;
+    ``radiance`` and a ``quality`` bit mask, 0 = good; :data:`QUALITY_FLAGS`).
+
+    Examples
+    --------
+    >>> ds = spectral_cube_dataset(np.zeros((2, 3, 4), np.float32), np.arange(4.0) + 500,
+    ...                            np.arange(5.0) + 499.5, units="camera ADU per bin")
+    >>> ds["radiance"].shape, int(ds["quality"].sum()), ds.attrs["title"]
+    ((2, 3, 4), 0, 'SASSI cube')
+    """
+    h, w, _ = cube.shape
+    r0, c0 = origin
+    edges = np.asarray(bin_edges_nm)
+    if quality is None:
+        quality = np.zeros((h, w), np.uint8)
+    return xr.Dataset(
         {
-            "radiance": (("y", "x", "wavelength"), scan.cube, {"units": units}),
+            "radiance": (("y", "x", "wavelength"), cube, {"units": units}),
             "quality": (
                 ("y", "x"),
-                scan.quality,
+                quality,
                 {
                     "flag_masks": list(QUALITY_FLAGS.values()),
                     "flag_meanings": " ".join(QUALITY_FLAGS),
@@ -47,17 +83,12 @@ def cube_dataset(scan: ScanCube, *, units: str, attrs: dict[str, Any] | None = N
         coords={
             "y": ("y", np.arange(r0, r0 + h), {"long_name": "SLM row", "units": "pixel"}),
             "x": ("x", np.arange(c0, c0 + w), {"long_name": "SLM column", "units": "pixel"}),
-            "wavelength": ("wavelength", scan.wavelengths_nm, {"units": "nm"}),
+            "wavelength": ("wavelength", np.asarray(wavelengths_nm), {"units": "nm"}),
             "wavelength_lower": ("wavelength", edges[:-1], {"units": "nm"}),
             "wavelength_upper": ("wavelength", edges[1:], {"units": "nm"}),
         },
-        attrs={
-            "title": "SASSI pinhole scan",
-            "background_check_rms": float(scan.background_check_rms or np.nan),
-            **(attrs or {}),
-        },
+        attrs={"title": title, **(attrs or {})},
     )
-    return ds
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike[str], overwrite: bool = False) -> Path:

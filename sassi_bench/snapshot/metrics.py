@@ -1,0 +1,161 @@
+"""Quality of a reconstructed cube against a reference cube (pure functions on arrays).
+
+All metrics take ``reference`` and ``estimate`` of one shape ``(..., B)`` (bands last) and an
+optional ``valid`` mask over the pixels ``(...)`` (e.g. pixels the guide camera sees). The
+peak of PSNR is the reference's maximum over the valid pixels and all bands, for every
+variant, so per-band values compare with the global one.
+
+PSNR after an affine fit (as the SASSI authors report it): the estimate is first replaced
+by ``a * estimate + b`` with ``a, b`` the least-squares fit to the reference, either one
+pair for the whole cube (``per_band=False``, the default) or one pair per band; this forgives
+a global gain and offset (e.g. an uncalibrated response) but no spatial or spectral error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = ["affine_fit", "band_psnr", "mean_spectral_angle_deg", "psnr", "ssim"]
+
+
+def _pair(reference: ArrayLike, estimate: ArrayLike, valid: ArrayLike | None):
+    ref = np.asarray(reference, dtype=np.float64)
+    est = np.asarray(estimate, dtype=np.float64)
+    if ref.shape != est.shape or ref.ndim < 2:
+        raise ProcedureError(
+            step_error(
+                "snapshot metrics",
+                f"reference {ref.shape} and estimate {est.shape} differ or have no band axis",
+                "compare cubes of one shape (..., bands)",
+            )
+        )
+    if valid is None:
+        return ref.reshape(-1, ref.shape[-1]), est.reshape(-1, est.shape[-1])
+    keep = np.asarray(valid, dtype=bool)
+    if keep.shape != ref.shape[:-1] or not keep.any():
+        raise ProcedureError(
+            step_error(
+                "snapshot metrics",
+                f"the valid mask has shape {keep.shape} ({int(keep.sum())} pixels), the cube's "
+                f"pixels {ref.shape[:-1]}",
+                "pass a boolean mask over the cube's pixels with at least one True",
+            )
+        )
+    return ref[keep], est[keep]
+
+
+def _psnr(mse, peak):
+    with np.errstate(divide="ignore"):
+        return 10.0 * np.log10(peak**2 / mse)
+
+
+def affine_fit(
+    reference: ArrayLike, estimate: ArrayLike, *, per_band: bool = False
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Least-squares ``a, b`` with ``a * estimate + b`` closest to ``reference``.
+
+    Both are (P, B) pixels by bands; returns scalars (as 0-d arrays) or (B,) per band.
+
+    Examples
+    --------
+    >>> est = np.array([[0.0], [1.0], [2.0]])
+    >>> [float(v) for v in affine_fit(2 * est + 1, est)]
+    [2.0, 1.0]
+    """
+    ref = np.asarray(reference, dtype=np.float64)
+    est = np.asarray(estimate, dtype=np.float64)
+    axis = 0 if per_band else None
+    mean_e, mean_r = est.mean(axis=axis), ref.mean(axis=axis)
+    de = est - mean_e
+    var = (de * de).mean(axis=axis)
+    cov = (de * (ref - mean_r)).mean(axis=axis)
+    a = np.divide(cov, var, out=np.zeros_like(np.asarray(cov)), where=np.asarray(var) > 0)
+    return np.asarray(a), np.asarray(mean_r - a * mean_e)
+
+
+def psnr(
+    reference: ArrayLike,
+    estimate: ArrayLike,
+    *,
+    valid: ArrayLike | None = None,
+    affine: bool = False,
+    per_band_fit: bool = False,
+) -> float:
+    """PSNR in dB over the whole cube, peak = the reference's maximum.
+
+    Parameters
+    ----------
+    affine
+        Fit ``a * estimate + b`` to the reference first (see the module docstring).
+    per_band_fit
+        With ``affine``, one fit per band instead of one for the cube.
+
+    Examples
+    --------
+    >>> ref = np.array([[[1.0, 0.0]]]); est = np.array([[[0.9, 0.1]]])
+    >>> round(psnr(ref, est), 3)  # MSE 0.01, peak 1
+    20.0
+    >>> psnr(ref, 2 * ref + 3, affine=True)
+    inf
+    """
+    ref, est = _pair(reference, estimate, valid)
+    if affine:
+        a, b = affine_fit(ref, est, per_band=per_band_fit)
+        est = a * est + b
+    return float(_psnr(np.mean((est - ref) ** 2), ref.max()))
+
+
+def band_psnr(
+    reference: ArrayLike, estimate: ArrayLike, *, valid: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """PSNR of each band in dB, (B,), with the cube's peak (so bands compare).
+
+    Examples
+    --------
+    >>> ref = np.array([[[1.0, 0.5]]]); est = np.array([[[0.9, 0.5]]])
+    >>> band_psnr(ref, est).round(3).tolist()
+    [20.0, inf]
+    """
+    ref, est = _pair(reference, estimate, valid)
+    return _psnr(np.mean((est - ref) ** 2, axis=0), ref.max())
+
+
+def ssim(reference: ArrayLike, estimate: ArrayLike) -> float:
+    """Mean structural similarity of the cube (scikit-image, bands as channels, 7 x 7
+    windows), ``data_range`` = the reference's max minus min.
+
+    Examples
+    --------
+    >>> ref = np.random.default_rng(0).uniform(size=(16, 16, 3))
+    >>> round(ssim(ref, ref), 6), ssim(ref, 0.5 * ref) < 1
+    (1.0, True)
+    """
+    from skimage.metrics import structural_similarity
+
+    ref, est = (np.asarray(x, dtype=np.float64) for x in (reference, estimate))
+    _pair(ref, est, None)
+    span = float(ref.max() - ref.min())
+    return float(structural_similarity(ref, est, channel_axis=-1, data_range=span or 1.0))
+
+
+def mean_spectral_angle_deg(
+    reference: ArrayLike, estimate: ArrayLike, *, valid: ArrayLike | None = None
+) -> float:
+    """Mean angle in degrees between reference and estimated spectra over the pixels where
+    both are non-zero (insensitive to each pixel's brightness).
+
+    Examples
+    --------
+    >>> round(mean_spectral_angle_deg([[1.0, 0.0], [1.0, 1.0]], [[1.0, 1.0], [2.0, 2.0]]), 4)
+    22.5
+    """
+    ref, est = _pair(reference, estimate, valid)
+    norms = np.linalg.norm(ref, axis=-1) * np.linalg.norm(est, axis=-1)
+    keep = norms > 0
+    if not keep.any():
+        return float("nan")
+    cos = np.einsum("pb,pb->p", ref[keep], est[keep]) / norms[keep]
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).mean())

@@ -1,0 +1,405 @@
+"""Snapshot reconstruction: spectra at the open pixels, then a cube on the SLM grid.
+
+1. :func:`measure_samples` extracts the spectrum of every open pixel of one spectral
+   frame with :mod:`sassi_bench.spectra`: the streak geometry of the open pixels, the
+   background estimated from the camera pixels outside their predicted footprints
+   (:func:`~sassi_bench.spectra.offset.estimate_background`), row unmixing and the
+   within-streak deblur (:class:`~sassi_bench.spectra.extract.SpectralDeblur`); divided by
+   the exposure, and by the bundle's response when it has one.
+2. The spectra are spread over the SLM with the guide image:
+
+   * :func:`rank1_cube`: the SASSI paper's rank-1 model per region. Every pixel of the
+     region of a sample takes the region's summed spectra scaled by its own guide intensity
+     over the region's summed guide intensity at the measured pixels.
+   * :func:`guided_cube`: a masked guided filter per band, the weighted least-squares form:
+     in every window a band is fitted as ``a I + b`` of the guide intensity over the measured
+     pixels only (weight 1 at measured pixels, 0 elsewhere; ridge ``eps`` on ``a``), and a
+     pixel's output averages the fits of the windows that hold it, each weighted by its
+     number of measured pixels. It averages several measured pixels per window, so it
+     suppresses noise that rank-1 (one region's few pixels) keeps.
+
+Both return ``(H, W, B)`` float32 cubes on the SLM grid at the bundle's bins, in the units
+:func:`measure_samples` reports; :func:`snapshot_dataset` and :func:`write_cube` store them
+like scan cubes (NetCDF and ENVI, :mod:`sassi_bench.spectra.cube_io`).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import xarray as xr
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write_netcdf
+from sassi_bench.spectra.extract import SpectralDeblur, extract_spectra
+from sassi_bench.spectra.geometry import reached_rows, streak_geometry
+from sassi_bench.spectra.offset import estimate_background, streak_footprint
+
+__all__ = [
+    "guide_intensity",
+    "guided_cube",
+    "measure_samples",
+    "rank1_cube",
+    "snapshot_dataset",
+    "write_cube",
+]
+
+#: Units of the spectra without and with a bundle response (as scan cubes).
+CAMERA_UNITS = "camera ADU per second per bin"
+RADIANCE_UNITS = "relative photon radiance per bin"
+
+
+def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
+    array = np.asarray(pixels)
+    if array.dtype == np.bool_:
+        if array.shape != tuple(shape):
+            raise ProcedureError(
+                step_error(
+                    step,
+                    f"the mask has shape {array.shape}, the SLM {tuple(shape)}",
+                    "pass the (H, W) mask shown on the SLM, or (N, 2) (row, column) pixels",
+                )
+            )
+        rows, cols = np.nonzero(array)
+        return rows, cols
+    if array.ndim != 2 or array.shape[1] != 2 or array.dtype.kind not in "iu":
+        raise ProcedureError(
+            step_error(
+                step,
+                f"the open pixels have shape {array.shape} and dtype {array.dtype}",
+                "pass a boolean (H, W) mask or an (N, 2) integer array of (row, column)",
+            )
+        )
+    rows, cols = array[:, 0].astype(np.intp), array[:, 1].astype(np.intp)
+    h, w = shape
+    if rows.size and (rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w):
+        raise ProcedureError(
+            step_error(step, f"open pixels lie outside the {h} x {w} SLM", "pass SLM pixels")
+        )
+    return rows, cols
+
+
+def measure_samples(
+    frame: ArrayLike,
+    pixels: ArrayLike,
+    bundle: CalibrationBundle,
+    *,
+    exposure_s: float,
+    deblur: SpectralDeblur | None = None,
+    full_scale: float = 65535.0,
+) -> tuple[NDArray[np.float64], str]:
+    """Spectra of the open SLM pixels of one spectral frame, offset removed.
+
+    Parameters
+    ----------
+    frame
+        The raw spectral frame (camera rows, columns), dark level and background included.
+    pixels
+        The mask shown (``(H, W)`` bool; spectra in row-major order, as ``np.nonzero``) or
+        ``(N, 2)`` (row, column) of the open pixels (spectra in that order).
+    bundle
+        The calibration bundle.
+    exposure_s
+        The frame's exposure (``frame.meta.exposure_s``); spectra are per second.
+    deblur
+        The within-streak unmixing; built from the bundle when None (about 0.1 s: pass one
+        to reconstruct many frames).
+    full_scale
+        The camera's full-scale reading (the deblur's reference signal level).
+
+    Returns
+    -------
+    spectra : ndarray
+        (N, B) float64 at ``bundle.wavelengths``.
+    units : str
+        ``"relative photon radiance per bin"`` when the bundle has a response (the spectra
+        are divided by it), else ``"camera ADU per second per bin"``.
+
+    Examples
+    --------
+    >>> frame = rig.spectral_camera.capture()  # doctest: +SKIP
+    >>> spectra, units = measure_samples(frame.data, mask, bundle,
+    ...                                  exposure_s=frame.meta.exposure_s)  # doctest: +SKIP
+    """
+    step = "snapshot spectra"
+    image = np.asarray(frame)
+    if image.ndim != 2 or image.dtype.kind not in "iuf":
+        raise ProcedureError(
+            step_error(
+                step,
+                f"the frame has shape {image.shape} and dtype {image.dtype}",
+                "pass one spectral-camera frame",
+            )
+        )
+    if not (np.isfinite(exposure_s) and exposure_s > 0):
+        raise ProcedureError(step_error(step, f"exposure_s is {exposure_s}", "pass seconds > 0"))
+    rows, cols = _open_pixels(pixels, bundle.slm_shape, step)
+    if deblur is None:
+        deblur = SpectralDeblur.from_bundle(bundle, full_scale=full_scale)
+    # Only the camera rows that light of the SLM can reach take part.
+    top, bottom = reached_rows(bundle, image.shape[0])
+    window = np.asarray(image[top:bottom], dtype=np.float64)
+    geometry = streak_geometry(bundle, rows, cols).shifted(top)
+    background = estimate_background(window, streak_footprint(geometry, window.shape))
+    window -= background.image
+    spectra, _ = extract_spectra(window, geometry, deblur)
+    spectra /= exposure_s
+    if bundle.response is not None:
+        return spectra / np.asarray(bundle.response), RADIANCE_UNITS
+    return spectra, CAMERA_UNITS
+
+
+def guide_intensity(guide_slm: ArrayLike) -> NDArray[np.float32]:
+    """The guide's intensity on the SLM grid: the sum of its channels, (H, W) float32.
+
+    Examples
+    --------
+    >>> guide_intensity(np.ones((2, 3, 3))).tolist()[0]
+    [3.0, 3.0, 3.0]
+    """
+    array = np.asarray(guide_slm, dtype=np.float32)
+    return array.sum(axis=2, dtype=np.float32) if array.ndim == 3 else array
+
+
+def _check_samples(guide, rows, cols, spectra, step):
+    intensity = guide_intensity(guide)
+    values = np.asarray(spectra)
+    if intensity.ndim != 2:
+        raise ProcedureError(
+            step_error(step, f"the guide has shape {np.shape(guide)}", "pass (H, W[, C])")
+        )
+    if values.ndim != 2 or values.shape[0] != rows.size or rows.size == 0:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"{rows.size} open pixels but spectra of shape {values.shape}",
+                "pass one spectrum per open pixel, in the order of the pixels",
+            )
+        )
+    return intensity, values
+
+
+def rank1_cube(
+    guide_slm: ArrayLike,
+    labels: ArrayLike,
+    pixels: ArrayLike,
+    spectra: ArrayLike,
+) -> NDArray[np.float32]:
+    """Rank-1 reconstruction per region (the SASSI paper's model).
+
+    For region ``r`` with measured pixels ``j``: ``cube[p] = I[p] / sum_j I[j] * sum_j s_j``
+    for every pixel ``p`` of the region (``I`` the guide intensity, ``s_j`` the measured
+    spectra). A region whose measured pixels have no guide intensity takes their mean
+    spectrum; a region without measured pixels is zero.
+
+    Parameters
+    ----------
+    guide_slm
+        (H, W) or (H, W, C) guide image on the SLM grid (intensity = sum of channels).
+    labels
+        (H, W) int region of every SLM pixel (e.g. :attr:`AdaptiveMask.labels`).
+    pixels
+        The mask or (N, 2) (row, column) of the measured pixels, as given to
+        :func:`measure_samples`.
+    spectra
+        (N, B) measured spectra.
+
+    Returns
+    -------
+    ndarray
+        (H, W, B) float32.
+
+    Examples
+    --------
+    >>> guide = np.array([[1.0, 2.0, 4.0]]); labels = np.array([[0, 0, 1]])
+    >>> rank1_cube(guide, labels, np.array([[0, 0], [0, 2]]), [[10.0], [8.0]])[0, :, 0].tolist()
+    [10.0, 20.0, 8.0]
+    """
+    regions = np.asarray(labels)
+    step = "snapshot rank-1 reconstruction"
+    rows, cols = _open_pixels(pixels, regions.shape, step)
+    intensity, values = _check_samples(guide_slm, rows, cols, spectra, step)
+    if intensity.shape != regions.shape:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"the guide has shape {intensity.shape}, the labels {regions.shape}",
+                "pass the guide image and labels on the same SLM grid",
+            )
+        )
+    n_regions = int(regions.max()) + 1
+    owner = regions[rows, cols]
+    weight = intensity[rows, cols].astype(np.float64)
+    summed_intensity = np.bincount(owner, weight, n_regions)
+    counts = np.bincount(owner, minlength=n_regions)
+    summed = np.zeros((n_regions, values.shape[1]))
+    np.add.at(summed, owner, values)
+    ratio = np.zeros_like(summed)
+    bright = summed_intensity > 0
+    ratio[bright] = summed[bright] / summed_intensity[bright, None]
+    # Regions without guide light: the mean spectrum, flat over the region.
+    dark = ~bright & (counts > 0)
+    flat = np.zeros(n_regions, bool)
+    flat[dark] = True
+    ratio[dark] = summed[dark] / counts[dark, None]
+    scale = np.where(flat[regions], np.float32(1.0), intensity)
+    cube = ratio.astype(np.float32)[regions]
+    cube *= scale[..., None]
+    return cube
+
+
+def guided_cube(
+    guide_slm: ArrayLike,
+    pixels: ArrayLike,
+    spectra: ArrayLike,
+    *,
+    radius: int | None = None,
+    eps: float = 1e-3,
+) -> NDArray[np.float32]:
+    """Masked guided filter per band (weighted least squares on the guide intensity).
+
+    In every ``(2 radius + 1)^2`` box window ``k``, each band ``P`` is fitted over the
+    measured pixels only as ``P = a_k I + b_k`` (``I`` the guide intensity divided by its
+    maximum), minimising ``sum_j (a_k I_j + b_k - P_j)^2 + n_k eps a_k^2`` (``n_k`` the
+    measured pixels in the window). The output at a pixel is
+    ``sum_k n_k (a_k I + b_k) / sum_k n_k`` over the windows holding it. Box sums come from
+    ``cv2.boxFilter``; the loop is over bands, never pixels.
+
+    Parameters
+    ----------
+    guide_slm
+        (H, W) or (H, W, C) guide image on the SLM grid.
+    pixels
+        The mask or (N, 2) (row, column) of the measured pixels.
+    spectra
+        (N, B) measured spectra.
+    radius
+        Window radius in SLM px; default ``1.5 sqrt(H W / N)`` (about nine measured pixels
+        a window).
+    eps
+        Ridge on the slope, in units of the normalised guide's variance: larger values
+        flatten the fit towards the window's mean.
+
+    Returns
+    -------
+    ndarray
+        (H, W, B) float32.
+
+    Examples
+    --------
+    >>> guide = np.tile(np.arange(1.0, 9.0), (6, 1))  # a ramp
+    >>> pixels = np.array([[1, 1], [4, 6], [2, 3]])
+    >>> spectra = 5.0 * guide[pixels[:, 0], pixels[:, 1], None] / 8 + 1.0  # affine in it
+    >>> cube = guided_cube(guide, pixels, spectra, radius=8, eps=1e-9)
+    >>> bool(np.allclose(cube[..., 0], 5.0 * guide / 8 + 1.0, atol=1e-4))
+    True
+    """
+    intensity = guide_intensity(guide_slm)
+    step = "snapshot guided filter"
+    rows, cols = _open_pixels(pixels, intensity.shape, step)
+    intensity, values = _check_samples(guide_slm, rows, cols, spectra, step)
+    if not (np.isfinite(eps) and eps >= 0):
+        raise ProcedureError(step_error(step, f"eps is {eps}", "pass a number >= 0"))
+    h, w = intensity.shape
+    peak = float(intensity.max())
+    guide = intensity / peak if peak > 0 else intensity
+    if radius is None:
+        radius = round(1.5 * float(np.sqrt(h * w / rows.size)))
+    size = (2 * int(radius) + 1,) * 2
+
+    def box(image):
+        return cv2.boxFilter(image, cv2.CV_32F, size, normalize=True, borderType=cv2.BORDER_REFLECT)
+
+    weight = np.zeros((h, w), np.float32)
+    weight[rows, cols] = 1.0
+    g_at = guide[rows, cols]
+    n = box(weight)
+    present = n > 0.5 / (size[0] * size[1])  # at least one measured pixel in the window
+    safe = np.where(present, n, 1.0)
+    sparse = np.zeros((h, w), np.float32)
+    sparse[rows, cols] = g_at
+    mean_i = box(sparse) / safe
+    sparse[rows, cols] = g_at * g_at
+    var_i = np.maximum(box(sparse) / safe - mean_i * mean_i, 0.0)
+    denominator = var_i + np.float32(eps)
+    norm = box(n)
+    norm_safe = np.where(norm > 0, norm, 1.0)
+    cube = np.empty((h, w, values.shape[1]), np.float32)
+    for band in range(values.shape[1]):  # a loop over bands; each step is whole-image
+        p_at = values[:, band].astype(np.float32)
+        sparse[rows, cols] = p_at
+        mean_p = box(sparse) / safe
+        sparse[rows, cols] = p_at * g_at
+        cov = box(sparse) / safe - mean_i * mean_p
+        a = np.where(present, cov / denominator, 0.0).astype(np.float32)
+        b = np.where(present, mean_p - a * mean_i, 0.0).astype(np.float32)
+        cube[..., band] = (box(n * a) * guide + box(n * b)) / norm_safe
+    return cube
+
+
+def snapshot_dataset(
+    cube: NDArray[np.floating],
+    bundle: CalibrationBundle,
+    *,
+    units: str,
+    method: str,
+    attrs: dict[str, Any] | None = None,
+) -> xr.Dataset:
+    """A reconstructed cube as an xarray Dataset like a scan cube's, with provenance.
+
+    Examples
+    --------
+    >>> ds = snapshot_dataset(cube, bundle, units=units, method="rank-1")  # doctest: +SKIP
+    >>> ds["radiance"].dims  # doctest: +SKIP
+    ('y', 'x', 'wavelength')
+    """
+    h, w = bundle.slm_shape
+    if cube.shape != (h, w, bundle.wavelengths.size):
+        raise ProcedureError(
+            step_error(
+                "snapshot cube",
+                f"the cube has shape {cube.shape}, the bundle's SLM and bins "
+                f"{(h, w, bundle.wavelengths.size)}",
+                "reconstruct with this bundle",
+            )
+        )
+    return spectral_cube_dataset(
+        cube.astype(np.float32, copy=False),
+        bundle.wavelengths,
+        bundle.bin_edges,
+        units=units,
+        title=f"SASSI snapshot ({method})",
+        attrs={
+            "bundle_version": bundle.version,
+            "bundle_rig": bundle.rig_name,
+            "reconstruction": method,
+            **(attrs or {}),
+        },
+    )
+
+
+def write_cube(
+    ds: xr.Dataset,
+    path: str | os.PathLike[str],
+    *,
+    envi: str | os.PathLike[str] | None = None,
+    overwrite: bool = False,
+) -> list[Path]:
+    """Write a cube Dataset to NetCDF (and ENVI when ``envi`` names a file), never over an
+    existing file unless ``overwrite``; returns the paths written.
+
+    Examples
+    --------
+    >>> write_cube(ds, "snapshot.nc", envi="snapshot")  # doctest: +SKIP
+    [PosixPath('snapshot.nc'), PosixPath('snapshot.hdr')]
+    """
+    written = [write_netcdf(ds, path, overwrite=overwrite)]
+    if envi is not None:
+        written.append(write_envi(ds, envi, overwrite=overwrite))
+    return written
