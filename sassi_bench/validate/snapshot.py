@@ -28,24 +28,23 @@ from sassi_bench.rig.rig import SCENES, Rig
 from sassi_bench.rig.scene_pose import ScenePose
 from sassi_bench.snapshot import (
     adaptive_mask,
+    band_psnr,
     check_mask,
     guide_on_slm,
-    random_mask,
-    segment_around_samples,
-    uniform_mask,
-)
-from sassi_bench.validate.snapshot_recon import (
-    Samples,
-    Scores,
-    guide_intensity,
-    guided_filter,
+    guided_cube,
+    mean_spectral_angle_deg,
     measure_samples,
-    rank1,
-    score,
+    psnr,
+    random_mask,
+    rank1_cube,
+    segment_around_samples,
+    ssim,
+    uniform_mask,
 )
 
 __all__ = [
     "MaskRun",
+    "Scores",
     "SnapshotValidation",
     "check_inputs",
     "load_mask",
@@ -142,6 +141,42 @@ def load_scan_cube(
     return cube, quality == 0, units
 
 
+@dataclass(frozen=True)
+class Scores:
+    """A reconstruction against the reference, over the scored pixels."""
+
+    psnr_db: float
+    psnr_affine_db: float
+    ssim: float
+    spectral_angle_deg: float
+    band_psnr_db: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, estimate: NDArray, reference: NDArray, valid: NDArray[np.bool_]) -> Scores:
+        """PSNR (raw, and after one affine fit for the cube), SSIM (over the scored
+        pixels' bounding box, unscored pixels set to the reference), mean spectral angle
+        and per-band PSNR."""
+        rows, cols = np.nonzero(valid)
+        box = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
+        inside = np.where(valid[box][..., None], estimate[box], reference[box])
+        return cls(
+            psnr(reference, estimate, valid=valid),
+            psnr(reference, estimate, valid=valid, affine=True),
+            ssim(reference[box], inside),
+            mean_spectral_angle_deg(reference, estimate, valid=valid),
+            np.asarray(band_psnr(reference, estimate, valid=valid), dtype=np.float64),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "psnr_db": self.psnr_db,
+            "psnr_affine_db": self.psnr_affine_db,
+            "ssim": self.ssim,
+            "spectral_angle_deg": self.spectral_angle_deg,
+            "band_psnr_db": self.band_psnr_db.tolist(),
+        }
+
+
 @dataclass
 class MaskRun:
     """One snapshot: its mask, regions, reconstructions and scores."""
@@ -150,7 +185,7 @@ class MaskRun:
     mask: NDArray[np.bool_]
     labels: NDArray[np.int32]
     guide_slm: NDArray[np.float32]
-    samples: Samples
+    spectra: NDArray[np.float64]
     rank1: NDArray[np.float32]
     guided: NDArray[np.float32]
     scores: dict[str, Scores]
@@ -236,22 +271,25 @@ def _reconstruct(
         centres = np.argwhere(mask).astype(np.int32)
     labels = segment_around_samples(guide_slm, centres, compactness=compactness)
     exposure = video.exposures.spectral_s
-    samples = measure_samples(video.spectral(t), mask, bundle, exposure)
-    intensity = guide_intensity(guide_slm)
-    rows_mult, cols_mult = procedure["reconstruction"]["guided_window"]
-    window = (round(rows_mult * spacing.pitch), round(cols_mult * spacing.uniform_step))
-    rank = rank1(samples, labels, intensity)
-    guided = guided_filter(samples, intensity, window, procedure["reconstruction"]["guided_eps"])
+    spectra, _ = measure_samples(video.spectral(t), mask, bundle, exposure_s=exposure)
+    recon = procedure["reconstruction"]
+    rank = rank1_cube(guide_slm, labels, mask, spectra)
+    guided = guided_cube(
+        guide_slm, mask, spectra, radius=recon["guided_radius_px"], eps=recon["guided_eps"]
+    )
     peak = float(reference[valid].max())
     return MaskRun(
         kind=kind,
         mask=mask,
         labels=labels,
         guide_slm=guide_slm,
-        samples=samples,
+        spectra=spectra,
         rank1=rank,
         guided=guided,
-        scores={"rank1": score(rank, reference, valid), "guided": score(guided, reference, valid)},
+        scores={
+            "rank1": Scores.of(rank, reference, valid),
+            "guided": Scores.of(guided, reference, valid),
+        },
         detail_psnr_db={
             "rank1": _psnr_on(rank, reference, detail, peak),
             "guided": _psnr_on(guided, reference, detail, peak),

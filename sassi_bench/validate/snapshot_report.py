@@ -47,7 +47,6 @@ def snapshot_report_data(
                 "exposure_s": run.exposure_s,
                 "low_light": run.low_light,
                 "sessions": run.sessions,
-                "background_rms": run.samples.background_rms,
                 "scores": {m: s.to_dict() for m, s in run.scores.items()},
                 "detail_psnr_db": run.detail_psnr_db,
             }

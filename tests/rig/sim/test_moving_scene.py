@@ -17,8 +17,8 @@ def rig():
 
 def test_translation_moves_the_truth_cube_by_whole_pixels(rig):
     t = truth(rig)
-    still, _ = t.scene_cube("natural")
-    moved, _ = t.scene_cube("natural", ScenePose((3.0, -2.0)))
+    still, _ = t.scene_cube("colorchecker")
+    moved, _ = t.scene_cube("colorchecker", ScenePose((3.0, -2.0)))
     # Content at static (row, col) appears at (row - 2, col + 3); compare the overlap.
     assert np.allclose(moved[10:-10, 13:-10], still[12:-8, 10:-13], atol=1e-6)
     assert not np.allclose(moved, still)
@@ -57,3 +57,13 @@ def test_static_pose_is_todays_scene(rig):
     assert posed_scene(scene, ScenePose(), bench.slm_shape) is scene
     rig.set_scene("colorchecker")
     assert bench.scene is scene and bench.pose.is_identity
+
+
+def test_basis_scenes_move_their_coefficients():
+    from sassi_bench.rig.sim.scenes import BasisScene
+
+    rng = np.random.default_rng(1)
+    coefficients = rng.random((2, 20, 30)).astype(np.float32)
+    scene = BasisScene("b", np.array([400.0, 700.0]), 5, coefficients=coefficients, basis=np.eye(2))
+    moved = posed_scene(scene, ScenePose((2.0, 1.0)), (10, 20))
+    assert np.allclose(moved.coefficients[:, 6:-3, 7:-3], coefficients[:, 5:-4, 5:-5])
