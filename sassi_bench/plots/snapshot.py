@@ -41,10 +41,15 @@ def masks_figure(result) -> tuple[Any, dict[str, Any]]:
     from skimage.segmentation import find_boundaries
 
     runs = result.runs
-    fig = _figure(figsize=(6.2 * len(runs), 4.6), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(1, len(runs)))
+    columns = min(2, len(runs))
+    rows_n = -(-len(runs) // columns)
+    aspect = runs[next(iter(runs))].mask.shape[0] / runs[next(iter(runs))].mask.shape[1]
+    fig = _figure(figsize=(13, 6.5 * aspect * rows_n + 0.8), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows_n, columns)).ravel()
+    for ax in axes[len(runs) :]:
+        ax.set_axis_off()
     data: dict[str, Any] = {}
-    for ax, (name, run) in zip(axes, runs.items(), strict=True):
+    for ax, (name, run) in zip(axes, runs.items(), strict=False):
         image = _display(run.guide_slm if run.guide_slm.shape[2] == 3 else run.guide_slm[..., 0])
         if image.ndim == 2:
             image = np.repeat(image[..., None], 3, axis=2)
@@ -53,7 +58,7 @@ def masks_figure(result) -> tuple[Any, dict[str, Any]]:
         image[edges] = 0.55 * image[edges] + 0.45 * np.array([1.0, 1.0, 0.0])
         ax.imshow(image, interpolation="nearest")
         rows, cols = np.nonzero(run.mask)
-        ax.plot(cols, rows, ",", color="#00e5ff")
+        ax.plot(cols, rows, "o", ms=2.5, mfc="#00e5ff", mec="black", mew=0.4)
         ax.set_title(f"{name}: {rows.size} open pixels, {int(run.labels.max()) + 1} regions")
         ax.set_axis_off()
         data[name] = {"open_pixels": int(rows.size), "regions": int(run.labels.max()) + 1}
@@ -155,6 +160,7 @@ def video_figure(result) -> tuple[Any, dict[str, Any]]:
         values = [f[method]["psnr_affine_db"] for f in result.video]
         ax.plot(frames, values, "o-", label=method)
         data[method] = values
+    ax.set_xticks(frames)
     ax.set_xlabel("frame (mask from the previous frame's guide image)")
     ax.set_ylabel("PSNR after affine fit (dB)")
     ax.set_title("Video of the moving scene")

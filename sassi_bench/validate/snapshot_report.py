@@ -81,13 +81,20 @@ def _scores_table(doc: dict[str, Any]) -> str:
     )  # fmt: skip
 
 
+def _pose_text(pose: dict[str, Any] | None) -> str:
+    if pose is None:
+        return "shift (0, 0) px, 0°"
+    dx, dy = pose["shift_px"]
+    return f"shift ({dx:g}, {dy:g}) px, {pose['rotation_deg']:g}°"
+
+
 def _video_table(doc: dict[str, Any]) -> str:
     if not doc["video"]:
         return ""
     rows = [
         [
             str(f["frame"]),
-            html.escape(json.dumps(f["pose"])),
+            _pose_text(f["pose"]),
             str(f["open_pixels"]),
             f"{f['rank1']['psnr_affine_db']:.2f}",
             f"{f['guided']['psnr_affine_db']:.2f}",
