@@ -16,6 +16,9 @@ Kinds
                             (px): pixel ``p`` along the axis shows ``profile[(p - shift) % P]``
 ``lines``                   ``axis``, ``offset``, ``spacing``, ``width`` (px)
 ``pinholes``                ``pitch`` [px_x, px_y], ``offset`` [x, y]
+``pixels``                  ``rows``, ``cols``: the open pixels, listed one by one in
+                            row-major order (an adaptive snapshot mask, or any mask a
+                            user supplies; :func:`pixels_descriptor` makes one)
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ __all__ = [
     "open_pixels",
     "periodic_pattern",
     "pinhole_pattern",
+    "pixels_descriptor",
     "render_pattern",
 ]
 
@@ -153,6 +157,58 @@ def pinhole_pattern(
     return out
 
 
+def pixels_descriptor(mask: NDArray[np.bool_]) -> dict[str, Any]:
+    """The ``pixels`` descriptor of a boolean mask: its open pixels, row-major.
+
+    It stores the mask exactly, so a session records what the SLM showed and
+    :func:`render_pattern` gives the same mask back.
+
+    Examples
+    --------
+    >>> mask = np.zeros((3, 4), bool)
+    >>> mask[0, 3] = mask[2, 1] = True
+    >>> d = pixels_descriptor(mask)
+    >>> d
+    {'kind': 'pixels', 'rows': [0, 2], 'cols': [3, 1]}
+    >>> bool(np.array_equal(render_pattern(d, (3, 4)) > 0, mask))
+    True
+    """
+    mask = np.asarray(mask)
+    if mask.ndim != 2:
+        raise ProcedureError(
+            step_error("pattern", f"a mask must be 2-D, got shape {mask.shape}", "pass (H, W)")
+        )
+    rows, cols = np.nonzero(mask)
+    return {"kind": "pixels", "rows": rows.tolist(), "cols": cols.tolist()}
+
+
+def _pixel_list(
+    descriptor: Mapping[str, Any], shape: tuple[int, int]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    rows = np.asarray(descriptor["rows"], dtype=np.intp)
+    cols = np.asarray(descriptor["cols"], dtype=np.intp)
+    if rows.ndim != 1 or rows.shape != cols.shape:
+        raise ProcedureError(
+            step_error(
+                "pattern",
+                f"pixels: rows and cols must be lists of equal length ({rows.size}, {cols.size})",
+                "list one row and one column per open pixel",
+            )
+        )
+    if rows.size and (
+        rows.min() < 0 or cols.min() < 0 or rows.max() >= shape[0] or cols.max() >= shape[1]
+    ):
+        raise ProcedureError(
+            step_error(
+                "pattern",
+                f"pixels: an open pixel lies outside the {shape[1]}x{shape[0]} SLM",
+                "use rows 0..H-1 and columns 0..W-1 of this SLM",
+            )
+        )
+    order = np.lexsort((cols, rows))
+    return rows[order], cols[order]
+
+
 def open_pixels(
     descriptor: Mapping[str, Any], shape: tuple[int, int]
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
@@ -173,6 +229,8 @@ def open_pixels(
             np.arange(oy, shape[0], py), np.arange(ox, shape[1], px), indexing="ij"
         )
         return rows.ravel(), cols.ravel()
+    if descriptor.get("kind") == "pixels":
+        return _pixel_list(descriptor, shape)
     return np.nonzero(render_pattern(descriptor, shape))
 
 
@@ -202,10 +260,14 @@ def render_pattern(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDA
         )
     if kind == "pinholes":
         return pinhole_pattern(shape, tuple(d["pitch"]), tuple(d.get("offset", (0, 0))))
+    if kind == "pixels":
+        out = np.zeros(shape, dtype=np.uint8)
+        out[_pixel_list(d, shape)] = 255
+        return out
     raise ProcedureError(
         step_error(
             "pattern",
             f"unknown pattern kind {kind!r}",
-            "use blank, full, uniform, gray, periodic, lines or pinholes",
+            "use blank, full, uniform, gray, periodic, lines, pinholes or pixels",
         )
     )

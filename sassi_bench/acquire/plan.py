@@ -297,7 +297,7 @@ class Plan:
     parameters
         Free JSON recording how the plan was built (laser list, pitch, ...). The key
         ``"scene"``, when present, is the scene :func:`~sassi_bench.acquire.runner.run_plan`
-        puts in front of the bench before capturing.
+        puts in front of the bench before capturing (at ``"scene_pose"`` if given).
 
     Examples
     --------

@@ -22,6 +22,7 @@ from sassi_bench.acquire.session import Session, SessionError
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.protocols import Camera
 from sassi_bench.rig.rig import Rig
+from sassi_bench.rig.scene_pose import ScenePose
 
 __all__ = ["run_plan"]
 
@@ -111,7 +112,9 @@ def run_plan(
     show its pattern on the SLM, capture, and store the frame with
     :meth:`Session.write_frame`. The trigger is armed for the run and always disarmed
     at the end. If ``plan.parameters`` has a ``"scene"``, that scene is put in front of
-    the bench first (so a resumed run on a fresh rig sees the same scene).
+    the bench first (so a resumed run on a fresh rig sees the same scene), at the
+    pose ``"scene_pose"`` (a :class:`~sassi_bench.rig.scene_pose.ScenePose` dict) when
+    the plan has one.
 
     Parameters
     ----------
@@ -191,7 +194,8 @@ def _capture(
     try:
         scene = plan.parameters.get("scene")
         if scene is not None:
-            rig.set_scene(scene)
+            pose = plan.parameters.get("scene_pose")
+            rig.set_scene(scene, None if pose is None else ScenePose.from_dict(pose))
         for i in todo:
             step = plan.steps[i]
             camera = _camera(rig, step.camera)

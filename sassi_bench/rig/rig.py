@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from sassi_bench.errors import ProcedureError, did_you_mean, step_error
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.protocols import Camera, LightSource, Slm, Trigger
+from sassi_bench.rig.scene_pose import ScenePose
 
 __all__ = ["SCENES", "Rig", "check_light", "check_scene"]
 
@@ -79,7 +80,8 @@ class Rig:
     slm, spectral_camera, guide_camera, light, trigger
         Device handles implementing the protocols of :mod:`sassi_bench.rig.protocols`.
     scene_setter
-        Called by :meth:`set_scene` with the scene name.
+        Called by :meth:`set_scene` with the scene name, and with the pose as a second
+        argument when one is given (a moving scene).
     """
 
     description: RigDescription
@@ -88,11 +90,18 @@ class Rig:
     guide_camera: Camera
     light: LightSource
     trigger: Trigger
-    scene_setter: Callable[[str], None] = field(repr=False)
+    scene_setter: Callable[..., None] = field(repr=False)
     scene: str | None = None
 
-    def set_scene(self, name: str) -> None:
-        """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...)."""
+    def set_scene(self, name: str, pose: ScenePose | None = None) -> None:
+        """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...).
+
+        ``pose`` moves it (shift in SLM px and rotation about the SLM centre); ``None``
+        is the static scene. A moving scene is a pose set per frame.
+        """
         check_scene(name)
-        self.scene_setter(name)
+        if pose is None:
+            self.scene_setter(name)
+        else:
+            self.scene_setter(name, pose)
         self.scene = name

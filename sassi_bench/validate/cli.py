@@ -1,4 +1,4 @@
-"""``sassi-bench validate macbeth``: the ColorChecker validation of a bundle."""
+"""``sassi-bench validate macbeth|snapshot``: the ColorChecker and snapshot validations."""
 
 from __future__ import annotations
 
@@ -79,6 +79,52 @@ def _macbeth(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _snapshot(args: argparse.Namespace) -> int:
+    from sassi_bench.bundle.quality import unit_suffix
+    from sassi_bench.rig import open_rig
+    from sassi_bench.validate.snapshot import check_inputs, run_snapshot
+    from sassi_bench.validate.snapshot_report import write_snapshot_report
+    from sassi_bench.workflows.procedure import load_procedure
+
+    procedure = load_procedure("snapshot_validation", args.procedure)
+    rig = open_rig(args.rig)
+    args.rig_name = rig.description.name
+    bundle = _bundle(args)
+    check_inputs(rig, bundle, args.scene)  # before any session is created
+    new_session(args, "session", f"snapshot-{args.scene}")
+    result = run_snapshot(
+        rig, bundle, procedure, scene=args.scene, scan_path=args.scan, low_light=args.low_light,
+        video_frames=args.video, mask_path=args.mask, session_id=args.session, data=args.data,
+        progress=not args.quiet,
+    )  # fmt: skip
+    html_path, json_path = write_snapshot_report(result, args.out, procedure["scoring"]["points"])
+    if result.scan_dataset is not None:
+        from sassi_bench.spectra.cube_io import write_netcdf
+
+        scan_path = write_netcdf(result.scan_dataset, Path(args.out) / "scan.nc", overwrite=True)
+        print(f"  scan cube: {scan_path} (reuse it with --scan)")
+    print(f"\nSnapshot validation of bundle {bundle.rig_name}/{bundle.version} on rig "
+          f"{result.rig_name}, scene {result.scene}")  # fmt: skip
+    for name, run in result.runs.items():
+        for method, s in run.scores.items():
+            print(
+                f"  {name:18s} {method:7s} PSNR {s.psnr_db:6.2f} dB, affine {s.psnr_affine_db:6.2f}"
+                f" dB, SSIM {s.ssim:.3f}, angle {s.spectral_angle_deg:5.2f} deg"
+            )
+    for frame in result.video:
+        print(
+            f"  video frame {frame['frame']:3d}  rank-1 {frame['rank1']['psnr_affine_db']:6.2f} dB,"
+            f" guided {frame['guided']['psnr_affine_db']:6.2f} dB (affine)"
+        )
+    for check in result.checks:
+        mark = "PASS" if check.passed else "FAIL"
+        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
+        print(f"  {mark}  {check.name:24s} {check.value:10.4f} {limit}")
+    print(f"  report: {html_path}\n  data:   {json_path}")
+    print("VALIDATION PASSED" if result.passed else "VALIDATION FAILED")
+    return 0 if result.passed else 1
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``validate`` command group to the top-level parser."""
     validate = sub.add_parser("validate", help="validate a calibration bundle")
@@ -115,3 +161,33 @@ def register(sub: argparse._SubParsersAction) -> None:
         func=_macbeth,
         resume_options=(("session", "--session"), ("white_session", "--white-session")),
     )
+
+    snapshot = groups.add_parser(
+        "snapshot",
+        help="scan a scene, take SASSI snapshots, reconstruct them, score against the scan",
+    )
+    snapshot.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    add_bundle_options(snapshot)
+    snapshot.add_argument("--data", help="data root for sessions and bundles")
+    snapshot.add_argument("--out", required=True, help="folder for the HTML and JSON report")
+    snapshot.add_argument(
+        "--procedure", help="procedure YAML (default: procedures/snapshot_validation.yaml)"
+    )
+    snapshot.add_argument(
+        "--scene", default="natural", help="natural, colorchecker, pcb or white (default: natural)"
+    )
+    snapshot.add_argument(
+        "--scan", help="a scan cube (NetCDF) to score against instead of scanning"
+    )
+    snapshot.add_argument(
+        "--low-light", action="store_true", help="also take a photon-starved snapshot"
+    )
+    snapshot.add_argument(
+        "--video", type=int, default=0, metavar="N", help="also take N frames of a moving scene"
+    )
+    snapshot.add_argument(
+        "--mask", help="a mask (.npy, (H, W) bool) to use instead of the adaptive one"
+    )
+    snapshot.add_argument("--session", help="session id prefix; an existing one resumes")
+    snapshot.add_argument("--quiet", action="store_true", help="no progress bars")
+    snapshot.set_defaults(func=_snapshot, resume_options=(("session", "--session"),))

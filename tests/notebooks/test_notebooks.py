@@ -7,6 +7,7 @@ settings, and each test checks what its notebook produced, not only that it ran.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -129,3 +130,16 @@ def test_06_publish_bundle_publishes_an_accepted_fit(lab):
     after = {p.name for p in (lab / "sim").iterdir() if p.name.startswith("v")}
     (new,) = after - before
     verify(lab / "sim" / new)
+
+
+def test_07_snapshot_scores_an_adaptive_snapshot_against_a_scan(lab):
+    with_guide = [p for p in sorted((lab / "sim").glob("v*")) if load(p).guide_to_slm is not None]
+    book = _run(
+        "07_snapshot.ipynb", lab, bundle_version=str(with_guide[-1]), video_frames=0,
+        low_light=False,
+    )  # fmt: skip
+    assert not _errors(book)
+    assert _images(book) >= 4  # masks, reconstruction, per-band PSNR, spectra
+    report = lab / "snapshot-report" / "snapshot_report.json"
+    doc = json.loads(report.read_text())
+    assert doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"] > 25.0

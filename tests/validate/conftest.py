@@ -10,7 +10,7 @@ import pytest
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.bundle import CalibrationModels, load, publish
+from sassi_bench.bundle import load, publish
 from sassi_bench.spectra.scan import assemble_scan, scan_plan
 from sassi_bench.workflows.procedure import load_procedure
 from sassi_bench.workflows.scan import run_scan
@@ -52,29 +52,34 @@ def patch_procedure(procedure):
     return {**procedure, "white_reference": {**procedure["white_reference"], "source": "patch"}}
 
 
+def publish_shifted(bundle, rig_description, root, px: float = 1.0, **changes):
+    """``bundle`` with its wavelength map moved ``px`` camera px along the streaks (and any
+    other model ``changes``), published as its own version under data root ``root``."""
+    old = bundle.models
+    x = np.array(old.dispersion.x_coeffs)
+    x[0, 0] += px  # the constant field term of x: every streak px to the right
+    models = dataclasses.replace(
+        old, dispersion=dataclasses.replace(old.dispersion, x_coeffs=x), **changes
+    )
+    path = publish(
+        models,
+        rig=rig_description,
+        quality={"checks": [], "residuals": {}},
+        procedure={**dict(bundle.manifest["procedure"]), "test": f"x shifted by {px:g} px"},
+        data=root,
+    )
+    return load(path)
+
+
 @pytest.fixture(scope="session")
 def shifted_bundle(chart_scan, tmp_path_factory):
     """The calibrated bundle with its wavelength map moved 1 camera px along the streaks,
     published as its own version in a separate data root."""
     rig, bundle, _, _ = chart_scan
-    old = bundle.models
-    x = np.array(old.dispersion.x_coeffs)
-    x[0, 0] += 1.0  # the constant field term of x: every streak 1 px to the right
-    models = CalibrationModels(
-        dispersion=dataclasses.replace(old.dispersion, x_coeffs=x),
-        bins=old.bins,
-        blur=old.blur,
-        guide_to_slm=old.guide_to_slm,
-        guide_info=old.guide_info,
-        offset=old.offset,
-        response=old.response,
-    )
-    root = tmp_path_factory.mktemp("shifted-bundle")
-    path = publish(
-        models,
-        rig=rig.description,
-        quality={"checks": [], "residuals": {}},
-        procedure={**dict(bundle.manifest["procedure"]), "test": "x shifted by 1 px"},
-        data=root,
-    )
-    return load(path)
+    return publish_shifted(bundle, rig.description, tmp_path_factory.mktemp("shifted-bundle"))
+
+
+@pytest.fixture(scope="session")
+def shift_wavelength_map():
+    """:func:`publish_shifted`, for tests that shift a bundle of their own."""
+    return publish_shifted

@@ -85,6 +85,9 @@ def build_hardware_rig(desc: RigDescription, prompt: Callable[[str], None] | Non
         guide_camera=guide,
         light=light,
         trigger=trigger,
-        scene_setter=lambda name: ask(f"Place the {name} target in front of the camera"),
+        scene_setter=lambda name, pose=None: ask(
+            f"Place the {name} target in front of the camera"
+            + ("" if pose is None else f", moved to {pose}")
+        ),
         scene=None,
     )

@@ -22,7 +22,7 @@ from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim.geometry import SpectralRelay
 from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.render import SpectralRenderer
-from sassi_bench.rig.sim.scenes import Scene, make_scene
+from sassi_bench.rig.sim.scenes import Scene, ScenePose, make_scene, posed_scene
 
 __all__ = ["VirtualBench"]
 
@@ -86,7 +86,8 @@ class VirtualBench:
         self.pattern = np.zeros(self.slm_shape, dtype=np.uint8)
         self._scenes: dict[str, Scene] = {}
         self._samples: dict[str, SpectralSamples] = {}
-        self._background: dict[tuple[str, str], NDArray[np.float32]] = {}
+        self._background: dict[tuple[str, ScenePose, str], NDArray[np.float32]] = {}
+        self.pose = ScenePose()
         self.scene = self.scene_named("white")
 
     # -- scene and light ----------------------------------------------------------------
@@ -106,9 +107,18 @@ class VirtualBench:
             )
         return self._scenes[name]
 
-    def set_scene(self, name: str) -> None:
-        """Put scene ``name`` in front of the bench."""
-        self.scene = self.scene_named(name)
+    def set_scene(self, name: str, pose: ScenePose | None = None) -> None:
+        """Put scene ``name`` in front of the bench, moved to ``pose`` (default: static).
+
+        Both cameras see the posed scene until the next call, so a moving scene is a
+        pose set before each frame. Only the current posed scene is kept in memory.
+        """
+        self.pose = pose if pose is not None else ScenePose()
+        if not self.pose.is_identity:
+            stale = [k for k in self._background if k[1] != self.pose and not k[1].is_identity]
+            for key in stale:
+                del self._background[key]
+        self.scene = posed_scene(self.scene_named(name), self.pose, self.slm_shape)
 
     def set_light(self, name: str) -> None:
         """Select light ``name`` (already validated by the light device)."""
@@ -154,6 +164,8 @@ class VirtualBench:
         digest = hashlib.blake2b(digest_size=16)
         for part in (camera, self.light, self.scene.name, repr(float(exposure_s))):
             digest.update(part.encode() + b"\0")
+        if not self.pose.is_identity:
+            digest.update(repr((self.pose.shift_px, self.pose.rotation_deg)).encode() + b"\0")
         if camera == "spectral":  # the guide camera does not see the SLM
             digest.update(self.pattern.tobytes())
         key = (camera, digest.digest())
@@ -172,7 +184,7 @@ class VirtualBench:
 
     def _background_rate(self) -> NDArray[np.float32]:
         """Light leaking through a fully closed SLM (cached per scene and light)."""
-        key = (self.scene.name, self.light)
+        key = (self.scene.name, self.pose, self.light)
         if key not in self._background:
             closed = np.full(self.slm_shape, np.float32(self.eps))
             self._background[key] = self.renderer.render_dense(

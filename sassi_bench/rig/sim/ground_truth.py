@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.sim.bench import VirtualBench
+from sassi_bench.rig.sim.scenes import ScenePose, posed_scene
 
 __all__ = ["BenchTruth", "register_bench", "truth"]
 
@@ -74,23 +75,36 @@ class BenchTruth:
         return self._bench.grid.copy()
 
     def scene_cube(
-        self, name: str | None = None
+        self, name: str | None = None, pose: ScenePose | None = None
     ) -> tuple[NDArray[np.float32], NDArray[np.float64]]:
-        """Reflectance cube (H, W, L) on the SLM grid and its wavelengths."""
-        scene = self._bench.scene if name is None else self._bench.scene_named(name)
-        return scene.cube(self._bench.slm_shape), self._bench.grid.copy()
+        """Reflectance cube (H, W, L) on the SLM grid and its wavelengths.
+
+        Without ``name``, the scene in front of the bench (at its current pose);
+        with ``name``, that scene at ``pose`` (default: static).
+        """
+        bench = self._bench
+        if name is None:
+            scene = bench.scene
+        else:
+            scene = posed_scene(bench.scene_named(name), pose or ScenePose(), bench.slm_shape)
+        return scene.cube(bench.slm_shape), bench.grid.copy()
 
     def binned_cube(
-        self, bin_edges_nm: ArrayLike, light: str, scene: str | None = None
+        self,
+        bin_edges_nm: ArrayLike,
+        light: str,
+        scene: str | None = None,
+        pose: ScenePose | None = None,
     ) -> NDArray[np.float64]:
         """What an ideal scan measures: (H, W, B) photo-electron rate per bin.
 
         The scene's reflectance times the light's photons times the camera's QE, each
         spectral sample spread over its own step of the grid and integrated into the bins.
-        Equal to a scan cube up to one overall gain.
+        Equal to a scan cube up to one overall gain. ``scene`` and ``pose`` as in
+        :meth:`scene_cube`.
         """
         edges = np.asarray(bin_edges_nm, dtype=np.float64)
-        reflectance, grid = self.scene_cube(scene)
+        reflectance, grid = self.scene_cube(scene, pose)
         samples = self.light_samples(light)
         if not np.array_equal(samples.wavelengths_nm, grid):
             raise ValueError("binned_cube: the light is not sampled on the scene grid")

@@ -20,15 +20,18 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.optics.datasets import require_dataset
 from sassi_bench.rig.rig import check_scene
+from sassi_bench.rig.scene_pose import ScenePose
 
 __all__ = [
     "BasisScene",
     "LabelScene",
     "Scene",
+    "ScenePose",
     "colorchecker_scene",
     "make_scene",
     "natural_scene",
     "pcb_scene",
+    "posed_scene",
     "white_scene",
 ]
 
@@ -391,3 +394,54 @@ def make_scene(
         return pcb_scene(slm_shape, grid, margin, seed)
     check_scene(name)
     raise AssertionError(f"scene {name!r} is known but has no builder")  # pragma: no cover
+
+
+def posed_scene(scene: Scene, pose: ScenePose, slm_shape: tuple[int, int]) -> Scene:
+    """``scene`` moved to ``pose``, materialised on the same canvas.
+
+    Label scenes are resampled by nearest neighbour (regions stay flat with one
+    spectrum each), basis scenes bilinearly per coefficient image; what falls outside
+    the static canvas repeats its edge. The result answers the same questions as any
+    scene, so the spectral and the guide camera see the same posed scene.
+
+    Examples
+    --------
+    >>> grid = np.array([400.0, 700.0])
+    >>> labels = np.zeros((6, 8), np.intp)
+    >>> labels[:, 4:] = 1
+    >>> scene = LabelScene("s", grid, 1, labels=labels, spectra=np.eye(2))
+    >>> moved = posed_scene(scene, ScenePose((1.0, 0.0)), (4, 6))
+    >>> moved.labels[0].tolist()
+    [0, 0, 0, 0, 0, 1, 1, 1]
+    """
+    import cv2
+
+    if pose.is_identity:
+        return scene
+    matrix = pose.canvas_matrix(slm_shape, scene.margin)
+    size = (scene.canvas_shape[1], scene.canvas_shape[0])
+
+    def warp(image: NDArray, interpolation: int) -> NDArray:
+        return cv2.warpAffine(
+            image,
+            matrix,
+            size,
+            flags=interpolation | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_REPLICATE,
+        )
+
+    if isinstance(scene, LabelScene):
+        labels = warp(scene.labels.astype(np.int32), cv2.INTER_NEAREST).astype(np.intp)
+        return LabelScene(
+            scene.name, scene.wavelengths_nm, scene.margin, labels=labels, spectra=scene.spectra
+        )
+    if isinstance(scene, BasisScene):
+        coefficients = np.stack([warp(c, cv2.INTER_LINEAR) for c in scene.coefficients])
+        return BasisScene(
+            scene.name,
+            scene.wavelengths_nm,
+            scene.margin,
+            coefficients=coefficients,
+            basis=scene.basis,
+        )
+    raise TypeError(f"posed_scene: cannot move a {type(scene).__name__}")

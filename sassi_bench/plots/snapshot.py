@@ -1,0 +1,182 @@
+"""Figures of the snapshot validation report; each returns the figure and its data."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "band_psnr_figure",
+    "masks_figure",
+    "reconstruction_figure",
+    "snapshot_figures",
+    "spectra_figure",
+    "video_figure",
+]
+
+
+def _figure(*args, **kwargs):
+    from matplotlib.figure import Figure
+
+    return Figure(*args, **kwargs)
+
+
+def _display(image: NDArray) -> NDArray[np.float32]:
+    """An image scaled to [0, 1] by its 99.5th percentile, gamma 1/2.2."""
+    image = np.asarray(image, dtype=np.float32)
+    top = float(np.percentile(image, 99.5)) or 1.0
+    return np.clip(image / top, 0.0, 1.0) ** (1 / 2.2)
+
+
+def _band_image(cube: NDArray) -> NDArray[np.float32]:
+    """A false-colour view of a cube: the sums of its three thirds of bands as R, G, B."""
+    thirds = np.array_split(np.arange(cube.shape[2]), 3)
+    return np.stack([cube[..., idx].sum(axis=2) for idx in thirds[::-1]], axis=2)
+
+
+def masks_figure(result) -> tuple[Any, dict[str, Any]]:
+    """Every mask's open pixels (and the adaptive mask's regions) on the guide image."""
+    from skimage.segmentation import find_boundaries
+
+    runs = result.runs
+    columns = min(2, len(runs))
+    rows_n = -(-len(runs) // columns)
+    aspect = runs[next(iter(runs))].mask.shape[0] / runs[next(iter(runs))].mask.shape[1]
+    fig = _figure(figsize=(13, 6.5 * aspect * rows_n + 0.8), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows_n, columns)).ravel()
+    for ax in axes[len(runs) :]:
+        ax.set_axis_off()
+    data: dict[str, Any] = {}
+    for ax, (name, run) in zip(axes, runs.items(), strict=False):
+        image = _display(run.guide_slm if run.guide_slm.shape[2] == 3 else run.guide_slm[..., 0])
+        if image.ndim == 2:
+            image = np.repeat(image[..., None], 3, axis=2)
+        edges = find_boundaries(run.labels, mode="inner")
+        image = image.copy()
+        image[edges] = 0.55 * image[edges] + 0.45 * np.array([1.0, 1.0, 0.0])
+        ax.imshow(image, interpolation="nearest")
+        rows, cols = np.nonzero(run.mask)
+        ax.plot(cols, rows, "o", ms=2.5, mfc="#00e5ff", mec="black", mew=0.4)
+        ax.set_title(f"{name}: {rows.size} open pixels, {int(run.labels.max()) + 1} regions")
+        ax.set_axis_off()
+        data[name] = {"open_pixels": int(rows.size), "regions": int(run.labels.max()) + 1}
+    fig.suptitle("Masks (cyan) and regions (yellow borders) on the guide image warped to the SLM")
+    return fig, data
+
+
+def reconstruction_figure(result) -> tuple[Any, dict[str, Any]]:
+    """The scan, both reconstructions of the main snapshot and their error maps."""
+    run = next(iter(result.runs.values()))
+    ref = result.reference
+    top = float(np.percentile(_band_image(ref)[result.valid], 99.5)) or 1.0
+    peak = float(ref[result.valid].max())
+    fig = _figure(figsize=(16, 8.4), layout="constrained")
+    axes = fig.subplots(2, 3)
+    panels = [("scan (reference)", ref), ("rank-1", run.rank1), ("guided filter", run.guided)]
+    data: dict[str, Any] = {"error_peak": peak}
+    for ax, (title, cube) in zip(axes[0], panels, strict=True):
+        ax.imshow(np.clip(_band_image(cube) / top, 0, 1) ** (1 / 2.2))
+        ax.set_title(f"{title} (false colour: 3 thirds of the band)")
+        ax.set_axis_off()
+    axes[1, 0].imshow(result.detail, cmap="gray")
+    axes[1, 0].set_title(f"detail pixels ({result.detail.mean():.0%} of the SLM)")
+    axes[1, 0].set_axis_off()
+    for ax, (title, cube) in zip(axes[1, 1:], panels[1:], strict=True):
+        rms = np.sqrt(np.mean((cube - ref) ** 2, axis=2)) / peak
+        rms[~result.valid] = np.nan
+        im = ax.imshow(rms, cmap="magma", vmin=0, vmax=max(float(np.nanpercentile(rms, 99)), 1e-6))
+        ax.set_title(f"{title}: RMS error over bands / scan peak")
+        ax.set_axis_off()
+        fig.colorbar(im, ax=ax, shrink=0.8)
+        data[f"{title}_mean_relative_rms"] = float(np.nanmean(rms))
+    return fig, data
+
+
+def band_psnr_figure(result) -> tuple[Any, dict[str, Any]]:
+    """Per-band PSNR of every snapshot and method."""
+    lam = result.wavelengths_nm
+    fig = _figure(figsize=(9, 4.2), layout="constrained")
+    ax = fig.subplots()
+    data: dict[str, Any] = {"wavelength_nm": lam.tolist()}
+    styles = {"rank1": "-", "guided": "--"}
+    for name, run in result.runs.items():
+        for method, s in run.scores.items():
+            ax.plot(lam, s.band_psnr_db, styles[method], label=f"{name} {method}")
+            data[f"{name}_{method}"] = s.band_psnr_db.tolist()
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel("PSNR (dB, scan peak)")
+    ax.set_title("Per-band PSNR against the scan")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    return fig, data
+
+
+def _points(result, count: int) -> list[tuple[int, int]]:
+    """Scored pixels spread over the brightness range of the scan, reproducibly."""
+    brightness = result.reference.sum(axis=2)
+    rows, cols = np.nonzero(result.valid)
+    order = np.argsort(brightness[rows, cols])
+    picks = order[(np.linspace(0.2, 0.95, count) * (order.size - 1)).astype(int)]
+    return [(int(rows[i]), int(cols[i])) for i in picks]
+
+
+def spectra_figure(result, count: int = 4) -> tuple[Any, dict[str, Any]]:
+    """Reconstructed spectra against the scan at a few pixels."""
+    run = next(iter(result.runs.values()))
+    lam = result.wavelengths_nm
+    points = _points(result, count)
+    fig = _figure(figsize=(4.0 * count, 3.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, count, sharey=False))
+    data: dict[str, Any] = {"wavelength_nm": lam.tolist(), "points": []}
+    for ax, (r, c) in zip(axes, points, strict=True):
+        ax.plot(lam, result.reference[r, c], color="black", lw=1.6, label="scan")
+        ax.plot(lam, run.rank1[r, c], label="rank-1")
+        ax.plot(lam, run.guided[r, c], "--", label="guided")
+        ax.set_title(f"u={c}, v={r}")
+        ax.set_xlabel("wavelength (nm)")
+        data["points"].append(
+            {
+                "u": c,
+                "v": r,
+                "scan": result.reference[r, c].tolist(),
+                "rank1": run.rank1[r, c].tolist(),
+                "guided": run.guided[r, c].tolist(),
+            }
+        )
+    axes[0].set_ylabel(result.units or "signal per bin")
+    axes[0].legend(fontsize=8)
+    return fig, data
+
+
+def video_figure(result) -> tuple[Any, dict[str, Any]]:
+    """Per-frame PSNR of the video (after the affine fit)."""
+    frames = [f["frame"] for f in result.video]
+    fig = _figure(figsize=(7, 3.6), layout="constrained")
+    ax = fig.subplots()
+    data: dict[str, Any] = {"frame": frames}
+    for method in ("rank1", "guided"):
+        values = [f[method]["psnr_affine_db"] for f in result.video]
+        ax.plot(frames, values, "o-", label=method)
+        data[method] = values
+    ax.set_xticks(frames)
+    ax.set_xlabel("frame (mask from the previous frame's guide image)")
+    ax.set_ylabel("PSNR after affine fit (dB)")
+    ax.set_title("Video of the moving scene")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return fig, data
+
+
+def snapshot_figures(result, points: int = 4) -> dict[str, tuple[Any, dict[str, Any]]]:
+    """Every figure of the report, by name."""
+    figures = {
+        "masks": masks_figure(result),
+        "reconstruction": reconstruction_figure(result),
+        "band_psnr": band_psnr_figure(result),
+        "spectra": spectra_figure(result, points),
+    }
+    if result.video:
+        figures["video"] = video_figure(result)
+    return figures

@@ -1,0 +1,187 @@
+"""The snapshot validation report: one self-contained HTML file and a JSON of every figure.
+
+Same form as the Macbeth report (:mod:`sassi_bench.validate.report`): base64 PNGs in the
+HTML, and the data behind every figure, the checks and the provenance in the JSON.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from sassi_bench import __version__
+from sassi_bench.plots.snapshot import snapshot_figures
+from sassi_bench.validate.report import _CSS, _jsonable, _png, _table
+from sassi_bench.validate.snapshot import SnapshotValidation
+
+__all__ = ["snapshot_report_data", "write_snapshot_report"]
+
+
+def snapshot_report_data(
+    result: SnapshotValidation, points: int = 4
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The report's JSON document and its figures (name -> matplotlib figure)."""
+    figures = snapshot_figures(result, points)
+    doc = {
+        "kind": "snapshot_validation",
+        "created": result.created,
+        "software": f"sassi-bench {__version__}",
+        "rig": result.rig_name,
+        "bundle_version": result.bundle_version,
+        "scene": result.scene,
+        "reference": result.reference_source,
+        "units": result.units,
+        "passed": result.passed,
+        "checks": [c.to_manifest() for c in result.checks],
+        "spacing": result.spacing,
+        "settings": result.settings,
+        "notes": result.notes,
+        "snapshots": {
+            name: {
+                "mask": run.kind,
+                "open_pixels": int(run.mask.sum()),
+                "regions": int(run.labels.max()) + 1,
+                "exposure_s": run.exposure_s,
+                "low_light": run.low_light,
+                "sessions": run.sessions,
+                "scores": {m: s.to_dict() for m, s in run.scores.items()},
+                "detail_psnr_db": run.detail_psnr_db,
+            }
+            for name, run in result.runs.items()
+        },
+        "video": result.video,
+        "figures": {name: data for name, (_, data) in figures.items()},
+    }
+    return _jsonable(doc), {name: fig for name, (fig, _) in figures.items()}
+
+
+def _scores_table(doc: dict[str, Any]) -> str:
+    rows = []
+    for name, snap in doc["snapshots"].items():
+        for method, s in snap["scores"].items():
+            rows.append(
+                [
+                    f'<td class="l">{html.escape(name)}</td>',
+                    f'<td class="l">{method}</td>',
+                    str(snap["open_pixels"]),
+                    f"{s['psnr_db']:.2f}",
+                    f"{s['psnr_affine_db']:.2f}",
+                    f"{s['ssim']:.4f}",
+                    f"{s['spectral_angle_deg']:.2f}",
+                    f"{snap['detail_psnr_db'][method]:.2f}",
+                ]
+            )
+    return _table(
+        ["snapshot", "method", "open px", "PSNR (dB)", "PSNR affine (dB)", "SSIM",
+         "angle (deg)", "detail PSNR (dB)"],
+        rows, left=2,
+    )  # fmt: skip
+
+
+def _pose_text(pose: dict[str, Any] | None) -> str:
+    if pose is None:
+        return "shift (0, 0) px, 0°"
+    dx, dy = pose["shift_px"]
+    return f"shift ({dx:g}, {dy:g}) px, {pose['rotation_deg']:g}°"
+
+
+def _video_table(doc: dict[str, Any]) -> str:
+    if not doc["video"]:
+        return ""
+    rows = [
+        [
+            str(f["frame"]),
+            _pose_text(f["pose"]),
+            str(f["open_pixels"]),
+            f"{f['rank1']['psnr_affine_db']:.2f}",
+            f"{f['guided']['psnr_affine_db']:.2f}",
+        ]
+        for f in doc["video"]
+    ]
+    return _table(["frame", "pose", "open px", "rank-1 (dB)", "guided (dB)"], rows)
+
+
+def _html(doc: dict[str, Any], images: dict[str, str]) -> str:
+    esc = html.escape
+    verdict = "PASS" if doc["passed"] else "FAIL"
+    checks = _table(
+        ["check", "value", "tolerance", "result"],
+        [
+            [
+                f'<td class="l">{esc(c["name"])}</td>',
+                f"{c['value']:.2f} {esc(c['unit'])}",
+                f"{esc(c['comparison'])} {c['tolerance']:g}",
+                "pass" if c["passed"] else '<td class="bad">FAIL</td>',
+            ]
+            for c in doc["checks"]
+        ],
+    )
+    settings = _table(
+        ["setting", "value"],
+        [[f'<td class="l">{esc(k)}</td>', f'<td class="l">{esc(str(v))}</td>']
+         for k, v in doc["settings"].items()],
+        left=2,
+    )  # fmt: skip
+    img = {k: f'<img alt="{k}" src="data:image/png;base64,{v}">' for k, v in images.items()}
+    notes = "".join(f'<div class="note">{esc(n)}</div>' for n in doc["notes"])
+    first = next(iter(doc["snapshots"].values()))["scores"]
+    video = ""
+    if doc["video"]:
+        video = f"<h2>Video of the moving scene</h2>{img['video']}{_video_table(doc)}"
+    comparison = ""
+    names = list(doc["snapshots"])
+    if len(names) > 1:
+        parts = [
+            f"{esc(n)} {doc['snapshots'][n]['detail_psnr_db']['rank1']:.1f} dB"
+            for n in names
+            if not n.endswith("low_light")
+        ]
+        comparison = (
+            "<p>Detail PSNR (rank-1, on the pixels of strongest gradient in the scan: "
+            f"edges and thin structures): {', '.join(parts)}.</p>"
+        )
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<title>Snapshot validation {esc(doc["rig"])} {esc(doc["bundle_version"])}: {verdict}</title>
+<style>{_CSS}</style></head><body>
+<h1>SASSI snapshot validation: rig {esc(doc["rig"])}, bundle {esc(doc["bundle_version"])},
+scene {esc(doc["scene"])}</h1>
+<p><span class="verdict {"pass" if doc["passed"] else "fail"}">{verdict}</span>
+&nbsp; rank-1 {first["rank1"]["psnr_db"]:.1f} dB ({first["rank1"]["psnr_affine_db"]:.1f} dB
+after the affine fit), guided filter {first["guided"]["psnr_db"]:.1f} dB
+({first["guided"]["psnr_affine_db"]:.1f} dB) against the {esc(doc["reference"])} &nbsp;
+<small>{esc(doc["created"])}, {esc(doc["software"])}</small></p>
+<div class="flex"><div><h2>Tolerances</h2>{checks}</div><div><h2>Run</h2>{settings}</div></div>
+{notes}
+<h2>Scores against the scan</h2>{_scores_table(doc)}{comparison}
+<h2>Masks and regions</h2>{img["masks"]}
+<h2>Reconstruction and error maps</h2>{img["reconstruction"]}
+<h2>Per-band PSNR</h2>{img["band_psnr"]}
+<h2>Spectra at a few pixels</h2>{img["spectra"]}
+{video}
+</body></html>
+"""
+
+
+def write_snapshot_report(
+    result: SnapshotValidation, out: str | os.PathLike[str], points: int = 4
+) -> tuple[Path, Path]:
+    """Write ``snapshot_report.html`` and ``snapshot_report.json`` into folder ``out``.
+
+    Examples
+    --------
+    >>> write_snapshot_report(result, "report/")  # doctest: +SKIP
+    (PosixPath('report/snapshot_report.html'), PosixPath('report/snapshot_report.json'))
+    """
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    doc, figures = snapshot_report_data(result, points)
+    images = {name: _png(fig) for name, fig in figures.items()}
+    html_path = folder / "snapshot_report.html"
+    json_path = folder / "snapshot_report.json"
+    html_path.write_text(_html(doc, images), encoding="utf-8")
+    json_path.write_text(json.dumps(doc, indent=1, allow_nan=False), encoding="utf-8")
+    return html_path, json_path

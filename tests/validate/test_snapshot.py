@@ -1,0 +1,142 @@
+"""`sassi-bench validate snapshot` on the sim rig: one run, its report, a shifted bundle
+and bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from sassi_bench.bundle import load, publish
+from sassi_bench.cli import main
+from sassi_bench.rig.sim import truth
+
+
+@pytest.fixture(scope="module")
+def guided_bundle(calibrated_sim, tmp_path_factory):
+    """The session's calibrated sim bundle plus the bench's true guide homography (the
+    guide registration has its own tests), in a data root of its own."""
+    rig, _, data = calibrated_sim
+    spectral = load(rig="sim", data=data)
+    root = tmp_path_factory.mktemp("snapshot-data")
+    models = dataclasses.replace(
+        spectral.models, guide_to_slm=truth(rig).guide_to_slm, guide_info={"source": "truth"}
+    )
+    path = publish(
+        models, rig=rig.description, quality={"checks": [], "residuals": {}},
+        procedure=dict(spectral.manifest["procedure"]), data=root,
+    )  # fmt: skip
+    return rig, load(path), spectral, root
+
+
+@pytest.fixture(scope="module")
+def natural_run(guided_bundle, tmp_path_factory):
+    """The command run once: natural scene, low light and a two-frame video."""
+    _, bundle, _, root = guided_bundle
+    out = tmp_path_factory.mktemp("snapshot-report")
+    status = main(
+        ["validate", "snapshot", "--rig", "sim", "--bundle", str(bundle.path), "--scene",
+         "natural", "--out", str(out), "--data", str(root), "--low-light", "--video", "2",
+         "--session", "nat", "--quiet"]
+    )  # fmt: skip
+    doc = json.loads((out / "snapshot_report.json").read_text())
+    return status, doc, out
+
+
+def test_adaptive_mask_beats_uniform_and_random_on_detail(natural_run):
+    _, doc, _ = natural_run
+    detail = {k: v["detail_psnr_db"]["rank1"] for k, v in doc["snapshots"].items()}
+    assert detail["adaptive"] > detail["uniform"] + 1.0
+    assert detail["adaptive"] > detail["random"] + 1.0
+
+
+def test_report_scores_both_reconstructions_against_the_scan(natural_run):
+    status, doc, out = natural_run
+    assert status == 0 and doc["passed"]
+    assert doc["rig"] == "sim" and doc["bundle_version"]
+    adaptive = doc["snapshots"]["adaptive"]["scores"]
+    # The sim rig's spacing rule leaves about 100 open pixels on its 640 x 400 SLM.
+    assert adaptive["rank1"]["psnr_affine_db"] >= 28.0
+    assert adaptive["rank1"]["psnr_affine_db"] >= adaptive["rank1"]["psnr_db"] - 1e-9
+    assert adaptive["rank1"]["spectral_angle_deg"] < 12.0
+    assert 0.5 < adaptive["rank1"]["ssim"] <= 1.0
+    assert len(adaptive["guided"]["band_psnr_db"]) == len(
+        doc["figures"]["band_psnr"]["wavelength_nm"]
+    )
+    html = (out / "snapshot_report.html").read_text()
+    assert "data:image/png;base64," in html and doc["bundle_version"] in html
+
+
+def test_guided_filter_beats_rank1_under_low_light(natural_run):
+    _, doc, _ = natural_run
+    low = doc["snapshots"]["adaptive_low_light"]
+    assert low["low_light"] == pytest.approx(0.02)
+    assert low["scores"]["guided"]["psnr_affine_db"] > low["scores"]["rank1"]["psnr_affine_db"]
+
+
+def test_video_frames_are_scored_one_by_one(natural_run):
+    _, doc, _ = natural_run
+    frames = doc["video"]
+    assert [f["frame"] for f in frames] == [0, 1]
+    assert frames[1]["pose"]["shift_px"] == [2.0, 1.0]
+    assert all(f["rank1"]["psnr_affine_db"] > 25.0 for f in frames)
+
+
+def test_shifted_wavelength_map_loses_accuracy(
+    natural_run, guided_bundle, shift_wavelength_map, tmp_path
+):
+    """The same scene, scored against the good bundle's scan, with a bundle whose wavelength
+    map is moved one camera pixel."""
+    _, doc, out = natural_run
+    rig, bundle, _, _ = guided_bundle
+    shifted = shift_wavelength_map(bundle, rig.description, tmp_path / "shifted")
+    status = main(
+        ["validate", "snapshot", "--rig", "sim", "--bundle", str(shifted.path), "--scene",
+         "natural", "--scan", str(out / "scan.nc"), "--out", str(tmp_path / "report"),
+         "--data", str(tmp_path / "data"), "--quiet"]
+    )  # fmt: skip
+    bad = json.loads((tmp_path / "report" / "snapshot_report.json").read_text())
+    good_db = doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"]
+    bad_db = bad["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"]
+    good_angle = doc["snapshots"]["adaptive"]["scores"]["rank1"]["spectral_angle_deg"]
+    bad_angle = bad["snapshots"]["adaptive"]["scores"]["rank1"]["spectral_angle_deg"]
+    assert bad_db < good_db - 1.0 and bad_angle > good_angle + 1.0
+    assert status in (0, 1)
+
+
+def test_bundle_without_guide_homography_is_refused_before_capture(guided_bundle, tmp_path, capsys):
+    _, _, spectral, _ = guided_bundle
+    status = main(
+        ["validate", "snapshot", "--rig", "sim", "--bundle", str(spectral.path), "--out",
+         str(tmp_path / "r"), "--data", str(tmp_path), "--quiet"]
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and "calibrate guide" in err and "Traceback" not in err
+    assert not (tmp_path / "sessions").exists()
+
+
+def test_unknown_scene_is_refused_before_capture(guided_bundle, tmp_path, capsys):
+    _, bundle, _, _ = guided_bundle
+    status = main(
+        ["validate", "snapshot", "--rig", "sim", "--bundle", str(bundle.path), "--scene", "moon",
+         "--out", str(tmp_path / "r"), "--data", str(tmp_path), "--quiet"]
+    )  # fmt: skip
+    assert status == 2 and "unknown scene 'moon'" in capsys.readouterr().err
+    assert not (tmp_path / "sessions").exists()
+
+
+def test_user_mask_that_breaks_the_spacing_is_refused(guided_bundle, tmp_path, capsys):
+    rig, bundle, _, _ = guided_bundle
+    mask = np.zeros(rig.slm.shape, bool)
+    mask[100, [200, 205]] = True  # 5 columns apart: the streaks overlap
+    np.save(tmp_path / "mask.npy", mask)
+    status = main(
+        ["validate", "snapshot", "--rig", "sim", "--bundle", str(bundle.path), "--mask",
+         str(tmp_path / "mask.npy"), "--out", str(tmp_path / "r"), "--data", str(tmp_path),
+         "--quiet"]
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and "mask check" in err and "forbidden window" in err
+    assert not (tmp_path / "sessions").exists()
