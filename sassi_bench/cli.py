@@ -27,6 +27,7 @@ PROG = "sassi-bench"
 def build_parser() -> argparse.ArgumentParser:
     """Assemble the full argument parser from every command group."""
     from sassi_bench.bundle import cli as bundle_cli
+    from sassi_bench.export import cli as export_cli
     from sassi_bench.rig import cli as rig_cli
     from sassi_bench.spectra import cli as scan_cli
     from sassi_bench.storage import cli as data_cli
@@ -45,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     workflow_cli.register(sub)
     scan_cli.register(sub)
     bundle_cli.register(sub)
+    export_cli.register(sub)
     validate_cli.register(sub)
     data_cli.register(sub)
     return parser

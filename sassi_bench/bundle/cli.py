@@ -37,6 +37,7 @@ from sassi_bench.bundle.layout import (
 )
 from sassi_bench.bundle.loader import load, verify
 from sassi_bench.bundle.quality import unit_suffix
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.paths import data_root
 
 __all__ = ["add_bundle_options", "bundle_from_args", "register"]
@@ -99,10 +100,28 @@ def register(subparsers: Any) -> None:
     p.add_argument("--grid", type=int, default=9, help="field points per SLM side (default 9)")
     p.set_defaults(func=cmd_diff)
 
-    p = sub.add_parser("export", parents=[common], help="verify a bundle and write it to a zip")
+    p = sub.add_parser(
+        "export",
+        parents=[common],
+        help="verify a bundle and write it to a zip, or as files for other software",
+    )
     p.add_argument("path", metavar="PATH", help=ref_help)
-    p.add_argument("--zip", dest="zip", metavar="OUT.zip", required=True, help="zip to create")
+    p.add_argument("--zip", dest="zip", metavar="OUT.zip", help="zip to create (--format zip)")
     p.add_argument("--rig", default=DEFAULT_RIG, help=rig_help)
+    p.add_argument(
+        "--format",
+        choices=["zip", "sassi-mat"],
+        default="zip",
+        help="zip (default): the bundle itself; sassi-mat: calibstack.mat and "
+        "reverse_lookup.mat for the SASSI authors' reconstruction code, in --out",
+    )
+    p.add_argument("--out", metavar="DIR", help="folder for --format sassi-mat")
+    p.add_argument(
+        "--wavelengths",
+        metavar="NM",
+        help="sassi-mat bands: 450,532,635 or START:STOP:STEP (default: the bundle's bins)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("import", parents=[common], help="verify and import an exported zip")
@@ -311,7 +330,13 @@ def cmd_diff(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """``bundle export PATH --zip OUT.zip``."""
+    """``bundle export PATH --zip OUT.zip`` or ``--format sassi-mat --out DIR``."""
+    if args.format == "sassi-mat":
+        from sassi_bench.export.cli import run_bundle_export
+
+        return run_bundle_export(_load_ref(args.path, args.rig, args.data), args)
+    if not args.zip:
+        raise ProcedureError(step_error("bundle export", "no --zip OUT.zip given", "add --zip"))
     source = _bundle_path(args.path, args.rig, args.data)
     out = export_zip(source, args.zip)
     print(f"exported {source} -> {out}")

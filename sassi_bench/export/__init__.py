@@ -1,0 +1,1 @@
+"""Exports of calibration bundles and captures for other reconstruction packages."""
