@@ -64,7 +64,28 @@ def world(tmp_path_factory):
     afile = root / "afile.txt"
     afile.write_text("not a folder\n")
     zipped = export_zip(bundle, root / "bundle.zip")
+    snapshot_session(data)
     return {"root": root, "data": data, "bundle": bundle, "file": afile, "zip": zipped}
+
+
+def snapshot_session(data: Path) -> None:
+    """A session ``snap`` on the sim rig: a pinhole spectral frame (step 0) and a guide
+    frame (step 1), for the commands that read captured frames."""
+    from sassi_bench.acquire.plan import Plan, Step
+    from sassi_bench.acquire.runner import run_plan
+    from sassi_bench.acquire.session import Session
+
+    rig = sassi_bench.rig.open_rig("sim")
+    pinholes = {"kind": "pinholes", "pitch": [100, 5], "offset": [0, 0]}
+    plan = Plan(
+        "snap",
+        (
+            Step("spectral", "led", 0.01, pinholes, {"role": "snapshot"}),
+            Step("guide", "led", 0.005, {"kind": "blank"}, {"role": "guide"}),
+        ),
+        {"scene": "white"},
+    )
+    run_plan(rig, plan, Session.create(rig.description, plan, session_id="snap", data=data))
 
 
 @pytest.fixture(autouse=True)
@@ -88,6 +109,10 @@ def valid_value(words, action, world):
     dest, root = action.dest, world["root"]
     if dest == "out":
         return str(root / ("cube.nc" if words == ("scan",) else "out"))
+    if dest == "session":
+        return "snap"
+    if dest == "step":
+        return "0"
     if dest == "path":
         return str(world["bundle"])
     if dest in ("a", "b"):
@@ -127,7 +152,22 @@ def bad_value(words, action, world):
         "path": str(root / "no-such-bundle"),
         "zip": missing + ".zip",
         "out": missing if words == ("scan",) else afile,
+        "format": "bogus",
+        "wavelengths": "blue",
+        "step": "99",
+        "tag": "novalue",
+        "guide_step": "99",
+        "guide_tag": "novalue",
+        "guide_dark_tag": "novalue",
+        "guide_session": "no-such-session",
+        "limits": ["5", "1", "0", "10"],
+        "scan": str(root / "missing.nc"),
+        "video": "-1",
+        "mask": str(root / "missing.npy"),
+        "older_than": "-3",
     }
+    if words == ("snapshot", "export") and action.dest == "session":
+        return "no-such-session"
     if words == ("bundle", "list") and action.dest == "rig":
         return None  # listing a rig with no bundles is not an error: it lists nothing
     if words in (("bundle", "verify"), ("bundle", "export")) and action.dest in ("data", "rig"):
@@ -157,6 +197,10 @@ def argv_for(words, parser, world, bad=None):
             optional += [action.option_strings[0], *values]
         else:
             positional += values
+    for group in parser._mutually_exclusive_groups:
+        if group.required and not (bad is not None and bad[0] in group._group_actions):
+            first = group._group_actions[0]
+            optional += [first.option_strings[0], valid_value(words, first, world)]
     if "--data" not in optional and any(a.dest == "data" for a in options(parser)):
         optional += ["--data", str(world["data"])]
     return [*words, *positional, *optional]
@@ -270,7 +314,7 @@ def test_ctrl_c_prints_the_command_that_resumes(words, world, capsys, monkeypatc
     parser = dict(COMMANDS)[words]
     argv = argv_for(words, parser, world)
     if words == ("bundle", "export"):
-        argv[argv.index("--zip") + 1] = str(world["root"] / "ctrl-c.zip")
+        argv += ["--zip", str(world["root"] / "ctrl-c.zip")]
     status, _, err = run(argv, capsys)
     if not captured:
         assert status != 130, "a command that captures nothing was interrupted"
@@ -286,7 +330,7 @@ def test_ctrl_c_prints_the_command_that_resumes(words, world, capsys, monkeypatc
     assert tokens[0] == PROG and tokens[1 : len(argv) + 1] == argv
     resumed = build_parser().parse_args(tokens[1:])
     assert resumed.session and resumed.session.startswith(
-        ("full-", "spectral-", "response-", "scan-", "guide-")
+        ("full-", "spectral-", "response-", "scan-", "guide-", "snapshot-")
     )
     assert {k: v for k, v in vars(resumed).items() if "session" not in k} == {
         k: v for k, v in vars(args).items() if "session" not in k

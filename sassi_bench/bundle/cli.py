@@ -335,9 +335,19 @@ def cmd_export(args: argparse.Namespace) -> int:
         from sassi_bench.export.cli import run_bundle_export
 
         return run_bundle_export(_load_ref(args.path, args.rig, args.data), args)
-    if not args.zip:
-        raise ProcedureError(step_error("bundle export", "no --zip OUT.zip given", "add --zip"))
     source = _bundle_path(args.path, args.rig, args.data)
+    if args.out is not None:
+        raise ProcedureError(
+            step_error(
+                "bundle export",
+                f"--out {args.out} is read only with --format sassi-mat",
+                "add --format sassi-mat, or give --zip OUT.zip for the bundle itself",
+            )
+        )
+    if not args.zip:
+        raise ProcedureError(
+            step_error("bundle export", "no --zip OUT.zip given", "add --zip OUT.zip")
+        )
     out = export_zip(source, args.zip)
     print(f"exported {source} -> {out}")
     return 0

@@ -112,6 +112,10 @@ def _snapshot_export(args: argparse.Namespace) -> int:
     from sassi_bench.acquire.session import Session
     from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
 
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ProcedureError(
+            step_error("snapshot export", f"--out {args.out} is a file", "give a folder")
+        )
     session = Session.open(args.session, data=args.data)
     guide_session = (
         session if args.guide_session is None else Session.open(args.guide_session, data=args.data)

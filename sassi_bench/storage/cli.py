@@ -13,6 +13,7 @@ import argparse
 from datetime import UTC, datetime
 from typing import Any
 
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.storage.clean import clean_candidates, remove
 from sassi_bench.storage.inventory import DataEntry, format_size, inventory
@@ -55,6 +56,14 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def cmd_clean(args: argparse.Namespace) -> int:
     """``data clean``: a dry run unless ``--yes``; never a published bundle."""
+    if not args.older_than >= 0:
+        raise ProcedureError(
+            step_error(
+                "data clean",
+                f"--older-than {args.older_than:g} is not a number of days >= 0",
+                "give the age in days, e.g. --older-than 7",
+            )
+        )
     root = data_root(args.data)
     entries = inventory(root)
     chosen = clean_candidates(

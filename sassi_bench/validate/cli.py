@@ -87,6 +87,10 @@ def _snapshot(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.procedure import load_procedure
 
     procedure = load_procedure("snapshot_validation", args.procedure)
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ProcedureError(
+            step_error("validate snapshot", f"--out {args.out} is a file", "give a folder")
+        )
     rig = open_rig(args.rig)
     args.rig_name = rig.description.name
     bundle = _bundle(args)
