@@ -97,3 +97,34 @@ def test_cli_snapshot_export(capsys, sim_bundle, snapshot_session, tmp_path):
     # Three guide frames in the session: which one to pair must be said.
     assert main([*base, "--step", "0", "--out", str(tmp_path / "b")]) == 2
     assert "ambiguous" in capsys.readouterr().err
+
+
+def test_a_snapshot_session_exports_its_exact_mask(calibrated_sim, sim_bundle, tmp_path):
+    """Snapshot capture stores a mask as a ``pixels`` pattern (guide at step 0, spectral at
+    step 1): the export gives that mask back pixel for pixel."""
+    from sassi_bench.acquire.patterns import pixels_descriptor
+    from sassi_bench.acquire.plan import Plan, Step
+    from sassi_bench.acquire.runner import run_plan
+    from sassi_bench.acquire.session import Session
+
+    rig = calibrated_sim[0]
+    bundle, root = sim_bundle
+    mask = np.zeros(bundle.slm_shape, bool)
+    mask[np.random.default_rng(3).integers(0, mask.shape[0], 40), 17::97] = True
+    pattern = pixels_descriptor(mask)
+    plan = Plan(
+        "snapshot",
+        (
+            Step("guide", "halogen", 0.002, pattern, {"role": "guide"}),
+            Step("spectral", "halogen", 0.01, pattern, {"role": "snapshot"}),
+        ),
+        {"scene": "colorchecker"},
+    )
+    session = run_plan(
+        rig, plan, Session.create(rig.description, plan, session_id="adaptive-f000", data=root)
+    )
+    done = export_adaptive_cassi(bundle, session, 1, tmp_path, guide_steps=[0])
+    mat = loadmat(done.path)
+    np.testing.assert_array_equal(mat["lcos_mask"], np.where(mask, 255, 0).astype(np.uint8))
+    np.testing.assert_array_equal(mat["cassi_img"], session.read_frame(1))
+    assert done.open_pixels == int(mask.sum())
