@@ -150,9 +150,16 @@ def _capture_settings(proc: Mapping[str, Any]) -> dict[str, Any]:
     return json.loads(json.dumps({**settings, "blur": blur}))
 
 
-def _check_same_procedure(session: Session, proc: Mapping[str, Any]) -> None:
+def _check_same_procedure(session: Session, proc: Mapping[str, Any], rig_lasers) -> None:
+    """Refuse to resume ``session`` with a procedure that would capture other frames; a
+    procedure that leaves ``lasers_nm`` to the rig equals one pinning the rig's lasers."""
     stored = session.plan.parameters.get("procedure")
-    if stored is not None and _capture_settings(stored) != _capture_settings(proc):
+
+    def settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
+        lasers = procedure_lasers(procedure, rig_lasers)
+        return _capture_settings({**procedure, "lasers_nm": lasers})
+
+    if stored is not None and settings(stored) != settings(proc):
         raise ConfigError(
             step_error(
                 f"resume session {session.id}",
@@ -447,7 +454,7 @@ def capture_spectral_sweeps(
     sweep = _resume(f"{base}-sweep", data)
     for existing in (grey, sweep):
         if existing is not None:
-            _check_same_procedure(existing, proc)
+            _check_same_procedure(existing, proc, rig.description.lasers_nm)
     exposures: dict[float, float] = {}
     if sweep is None:
         exposures = {laser: expose(laser, {"kind": "full"}) for laser in lasers}

@@ -99,6 +99,12 @@ def test_fit_settings_may_change_between_capture_and_analysis():
     stored = MappingProxyType({k: v for k, v in proc.items() if k != "source"})
     session = SimpleNamespace(id="s", plan=SimpleNamespace(parameters={"procedure": stored}))
     edited = {**proc, "fit": {**proc["fit"], "exclude_regions_slm_px": [[0, 0, 10, 10]]}}
-    _check_same_procedure(session, edited)  # analysis-only change: resumes
+    lasers = (450, 520, 532, 635, 670)
+    _check_same_procedure(session, edited, lasers)  # analysis-only change: resumes
+    # Leaving the lasers to the rig is the same capture as pinning the rig's lasers.
+    _check_same_procedure(session, {**proc, "lasers_nm": list(lasers)}, lasers)
     with pytest.raises(ConfigError, match="different lasers"):
-        _check_same_procedure(session, {**proc, "exposure": {**proc["exposure"], "max_s": 1.0}})
+        _check_same_procedure(session, {**proc, "lasers_nm": [450, 532, 670]}, lasers)
+    with pytest.raises(ConfigError, match="different lasers"):
+        changed = {**proc, "exposure": {**proc["exposure"], "max_s": 1.0}}
+        _check_same_procedure(session, changed, lasers)
