@@ -102,10 +102,9 @@ def run_bundle_export(bundle, args: argparse.Namespace) -> int:
 
 def _load_bundle(args: argparse.Namespace, session_rig: str):
     from sassi_bench.bundle import load
+    from sassi_bench.bundle.layout import resolve_bundle_ref
 
-    if Path(args.bundle).is_dir():
-        return load(Path(args.bundle))
-    return load(rig=args.rig or session_rig, version=args.bundle, data=args.data)
+    return load(resolve_bundle_ref(args.bundle, rig=args.rig or session_rig, data=args.data))
 
 
 def _snapshot_export(args: argparse.Namespace) -> int:

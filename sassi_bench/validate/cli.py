@@ -50,10 +50,7 @@ def _macbeth(args: argparse.Namespace) -> int:
     if args.corners:
         corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
         grid_from_corners(corners)
-    if Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ProcedureError(
-            step_error("validate macbeth", f"--out {args.out} is a file", "give a folder")
-        )
+    _check_report_folder("validate macbeth", args.out)
     args.rig_name = rig.description.name
     bundle = _bundle(args)
     new_session(args, "session", f"scan-{scan_cfg['scene']}")
@@ -87,10 +84,7 @@ def _snapshot(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.procedure import load_procedure
 
     procedure = load_procedure("snapshot_validation", args.procedure)
-    if Path(args.out).exists() and not Path(args.out).is_dir():
-        raise ProcedureError(
-            step_error("validate snapshot", f"--out {args.out} is a file", "give a folder")
-        )
+    _check_report_folder("validate snapshot", args.out)
     rig = open_rig(args.rig)
     args.rig_name = rig.description.name
     bundle = _bundle(args)
@@ -129,6 +123,24 @@ def _snapshot(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _report_options(parser: argparse.ArgumentParser, procedure: str) -> None:
+    """The options every validation shares: rig, bundle, data root, report folder and
+    procedure file."""
+    parser.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    add_bundle_options(parser)
+    parser.add_argument("--data", help="data root for sessions and bundles")
+    parser.add_argument("--out", required=True, help="folder for the HTML and JSON report")
+    parser.add_argument(
+        "--procedure", help=f"procedure YAML (default: procedures/{procedure}.yaml)"
+    )
+
+
+def _check_report_folder(step: str, out: str) -> None:
+    """Refuse a report folder that is a file, before anything is captured."""
+    if Path(out).exists() and not Path(out).is_dir():
+        raise ProcedureError(step_error(step, f"--out {out} is a file", "give a folder"))
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``validate`` command group to the top-level parser."""
     validate = sub.add_parser("validate", help="validate a calibration bundle")
@@ -137,13 +149,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "macbeth",
         help="scan a ColorChecker, compare with reference reflectances, write an HTML report",
     )
-    macbeth.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    add_bundle_options(macbeth)
-    macbeth.add_argument("--data", help="data root for sessions and bundles")
-    macbeth.add_argument("--out", required=True, help="folder for the HTML and JSON report")
-    macbeth.add_argument(
-        "--procedure", help="procedure YAML (default: procedures/macbeth_validation.yaml)"
-    )
+    _report_options(macbeth, "macbeth_validation")
     macbeth.add_argument(
         "--white", choices=["diffuser", "patch"], help="white reference (default: procedure's)"
     )
@@ -170,13 +176,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "snapshot",
         help="scan a scene, take SASSI snapshots, reconstruct them, score against the scan",
     )
-    snapshot.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    add_bundle_options(snapshot)
-    snapshot.add_argument("--data", help="data root for sessions and bundles")
-    snapshot.add_argument("--out", required=True, help="folder for the HTML and JSON report")
-    snapshot.add_argument(
-        "--procedure", help="procedure YAML (default: procedures/snapshot_validation.yaml)"
-    )
+    _report_options(snapshot, "snapshot_validation")
     snapshot.add_argument(
         "--scene", default="natural", help="natural, colorchecker, pcb or white (default: natural)"
     )
