@@ -6,6 +6,15 @@ streaks must fit on the spectral camera, the lasers must lie on the spectral gri
 the data sets it names (glass, lamps, guide sensor, QE curve), all when it is loaded.
 Errors name the key as a dotted path, with the closest valid name for a typo.
 
+Two sections describe the virtual bench only, never the procedures' view of it:
+``as_built`` (how the bench as built differs from this description: lasers off their
+label, another glass melt, the lamp's true temperature, ...) and ``nuisance`` (laser
+power jitter, hot pixels, SLM crosstalk, stray light, speckle). They are parsed into
+:class:`AsBuiltConfig` and :class:`NuisanceConfig` on the description for the virtual
+bench, and left out of :meth:`RigDescription.to_dict` and the rig's hash, so no session,
+bundle or report carries them; a guard test checks that nothing outside ``rig/sim``
+reads them.
+
 Keys whose values are the virtual bench's own parts (its guide sensor, its halogen
 lamp's temperature, ...) default to those values only on a ``backend: sim`` rig
 (:data:`SIM_DEFAULTS`); a real rig that leaves them out gets None, and the workbench
@@ -36,9 +45,11 @@ from sassi_bench.schema_validation import validate_against_schema
 
 __all__ = [
     "SIM_DEFAULTS",
+    "AsBuiltConfig",
     "BlurConfig",
     "GuideCameraConfig",
     "LightConfig",
+    "NuisanceConfig",
     "PrismConfig",
     "RelayConfig",
     "RigDescription",
@@ -151,6 +162,42 @@ class ScenesConfig:
 
 
 @dataclass(frozen=True)
+class AsBuiltConfig:
+    """How the virtual bench as built differs from its description (bench-only).
+
+    Each key left out means "as described".
+    """
+
+    #: Nominal laser line (nm, as in ``lasers_nm``) -> the line's true centre (nm).
+    lasers_nm: dict[float, float] = field(default_factory=dict)
+    #: Added to the catalogue glass's refractive index at every wavelength.
+    glass_index_offset: float = 0.0
+    apex_deg: float | None = None
+    halogen_k: float | None = None
+    #: The LED's true spectrum: a colour-science illuminant name.
+    led: str | None = None
+    #: The guide camera's true curves: a colour-science camera name or a CSV path.
+    guide_sensitivities: str | None = None
+    slm_gamma: float | None = None
+
+
+@dataclass(frozen=True)
+class NuisanceConfig:
+    """Real-bench nuisances the virtual bench renders (bench-only); zero is none."""
+
+    #: Relative RMS of the laser's power from frame to frame.
+    laser_power_jitter: float = 0.0
+    #: Fraction of the spectral camera's pixels that are hot.
+    hot_pixels_fraction: float = 0.0
+    #: Fraction of an open SLM pixel's light that leaks into each 4-neighbour.
+    slm_crosstalk: float = 0.0
+    #: Fraction of the scene's light spread evenly over the sensor.
+    stray_light: float = 0.0
+    #: Contrast of static multiplicative speckle under laser light.
+    speckle_contrast: float = 0.0
+
+
+@dataclass(frozen=True)
 class RigDescription:
     """A validated rig description (all defaults filled in).
 
@@ -174,6 +221,10 @@ class RigDescription:
     scenes: ScenesConfig = field(default_factory=ScenesConfig)
     hardware: dict[str, Any] | None = None
     source: str | None = None
+    # Bench-only sections: not part of the description procedures rely on, its
+    # dictionary form or its hash (see the module docstring).
+    as_built: AsBuiltConfig = field(default_factory=AsBuiltConfig, repr=False, compare=False)
+    nuisance: NuisanceConfig = field(default_factory=NuisanceConfig, repr=False, compare=False)
 
     @property
     def light_names(self) -> tuple[str, ...]:
@@ -188,9 +239,11 @@ class RigDescription:
         return light_names(self.lasers_nm)
 
     def to_dict(self) -> dict[str, Any]:
-        """Canonical JSON-compatible form (the ``source`` path is left out)."""
+        """Canonical JSON-compatible form (the ``source`` path and the bench-only
+        ``as_built`` and ``nuisance`` sections are left out)."""
         data = asdict(self)
-        data.pop("source")
+        for key in ("source", "as_built", "nuisance"):
+            data.pop(key)
         if data["hardware"] is None:
             data.pop("hardware")
         return json.loads(json.dumps(data, sort_keys=True))
@@ -218,6 +271,7 @@ def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+#: Sections built into their own dataclass; ``as_built`` and ``nuisance`` are built apart.
 _SECTIONS: dict[str, type] = {
     "slm": SlmConfig,
     "spectral_camera": SpectralCameraConfig,
@@ -252,7 +306,10 @@ SIM_DEFAULTS: dict[str, dict[str, Any]] = {
 
 
 def _build(data: dict[str, Any], source: str | None) -> RigDescription:
-    kwargs: dict[str, Any] = {k: v for k, v in data.items() if k not in _SECTIONS}
+    bench_only = ("as_built", "nuisance")
+    kwargs: dict[str, Any] = {
+        k: v for k, v in data.items() if k not in _SECTIONS and k not in bench_only
+    }
     for key, cls in _SECTIONS.items():
         section = {k: v for k, v in data.get(key, {}).items() if v is not None}
         if data["backend"] == "sim":
@@ -264,6 +321,10 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
             section["sigma_px"] = {float(k): float(v) for k, v in section["sigma_px"].items()}
         kwargs[key] = cls(**section)
     kwargs["lasers_nm"] = tuple(float(x) for x in data["lasers_nm"])
+    as_built = dict(data.get("as_built", {}))
+    as_built["lasers_nm"] = {float(k): float(v) for k, v in as_built.get("lasers_nm", {}).items()}
+    kwargs["as_built"] = AsBuiltConfig(**as_built)
+    kwargs["nuisance"] = NuisanceConfig(**data.get("nuisance", {}))
     return RigDescription(source=source, **kwargs)
 
 
@@ -289,6 +350,32 @@ def _check_backend(desc: RigDescription) -> None:
             f"only read with backend 'hardware' (this rig's backend is {desc.backend!r})",
             "remove the section or change the backend",
         )
+
+
+def _check_bench_only(desc: RigDescription) -> None:
+    """``as_built`` and ``nuisance`` describe a virtual bench, and name lasers it has."""
+    if desc.backend == "sim":
+        unknown = sorted(set(desc.as_built.lasers_nm) - set(desc.lasers_nm))
+        if unknown:
+            raise _error(
+                desc,
+                "as_built.lasers_nm",
+                f"{', '.join(f'{x:g}' for x in unknown)} nm are not lines of lasers_nm "
+                f"({', '.join(f'{x:g}' for x in desc.lasers_nm)})",
+                "key each true centre by the nominal line it belongs to",
+            )
+        return
+    for key, section, default in (
+        ("as_built", desc.as_built, AsBuiltConfig()),
+        ("nuisance", desc.nuisance, NuisanceConfig()),
+    ):
+        if section != default:
+            raise _error(
+                desc,
+                key,
+                f"only read by the virtual bench (this rig's backend is {desc.backend!r})",
+                "remove the section: a real bench is as built already",
+            )
 
 
 def _check_ranges(desc: RigDescription) -> None:
@@ -350,6 +437,22 @@ def _check_named_data(desc: RigDescription) -> None:
         name = getattr(desc.light, key)
         if name is not None:
             require_dataset("illuminant", name, f"light.{key}")
+    if desc.as_built.led is not None:
+        require_dataset("illuminant", desc.as_built.led, "as_built.led")
+    curves = desc.as_built.guide_sensitivities
+    if curves is not None:
+        if curves.lower().endswith(".csv"):
+            path = as_built_path(desc, curves)
+            if not path.is_file():
+                raise _error(
+                    desc,
+                    "as_built.guide_sensitivities",
+                    f"no such file {str(path)!r}",
+                    "give a CSV of wavelength_nm,r,g,b (relative to the rig YAML) or a "
+                    "colour-science camera name",
+                )
+        else:
+            require_dataset("camera", curves, "as_built.guide_sensitivities")
     if desc.backend == "sim":  # the scenes are the virtual bench's
         from sassi_bench.rig.sim.scenes import photo_loader
 
@@ -383,9 +486,17 @@ def _check_streaks_fit(desc: RigDescription) -> None:
         )
 
 
+def as_built_path(desc: RigDescription, name: str) -> Path:
+    """A file an ``as_built`` key names, relative to the rig YAML's folder."""
+    path = Path(name)
+    if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
+        path = Path(desc.source).parent / path
+    return path
+
+
 #: The checks a description passes after its schema, in order. Each takes the built
 #: description and raises :class:`ConfigError` naming the key.
-_CHECKS = (_check_backend, _check_ranges, _check_named_data, _check_streaks_fit)
+_CHECKS = (_check_backend, _check_bench_only, _check_ranges, _check_named_data, _check_streaks_fit)
 
 
 def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> RigDescription:
