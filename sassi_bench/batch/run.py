@@ -39,20 +39,18 @@ class BatchResult:
 
 
 def check_out(out: str | os.PathLike[str]) -> Path:
-    """The output folder, created; refused when it is a file.
+    """The output folder as an absolute path (not created here); refused when it is a file.
 
     Examples
     --------
-    >>> import tempfile
-    >>> check_out(Path(tempfile.mkdtemp()) / "cubes").is_dir()
-    True
+    >>> check_out("/tmp/cubes").as_posix()
+    '/tmp/cubes'
     """
     path = Path(out).resolve()
     if path.exists() and not path.is_dir():
         raise ProcedureError(
             step_error("batch output", f"{path} is a file", "give a folder for --out")
         )
-    path.mkdir(parents=True, exist_ok=True)
     return path
 
 
@@ -116,6 +114,7 @@ def run_batch(
 
         procedure = load_procedure("macbeth_validation")
     folder = check_out(out)
+    folder.mkdir(parents=True, exist_ok=True)
     root = str(data_root(data).resolve())
     specs = [
         TaskSpec(kind, s, root, str(Path(bundle.path).resolve()), str(folder), roi, procedure)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shutil
 import signal
 import threading
 import time
@@ -44,7 +45,7 @@ def _same(path, expected: xr.Dataset) -> bool:
 
 
 def test_batch_cubes_equal_the_serial_path_bit_for_bit(first_batch, serial):
-    out, batch = first_batch
+    _, batch = first_batch
     assert [r.status for r in batch.results] == ["done"] * 3, batch.failed
     for result in batch.results:
         assert result.frames == 20
@@ -53,7 +54,7 @@ def test_batch_cubes_equal_the_serial_path_bit_for_bit(first_batch, serial):
 
 
 def test_summary_lists_every_session_in_csv_and_html(first_batch):
-    out, batch = first_batch
+    _, batch = first_batch
     with open(batch.summary_csv) as stream:
         rows = list(csv.DictReader(stream))
     assert [r["session"] for r in rows] == ["scan-colorchecker", "scan-white", "scan-pcb"]
@@ -78,7 +79,7 @@ def test_a_rerun_skips_finished_cubes_and_redoes_a_damaged_one(first_batch, scan
 
 
 def test_outputs_of_other_inputs_are_not_overwritten(first_batch, scans, client):
-    data, bundle, ids = scans
+    data, bundle, _ = scans
     out, _ = first_batch
     before = (out / "scan-pcb.nc").read_bytes()
     batch = run_batch(
@@ -93,7 +94,7 @@ def test_outputs_of_other_inputs_are_not_overwritten(first_batch, scans, client)
 def test_a_corrupt_session_fails_alone(scans, client, serial, tmp_path):
     data, bundle, ids = scans
     broken = data / "sessions" / "scan-broken"
-    shutil_copy(data / "sessions" / "scan-pcb", broken)
+    shutil.copytree(data / "sessions" / "scan-pcb", broken)
     frames = broken / "frames.zarr"
     chunks = sorted(
         p for p in frames.rglob("*") if p.is_file() and "c" in p.relative_to(frames).parts
@@ -108,11 +109,34 @@ def test_a_corrupt_session_fails_alone(scans, client, serial, tmp_path):
     assert batch.failed[0].error and not (tmp_path / "scan-broken.nc").exists()
     assert _same(tmp_path / f"{ids[2]}.nc", serial[ids[2]])
     with open(batch.summary_csv) as stream:
-        row = [r for r in csv.DictReader(stream) if r["session"] == "scan-broken"][0]
+        row = next(r for r in csv.DictReader(stream) if r["session"] == "scan-broken")
     assert row["status"] == "failed" and row["error"] == batch.failed[0].error
 
 
-def shutil_copy(source, target):
-    import shutil
-
-    shutil.copytree(source, target)
+def test_a_killed_worker_s_task_runs_again_on_another(scans, client, serial, tmp_path):
+    """SIGKILL to the worker process that is assembling a session, mid-task."""
+    data, bundle, ids = scans
+    pids = client.run(os.getpid)
+    done: dict = {}
+    runner = threading.Thread(
+        target=lambda: done.update(
+            batch=run_batch("assemble", ids, bundle, tmp_path, data=data, client=client,
+                            progress=False)
+        )
+    )  # fmt: skip
+    runner.start()
+    busy: dict = {}
+    deadline = time.monotonic() + 60
+    while not busy and time.monotonic() < deadline:
+        busy = {w: keys for w, keys in client.processing().items() if keys}
+        time.sleep(0.01)
+    victim, keys = next(iter(busy.items()))
+    os.kill(pids[victim], signal.SIGKILL)
+    runner.join(timeout=120)
+    batch = done["batch"]
+    assert [r.status for r in batch.results] == ["done"] * 3, batch.failed
+    for result in batch.results:
+        assert _same(result.output, serial[result.session])
+    killed = {k.rsplit("-", 1)[0].removeprefix("assemble-") for k in keys}
+    assert killed & set(ids), keys
+    assert pids[victim] not in client.run(os.getpid).values()
