@@ -28,16 +28,21 @@ def _batch(args: argparse.Namespace) -> int:
         )
     bundle = bundle_from_args(args, rig_name)
     roi = check_roi(args.roi, tuple(bundle.slm_shape), "batch") if args.roi else None
-    procedure = None
+    procedure = corners = None
     if args.kind == "validate":
+        from sassi_bench.validate.locate import grid_from_corners
         from sassi_bench.workflows.procedure import load_procedure
 
         procedure = load_procedure("macbeth_validation", args.procedure)
+        if args.corners:
+            corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
+            grid_from_corners(corners)
     out = check_out(args.out)
     sessions = select_sessions(None if args.all else args.sessions, data=args.data)
     batch = run_batch(
         args.kind, sessions, bundle, out, data=args.data, scheduler=args.scheduler,
-        workers=args.workers, roi=roi, procedure=procedure, progress=not args.quiet,
+        workers=args.workers, roi=roi, procedure=procedure, corners=corners,
+        progress=not args.quiet,
     )  # fmt: skip
     counts = {s: sum(r.status == s for r in batch.results) for s in ("done", "skipped", "failed")}
     print(
@@ -78,5 +83,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         p.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
         if kind == "validate":
             p.add_argument("--procedure", help="procedure YAML (default: macbeth_validation)")
+            p.add_argument(
+                "--corners", type=float, nargs=8,
+                metavar=("U1", "V1", "U6", "V6", "U24", "V24", "U19", "V19"),
+                help="SLM (u, v) centres of patches 1, 6, 24 and 19 in every scan, instead of "
+                "detecting the chart",
+            )  # fmt: skip
         p.add_argument("--quiet", action="store_true", help="no progress bar")
         p.set_defaults(func=_batch)

@@ -65,6 +65,7 @@ def run_batch(
     workers: int | None = None,
     roi: tuple[int, int, int, int] | None = None,
     procedure: Mapping[str, Any] | None = None,
+    corners: Sequence[Sequence[float]] | None = None,
     progress: bool = True,
     client=None,
 ) -> BatchResult:
@@ -92,6 +93,8 @@ def run_batch(
         Optional SLM region to assemble.
     procedure
         The ``macbeth_validation`` procedure (validate).
+    corners
+        SLM (u, v) centres of patches 1, 6, 24 and 19 (validate; default: detect the chart).
     progress
         Progress bar and the dashboard's address on the terminal.
     client
@@ -116,9 +119,10 @@ def run_batch(
     folder = check_out(out)
     folder.mkdir(parents=True, exist_ok=True)
     root = str(data_root(data).resolve())
+    fixed = tuple((float(u), float(v)) for u, v in corners) if corners is not None else None
+    bundle_path = str(Path(bundle.path).resolve())
     specs = [
-        TaskSpec(kind, s, root, str(Path(bundle.path).resolve()), str(folder), roi, procedure)
-        for s in sessions
+        TaskSpec(kind, s, root, bundle_path, str(folder), roi, procedure, fixed) for s in sessions
     ]
     start = time.perf_counter()
     if client is None:

@@ -53,6 +53,9 @@ class TaskSpec:
         Optional SLM region (row0, col0, row1, col1) to assemble.
     procedure
         The Macbeth procedure (validate only).
+    corners
+        SLM (u, v) centres of patches 1, 6, 24 and 19 instead of detecting the chart
+        (validate only; one chart placement for the whole batch).
     threads
         Threads of the assembly inside the task (one per core the task has).
     """
@@ -64,6 +67,7 @@ class TaskSpec:
     out: str
     roi: tuple[int, int, int, int] | None = None
     procedure: Mapping[str, Any] | None = None
+    corners: tuple[tuple[float, float], ...] | None = None
     threads: int = 1
 
 
@@ -128,6 +132,7 @@ def _inputs(spec: TaskSpec, session: Session, bundle: CalibrationBundle) -> dict
         "bundle_sha256": bundle_sha256(bundle),
         "roi": list(spec.roi) if spec.roi else None,
         "procedure": dict(spec.procedure) if spec.kind == "validate" and spec.procedure else None,
+        "corners": [list(c) for c in spec.corners] if spec.corners else None,
     }
 
 
@@ -141,7 +146,9 @@ def _macbeth(spec: TaskSpec, session: Session, bundle: CalibrationBundle) -> dic
         "white_reference": {**spec.procedure["white_reference"], "source": "patch"},
     }
     scan = assemble_scan(session, bundle, roi=spec.roi, progress=False, workers=spec.threads)
-    result = validate_scans(scan, bundle, procedure, settings={"chart_session": session.id})
+    result = validate_scans(
+        scan, bundle, procedure, corners=spec.corners, settings={"chart_session": session.id}
+    )
     return {**result.summary(), "passed": bool(result.passed)}
 
 
@@ -159,34 +166,31 @@ def run_task(spec: TaskSpec) -> SessionResult:
     """
     start = time.perf_counter()
     output = output_path(spec)
+    frames = 0
     try:
         session = Session.open(spec.session, data=spec.data)
+        frames = _frames(session)
         bundle = load(spec.bundle)
         inputs = _inputs(spec, session, bundle)
-        frames = _frames(session)
+        status, metrics = "skipped", {}
         if finished(output, inputs):
-            metrics = {}
             if spec.kind == "validate":
                 metrics = json.loads(output.read_bytes())["metrics"]
-            return SessionResult(
-                spec.session, "skipped", frames, time.perf_counter() - start, str(output), metrics
-            )
-        if spec.kind == "assemble":
-            ds = scan_dataset(session, bundle, roi=spec.roi, threads=spec.threads)
+        elif spec.kind == "assemble":
+            status, ds = "done", scan_dataset(session, bundle, roi=spec.roi, threads=spec.threads)
             write_atomic(output, lambda path: write_netcdf(ds, path), inputs)
-            metrics: dict[str, Any] = {}
         else:
-            metrics = _macbeth(spec, session, bundle)
+            status, metrics = "done", _macbeth(spec, session, bundle)
             body = json.dumps({"session": spec.session, "metrics": metrics}, indent=1) + "\n"
             write_atomic(output, lambda path: path.write_text(body), inputs)
-        return SessionResult(
-            spec.session, "done", frames, time.perf_counter() - start, str(output), metrics
-        )
+        seconds = time.perf_counter() - start
+        return SessionResult(spec.session, status, frames, seconds, str(output), metrics)
     except Exception as exc:  # reported by session id; the batch goes on
         return SessionResult(
             spec.session,
             "failed",
-            seconds=time.perf_counter() - start,
+            frames,
+            time.perf_counter() - start,
             error=f"{type(exc).__name__}: {exc}",
             detail=traceback.format_exc(),
         )

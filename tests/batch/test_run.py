@@ -92,7 +92,9 @@ def test_outputs_of_other_inputs_are_not_overwritten(first_batch, scans, client)
 
 
 def test_a_corrupt_session_fails_alone(scans, client, serial, tmp_path):
-    data, bundle, ids = scans
+    _, bundle, ids = scans
+    data = tmp_path / "data"
+    shutil.copytree(scans[0], data)
     broken = data / "sessions" / "scan-broken"
     shutil.copytree(data / "sessions" / "scan-pcb", broken)
     frames = broken / "frames.zarr"
@@ -101,13 +103,14 @@ def test_a_corrupt_session_fails_alone(scans, client, serial, tmp_path):
     )
     chunks[len(chunks) // 2].write_bytes(b"not a compressed frame")
     batch = run_batch(
-        "assemble", [ids[0], "scan-broken", ids[2]], bundle, tmp_path, data=data, client=client,
-        progress=False,
+        "assemble", [ids[0], "scan-broken", ids[2]], bundle, tmp_path / "out", data=data,
+        client=client, progress=False,
     )  # fmt: skip
     status = {r.session: r.status for r in batch.results}
     assert status == {ids[0]: "done", "scan-broken": "failed", ids[2]: "done"}
-    assert batch.failed[0].error and not (tmp_path / "scan-broken.nc").exists()
-    assert _same(tmp_path / f"{ids[2]}.nc", serial[ids[2]])
+    assert batch.failed[0].error and not (tmp_path / "out" / "scan-broken.nc").exists()
+    assert batch.failed[0].frames == 20
+    assert _same(tmp_path / "out" / f"{ids[2]}.nc", serial[ids[2]])
     with open(batch.summary_csv) as stream:
         row = next(r for r in csv.DictReader(stream) if r["session"] == "scan-broken")
     assert row["status"] == "failed" and row["error"] == batch.failed[0].error
