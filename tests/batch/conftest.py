@@ -7,12 +7,14 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
+from sassi_bench.rig.sim import truth
 from sassi_bench.spectra.scan import scan_plan
 
 _spec = importlib.util.spec_from_file_location(
@@ -36,11 +38,11 @@ def thin_scan(rig, scene: str, session_id: str, data, every: int = EVERY) -> Ses
     return session
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def scans(sim_rig, tmp_path_factory):
     """(data root, bundle, session ids): the synthetic bundle of the bundle tests (the batch
     machinery is under test, not the calibration) and three thin scans of the sim rig
-    (chart, diffuser, PCB); a module's tests may add or break sessions in it."""
+    (chart, diffuser, PCB). Tests that break sessions do it in a copy."""
     data = tmp_path_factory.mktemp("batch") / "data"
     bundle = load(synthetic_models.publish_synthetic(data))
     ids = [
@@ -50,10 +52,33 @@ def scans(sim_rig, tmp_path_factory):
     return data, bundle, ids
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def client():
-    """Two single-threaded worker processes (so that killing one is real)."""
+    """Two single-threaded worker processes (so that killing one is real), shared by every
+    batch test: the command-line tests reach it with ``--scheduler``."""
     from sassi_bench.batch.engine import batch_client
 
     with batch_client(workers=2) as opened:
         yield opened
+
+
+@pytest.fixture(scope="module")
+def chart(calibrated_sim, tmp_path_factory):
+    """(data root, bundle): the suite's calibrated sim bundle and a chart scan of every 10th
+    pinhole offset (a score needs the real wavelength map and enough pixels per patch)."""
+    rig, result, _ = calibrated_sim
+    data = tmp_path_factory.mktemp("batch-validate")
+    thin_scan(rig, "colorchecker", "scan-chart", data, every=10)
+    return data, load(result.bundle_path)
+
+
+@pytest.fixture(scope="module")
+def corners(sim_rig):
+    """The true SLM (u, v) centres of patches 1, 6, 24 and 19 (scene labels 2, 7, 25, 20):
+    thin test scans leave too few pixels for the detector."""
+    scene = truth(sim_rig).bench.scene_named("colorchecker")
+    centres = []
+    for label in (2, 7, 25, 20):
+        rows, cols = np.nonzero(scene.labels == label)
+        centres.append((cols.mean() - scene.margin, rows.mean() - scene.margin))
+    return centres
