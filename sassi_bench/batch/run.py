@@ -141,6 +141,7 @@ def _run(kind, specs, client, folder: Path, bundle, progress: bool, start: float
     facts = [
         f"bundle {bundle.rig_name}/{bundle.version} ({bundle.path})",
         f"data root {specs[0].data}" if specs else "no sessions",
+        f"outputs in {folder}",
         f"{workers} workers ({client.scheduler.address}); {seconds:.1f} s wall time",
     ]
     batch = BatchResult(kind, results, seconds, dashboard, workers=workers, facts=facts)

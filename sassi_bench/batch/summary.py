@@ -55,16 +55,19 @@ def summary_csv(results: Sequence[SessionResult], path: str | Path) -> Path:
 def summary_html(
     results: Sequence[SessionResult], path: str | Path, *, title: str, facts: Sequence[str] = ()
 ) -> Path:
-    """Write the summary table as one self-contained HTML page (failed rows in red)."""
+    """Write the summary table as one self-contained HTML page (failed rows in red; outputs
+    by file name, their folder is the page's)."""
     from sassi_bench.validate.report import _CSS
 
     header, rows = summary_rows(results)
     names = [METRICS.get(h, h.replace("_s", " (s)")) for h in header]
     head = "".join(f'<th class="l">{html.escape(h)}</th>' for h in names)
     body = []
+    out = header.index("output")
     for row in rows:
-        cls = ' class="bad"' if row[1] == "failed" else ""
-        cells = "".join(f'<td class="l"{cls}>{html.escape(c)}</td>' for c in row)
+        cls = "l bad" if row[1] == "failed" else "l"
+        row = [*row[:out], Path(row[out]).name if row[out] else "", *row[out + 1 :]]
+        cells = "".join(f'<td class="{cls}">{html.escape(c)}</td>' for c in row)
         body.append(f"<tr>{cells}</tr>")
     failed = sum(r.status == "failed" for r in results)
     counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed")}
