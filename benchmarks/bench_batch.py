@@ -90,7 +90,8 @@ def main() -> None:
         ids.append(f"bench-{i}")
     frames = len(first.completed) - 1
     session_bytes, _ = folder_size(first.path)
-    print(f"{args.n} sessions of {frames} frames ({session_bytes / 1e6:.1f} MB each), rig {rig}")
+    mb = session_bytes / 1e6
+    print(f"{args.n} sessions of {frames} frames ({mb:.1f} MB each), rig {rig.description.name}")
 
     start = time.perf_counter()
     with batch_client(workers=args.workers) as client:
