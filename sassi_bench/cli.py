@@ -26,6 +26,7 @@ PROG = "sassi-bench"
 
 def build_parser() -> argparse.ArgumentParser:
     """Assemble the full argument parser from every command group."""
+    from sassi_bench.batch import cli as batch_cli
     from sassi_bench.bundle import cli as bundle_cli
     from sassi_bench.export import cli as export_cli
     from sassi_bench.rig import cli as rig_cli
@@ -49,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     export_cli.register(sub)
     validate_cli.register(sub)
     data_cli.register(sub)
+    batch_cli.register(sub)
     return parser
 
 

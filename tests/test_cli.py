@@ -111,6 +111,8 @@ def valid_value(words, action, world):
         return str(root / ("cube.nc" if words == ("scan",) else "out"))
     if dest == "session":
         return "snap"
+    if dest == "sessions":
+        return "snap"  # not a pinhole scan: refused before a cluster starts
     if dest == "step":
         return "0"
     if dest == "path":
@@ -165,6 +167,9 @@ def bad_value(words, action, world):
         "video": "-1",
         "mask": str(root / "missing.npy"),
         "older_than": "-3",
+        "sessions": "no-such-scan-*",
+        "scheduler": "not-an-address",
+        "workers": "0",
     }
     if words == ("snapshot", "export") and action.dest == "session":
         return "no-such-session"

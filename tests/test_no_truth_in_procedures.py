@@ -15,7 +15,7 @@ import pytest
 import sassi_bench
 
 #: Packages that get device handles only. Add a new consumer package here.
-CONSUMERS = ("acquire", "calibrate", "spectra", "workflows", "validate", "snapshot")
+CONSUMERS = ("acquire", "calibrate", "spectra", "workflows", "validate", "snapshot", "batch")
 
 #: What they must not import: the virtual bench and its truth.
 FORBIDDEN = ("sassi_bench.rig.sim",)

@@ -1,0 +1,93 @@
+"""``sassi-bench batch assemble|validate``: many sessions at once on dask.distributed."""
+
+from __future__ import annotations
+
+import argparse
+
+from sassi_bench.bundle.cli import add_bundle_options
+
+__all__ = ["register"]
+
+
+def _batch(args: argparse.Namespace) -> int:
+    from sassi_bench.batch.engine import check_scheduler
+    from sassi_bench.batch.run import check_out, run_batch
+    from sassi_bench.batch.select import select_sessions
+    from sassi_bench.bundle.cli import bundle_from_args
+    from sassi_bench.errors import ProcedureError, step_error
+    from sassi_bench.rig.config import load_rig_description
+    from sassi_bench.spectra.scan import check_roi
+
+    # Every argument is checked before a cluster starts.
+    rig_name = load_rig_description(args.rig).name
+    if args.scheduler is not None:
+        check_scheduler(args.scheduler)
+    if args.workers is not None and args.workers < 1:
+        raise ProcedureError(
+            step_error("batch workers", f"--workers {args.workers}", "give 1 or more")
+        )
+    bundle = bundle_from_args(args, rig_name)
+    roi = check_roi(args.roi, tuple(bundle.slm_shape), "batch") if args.roi else None
+    procedure = corners = None
+    if args.kind == "validate":
+        from sassi_bench.validate.locate import grid_from_corners
+        from sassi_bench.workflows.procedure import load_procedure
+
+        procedure = load_procedure("macbeth_validation", args.procedure)
+        if args.corners:
+            corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
+            grid_from_corners(corners)
+    out = check_out(args.out)
+    sessions = select_sessions(None if args.all else args.sessions, data=args.data)
+    batch = run_batch(
+        args.kind, sessions, bundle, out, data=args.data, scheduler=args.scheduler,
+        workers=args.workers, roi=roi, procedure=procedure, corners=corners,
+        progress=not args.quiet,
+    )  # fmt: skip
+    counts = {s: sum(r.status == s for r in batch.results) for s in ("done", "skipped", "failed")}
+    print(
+        f"{len(batch.results)} sessions in {batch.seconds:.1f} s on {batch.workers} workers: "
+        + ", ".join(f"{n} {s}" for s, n in counts.items())
+    )
+    for result in batch.failed:
+        print(f"  FAILED {result.session}: {result.error}")
+    print(f"summary: {batch.summary_csv}\n         {batch.summary_html}")
+    if batch.failed:
+        print("fix or remove the failed sessions, then run the same command again: finished")
+        print("outputs are skipped")
+    return 1 if batch.failed else 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``batch`` group to the top-level parser."""
+    batch = sub.add_parser("batch", help="assemble or validate many sessions on dask.distributed")
+    kinds = batch.add_subparsers(dest="kind", metavar="KIND", required=True)
+    helps = {
+        "assemble": "assemble pinhole-scan sessions into cubes (<out>/<session>.nc)",
+        "validate": "Macbeth CIEDE2000 of ColorChecker scans (white patch as white reference)",
+    }
+    for kind, text in helps.items():
+        p = kinds.add_parser(kind, help=text)
+        which = p.add_mutually_exclusive_group(required=True)
+        which.add_argument("--sessions", metavar="PATTERN", help="session ids, e.g. 'scan-*'")
+        which.add_argument("--all", action="store_true", help="every pinhole-scan session")
+        p.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+        add_bundle_options(p)
+        p.add_argument("--data", help="data root, shared by every worker")
+        p.add_argument("--out", required=True, help="output folder, shared by every worker")
+        p.add_argument(
+            "--scheduler", metavar="ADDRESS", help="tcp://host:port of a dask scheduler "
+            "(default: a local cluster on this machine)",
+        )  # fmt: skip
+        p.add_argument("--workers", type=int, help="local cluster workers (default: one per CPU)")
+        p.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
+        if kind == "validate":
+            p.add_argument("--procedure", help="procedure YAML (default: macbeth_validation)")
+            p.add_argument(
+                "--corners", type=float, nargs=8,
+                metavar=("U1", "V1", "U6", "V6", "U24", "V24", "U19", "V19"),
+                help="SLM (u, v) centres of patches 1, 6, 24 and 19 in every scan, instead of "
+                "detecting the chart",
+            )  # fmt: skip
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+        p.set_defaults(func=_batch)

@@ -1,0 +1,143 @@
+"""The distributed engine: a client of a lab's scheduler or of a local cluster, and the
+loop that submits one task per session and gathers them as they finish.
+
+Failure handling is dask.distributed's own: when a worker dies (killed, out of memory,
+machine lost) the scheduler hands its running tasks to other workers (a nanny restarts a
+local worker); a task whose workers die ``distributed.scheduler.allowed-failures`` times
+(default 3) ends in ``KilledWorker``, which is reported for that session like any other
+error. Errors inside a task are caught by the task (:func:`~sassi_bench.batch.tasks.run_task`)
+and are not retried: reading a corrupt session again gives the same error.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+
+from tqdm.auto import tqdm
+
+from sassi_bench.batch.tasks import SessionResult, TaskSpec, run_task
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = ["batch_client", "check_scheduler", "default_workers", "run_tasks"]
+
+_ADDRESS = re.compile(r"^(tcp|tls|ws|wss)://[^\s:/]+:\d{1,5}$")
+
+#: Seconds to wait for a lab's scheduler to answer.
+CONNECT_TIMEOUT_S = 20
+
+
+def check_scheduler(address: str) -> str:
+    """Refuse a scheduler address that is not ``protocol://host:port``.
+
+    Examples
+    --------
+    >>> check_scheduler("tcp://10.0.0.5:8786")
+    'tcp://10.0.0.5:8786'
+    >>> check_scheduler("10.0.0.5")  # doctest: +IGNORE_EXCEPTION_DETAIL
+    Traceback (most recent call last):
+    ProcedureError: batch scheduler: '10.0.0.5' is not a scheduler address...
+    """
+    if not _ADDRESS.match(address):
+        raise ProcedureError(
+            step_error(
+                "batch scheduler",
+                f"{address!r} is not a scheduler address",
+                "give it as tcp://host:port (what `dask scheduler` prints), or leave "
+                "--scheduler out to run on this machine",
+            )
+        )
+    return address
+
+
+def default_workers() -> int:
+    """Workers of the local cluster: one single-threaded process per CPU available here."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover (not Linux)
+        return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def batch_client(scheduler: str | None = None, workers: int | None = None) -> Iterator:
+    """A ``distributed.Client``: of the scheduler at ``scheduler``, else of a new
+    ``LocalCluster`` of ``workers`` single-threaded worker processes (default: one per
+    CPU), closed on exit.
+
+    Worker processes (not threads): assembly holds the GIL in parts (Python between
+    compiled passes, NetCDF writes), and a process can be killed alone.
+
+    Examples
+    --------
+    >>> with batch_client(workers=2) as client:  # doctest: +SKIP
+    ...     print(client.dashboard_link)
+    """
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        check_scheduler(scheduler)
+        try:
+            client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError) as exc:
+            raise ProcedureError(
+                step_error(
+                    "batch scheduler",
+                    f"no scheduler answered at {scheduler} ({exc})",
+                    "start it (dask scheduler) or check the address and firewall",
+                )
+            ) from exc
+        with client:
+            yield client
+        return
+    if workers is not None and workers < 1:
+        raise ProcedureError(step_error("batch workers", f"{workers} workers", "give 1 or more"))
+    cluster = LocalCluster(
+        n_workers=workers or default_workers(),
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",  # any free port: several people share a machine
+        silence_logs=logging.ERROR,
+    )
+    with cluster, Client(cluster) as client:
+        yield client
+
+
+def run_tasks(
+    client,
+    specs: Sequence[TaskSpec],
+    *,
+    progress: bool = True,
+    task: Callable[[TaskSpec], SessionResult] = run_task,
+) -> list[SessionResult]:
+    """Submit one task per spec and gather the results as they finish (in spec order).
+
+    Examples
+    --------
+    >>> with batch_client(workers=2) as client:  # doctest: +SKIP
+    ...     results = run_tasks(client, specs)
+    """
+    from distributed import as_completed
+
+    run = uuid.uuid4().hex[:8]  # a fresh key per run: a scheduler may still hold the last
+    futures = {
+        client.submit(task, spec, key=f"{spec.kind}-{spec.session}-{run}", pure=False): spec
+        for spec in specs
+    }
+    results: dict[str, SessionResult] = {}
+    bar = tqdm(total=len(futures), desc="sessions", unit="session", disable=not progress)
+    with bar:
+        for future in as_completed(futures):
+            spec = futures[future]
+            try:
+                result = future.result()
+            except Exception as exc:  # KilledWorker, a lost scheduler: this session alone
+                result = SessionResult(spec.session, "failed", error=f"{type(exc).__name__}: {exc}")
+            results[spec.session] = result
+            bar.update()
+            if result.status == "failed":
+                bar.write(f"{spec.session}: failed: {result.error}")
+    return [results[spec.session] for spec in specs]

@@ -1,0 +1,106 @@
+"""Batch outputs on a shared store: written atomically, recognised as finished by hash.
+
+Every output ``<out>/<session>.<suffix>`` gets a record ``<out>/<session>.<suffix>.json``:
+the SHA-256 of the output file and of the inputs it was made from (the session's content,
+the bundle's manifest, the options). Both are written to a temporary name in the same
+folder and renamed into place (atomic on POSIX file systems, NFS included), the output
+before its record, so a record names only a complete file. A re-run skips a session
+whose output still has its recorded hash and inputs; an output without a record (the run
+died between the two renames) is made again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = ["file_sha256", "finished", "record_path", "write_atomic"]
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file, read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as stream:
+        while block := stream.read(1 << 20):
+            h.update(block)
+    return h.hexdigest()
+
+
+def record_path(output: Path) -> Path:
+    """The record beside an output: ``cube.nc`` -> ``cube.nc.json``."""
+    return output.with_name(output.name + ".json")
+
+
+def finished(output: Path, inputs: Mapping[str, Any]) -> bool:
+    """True if ``output`` is complete and was made from ``inputs``.
+
+    Raises
+    ------
+    ProcedureError
+        If the output is complete but was made from other inputs: it is not overwritten.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "s.txt"
+    >>> write_atomic(out, lambda p: p.write_text("cube"), {"session": "ab"})
+    >>> finished(out, {"session": "ab"}), finished(out.with_name("t.txt"), {})
+    (True, False)
+    """
+    record = record_path(output)
+    if not (output.is_file() and record.is_file()):
+        return False
+    try:
+        saved = json.loads(record.read_bytes())
+    except ValueError:
+        return False
+    if saved.get("sha256") != file_sha256(output):
+        return False  # damaged or replaced since: made again
+    if saved.get("inputs") != json.loads(json.dumps(dict(inputs))):
+        raise ProcedureError(
+            step_error(
+                "batch output",
+                f"{output} exists and was made from other inputs (another bundle, session "
+                "content or options)",
+                "write this batch to another --out folder, or remove the old output",
+            )
+        )
+    return True
+
+
+def _temporary(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+def _replace(temporary: Path, path: Path) -> None:
+    with open(temporary, "rb") as stream:
+        os.fsync(stream.fileno())
+    os.replace(temporary, path)
+
+
+def write_atomic(output: Path, write: Callable[[Path], Any], inputs: Mapping[str, Any]) -> None:
+    """``write(temporary_path)``, then rename into ``output`` and record its hash and inputs.
+
+    A reader never sees a partial output; a crash leaves at most a hidden temporary file.
+    """
+    output.parent.mkdir(parents=True, exist_ok=True)
+    temporary = _temporary(output)
+    try:
+        write(temporary)
+        _replace(temporary, output)
+    finally:
+        temporary.unlink(missing_ok=True)
+    record = record_path(output)
+    body = {"output": output.name, "sha256": file_sha256(output), "inputs": dict(inputs)}
+    temporary = _temporary(record)
+    try:
+        temporary.write_text(json.dumps(body, indent=1) + "\n")
+        _replace(temporary, record)
+    finally:
+        temporary.unlink(missing_ok=True)

@@ -1,0 +1,44 @@
+"""``sassi-bench batch`` on the shared two-worker cluster, reached as a lab's scheduler
+(``--scheduler``): every session assembled, and a failed session's exit status."""
+
+from __future__ import annotations
+
+import csv
+
+from sassi_bench.cli import main
+
+
+def _batch(kind: str, scans, client, out, *extra: str) -> list[str]:
+    data, bundle, _ = scans
+    return [
+        "batch", kind, "--data", str(data), "--out", str(out), "--bundle", str(bundle.path),
+        "--scheduler", client.scheduler.address, *extra,
+    ]  # fmt: skip
+
+
+def test_batch_assemble_runs_every_session_and_says_where_the_summary_is(
+    scans, client, tmp_path, capsys
+):
+    out = tmp_path / "cubes"
+    status = main(_batch("assemble", scans, client, out, "--sessions", "scan-*", "--quiet"))
+    printed = capsys.readouterr().out
+    assert status == 0, printed
+    assert sorted(p.name for p in out.glob("*.nc")) == sorted(f"{s}.nc" for s in scans[2])
+    assert "3 sessions" in printed and "on 2 workers: 3 done, 0 skipped, 0 failed" in printed
+    assert str(out / "batch-assemble.csv") in printed
+
+
+def test_a_failed_session_is_listed_with_its_error_and_exit_status_1(
+    scans, client, tmp_path, capsys
+):
+    """The synthetic bundle's wavelength map is not the sim rig's: the chart is not found."""
+    out = tmp_path / "macbeth"
+    status = main(_batch("validate", scans, client, out, "--sessions", "scan-white"))
+    printed = capsys.readouterr().out
+    assert status == 1
+    assert "dashboard: http" in printed
+    assert "FAILED scan-white: LocateError: Macbeth patch detection" in printed
+    with open(out / "batch-validate.csv") as stream:
+        (row,) = csv.DictReader(stream)
+    assert row["status"] == "failed" and row["frames"] == "20"
+    assert row["error"].startswith("LocateError: Macbeth patch detection")
