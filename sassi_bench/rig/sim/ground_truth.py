@@ -1,7 +1,8 @@
 """Ground truth of the virtual bench, for tests and accuracy reports only.
 
 Procedures never receive this object: they get device handles. Tests and accuracy
-reports call :func:`truth` to score what a procedure measured.
+reports call :func:`truth` to score what a procedure measured. Everything here is the
+bench as built (its ``as_built`` section applied), not as described.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.rig import Rig
+from sassi_bench.rig.sim import as_built
 from sassi_bench.rig.sim.bench import VirtualBench
 from sassi_bench.rig.sim.scenes import ScenePose, posed_scene
 
@@ -118,6 +120,20 @@ class BenchTruth:
     def quantum_efficiency(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """The spectral camera's QE."""
         return self._bench.sensor.quantum_efficiency(wavelength_nm)
+
+    def laser_centre_nm(self, nominal_nm: float) -> float:
+        """The true centre (nm) of the laser line labelled ``nominal_nm``."""
+        return as_built.laser_centre_nm(self._bench.description, nominal_nm)
+
+    @property
+    def halogen_k(self) -> float:
+        """The halogen lamp's true colour temperature (K)."""
+        return as_built.halogen_k(self._bench.description)
+
+    @property
+    def guide_sensitivities(self) -> NDArray[np.float64]:
+        """The guide camera's true RGB curves (3, L) on :attr:`wavelengths_nm`."""
+        return self._bench.guide.sensitivities.copy()
 
     def light_samples(self, name: str) -> SpectralSamples:
         """The spectral samples of light ``name``."""
