@@ -121,6 +121,21 @@ class BenchTruth:
         """The spectral camera's QE."""
         return self._bench.sensor.quantum_efficiency(wavelength_nm)
 
+    def relative_response(self, bin_edges_nm: ArrayLike, light: str = "halogen") -> NDArray:
+        """What a radiometric response taken under ``light`` should be, per bin.
+
+        The spectral camera's QE weighted by the light's photons in each bin (the
+        response is relative: the optics' grey throughput and the exposure only scale it).
+        """
+        edges = np.asarray(bin_edges_nm, dtype=np.float64)
+        grid = self.wavelengths_nm
+        step = np.gradient(grid)
+        low, high = grid - step / 2, grid + step / 2
+        overlap = np.minimum(high[None], edges[1:, None]) - np.maximum(low[None], edges[:-1, None])
+        share = np.clip(overlap, 0.0, None) / step[None]
+        photons = self.light_samples(light).weights
+        return (share * photons * self.quantum_efficiency(grid)).sum(1) / (share * photons).sum(1)
+
     def laser_centre_nm(self, nominal_nm: float) -> float:
         """The true centre (nm) of the laser line labelled ``nominal_nm``."""
         return as_built.laser_centre_nm(self._bench.description, nominal_nm)
