@@ -33,18 +33,6 @@ ROOT = Path(__file__).resolve().parents[1]
 RIGS = ["sim", str(ROOT / "tests" / "rigs" / "as-built-all.yaml")]
 
 
-def _wavelength_map_error_nm(rig, model) -> tuple[float, float]:
-    """RMS and max wavelength error of a dispersion model over the field, 400-700 nm."""
-    t = truth(rig)
-    h, w = rig.slm.shape
-    u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
-    lam = np.linspace(400, 700, 61)
-    xm, _ = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
-    xt, _ = t.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
-    error = (xm - xt) / np.gradient(xt, lam, axis=1)
-    return float(np.sqrt(np.mean(error**2))), float(np.abs(error).max())
-
-
 def measure(rig_name: str) -> dict[str, str]:
     """Run the chain on one rig and score it against the bench's truth."""
     rig = open_rig(rig_name)
@@ -67,7 +55,8 @@ def measure(rig_name: str) -> dict[str, str]:
             x, y = t.slm_to_camera(d.slm_u, d.slm_v, t.laser_centre_nm(d.wavelength_nm))
             error = np.hypot(x - d.camera_x, y - d.camera_y)
             corr_rms = max(corr_rms, float(np.sqrt(np.mean(error**2))))
-        map_rms, map_max = _wavelength_map_error_nm(rig, cal.dispersion.model)
+        error_nm = t.wavelength_map_error_nm(cal.dispersion.model)
+        map_rms, map_max = float(np.sqrt(np.mean(error_nm**2))), float(np.abs(error_nm).max())
         estimated = cal.dispersion.estimated_lines
         if estimated:
             laser = ", ".join(

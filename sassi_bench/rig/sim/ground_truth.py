@@ -121,6 +121,23 @@ class BenchTruth:
         """The spectral camera's QE."""
         return self._bench.sensor.quantum_efficiency(wavelength_nm)
 
+    def wavelength_map_error_nm(self, model, field_points: tuple[int, int] = (17, 11)) -> NDArray:
+        """Wavelength error (nm) of a dispersion model's streak columns against the truth.
+
+        ``model.evaluate(u, v, wavelength)`` (a bundle's dispersion model) is compared
+        with the true ray trace on a grid of ``field_points`` (columns, rows) over the
+        SLM at 61 wavelengths from 400 to 700 nm; column errors become wavelength errors
+        through the true local dispersion. Returns (points, 61).
+        """
+        h, w = self._bench.slm_shape
+        u, v = np.meshgrid(
+            np.linspace(0, w - 1, field_points[0]), np.linspace(0, h - 1, field_points[1])
+        )
+        lam = np.linspace(400.0, 700.0, 61)
+        xm, _ = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        xt, _ = self.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        return (xm - xt) / np.gradient(xt, lam, axis=1)
+
     def relative_response(self, bin_edges_nm: ArrayLike, light: str = "halogen") -> NDArray:
         """What a radiometric response taken under ``light`` should be, per bin.
 
