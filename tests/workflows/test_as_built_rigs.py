@@ -127,7 +127,9 @@ def test_guide_registers_when_its_sensor_is_not_the_described_one(tmp_path):
     wl = bench.wavelengths_nm[::step]
     scene = bench.bench.scene_named("natural")
     rows, cols = scene.slm_window(rig.slm.shape)
-    cube = np.moveaxis(scene.project(np.eye(wl.size * step)[::step])[:, rows, cols], 0, -1)
+    cube = np.moveaxis(
+        scene.project(np.eye(bench.wavelengths_nm.size)[::step])[:, rows, cols], 0, -1
+    )
     led = bench.light_samples("led")
     described, label = rendering_sensitivities(
         rig.description.guide_camera.sensitivities, "auto", wl
