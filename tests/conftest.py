@@ -45,3 +45,33 @@ def calibrated_sim(tmp_path_factory):
         rig, load_procedure("spectral_calibration"), data=data, progress=False, session_id="acc"
     )
     return rig, result, data
+
+
+@pytest.fixture(scope="session")
+def true_laser_maps():
+    """Per-laser SLM -> camera maps fitted to a virtual bench's true ray trace.
+
+    ``maps(rig, labels, wavelengths=None)``: one LaserMap per label, rendered at
+    ``wavelengths`` (default: each labelled line's true centre on that bench).
+    """
+    import numpy as np
+
+    from sassi_bench.calibrate.dispersion import LaserMap
+    from sassi_bench.calibrate.field import fit_field
+    from sassi_bench.rig.sim import truth
+
+    def _maps(rig, labels, wavelengths=None):
+        t = truth(rig)
+        h, w = rig.slm.shape
+        v, u = np.mgrid[0:h:10, 0:w:10].astype(float)
+        if wavelengths is None:
+            wavelengths = [t.laser_centre_nm(label) for label in labels]
+        maps = []
+        for wavelength, label in zip(wavelengths, labels, strict=True):
+            x, y = t.slm_to_camera(u, v, wavelength)
+            fx = fit_field(u.ravel(), v.ravel(), x.ravel(), (h, w), 5)
+            fy = fit_field(u.ravel(), v.ravel(), y.ravel(), (h, w), 5)
+            maps.append(LaserMap(label, fx, fy, x.size))
+        return maps
+
+    return _maps

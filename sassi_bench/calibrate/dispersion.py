@@ -9,13 +9,17 @@ coefficient a smooth (Legendre) function of the SLM field:
     y(u, v, λ) = Σ_k Σ_t b_kt P_t(û, v̂) s_y(λ)^k,   s_y = (λ − 550 nm) / 150 nm
 
 The honest accuracy figure is the leave-one-laser-out error: refit without one laser
-and predict where that laser's light lands.
+and predict where that laser's light lands. The same refit also says which wavelength
+the left-out line really has (the one whose predicted streak position matches it best):
+:func:`check_laser_lines` uses it to find a laser whose true line is off its label, and
+:func:`fit_dispersion` can then fit with the estimated wavelength instead of the label.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,7 +34,14 @@ from sassi_bench.calibrate.field import FieldFit
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.glass import Glass, get_glass
 
-__all__ = ["DispersionFit", "LaserMap", "fit_dispersion", "wavelength_bins"]
+__all__ = [
+    "DispersionFit",
+    "LaserLine",
+    "LaserMap",
+    "check_laser_lines",
+    "fit_dispersion",
+    "wavelength_bins",
+]
 
 LAMBDA_REF_NM = 550.0
 LAMBDA_SCALE_NM = 150.0
@@ -61,11 +72,16 @@ class DispersionFit:
     residual_px
         Per laser, RMS (x, y) distance between the joint model and that laser's own map.
     leave_one_out
-        Per laser, the error predicting it from the others: ``rms_px``, ``max_px`` (2-D
-        distance over the field) and ``rms_nm`` (column error over the local dispersion).
+        Per laser (keyed by its label), the error predicting it from the others:
+        ``rms_px``, ``max_px`` (2-D distance over the field), ``rms_nm`` (column error
+        over the local dispersion) and ``estimated_nm`` (the wavelength at which the
+        others put the line's streak where it was measured).
     position_sigma_px
         Largest 1-sigma uncertainty of the predicted column at the field centre over
         400-700 nm, propagated from the least-squares covariance.
+    wavelengths_nm
+        Per laser label, the wavelength the fit used: the label, or the estimate for a
+        line fitted with an estimated wavelength.
     """
 
     model: DispersionModel
@@ -73,18 +89,38 @@ class DispersionFit:
     residual_px: dict[float, float]
     leave_one_out: dict[float, dict[str, float]]
     position_sigma_px: float
+    wavelengths_nm: dict[float, float] = field(default_factory=dict)
+
+    @property
+    def estimated_lines(self) -> list[float]:
+        """Labels of the lines fitted at an estimated wavelength instead of their label."""
+        return [label for label, used in self.wavelengths_nm.items() if used != label]
+
+    def _graded(self, key: str) -> list[float]:
+        # A line fitted at its own leave-one-out estimate predicts itself by construction,
+        # so it is left out of the graded leave-one-out figures.
+        skip = set(self.estimated_lines)
+        return [entry[key] for label, entry in self.leave_one_out.items() if label not in skip]
 
     @property
     def leave_one_out_rms_px(self) -> float:
-        """RMS over lasers of the leave-one-laser-out position error."""
-        values = [entry["rms_px"] for entry in self.leave_one_out.values()]
+        """RMS over lasers of the leave-one-laser-out position error (lines fitted at
+        their estimated wavelength left out)."""
+        values = self._graded("rms_px")
         return float(np.sqrt(np.mean(np.square(values)))) if values else float("nan")
 
     @property
     def leave_one_out_rms_nm(self) -> float:
-        """RMS over lasers of the leave-one-laser-out wavelength error."""
-        values = [entry["rms_nm"] for entry in self.leave_one_out.values()]
+        """RMS over lasers of the leave-one-laser-out wavelength error (lines fitted at
+        their estimated wavelength left out)."""
+        values = self._graded("rms_nm")
         return float(np.sqrt(np.mean(np.square(values)))) if values else float("nan")
+
+    @property
+    def leave_one_out_max_px(self) -> float:
+        """Worst leave-one-laser-out position error (same lines as the RMS)."""
+        values = self._graded("max_px")
+        return float(max(values)) if values else float("nan")
 
 
 def _grid(slm_shape: tuple[int, int], points: tuple[int, int]) -> tuple[NDArray, NDArray]:
@@ -108,6 +144,94 @@ def _solve(design, values):
     return coeffs
 
 
+@dataclass(frozen=True)
+class _FieldSamples:
+    """Every laser's measured map sampled on a grid of SLM field points."""
+
+    glass: Glass
+    n_ref: float
+    n_scale: float
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    field_design: NDArray[np.float64]
+    xs: NDArray[np.float64]  # (lasers, points)
+    ys: NDArray[np.float64]
+
+    def sx(self, wavelength_nm) -> NDArray[np.float64]:
+        """The column's spectral coordinate ``(n(λ) - n_ref) / n_scale``."""
+        return (self.glass.index(np.asarray(wavelength_nm, dtype=np.float64)) - self.n_ref) / (
+            self.n_scale
+        )
+
+    @cached_property
+    def field_pinv(self) -> NDArray[np.float64]:
+        """Pseudo-inverse of the field design (terms, points)."""
+        return np.linalg.pinv(self.field_design)
+
+    def fit_x(self, wavelength_nm: NDArray[np.float64], rows, order: int) -> NDArray[np.float64]:
+        """Column coefficients (order + 1, terms) fitted to the lasers ``rows``.
+
+        The design is the Kronecker product of the spectral powers and the field terms,
+        so its least-squares solution is ``pinv(powers) @ x @ pinv(field).T``: the same
+        as :func:`_spectral_design` with ``lstsq``, without building it.
+        """
+        powers = self.sx(wavelength_nm[rows])[:, None] ** np.arange(order + 1)[None, :]
+        return np.linalg.pinv(powers) @ self.xs[rows] @ self.field_pinv.T
+
+    def line_wavelength(self, x_coeffs: NDArray[np.float64], row: int, start_nm: float) -> float:
+        """The wavelength at which columns ``x_coeffs`` best put laser ``row``'s streak.
+
+        Least squares over the field points in the spectral coordinate (Gauss-Newton;
+        the column is a low-order polynomial in it), then back to nanometres.
+        """
+        per_point = x_coeffs @ self.field_design.T  # (order + 1, points)
+        powers = np.arange(per_point.shape[0])
+        s = float(self.sx(start_nm))
+        for _ in range(50):
+            value = (s**powers) @ per_point
+            slope = (powers[1:] * s ** powers[:-1]) @ per_point[1:]
+            step = float(np.sum((value - self.xs[row]) * slope) / np.sum(slope**2))
+            s -= step
+            if abs(step) < 1e-12:
+                break
+        lam = np.linspace(start_nm - 60.0, start_nm + 60.0, 12001)
+        coordinate = self.sx(lam)  # decreasing: the index falls with wavelength
+        return float(np.interp(-s, -coordinate, lam))
+
+
+def _field_samples(
+    maps: Sequence[LaserMap], glass: Glass, slm_shape, field_degree: int, grid
+) -> _FieldSamples:
+    u, v = _grid(slm_shape, grid)
+    return _FieldSamples(
+        glass=glass,
+        n_ref=float(glass.index(LAMBDA_REF_NM)),
+        n_scale=float(glass.index(BAND_NM[0]) - glass.index(BAND_NM[1])),
+        u=u,
+        v=v,
+        field_design=legendre2d_design(*field_coordinates(u, v, slm_shape), field_degree),
+        xs=np.stack([m.x(u, v) for m in maps]),
+        ys=np.stack([m.y(u, v) for m in maps]),
+    )
+
+
+def _checked_wavelengths(maps: Sequence[LaserMap], order: int) -> NDArray[np.float64]:
+    lam = np.array([m.wavelength_nm for m in maps], dtype=np.float64)
+    if lam.size < order + 1:
+        raise ProcedureError(
+            step_error(
+                "dispersion fit",
+                f"{lam.size} laser line(s) cannot fix a degree-{order} dispersion model",
+                f"measure at least {order + 1} lines (the procedure's lasers_nm)",
+            )
+        )
+    if np.unique(lam).size != lam.size:
+        raise ProcedureError(
+            step_error("dispersion fit", "a laser wavelength appears twice", "list each line once")
+        )
+    return lam
+
+
 def fit_dispersion(
     maps: Sequence[LaserMap],
     glass: str | Glass,
@@ -115,6 +239,7 @@ def fit_dispersion(
     field_degree: int = 5,
     order: int = 2,
     grid: tuple[int, int] = (33, 21),
+    wavelengths_nm: Mapping[float, float] | None = None,
 ) -> DispersionFit:
     """Fit the joint dispersion model to per-laser maps.
 
@@ -131,6 +256,9 @@ def fit_dispersion(
         Legendre degree of the coefficient fields; polynomial order in ``s``.
     grid
         Field points (columns, rows) at which the per-laser maps are compared.
+    wavelengths_nm
+        Label -> wavelength to fit that line at instead of its label (an estimate from
+        :func:`check_laser_lines`); lines left out are fitted at their labels.
 
     Returns
     -------
@@ -142,40 +270,25 @@ def fit_dispersion(
         With too few laser lines or duplicated wavelengths.
     """
     g = glass if isinstance(glass, Glass) else get_glass(glass)
-    lam = np.array([m.wavelength_nm for m in maps], dtype=np.float64)
-    if lam.size < order + 1:
-        raise ProcedureError(
-            step_error(
-                "dispersion fit",
-                f"{lam.size} laser line(s) cannot fix a degree-{order} dispersion model",
-                f"measure at least {order + 1} lines (the procedure's lasers_nm)",
-            )
-        )
-    if np.unique(lam).size != lam.size:
-        raise ProcedureError(
-            step_error("dispersion fit", "a laser wavelength appears twice", "list each line once")
-        )
-    n_ref = float(g.index(LAMBDA_REF_NM))
-    n_scale = float(g.index(BAND_NM[0]) - g.index(BAND_NM[1]))
-    u, v = _grid(slm_shape, grid)
-    field_design = legendre2d_design(*field_coordinates(u, v, slm_shape), field_degree)
-    xs = np.stack([m.x(u, v) for m in maps])  # (L, G)
-    ys = np.stack([m.y(u, v) for m in maps])
-    sx = (g.index(lam) - n_ref) / n_scale
+    labels = _checked_wavelengths(maps, order)
+    used = {float(k): float(v) for k, v in (wavelengths_nm or {}).items()}
+    lam = np.array([used.get(float(label), float(label)) for label in labels])
+    samples = _field_samples(maps, g, slm_shape, field_degree, grid)
+    u, v, field_design, xs, ys = samples.u, samples.v, samples.field_design, samples.xs, samples.ys
     sy = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
 
     def fit(keep: NDArray[np.bool_]):
-        ax = _solve(_spectral_design(sx[keep], field_design, order), xs[keep].ravel())
+        ax = samples.fit_x(lam, keep, order)
         ay = _solve(_spectral_design(sy[keep], field_design, order), ys[keep].ravel())
-        return ax.reshape(order + 1, -1), ay.reshape(order + 1, -1)
+        return ax, ay.reshape(order + 1, -1)
 
     def model_from(ax, ay) -> DispersionModel:
         return DispersionModel(
             glass=g.name,
             sellmeier_b=g.b,
             sellmeier_c=g.c,
-            n_ref=n_ref,
-            n_scale=n_scale,
+            n_ref=samples.n_ref,
+            n_scale=samples.n_scale,
             lambda_ref_nm=LAMBDA_REF_NM,
             lambda_scale_nm=LAMBDA_SCALE_NM,
             slm_shape=tuple(slm_shape),
@@ -188,7 +301,7 @@ def fit_dispersion(
     model = model_from(*fit(everything))
     px, py = model.evaluate(u[None, :], v[None, :], lam[:, None])
     residual = {
-        float(lam[i]): float(np.sqrt(np.mean((px[i] - xs[i]) ** 2 + (py[i] - ys[i]) ** 2)))
+        float(labels[i]): float(np.sqrt(np.mean((px[i] - xs[i]) ** 2 + (py[i] - ys[i]) ** 2)))
         for i in range(lam.size)
     }
     leave_one_out: dict[float, dict[str, float]] = {}
@@ -196,23 +309,130 @@ def fit_dispersion(
         for i in range(lam.size):
             keep = everything.copy()
             keep[i] = False
-            partial = model_from(*fit(keep))
-            qx, qy = partial.evaluate(u, v, lam[i])
+            ax, ay = fit(keep)
+            qx, qy = model_from(ax, ay).evaluate(u, v, lam[i])
             dist = np.hypot(qx - xs[i], qy - ys[i])
             dx_dlam = _dispersion_px_per_nm(model, u, v, lam[i])
-            leave_one_out[float(lam[i])] = {
+            leave_one_out[float(labels[i])] = {
                 "rms_px": float(np.sqrt(np.mean(dist**2))),
                 "max_px": float(dist.max()),
                 "rms_nm": float(np.sqrt(np.mean(((qx - xs[i]) / dx_dlam) ** 2))),
+                "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
-    sigma = _centre_position_sigma(model, sx, xs, field_design, order, slm_shape)
+    sigma = _centre_position_sigma(model, samples.sx(lam), xs, field_design, order, slm_shape)
     return DispersionFit(
         model=model,
         bins=wavelength_bins(model),
         residual_px=residual,
         leave_one_out=leave_one_out,
         position_sigma_px=sigma,
+        wavelengths_nm={float(label): float(w) for label, w in zip(labels, lam, strict=True)},
     )
+
+
+@dataclass(frozen=True)
+class LaserLine:
+    """Whether a laser line sits where its label says, judged by the other lines.
+
+    Attributes
+    ----------
+    label_nm
+        The line's nominal wavelength (the rig's ``lasers_nm``).
+    estimated_nm
+        The wavelength at which a dispersion model fitted to ``from_lines`` puts the
+        line's measured streak.
+    from_lines
+        The labels of the lines the estimate comes from (never the line itself).
+    off_label
+        Whether the line was singled out as the one off its label: the worst line
+        beyond the tolerance while the others agree within it.
+    """
+
+    label_nm: float
+    estimated_nm: float
+    from_lines: tuple[float, ...]
+    off_label: bool
+
+    @property
+    def offset_nm(self) -> float:
+        """Estimated minus nominal wavelength (nm)."""
+        return self.estimated_nm - self.label_nm
+
+
+def check_laser_lines(
+    maps: Sequence[LaserMap],
+    glass: str | Glass,
+    slm_shape: tuple[int, int],
+    tolerance_nm: float,
+    field_degree: int = 5,
+    order: int = 2,
+    grid: tuple[int, int] = (33, 21),
+) -> dict[float, LaserLine]:
+    """Estimate every laser line's wavelength from the other lines; find one off its label.
+
+    Each line's wavelength is estimated from a dispersion model fitted to the other
+    lines. One mislabelled line spoils the estimates of the others too (most of all the
+    ones extrapolated to), so when some line is beyond ``tolerance_nm`` each line in turn
+    is set aside and the rest estimated from each other without it: the line whose
+    absence brings all the others within the tolerance is the one off its label, and its
+    estimate comes from all the others. That needs each remaining estimate to rest on at
+    least ``order + 1`` lines (five lines for the quadratic model). Otherwise, or when no
+    single line explains it, the lines beyond the tolerance stay so and no line is
+    blamed.
+
+    Parameters
+    ----------
+    maps, glass, slm_shape, field_degree, order, grid
+        As for :func:`fit_dispersion`.
+    tolerance_nm
+        How far a line's estimate may be from its label.
+
+    Returns
+    -------
+    dict
+        Label -> :class:`LaserLine`, in the order of ``maps``.
+
+    Examples
+    --------
+    >>> lines = check_laser_lines(maps, "N-BK7", (400, 640), 0.5)  # doctest: +SKIP
+    >>> [f"{k:g}: {x.estimated_nm:.1f}" for k, x in lines.items() if x.off_label]  # doctest: +SKIP
+    ['635: 637.8']
+    """
+    g = glass if isinstance(glass, Glass) else get_glass(glass)
+    labels = _checked_wavelengths(maps, order)
+    samples = _field_samples(maps, g, slm_shape, field_degree, grid)
+    everyone = list(range(labels.size))
+
+    def estimates_within(group: list[int]) -> dict[int, tuple[float, list[int]]]:
+        """Each line of ``group`` estimated from the rest of the group."""
+        out = {}
+        for i in group:
+            rows = [j for j in group if j != i]
+            if len(rows) >= order + 1:
+                ax = samples.fit_x(labels, np.array(rows), order)
+                out[i] = (samples.line_wavelength(ax, i, float(labels[i])), rows)
+        return out
+
+    def worst(found: dict[int, tuple[float, list[int]]]) -> float:
+        return max((abs(e - labels[i]) for i, (e, _) in found.items()), default=0.0)
+
+    found = estimates_within(everyone)
+    culprit = None
+    if worst(found) > tolerance_nm and labels.size - 2 >= order + 1:
+        without = {c: estimates_within([j for j in everyone if j != c]) for c in everyone}
+        best = min(everyone, key=lambda c: worst(without[c]))
+        if worst(without[best]) <= tolerance_nm:
+            culprit = best
+            found = {**without[best], best: found[best]}
+    return {
+        float(labels[i]): LaserLine(
+            label_nm=float(labels[i]),
+            estimated_nm=float(found[i][0]) if i in found else float("nan"),
+            from_lines=tuple(float(labels[j]) for j in found[i][1]) if i in found else (),
+            off_label=i == culprit,
+        )
+        for i in everyone
+    }
 
 
 def _dispersion_px_per_nm(model: DispersionModel, u, v, wavelength_nm: float) -> NDArray:

@@ -18,7 +18,12 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.optics.sources import blackbody_power
 
-__all__ = ["read_reference_csv", "response_from_white", "source_photons_in_bins"]
+__all__ = [
+    "read_reference_csv",
+    "response_from_white",
+    "source_photons_in_bins",
+    "temperature_sensitivity",
+]
 
 
 def read_reference_csv(
@@ -138,3 +143,36 @@ def response_from_white(
     inside = (data >= lo) & (data <= hi)
     mean = np.sum(np.where(inside, data, 0.0), axis=0) / np.maximum(inside.sum(axis=0), 1)
     return mean / (np.asarray(source_bins, dtype=np.float64) * np.asarray(reflectance))
+
+
+def temperature_sensitivity(
+    bin_edges_nm: ArrayLike, temperature_k: float, delta_k: float = 100.0
+) -> NDArray[np.float64]:
+    """How a response measured under a blackbody changes if the lamp is ``delta_k`` off.
+
+    The response divides the white signal by the lamp's photons per bin, so a lamp that
+    is really at ``temperature_k -/+ delta_k`` changes every bin by the ratio of the
+    assumed to the true photons. An overall gain does not matter (the response is
+    relative), so the change is given relative to the median bin's.
+
+    Returns
+    -------
+    ndarray
+        (2, B): the relative change of each bin's response for a lamp ``delta_k``
+        cooler (row 0) and hotter (row 1) than ``temperature_k``.
+
+    Examples
+    --------
+    >>> edges = np.linspace(400, 700, 31)
+    >>> change = temperature_sensitivity(edges, 3000.0)
+    >>> bool(change[1, 0] > 0 > change[1, -1])  # a hotter lamp has more blue than assumed
+    True
+    >>> round(float(np.abs(change).max()), 2)
+    0.11
+    """
+    assumed = source_photons_in_bins(bin_edges_nm, temperature_k=temperature_k)
+    out = []
+    for true_k in (temperature_k - delta_k, temperature_k + delta_k):
+        ratio = source_photons_in_bins(bin_edges_nm, temperature_k=true_k) / assumed
+        out.append(ratio / np.median(ratio) - 1.0)
+    return np.array(out)

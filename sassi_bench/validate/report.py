@@ -148,7 +148,31 @@ def bundle_identity(manifest: Mapping[str, Any], scanned_with: Mapping[str, Any]
         "checks": [dict(c) for c in manifest["quality"]["checks"]],
         "scanned_with": f"{scanned_with['rig_name']}/{scanned_with['version']}",
         "models_identical": _array_hashes(manifest) == _array_hashes(scanned_with),
+        "findings": bundle_findings(manifest["quality"]),
     }
+
+
+def bundle_findings(quality: Mapping[str, Any]) -> list[str]:
+    """What a bundle's quality record says beyond its checks, one sentence each: laser
+    lines fitted at an estimate or found off their labels, and how much the radiometric
+    response depends on the lamp temperature it assumed.
+
+    Examples
+    --------
+    >>> sensitivity = {"temperature_k": 3000.0, "delta_k": 100.0, "max_relative_change": 0.106}
+    >>> bundle_findings({"residuals": {"response": {"lamp_temperature_sensitivity": sensitivity}}})
+    ['Radiometric response under a blackbody of 3000 K: a lamp 100 K cooler or hotter would \
+change its spectral shape by up to 10.6 % (relative to the median bin).']
+    """
+    found = [str(note) for note in quality.get("notes", [])]
+    lamp = quality.get("residuals", {}).get("response", {}).get("lamp_temperature_sensitivity")
+    if lamp:
+        found.append(
+            f"Radiometric response under a blackbody of {lamp['temperature_k']:g} K: a lamp "
+            f"{lamp['delta_k']:g} K cooler or hotter would change its spectral shape by up to "
+            f"{100 * lamp['max_relative_change']:.1f} % (relative to the median bin)."
+        )
+    return found
 
 
 def _number(value: float, fmt: str = ".4g") -> str:
@@ -266,6 +290,7 @@ mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
 {wl["bin_edges_nm"][-1]:.1f} nm, resolution {res.min():.1f}-{res.max():.1f} nm per bin.</p>
 {img["wavelength_calibration"]}
 {bundle_checks}
+{"".join(f'<div class="note">{esc(f)}</div>' for f in ident.get("findings", []))}
 </body></html>
 """
 

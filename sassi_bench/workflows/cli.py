@@ -30,10 +30,16 @@ def print_checks(checks) -> None:
         print(f"  {mark}  {check.name:40s} {check.value:10.4f} {limit}")
 
 
+def _print_notes(notes: list[str]) -> None:
+    for note in notes:
+        print(f"  note: {note}")
+
+
 def _full(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.full import run_full_calibration
     from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.workflows.spectral import laser_line_notes
 
     procedure = load_procedure("full_calibration", args.procedure)
     rig = open_rig(args.rig)
@@ -50,6 +56,7 @@ def _full(args: argparse.Namespace) -> int:
     )
     print(f"\nfull calibration of rig {rig.description.name!r}")
     print_checks(result.checks)
+    _print_notes(laser_line_notes(result.stages["spectral"]))
     if result.bundle_path is not None:
         print(f"  bundle: {result.bundle_path}")
     else:
@@ -78,7 +85,7 @@ def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -
 def _spectral(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.procedure import load_procedure
-    from sassi_bench.workflows.spectral import run_spectral_calibration
+    from sassi_bench.workflows.spectral import laser_line_notes, run_spectral_calibration
 
     procedure = load_procedure("spectral_calibration", args.procedure)
     rig = open_rig(args.rig)
@@ -94,6 +101,7 @@ def _spectral(args: argparse.Namespace) -> int:
     )
     print(f"\nspectral calibration of rig {rig.description.name!r}")
     print_checks(result.checks)
+    _print_notes(laser_line_notes(result))
     print(
         f"  {result.dispersion.bins.count} wavelength bins, "
         f"{result.dispersion.bins.centres_nm[0]:.1f}-{result.dispersion.bins.centres_nm[-1]:.1f} nm"

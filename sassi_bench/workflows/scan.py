@@ -26,6 +26,7 @@ from sassi_bench.calibrate.radiometry import (
     read_reference_csv,
     response_from_white,
     source_photons_in_bins,
+    temperature_sensitivity,
 )
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig, check_light, check_scene
@@ -52,6 +53,10 @@ def check_scan(
     check_roi(roi, rig.slm.shape, step="scan")
 
 
+#: The lamp temperature uncertainty whose effect on the response is reported (K).
+LAMP_DELTA_K = 100.0
+
+
 @dataclass(frozen=True)
 class ResponseSource:
     """The spectrum of the source a response scan is taken under: a reference spectrum
@@ -66,6 +71,30 @@ class ResponseSource:
         return source_photons_in_bins(
             bin_edges_nm, temperature_k=self.temperature_k, reference=self.reference
         )
+
+    def temperature_sensitivity(
+        self, bin_edges_nm, delta_k: float = LAMP_DELTA_K
+    ) -> dict[str, Any] | None:
+        """How much a response taken under this blackbody changes, per bin, if the lamp
+        is ``delta_k`` cooler or hotter than assumed (None for a reference spectrum,
+        whose uncertainty is the lab's to state).
+
+        Examples
+        --------
+        >>> source = ResponseSource(3000.0, None, "blackbody 3000 K")
+        >>> round(source.temperature_sensitivity([400, 550, 700])["max_relative_change"], 3)
+        0.037
+        """
+        if self.temperature_k is None:
+            return None
+        change = temperature_sensitivity(bin_edges_nm, self.temperature_k, delta_k)
+        return {
+            "temperature_k": self.temperature_k,
+            "delta_k": float(delta_k),
+            "max_relative_change": float(np.abs(change).max()),
+            "relative_change_cooler": change[0].tolist(),
+            "relative_change_hotter": change[1].tolist(),
+        }
 
 
 def response_source(
@@ -154,6 +183,10 @@ def run_response(
     response = response_from_white(spectra, source.photons_in_bins(bundle.bin_edges), reflectance)
     positive = bool(np.all(np.isfinite(response)) and np.all(response > 0))
     spread = float(np.median(np.std(spectra, axis=0) / np.abs(np.mean(spectra, axis=0))))
+    residuals: dict[str, Any] = {"white_relative_spread": spread}
+    sensitivity = source.temperature_sensitivity(bundle.bin_edges)
+    if sensitivity is not None:
+        residuals["lamp_temperature_sensitivity"] = sensitivity
     checks = [
         QualityCheck("response_positive", float(positive), 1.0, "1", positive, ">="),
         QualityCheck.at_most("white_uniformity", spread, 0.1, "1"),
@@ -170,7 +203,7 @@ def run_response(
             "response": response,
         },
         checks=checks,
-        residuals={"white_relative_spread": spread},
+        residuals=residuals,
         procedure={
             "response": {
                 "light": light,

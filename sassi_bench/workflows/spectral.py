@@ -27,7 +27,13 @@ from sassi_bench.bundle import CalibrationModels, QualityCheck, publish
 from sassi_bench.bundle.derive import stage_checks
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
-from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap, fit_dispersion
+from sassi_bench.calibrate.dispersion import (
+    DispersionFit,
+    LaserLine,
+    LaserMap,
+    check_laser_lines,
+    fit_dispersion,
+)
 from sassi_bench.calibrate.field import fit_field
 from sassi_bench.calibrate.grey_response import (
     GreyResponse,
@@ -48,6 +54,7 @@ __all__ = [
     "analyse_spectral_sweeps",
     "analyse_sweep",
     "capture_spectral_sweeps",
+    "laser_line_notes",
     "measure_response",
     "procedure_lasers",
     "publish_spectral",
@@ -87,6 +94,7 @@ class SpectralCalibration:
     sessions: list[Session]
     bundle_path: Path | None = None
     figures: dict[str, bytes] = field(default_factory=dict)
+    laser_lines: dict[float, LaserLine] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -330,18 +338,30 @@ def _blur_fit(session: Session, proc, dispersion: DispersionFit, slm_shape, satu
         pattern_rows, pattern_cols = np.mgrid[
             pitch[1] // 2 : slm_shape[0] : pitch[1], pitch[0] // 2 : slm_shape[1] : pitch[0]
         ]
-        x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), laser)
+        wavelength = dispersion.wavelengths_nm.get(laser, laser)
+        x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), wavelength)
         widths = measure_spot_widths(
             signal, x, y, 1.5, saturated=(frames >= saturation).any(axis=0)
         )
         sigmas.append(widths.median_sigma_y)
-    return fit_blur(lasers, sigmas, float(proc["blur"].get("window_sigmas", 3.0)))
+    wavelengths = [dispersion.wavelengths_nm.get(laser, laser) for laser in lasers]
+    return fit_blur(wavelengths, sigmas, float(proc["blur"].get("window_sigmas", 3.0)))
 
 
 def grade(
-    result_lasers, dispersion: DispersionFit, blur: BlurFit, tolerances: Mapping
+    result_lasers,
+    dispersion: DispersionFit,
+    blur: BlurFit,
+    tolerances: Mapping,
+    laser_lines: Mapping[float, LaserLine] | None = None,
 ) -> list[QualityCheck]:
-    """Quality checks of a spectral calibration against the procedure's tolerances."""
+    """Quality checks of a spectral calibration against the procedure's tolerances.
+
+    ``laser_lines`` (from :func:`~sassi_bench.calibrate.dispersion.check_laser_lines`)
+    adds one check per line fitted at its label, ``laser_line_<label>nm``: how far the
+    other lines put it from its label. A line fitted at its estimate has no such check
+    (it agrees with the others by construction); the bundle records its estimate.
+    """
     checks = []
     for laser in result_lasers:
         name = f"{laser.wavelength_nm:g}nm"
@@ -361,8 +381,18 @@ def grade(
                 "1",
             )
         )
-    loo = dispersion.leave_one_out
-    if loo:
+    estimated = set(dispersion.estimated_lines)
+    for label, line in (laser_lines or {}).items():
+        if label not in estimated and np.isfinite(line.estimated_nm):
+            checks.append(
+                QualityCheck.at_most(
+                    f"laser_line_{label:g}nm",
+                    abs(line.offset_nm),
+                    tolerances.get("laser_line_nm", 0.5),
+                    "nm",
+                )
+            )
+    if dispersion.leave_one_out:
         checks.append(
             QualityCheck.at_most(
                 "leave_one_out_rms_nm",
@@ -374,7 +404,7 @@ def grade(
         checks.append(
             QualityCheck.at_most(
                 "leave_one_out_max_px",
-                max(v["max_px"] for v in loo.values()),
+                dispersion.leave_one_out_max_px,
                 tolerances["leave_one_out_max_px"],
                 "px",
             )
@@ -510,18 +540,74 @@ def analyse_spectral_sweeps(
     saturation = 2**desc.spectral_camera.bit_depth - 1
     response = measure_response(sweeps.grey, saturation) if sweeps.grey is not None else None
     decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation)
-    dispersion = fit_dispersion(
-        [d.laser_map for d in decoded],
+    maps = [d.laser_map for d in decoded]
+    shape = {
+        "field_degree": int(proc["fit"].get("field_degree", 5)),
+        "order": int(proc["fit"].get("dispersion_order", 2)),
+    }
+    lines = check_laser_lines(
+        maps,
         desc.prism.glass,
         slm_shape,
-        field_degree=int(proc["fit"].get("field_degree", 5)),
-        order=int(proc["fit"].get("dispersion_order", 2)),
+        float(proc["tolerances"].get("laser_line_nm", 0.5)),
+        **shape,
+    )
+    estimate = bool(proc["fit"].get("estimate_laser_wavelengths", False))
+    dispersion = fit_dispersion(
+        maps,
+        desc.prism.glass,
+        slm_shape,
+        wavelengths_nm={k: v.estimated_nm for k, v in lines.items() if v.off_label}
+        if estimate
+        else None,
+        **shape,
     )
     blur = _blur_fit(sweeps.sweep, proc, dispersion, slm_shape, saturation)
-    checks = grade(decoded, dispersion, blur, proc["tolerances"])
+    checks = grade(decoded, dispersion, blur, proc["tolerances"], lines)
     return SpectralCalibration(
-        proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions
+        proc,
+        desc,
+        decoded,
+        dispersion,
+        blur,
+        response,
+        checks,
+        sweeps.sessions,
+        laser_lines=lines,
     )
+
+
+def laser_line_notes(result: SpectralCalibration) -> list[str]:
+    """What the laser-line check found, one sentence per line off its label.
+
+    Examples
+    --------
+    >>> laser_line_notes(result)  # doctest: +SKIP
+    ['laser 635 nm: the other lines put it at 637.78 nm (+2.78 nm); ...']
+    """
+    notes = []
+    estimated = set(result.dispersion.estimated_lines)
+    tolerance = float(result.procedure["tolerances"].get("laser_line_nm", 0.5))
+    for label, line in result.laser_lines.items():
+        if label in estimated:
+            notes.append(
+                f"laser {label:g} nm: fitted at {line.estimated_nm:.2f} nm, its wavelength as "
+                f"estimated from the {', '.join(f'{x:g}' for x in line.from_lines)} nm lines "
+                f"({line.offset_nm:+.2f} nm from its label)"
+            )
+        elif abs(line.offset_nm) > tolerance:
+            cause = (
+                "this line is off its label"
+                if line.off_label
+                else "one of the lines is off its label, which cannot be told from so few lines"
+            )
+            notes.append(
+                f"laser {label:g} nm: the {', '.join(f'{x:g}' for x in line.from_lines)} nm "
+                f"lines put it at {line.estimated_nm:.2f} nm ({line.offset_nm:+.2f} nm): "
+                f"{cause}. Fix: measure the line with a spectrometer and correct lasers_nm, "
+                "or set fit.estimate_laser_wavelengths: true in the procedure"
+            )
+    return notes
 
 
 def run_spectral_calibration(
@@ -597,6 +683,17 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
             ),
         },
         "leave_one_out": {f"{k:g}": v for k, v in disp.leave_one_out.items()},
+        "laser_lines": {
+            f"{label:g}": {
+                "label_nm": line.label_nm,
+                "estimated_nm": line.estimated_nm if np.isfinite(line.estimated_nm) else None,
+                "fitted_nm": disp.wavelengths_nm.get(label, label),
+                "from_lines_nm": list(line.from_lines),
+                "off_label": line.off_label,
+            }
+            for label, line in result.laser_lines.items()
+        },
+        "notes": laser_line_notes(result),
     }
 
 

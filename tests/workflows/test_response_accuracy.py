@@ -11,21 +11,6 @@ from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.scan import run_response
 
 
-def true_response(rig, bin_edges):
-    """Per-bin QE of the spectral camera, weighted by the halogen lamp's photons (the
-    response is relative: the optics' grey throughput and the exposure only scale it)."""
-    bench = truth(rig)
-    grid = bench.wavelengths_nm
-    step = np.gradient(grid)
-    low, high = grid - step / 2, grid + step / 2
-    overlap = np.minimum(high[None], bin_edges[1:, None]) - np.maximum(
-        low[None], bin_edges[:-1, None]
-    )
-    share = np.clip(overlap, 0.0, None) / step[None]
-    photons = bench.light_samples("halogen").weights
-    return (share * photons * bench.quantum_efficiency(grid)).sum(1) / (share * photons).sum(1)
-
-
 @pytest.fixture(scope="module")
 def response_bundle(calibrated_sim, tmp_path_factory):
     rig, _, data = calibrated_sim
@@ -39,7 +24,7 @@ def response_bundle(calibrated_sim, tmp_path_factory):
 def test_the_response_follows_the_cameras_true_quantum_efficiency(response_bundle):
     rig, bundle = response_bundle
     measured = np.asarray(bundle.response)
-    expected = true_response(rig, bundle.bin_edges)
+    expected = truth(rig).relative_response(bundle.bin_edges)
     relative = measured / expected
     relative /= np.median(relative)
     wl = bundle.wavelengths

@@ -1,39 +1,23 @@
 """The spectral calibration refuses or flags bad input instead of publishing nonsense."""
 
-import numpy as np
 import pytest
 
 from sassi_bench import open_rig
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.calibrate.dispersion import LaserMap, fit_dispersion
-from sassi_bench.calibrate.field import fit_field
+from sassi_bench.calibrate.dispersion import fit_dispersion
 from sassi_bench.errors import ConfigError
-from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.procedure import load_procedure
 from sassi_bench.workflows.spectral import analyse_sweep, run_spectral_calibration
 from sassi_bench.workflows.spectral_plans import sweep_plan
 
 
-def _true_maps(rig, lasers, labels=None):
-    t = truth(rig)
-    h, w = rig.slm.shape
-    v, u = np.mgrid[0:h:10, 0:w:10].astype(float)
-    maps = []
-    for laser, label in zip(lasers, labels or lasers, strict=True):
-        x, y = t.slm_to_camera(u, v, laser)
-        fx = fit_field(u.ravel(), v.ravel(), x.ravel(), (h, w), 5)
-        fy = fit_field(u.ravel(), v.ravel(), y.ravel(), (h, w), 5)
-        maps.append(LaserMap(label, fx, fy, x.size))
-    return maps
-
-
-def test_a_laser_mislabelled_by_10_nm_fails_the_leave_one_out_check(sim_rig):
+def test_a_laser_mislabelled_by_10_nm_fails_the_leave_one_out_check(sim_rig, true_laser_maps):
     lasers = [450.0, 520.0, 532.0, 635.0, 670.0]
-    good = fit_dispersion(_true_maps(sim_rig, lasers), "N-BK7", sim_rig.slm.shape)
+    good = fit_dispersion(true_laser_maps(sim_rig, lasers), "N-BK7", sim_rig.slm.shape)
     assert good.leave_one_out_rms_nm < 0.05
     labels = [450.0, 520.0, 542.0, 635.0, 670.0]  # the 532 nm line labelled 542 nm
-    bad = fit_dispersion(_true_maps(sim_rig, lasers, labels), "N-BK7", sim_rig.slm.shape)
+    bad = fit_dispersion(true_laser_maps(sim_rig, labels, lasers), "N-BK7", sim_rig.slm.shape)
     tolerance = load_procedure("spectral_calibration")["tolerances"]["leave_one_out_rms_nm"]
     assert bad.leave_one_out_rms_nm > 5 * tolerance
 
@@ -49,8 +33,8 @@ def test_a_missing_laser_is_a_clear_error_before_any_capture(tmp_path):
     assert not (tmp_path / "sessions").exists()
 
 
-def test_too_few_lasers_cannot_fix_the_dispersion(sim_rig):
-    maps = _true_maps(sim_rig, [450.0, 635.0])
+def test_too_few_lasers_cannot_fix_the_dispersion(sim_rig, true_laser_maps):
+    maps = true_laser_maps(sim_rig, [450.0, 635.0])
     with pytest.raises(ValueError, match="cannot fix a degree-2 dispersion model"):
         fit_dispersion(maps, "N-BK7", sim_rig.slm.shape)
 

@@ -19,6 +19,7 @@ from sassi_bench.optics.sources import (
     wavelength_grid,
 )
 from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.sim import as_built
 from sassi_bench.rig.sim.geometry import SpectralRelay
 from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.render import SpectralRenderer
@@ -68,12 +69,21 @@ class VirtualBench:
             dark_offset_adu=0.0 if gc.bit_depth <= 8 else 16.0,
             qe="flat",  # the colour sensitivities already include the sensor's QE
         )
-        self.relay = SpectralRelay(self.slm_shape, self.camera_shape, desc.relay, desc.prism)
+        self.relay = SpectralRelay(
+            self.slm_shape,
+            self.camera_shape,
+            desc.relay,
+            desc.prism,
+            true_glass=as_built.prism_glass(desc),
+            true_apex_deg=as_built.prism_apex_deg(desc),
+        )
         self.blur = BlurModel(desc.blur.sigma_px)
         self.renderer = SpectralRenderer(
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
         )
-        self.guide = GuideOptics(gc, self.slm_shape, self.grid)
+        self.guide = GuideOptics(
+            gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)
+        )
         self.scene_seed = int(np.random.SeedSequence([desc.seed, 2]).generate_state(1)[0])
         self._exposures_seen: dict[tuple[str, bytes], int] = {}
         self.sparse_limit = (
@@ -131,15 +141,18 @@ class VirtualBench:
             if light == "off":
                 samples = SpectralSamples(np.array([550.0]), np.array([0.0]))
             elif light.startswith("laser:"):
-                samples = laser_samples(float(light[6:]), cfg.laser_fwhm_nm, cfg.laser_flux)
+                centre = as_built.laser_centre_nm(self.description, float(light[6:]))
+                samples = laser_samples(centre, cfg.laser_fwhm_nm, cfg.laser_flux)
             elif light == "led":
-                power = colour_illuminant_power(cfg.led, self.grid, "light.led")
+                power = colour_illuminant_power(
+                    as_built.led(self.description), self.grid, "light.led"
+                )
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
             elif light == "fluorescent":
                 power = colour_illuminant_power(cfg.fluorescent, self.grid, "light.fluorescent")
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
             elif light == "halogen":
-                power = blackbody_power(self.grid, cfg.halogen_k)
+                power = blackbody_power(self.grid, as_built.halogen_k(self.description))
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
             else:  # pragma: no cover - the light device validates names
                 raise ProcedureError(
@@ -176,9 +189,10 @@ class VirtualBench:
 
     # -- rendering ----------------------------------------------------------------------
     def transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:
-        """SLM transmission for a uint8 pattern: eps + (1 - eps) (g / 255) ** gamma."""
+        """SLM transmission for a uint8 pattern: eps + (1 - eps) (g / 255) ** gamma,
+        with the SLM's true gamma."""
         response = (pattern.astype(np.float32) / np.float32(255.0)) ** np.float32(
-            self.description.slm.gamma
+            as_built.slm_gamma(self.description)
         )
         return np.float32(self.eps) + np.float32(1.0 - self.eps) * response
 

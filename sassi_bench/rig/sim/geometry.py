@@ -18,6 +18,13 @@ The virtual bench's SLM -> camera map is a ray trace, not a fitted polynomial:
    the small wavelength-dependent row shift that the calibration fits.
 5. Mild radial distortion ``relay.distortion_k1`` (radius normalised to the camera's
    half diagonal).
+
+The bench is built to its description: the focal length, the prism's roll and its
+incidence angle are solved with the described glass and apex. A bench built otherwise
+(``true_glass``, ``true_apex_deg``: another melt, a prism ground to another angle) then
+traces its rays through the true prism, with the camera pointed where the true reference
+ray goes (a lab aligns its camera on the light), so its streaks differ in length, shape
+and position from what the description predicts.
 """
 
 from __future__ import annotations
@@ -52,6 +59,8 @@ class SpectralRelay:
         (height, width) of the SLM and of the spectral camera.
     relay, prism
         The rig description's sections.
+    true_glass, true_apex_deg
+        The prism as built, when it differs from the description (default: as described).
 
     Examples
     --------
@@ -67,9 +76,12 @@ class SpectralRelay:
     camera_shape: tuple[int, int]
     relay: RelayConfig
     prism: PrismConfig
+    true_glass: Glass | None = None
+    true_apex_deg: float | None = None
 
     def __post_init__(self) -> None:
         self.glass: Glass = get_glass(self.prism.glass)
+        self.apex_deg = float(self.prism.apex_deg)
         h, w = self.slm_shape
         hc, wc = self.camera_shape
         self.slm_centre = ((w - 1) / 2.0, (h - 1) / 2.0)
@@ -98,12 +110,18 @@ class SpectralRelay:
             self.roll_rad += np.arctan2(
                 self.prism.smile_px - float(y[1] - y[0]), float(x[1] - x[0])
             )
+        if self.true_glass is not None or self.true_apex_deg is not None:
+            self.glass = self.true_glass if self.true_glass is not None else self.glass
+            self.apex_deg = float(
+                self.true_apex_deg if self.true_apex_deg is not None else self.apex_deg
+            )
+            self._to_camera = self._align_camera(float(self.glass.index(self.prism.reference_nm)))
 
     def _trace(self, d: NDArray[np.float64], n: ArrayLike) -> NDArray[np.float64]:
         """Trace directions through the rolled prism (roll about the optical axis)."""
         c, s = np.cos(self.roll_rad), np.sin(self.roll_rad)
         roll = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        out = trace_prism(d @ roll, n, self.prism.apex_deg, self.incidence_deg)
+        out = trace_prism(d @ roll, n, self.apex_deg, self.incidence_deg)
         return out @ roll.T
 
     def _align_camera(self, n_ref: float) -> NDArray[np.float64]:

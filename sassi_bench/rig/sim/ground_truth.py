@@ -1,7 +1,8 @@
 """Ground truth of the virtual bench, for tests and accuracy reports only.
 
 Procedures never receive this object: they get device handles. Tests and accuracy
-reports call :func:`truth` to score what a procedure measured.
+reports call :func:`truth` to score what a procedure measured. Everything here is the
+bench as built (its ``as_built`` section applied), not as described.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.rig import Rig
+from sassi_bench.rig.sim import as_built
 from sassi_bench.rig.sim.bench import VirtualBench
 from sassi_bench.rig.sim.scenes import ScenePose, posed_scene
 
@@ -118,6 +120,52 @@ class BenchTruth:
     def quantum_efficiency(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """The spectral camera's QE."""
         return self._bench.sensor.quantum_efficiency(wavelength_nm)
+
+    def wavelength_map_error_nm(self, model, field_points: tuple[int, int] = (17, 11)) -> NDArray:
+        """Wavelength error (nm) of a dispersion model's streak columns against the truth.
+
+        ``model.evaluate(u, v, wavelength)`` (a bundle's dispersion model) is compared
+        with the true ray trace on a grid of ``field_points`` (columns, rows) over the
+        SLM at 61 wavelengths from 400 to 700 nm; column errors become wavelength errors
+        through the true local dispersion. Returns (points, 61).
+        """
+        h, w = self._bench.slm_shape
+        u, v = np.meshgrid(
+            np.linspace(0, w - 1, field_points[0]), np.linspace(0, h - 1, field_points[1])
+        )
+        lam = np.linspace(400.0, 700.0, 61)
+        xm, _ = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        xt, _ = self.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        return (xm - xt) / np.gradient(xt, lam, axis=1)
+
+    def relative_response(self, bin_edges_nm: ArrayLike, light: str = "halogen") -> NDArray:
+        """What a radiometric response taken under ``light`` should be, per bin.
+
+        The spectral camera's QE weighted by the light's photons in each bin (the
+        response is relative: the optics' grey throughput and the exposure only scale it).
+        """
+        edges = np.asarray(bin_edges_nm, dtype=np.float64)
+        grid = self.wavelengths_nm
+        step = np.gradient(grid)
+        low, high = grid - step / 2, grid + step / 2
+        overlap = np.minimum(high[None], edges[1:, None]) - np.maximum(low[None], edges[:-1, None])
+        share = np.clip(overlap, 0.0, None) / step[None]
+        photons = self.light_samples(light).weights
+        return (share * photons * self.quantum_efficiency(grid)).sum(1) / (share * photons).sum(1)
+
+    def laser_centre_nm(self, nominal_nm: float) -> float:
+        """The true centre (nm) of the laser line labelled ``nominal_nm``."""
+        return as_built.laser_centre_nm(self._bench.description, nominal_nm)
+
+    @property
+    def halogen_k(self) -> float:
+        """The halogen lamp's true colour temperature (K)."""
+        return as_built.halogen_k(self._bench.description)
+
+    @property
+    def guide_sensitivities(self) -> NDArray[np.float64]:
+        """The guide camera's true RGB curves (3, L) on :attr:`wavelengths_nm`."""
+        return self._bench.guide.sensitivities.copy()
 
     def light_samples(self, name: str) -> SpectralSamples:
         """The spectral samples of light ``name``."""

@@ -53,15 +53,25 @@ class GuideOptics:
         SLM (height, width); the homography maps guide pixels to SLM pixels.
     grid
         The scene wavelength grid.
+    sensitivities
+        The sensor's true RGB curves (3, len(grid)); default: those ``cfg`` names.
     """
 
     def __init__(
-        self, cfg: GuideCameraConfig, slm_shape: tuple[int, int], grid: NDArray[np.float64]
+        self,
+        cfg: GuideCameraConfig,
+        slm_shape: tuple[int, int],
+        grid: NDArray[np.float64],
+        sensitivities: NDArray[np.float64] | None = None,
     ) -> None:
         self.cfg = cfg
         self.shape = (cfg.height, cfg.width, 3)
         self.guide_to_slm = guide_homography(cfg, slm_shape)
-        self.sensitivities = camera_sensitivities(cfg.sensitivities, grid)
+        self.sensitivities = (
+            camera_sensitivities(cfg.sensitivities, grid)
+            if sensitivities is None
+            else np.asarray(sensitivities, dtype=np.float64)
+        )
         self.grid = grid
         # Guide pixels per SLM pixel, from the homography's local area at the centre.
         self.scale = 1.0 / np.sqrt(abs(np.linalg.det(self.guide_to_slm[:2, :2])))

@@ -1,0 +1,184 @@
+"""The virtual bench as built: the true values behind a rig's nominal description.
+
+A lab knows its bench by nominal values: laser lines by their labels, the prism by its
+catalogue glass and drawing, the halogen lamp by its rated colour temperature, the guide
+camera by its data sheet. A rig's ``as_built`` section (read here and nowhere outside
+``rig/sim``) says how the virtual bench really differs; every function below returns the
+true value, and the nominal one when the section leaves the key out. Procedures never
+see any of this: they are told the description only, and the bench renders the truth.
+
+Examples
+--------
+>>> from sassi_bench.rig.config import load_rig_description
+>>> desc = load_rig_description("sim")  # no as_built section: everything as described
+>>> laser_centre_nm(desc, 635.0), halogen_k(desc), slm_gamma(desc)
+(635.0, 3000.0, 2.2)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.optics.datasets import camera_sensitivities
+from sassi_bench.optics.glass import Glass, get_glass
+from sassi_bench.rig.config import RigDescription, as_built_path
+
+__all__ = [
+    "OffsetGlass",
+    "guide_sensitivities",
+    "halogen_k",
+    "laser_centre_nm",
+    "led",
+    "prism_apex_deg",
+    "prism_glass",
+    "slm_gamma",
+]
+
+
+@dataclass(frozen=True)
+class OffsetGlass(Glass):
+    """A catalogue glass whose melt's index is off by a constant at every wavelength.
+
+    Examples
+    --------
+    >>> bk7 = get_glass("N-BK7")
+    >>> melt = OffsetGlass(bk7.name, bk7.b, bk7.c, bk7.nd, bk7.vd, index_offset=0.002)
+    >>> round(float(melt.index(587.5618) - bk7.index(587.5618)), 6)
+    0.002
+    """
+
+    index_offset: float = 0.0
+
+    def index(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """Refractive index at ``wavelength_nm``: the catalogue's plus the offset."""
+        return super().index(wavelength_nm) + self.index_offset
+
+
+def laser_centre_nm(desc: RigDescription, nominal_nm: float) -> float:
+    """True centre (nm) of the laser line labelled ``nominal_nm``.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> laser_centre_nm(load_rig_description("sim"), 532.0)
+    532.0
+    """
+    return float(desc.as_built.lasers_nm.get(float(nominal_nm), nominal_nm))
+
+
+def prism_glass(desc: RigDescription) -> Glass:
+    """The prism's true glass: the catalogue glass plus ``as_built.glass_index_offset``.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> prism_glass(load_rig_description("sim")).name
+    'N-BK7'
+    """
+    catalogue = get_glass(desc.prism.glass)
+    offset = desc.as_built.glass_index_offset
+    if offset == 0.0:
+        return catalogue
+    return OffsetGlass(catalogue.name, catalogue.b, catalogue.c, catalogue.nd, catalogue.vd, offset)
+
+
+def prism_apex_deg(desc: RigDescription) -> float:
+    """The prism's true apex angle (degrees).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> prism_apex_deg(load_rig_description("sim"))
+    30.0
+    """
+    true = desc.as_built.apex_deg
+    return float(true if true is not None else desc.prism.apex_deg)
+
+
+def halogen_k(desc: RigDescription) -> float:
+    """The halogen lamp's true colour temperature (K).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> halogen_k(load_rig_description("sim"))
+    3000.0
+    """
+    true = desc.as_built.halogen_k
+    return float(true if true is not None else desc.light.halogen_k)
+
+
+def led(desc: RigDescription) -> str:
+    """The colour-science illuminant that is the LED's true spectrum.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> led(load_rig_description("sim"))
+    'LED-B3'
+    """
+    return desc.as_built.led if desc.as_built.led is not None else desc.light.led
+
+
+def slm_gamma(desc: RigDescription) -> float:
+    """The SLM's true grey-level exponent.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> slm_gamma(load_rig_description("sim"))
+    2.2
+    """
+    true = desc.as_built.slm_gamma
+    return float(true if true is not None else desc.slm.gamma)
+
+
+def guide_sensitivities(desc: RigDescription, wavelengths_nm: ArrayLike) -> NDArray[np.float64]:
+    """The guide camera's true RGB curves (3, L) at ``wavelengths_nm``, peak 1.
+
+    ``as_built.guide_sensitivities`` names a colour-science camera or a CSV of
+    ``wavelength_nm,r,g,b`` (relative to the rig YAML); left out, the described sensor.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> guide_sensitivities(load_rig_description("sim"), [450.0, 550.0, 650.0]).shape
+    (3, 3)
+    """
+    name = desc.as_built.guide_sensitivities
+    if name is None:
+        return camera_sensitivities(desc.guide_camera.sensitivities, wavelengths_nm)
+    if not name.lower().endswith(".csv"):
+        return camera_sensitivities(name, wavelengths_nm, "as_built.guide_sensitivities")
+    return _csv_sensitivities(as_built_path(desc, name), wavelengths_nm)
+
+
+def _csv_sensitivities(path, wavelengths_nm: ArrayLike) -> NDArray[np.float64]:
+    """RGB curves from a ``wavelength_nm,r,g,b`` CSV (one header line), peak 1."""
+    try:
+        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:
+        raise ConfigError(
+            step_error(
+                "as_built.guide_sensitivities",
+                f"{path} is not a CSV of numbers ({exc})",
+                "write one header line, then rows of wavelength_nm,r,g,b",
+            )
+        ) from exc
+    if table.shape[1] != 4 or table.shape[0] < 2 or np.any(np.diff(table[:, 0]) <= 0):
+        raise ConfigError(
+            step_error(
+                "as_built.guide_sensitivities",
+                f"{path} needs four columns and increasing wavelengths",
+                "write rows of wavelength_nm,r,g,b sorted by wavelength",
+            )
+        )
+    grid = np.asarray(wavelengths_nm, dtype=np.float64)
+    curves = np.stack(
+        [np.interp(grid, table[:, 0], table[:, c], left=0.0, right=0.0) for c in (1, 2, 3)]
+    )
+    return curves / curves.max()
