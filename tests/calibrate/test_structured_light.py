@@ -96,12 +96,17 @@ class SyntheticBench:
         return {k: np.stack([self.capture(d) for d in ds]) for k, ds in plan.items()}
 
 
+def compensated_profile(bench: SyntheticBench) -> np.ndarray:
+    """The sinusoid profile precompensated for the bench's measured grey-level response."""
+    levels = np.array([*range(0, 256, 32), 255])
+    uniform = np.stack([bench.capture({"kind": "uniform", "level": int(g)}) for g in levels])
+    return sinusoid_profile(PERIOD, measure_grey_response(levels, uniform, bench.dark))
+
+
 def decode_synthetic(bench: SyntheticBench) -> tuple[dict[str, AxisDecode], object]:
     """Run the whole sweep on a synthetic bench: grey response, both axes, pairs."""
     refs = {k: bench.capture({"kind": k}) for k in ("blank", "full")}
-    levels = np.array([*range(0, 256, 32), 255])
-    uniform = np.stack([bench.capture({"kind": "uniform", "level": int(g)}) for g in levels])
-    profile = sinusoid_profile(PERIOD, measure_grey_response(levels, uniform, bench.dark))
+    profile = compensated_profile(bench)
     axes = {}
     for axis in ("x", "y"):
         frames = bench.capture_axis(axis, profile)
@@ -337,16 +342,53 @@ def test_each_exclusion_reason_is_detected_where_expected():
     # Pixels the wrong fringes shift by a whole period may land near the border: skip them.
     compare = np.ones(shape, bool)
     compare[20:25, :BLOCK] = compare[20:25, -BLOCK:] = False
+    # The other pixels of those rows are off by half a period, which the consistency
+    # check cannot see; the outlier test catches them where their window holds more
+    # good rows than shifted ones (most of rows 20 and 21); the band's middle agrees with
+    # itself.
+    shifted = compare & (expected == 0)
+    shifted[:20] = shifted[25:] = False
+    outlier = REASONS.index("outlier")
+    assert np.mean(axis.reason[20:22][shifted[20:22]] == outlier) > 0.8
+    assert set(axis.reason[shifted].tolist()) == {0, outlier}
+    compare &= ~shifted
     np.testing.assert_array_equal(axis.reason[compare], expected[compare])
     assert axis.counts["dark"] == axis.counts["saturated"] == 50
     assert axis.counts["disagreement"] >= 5 * 4 * 6  # 4 of 8 px in the 6 interior blocks
-    # Elsewhere the decode is exact. (In rows 20-24 the pixels the check cannot catch are
-    # off by half a period: a consistency check only sees errors near period / 2.)
+    # Elsewhere the decode is exact.
     good = axis.reason == 0
     good[20:25] = False
     np.testing.assert_allclose(axis.coord[good], np.broadcast_to(np.arange(64.0), shape)[good],
                                atol=0.02)  # fmt: skip
     assert axis.blur_sigma < 0.2  # point-sampled, unblurred: only the profile's rounding
+
+
+def test_outliers_are_pixels_that_disagree_with_their_neighbours(synthetic):
+    """A wrong Gray word passes every per-pixel check; the smooth map gives it away."""
+    bench = synthetic[0]
+    refs = {k: bench.capture({"kind": k}) for k in ("blank", "full")}
+    frames = bench.capture_axis("x", compensated_profile(bench))
+    clean = decode_axis(frames["positive"], frames["negative"], frames["phase"],
+                        length=bench.slm[1], dark=bench.dark, **refs)  # fmt: skip
+    # Swap the last two Gray bits of a 3 x 4 px spot, as a flicker or a hot pixel might:
+    # the block moves by two (one fringe period), so the unwrapped phase still agrees with
+    # it and only the smooth map gives the pixels away.
+    spot = (slice(70, 73), slice(100, 104))
+    pos, neg = frames["positive"].copy(), frames["negative"].copy()
+    for bit in (-2, -1):
+        pos[bit][spot], neg[bit][spot] = (
+            frames["negative"][bit][spot],
+            frames["positive"][bit][spot],
+        )
+    broken = decode_axis(pos, neg, frames["phase"], length=bench.slm[1], dark=bench.dark, **refs)
+    assert clean.valid[spot].all()
+    assert np.all(np.abs(np.abs(broken.coarse[spot] - clean.coarse[spot]) - PERIOD) < 1e-9)
+    assert (broken.reason[spot] == REASONS.index("outlier")).all()
+    # Nothing else changes.
+    elsewhere = np.ones(bench.camera, bool)
+    elsewhere[spot] = False
+    np.testing.assert_array_equal(broken.reason[elsewhere], clean.reason[elsewhere])
+    assert clean.counts["outlier"] == 0
 
 
 def test_correspondences_refuse_mismatched_or_empty_axes():
