@@ -352,8 +352,8 @@ def validate_macbeth(
     if white_error is not None:
         white_se = np.asarray(white_error, dtype=np.float64)
         chart_se = standard_error(chart)
-        relative = np.hypot(chart_se / chart.mean, white_se / white)
-        noise = noise_floor(m, (np.abs(reflectance) * relative)[:, usable], lam[usable])
+        relative_error = np.hypot(chart_se / chart.mean, white_se / white)
+        noise = noise_floor(m, (np.abs(reflectance) * relative_error)[:, usable], lam[usable])
     band = (float(lam[usable][0]), float(lam[usable][-1]))
     notes = [
         f"Spectra are compared only in the usable band {band[0]:.0f}-{band[1]:.0f} nm "
