@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.acquire.patterns import gray_bit_count
@@ -51,11 +52,19 @@ REASONS = (
     "ambiguous_gray",
     "disagreement",
     "edge",
+    "outlier",
 )
 _MAD_TO_SIGMA = 1.4826
+# Joint fit of per-frame gains (see _frame_gains): pixels sampled and iterations at most.
+_GAIN_PIXELS = 50_000
+_GAIN_ITERATIONS = 200
 # Default border margin, in blur sigmas (plus half a pixel): a Gaussian spot truncated
 # 2.5 sigma from its centre is pulled inwards by under 0.02 sigma.
 _EDGE_SIGMAS = 2.5
+# The outlier test compares each coordinate with the median of its valid neighbours in a
+# window of this many camera pixels a side (needing at least _OUTLIER_MIN_NEIGHBOURS).
+_OUTLIER_WINDOW = 5
+_OUTLIER_MIN_NEIGHBOURS = 6
 
 
 # -- input handling -------------------------------------------------------------------
@@ -209,12 +218,15 @@ def decode_phase(
     *,
     dark: ArrayLike | None = None,
     shifts: Sequence[float] | None = None,
+    normalise: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Decode phase-shifted sinusoid frames into a position within the period.
 
-    Frame ``s`` is modelled as ``A + B cos(theta - 2 pi shift_s / period)``; with equal
-    steps this is the classic ``atan2(sum I_s sin d_s, sum I_s cos d_s)``, and for any
-    other shifts the same least-squares fit.
+    Frame ``s`` is modelled as ``g_s (A + B cos(theta - 2 pi shift_s / period))``; with
+    equal steps and equal frame gains ``g_s`` this is the classic
+    ``atan2(sum I_s sin d_s, sum I_s cos d_s)``, and for any other shifts the same
+    least-squares fit. The gains (one per frame, for a light source whose power drifts)
+    are estimated robustly from a first fit and divided out.
 
     Parameters
     ----------
@@ -228,6 +240,10 @@ def decode_phase(
     shifts
         Pattern shifts (px) of the frames; default ``s * period // S``, as a
         ``periodic`` pattern descriptor realises them.
+    normalise
+        Estimate every frame's overall light level from the frames themselves and
+        divide it out before the final fit (with more than 3 frames): a laser whose
+        power jitters by 1 % from frame to frame otherwise shifts the decoded phase.
 
     Returns
     -------
@@ -260,15 +276,65 @@ def decode_phase(
         )
     solver = _phase_solver(shifts, float(period), step)
     dark_arr = _dark(dark, stack.shape[1:], step)
-    coef = np.zeros((3, *stack.shape[1:]), dtype=np.float64)
-    for s, raw in enumerate(stack):
-        frame = _frame(raw, dark_arr)
-        for k in range(3):
-            coef[k] += solver[k, s] * frame
+    coef = _phase_coefficients(stack, dark_arr, solver)
+    if normalise and count > 3:
+        design = np.linalg.pinv(solver)
+        gains = _frame_gains(stack, dark_arr, coef, solver, design)
+        coef = _phase_coefficients(stack, dark_arr, solver / gains[None, :])
     theta = np.arctan2(coef[2], coef[1])
     coord = np.mod(theta * (period / (2.0 * np.pi)), period)
     coord[coord >= period] = 0.0  # mod of a tiny negative number can round up to period
     return coord, np.hypot(coef[1], coef[2]), coef[0]
+
+
+def _phase_coefficients(
+    stack: NDArray, dark: NDArray[np.float32], solver: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Offset and quadrature amplitudes (3, H, W): ``solver`` applied to the frames."""
+    coef = np.zeros((3, *stack.shape[1:]), dtype=np.float64)
+    for s, raw in enumerate(stack):
+        frame = _frame(raw, dark)
+        for k in range(3):
+            coef[k] += solver[k, s] * frame
+    return coef
+
+
+def _frame_gains(
+    stack: NDArray,
+    dark: NDArray[np.float32],
+    coef: NDArray[np.float64],
+    solver: NDArray[np.float64],
+    design: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Each phase frame's light level relative to the others (mean 1), (S,).
+
+    A source whose power drifts from frame to frame (a laser's power jitter) scales
+    whole frames; the sinusoid fit reads the drift as a phase error of up to
+    ``jitter * A / B`` radians. One pixel cannot tell a gain from a phase (the part of
+    the drift that looks like a sinusoid is absorbed into its fit), but pixels at
+    different phases can: the gains and every pixel's sinusoid are fitted jointly by
+    alternating least squares (frames divided by the gains -> per-pixel fit -> gains
+    from all pixels) on a regular subsample of the well-modulated pixels.
+    """
+    usable = (coef[0] > 0) & (np.hypot(coef[1], coef[2]) > 0.2 * coef[0])
+    rows, cols = np.nonzero(usable)
+    count = stack.shape[0]
+    if rows.size < 100:
+        return np.ones(count)
+    stride = max(1, rows.size // _GAIN_PIXELS)
+    rows, cols = rows[::stride], cols[::stride]
+    dark_at = dark if dark.ndim == 0 else dark[rows, cols]
+    frames = np.stack([np.asarray(raw[rows, cols], dtype=np.float64) - dark_at for raw in stack])
+    gains = np.ones(count)
+    for _ in range(_GAIN_ITERATIONS):
+        model = design @ (solver @ (frames / gains[:, None]))
+        new = np.sum(frames * model, axis=1) / np.sum(model * model, axis=1)
+        new /= new.mean()
+        converged = np.max(np.abs(new - gains)) < 1e-6
+        gains = new
+        if converged:
+            break
+    return gains
 
 
 def unwrap(phase_coord: ArrayLike, coarse_coord: ArrayLike, period: float) -> NDArray[np.float64]:
@@ -388,6 +454,40 @@ def _counts(reason: NDArray[np.uint8]) -> dict[str, int]:
     return {"pixels": int(reason.size), **{n: int(c) for n, c in zip(REASONS, tally, strict=True)}}
 
 
+def _local_outliers(
+    coord: NDArray[np.float64], valid: NDArray[np.bool_], max_jump: float
+) -> NDArray[np.bool_]:
+    """Valid pixels whose coordinate is more than ``max_jump`` from their neighbours' median.
+
+    The SLM -> camera map is smooth, so a pixel that disagrees with the valid pixels
+    around it decoded a wrong Gray word or a corrupted phase (a hot pixel, stray light
+    with spurious fringes). The coordinate changes by about one SLM pixel per camera
+    pixel, so a plane fitted to all valid pixels is taken off first and the median is
+    that of the residual (smooth to hundredths of a pixel over the window). Pixels with
+    too few valid neighbours to judge are kept.
+    """
+    out = np.zeros(coord.shape, dtype=bool)
+    rows, cols = np.nonzero(valid)
+    if rows.size < 3:
+        return out
+    design = np.stack([cols, rows, np.ones_like(rows)], axis=1).astype(np.float64)
+    plane = np.linalg.lstsq(design, coord[rows, cols], rcond=None)[0]
+    residual = np.full(coord.shape, np.inf, dtype=np.float32)
+    residual[rows, cols] = coord[rows, cols] - design @ plane
+    half = _OUTLIER_WINDOW // 2
+    padded = np.pad(residual, half, constant_values=np.inf)
+    windows = sliding_window_view(padded, (_OUTLIER_WINDOW, _OUTLIER_WINDOW))[rows, cols]
+    ordered = np.sort(windows.reshape(rows.size, -1), axis=1)  # invalid (inf) sort last
+    count = np.sum(np.isfinite(ordered), axis=1)
+    median = 0.5 * (
+        np.take_along_axis(ordered, ((count - 1) // 2)[:, None], axis=1)[:, 0]
+        + np.take_along_axis(ordered, (count // 2)[:, None], axis=1)[:, 0]
+    )
+    jump = np.abs(residual[rows, cols] - median)
+    out[rows, cols] = (count - 1 >= _OUTLIER_MIN_NEIGHBOURS) & (jump > max_jump)
+    return out
+
+
 def _check_axis_inputs(
     pos: NDArray,
     neg: NDArray,
@@ -453,13 +553,17 @@ def decode_axis(
     min_modulation: float = 0.25,
     min_margin: float = 0.2,
     tolerance: float = 2.0,
+    min_relative_signal: float = 0.05,
+    max_jump: float = 0.5,
 ) -> AxisDecode:
     """Decode one SLM axis from its Gray-code and phase-shift frames, with a validity mask.
 
     A pixel is excluded (and counted) for the first of these that holds:
 
     ``dark``
-        ``full - blank <= min_signal``: too little light to decode.
+        ``full - blank <= min_signal``, or at most ``min_relative_signal`` of the frame's
+        bright level (its 99.5th percentile): too little light to decode. The relative
+        floor keeps out pixels lit only by stray light, whose fringes are not the SLM's.
     ``saturated``
         Some raw frame reaches ``saturation_level``.
     ``low_modulation``
@@ -477,6 +581,10 @@ def decode_axis(
         itself at sigma 0.5 px). By default the margin is ``0.5 + 2.5 sigma``, with
         the blur sigma estimated from the fringes' modulation depth
         (:func:`blur_from_modulation`).
+    ``outlier``
+        The coordinate lies more than ``max_jump`` SLM px from the median of the
+        valid pixels within 2 camera px: the map is smooth, so the pixel decoded a
+        wrong Gray word or a corrupted phase.
 
     Parameters
     ----------
@@ -500,9 +608,9 @@ def decode_axis(
     min_signal
         Smallest usable ``full - blank``; default ten times the dark frame's robust
         noise (MAD), or 0 for a scalar ``dark``.
-    edge_margin, min_modulation, min_margin, tolerance
-        Thresholds of the tests above (px, ratio, contrast, px); ``edge_margin=None``
-        derives the margin from the measured blur.
+    edge_margin, min_modulation, min_margin, tolerance, min_relative_signal, max_jump
+        Thresholds of the tests above (px, ratio, contrast, px, ratio, px);
+        ``edge_margin=None`` derives the margin from the measured blur.
 
     Returns
     -------
@@ -536,6 +644,8 @@ def decode_axis(
 
     signal = _frame(full_raw, dark_arr) - _frame(blank_raw, dark_arr)
     floor = _default_min_signal(dark_arr) if min_signal is None else float(min_signal)
+    bright = float(np.percentile(signal, 99.5)) if signal.size else 0.0
+    floor = max(floor, min_relative_signal * bright)
     is_dark = ~(signal > floor)
     saturated = _saturated([full_raw[None], blank_raw[None], pos, neg, fringes], saturation_level)
 
@@ -548,16 +658,16 @@ def decode_axis(
     blur = _median_blur(depth, (depth >= min_modulation) & ~is_dark & ~saturated, period)
     margin = 0.5 + _EDGE_SIGMAS * blur if edge_margin is None else float(edge_margin)
 
-    reason = _reason_codes(
-        [
-            is_dark,
-            saturated,
-            ~(depth >= min_modulation),
-            second_margin < min_margin,
-            np.abs(coord - coarse) > period / 2 - tolerance,
-            (coord < margin - 0.5) | (coord > length - 0.5 - margin),
-        ]
-    )
+    flags = [
+        is_dark,
+        saturated,
+        ~(depth >= min_modulation),
+        second_margin < min_margin,
+        np.abs(coord - coarse) > period / 2 - tolerance,
+        (coord < margin - 0.5) | (coord > length - 0.5 - margin),
+    ]
+    passed = _reason_codes(flags) == 0
+    reason = _reason_codes([*flags, _local_outliers(coord, passed, max_jump)])
     valid = reason == 0
     return AxisDecode(
         coord=np.where(valid, coord, np.nan),

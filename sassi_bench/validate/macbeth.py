@@ -36,7 +36,14 @@ from sassi_bench.validate.colorimetry import (
 from sassi_bench.validate.locate import ChartGrid
 from sassi_bench.validate.reference import PATCH_COUNT, WHITE_PATCH, ReferenceChart
 
-__all__ = ["MacbethResult", "PatchStatistics", "patch_statistics", "validate_macbeth"]
+__all__ = [
+    "MacbethResult",
+    "PatchStatistics",
+    "noise_floor",
+    "patch_statistics",
+    "standard_error",
+    "validate_macbeth",
+]
 
 
 @dataclass(frozen=True)
@@ -116,6 +123,10 @@ class MacbethResult:
         (24, 3) CIELAB (D65, CIE 1931 2 degree).
     srgb_measured, srgb_reference
         (24, 3) display sRGB of the same colours.
+    noise
+        Estimated noise floor of every per-patch figure, ``{"angle_deg", "rmse",
+        "de00"}`` -> (24,): what photon and read noise alone would give a perfect
+        calibration (see :func:`noise_floor`).
     checks
         Tolerance checks from the procedure.
     settings
@@ -146,6 +157,7 @@ class MacbethResult:
     checks: list[QualityCheck]
     settings: dict[str, Any]
     grid: ChartGrid
+    noise: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     picture: NDArray[np.float32] | None = None
     picture_origin: tuple[int, int] = (0, 0)
@@ -172,6 +184,73 @@ class MacbethResult:
             "max_rmse": float(np.max(self.rmse)),
         }
 
+    def noise_floors(self) -> dict[str, float]:
+        """The noise floor beside each tolerance check's figure (same names as the checks).
+
+        A figure over patches (mean, max) gets the same statistic of the per-patch
+        floors; for a mean this is an upper bound (noise averages down over patches).
+        """
+        if not self.noise:
+            return {}
+        return {
+            "mean_de00": float(np.mean(self.noise["de00"])),
+            "max_de00": float(np.max(self.noise["de00"])),
+            "mean_spectral_angle": float(np.mean(self.noise["angle_deg"])),
+            "max_rmse": float(np.max(self.noise["rmse"])),
+        }
+
+
+def noise_floor(
+    reflectance: NDArray[np.float64],
+    standard_error: NDArray[np.float64],
+    wavelengths_nm: NDArray[np.float64],
+    draws: int = 64,
+    seed: int = 0,
+) -> dict[str, NDArray[np.float64]]:
+    """What noise alone does to each patch's spectral angle, RMSE and CIEDE2000, (24,) each.
+
+    Parameters
+    ----------
+    reflectance
+        (24, B) measured reflectance in the usable band.
+    standard_error
+        (24, B) standard error of each value: the patch's pixel spread over the square
+        root of its pixel count, combined with the white reference's.
+    wavelengths_nm
+        (B,) bin centres.
+    draws, seed
+        Monte Carlo draws for CIEDE2000 and the angle (deterministic).
+
+    Returns
+    -------
+    dict
+        ``"rmse"``: the RMS of the standard errors (the RMSE a perfect calibration would
+        show); ``"angle_deg"`` and ``"de00"``: the RMS change of the angle to the
+        measurement itself and of the colour difference when the measurement is
+        perturbed by its standard errors.
+
+    Examples
+    --------
+    >>> r = np.full((24, 3), 0.5)
+    >>> floor = noise_floor(r, np.full((24, 3), 0.01), np.array([450.0, 550.0, 650.0]))
+    >>> round(float(floor["rmse"][0]), 4), bool(floor["de00"][0] > 0)
+    (0.01, True)
+    """
+    r = np.asarray(reflectance, dtype=np.float64)
+    se = np.nan_to_num(np.asarray(standard_error, dtype=np.float64))
+    rng = np.random.default_rng(seed)
+    perturbed = r[None] + se[None] * rng.standard_normal((draws, *r.shape))
+    flat = perturbed.reshape(-1, r.shape[1])
+    lam = np.asarray(wavelengths_nm, dtype=np.float64)
+    angle = spectral_angle_deg(flat, np.broadcast_to(r, perturbed.shape).reshape(flat.shape))
+    lab = reflectance_to_lab(lam, flat).reshape(draws, r.shape[0], 3)
+    de = delta_e2000(lab, np.broadcast_to(reflectance_to_lab(lam, r), lab.shape))
+    return {
+        "rmse": np.sqrt(np.mean(se**2, axis=1)),
+        "angle_deg": np.sqrt(np.mean(angle.reshape(draws, -1) ** 2, axis=0)),
+        "de00": np.sqrt(np.mean(de**2, axis=0)),
+    }
+
 
 def _usable_band(white: NDArray[np.float64], min_relative: float) -> NDArray[np.bool_]:
     """The longest run of bins whose white signal is at least ``min_relative`` of its peak."""
@@ -195,6 +274,7 @@ def validate_macbeth(
     procedure: Mapping[str, Any],
     grid: ChartGrid,
     settings: Mapping[str, Any] | None = None,
+    white_error: NDArray[np.float64] | None = None,
 ) -> MacbethResult:
     """Reflectance of every patch, compared with the reference and graded.
 
@@ -216,6 +296,11 @@ def validate_macbeth(
         Where the patches were found (kept for the report).
     settings
         Extra provenance for the report.
+    white_error
+        Standard error of ``white``, same shape (from its pixel spread); with it the
+        noise floor of every figure is estimated and checked against
+        ``tolerances.max_noise_fraction`` of each tolerance, so a noisy scan fails a
+        check that says so instead of passing or failing a tolerance on noise.
 
     Returns
     -------
@@ -263,6 +348,12 @@ def validate_macbeth(
         ),
         QualityCheck.at_most("max_rmse", float(np.max(error)), tol["max_rmse"], "1"),
     ]
+    noise: dict[str, NDArray[np.float64]] = {}
+    if white_error is not None:
+        white_se = np.asarray(white_error, dtype=np.float64)
+        chart_se = standard_error(chart)
+        relative_error = np.hypot(chart_se / chart.mean, white_se / white)
+        noise = noise_floor(m, (np.abs(reflectance) * relative_error)[:, usable], lam[usable])
     band = (float(lam[usable][0]), float(lam[usable][-1]))
     notes = [
         f"Spectra are compared only in the usable band {band[0]:.0f}-{band[1]:.0f} nm "
@@ -285,7 +376,7 @@ def validate_macbeth(
             f"The white reference is the chart's white patch ({reference.patch_names[WHITE_PATCH]})"
             " with its reference reflectance, so that patch agrees by construction."
         )
-    return MacbethResult(
+    result = MacbethResult(
         wavelengths_nm=lam,
         bin_edges_nm=np.asarray(bin_edges_nm, dtype=np.float64),
         usable=usable,
@@ -306,7 +397,43 @@ def validate_macbeth(
         settings=dict(settings or {}),
         grid=grid,
         notes=notes,
+        noise=noise,
     )
+    if noise:
+        notes.append(
+            "The noise floor beside each figure is what the scans' photon and read noise alone "
+            "would give a perfect calibration (each patch's pixel spread over the square root "
+            "of its pixel count, with the white reference's, propagated to the figure); a "
+            "figure well above its floor is calibration error."
+        )
+        result.checks.append(_noise_check(result, tol, notes))
+    return result
+
+
+# The checks' tolerance keys in the procedure.
+_TOLERANCE_KEYS = {
+    "mean_de00": "mean_de00",
+    "max_de00": "max_de00",
+    "mean_spectral_angle": "mean_spectral_angle_deg",
+    "max_rmse": "max_rmse",
+}
+
+
+def _noise_check(result: MacbethResult, tol: Mapping[str, Any], notes: list[str]) -> QualityCheck:
+    """The largest noise floor as a fraction of its tolerance, against the allowed share."""
+    floors = result.noise_floors()
+    shares = {name: floors[name] / float(tol[key]) for name, key in _TOLERANCE_KEYS.items()}
+    worst = max(shares, key=shares.get)
+    allowed = float(tol.get("max_noise_fraction", 0.25))
+    check = QualityCheck.at_most("noise_floor_fraction", shares[worst], allowed, "1")
+    if not check.passed:
+        notes.append(
+            f"The scan is too noisy to judge the calibration: the noise floor of {worst} "
+            f"({floors[worst]:.3g}) is {100 * shares[worst]:.0f} % of its tolerance "
+            f"(allowed {100 * allowed:.0f} %). Expose the scan longer, or repeat it and "
+            "average, then validate again."
+        )
+    return check
 
 
 def white_from_patch(
@@ -326,6 +453,18 @@ def white_from_patch(
     """
     white_ref = reference.bin_average(bin_edges_nm)[WHITE_PATCH]
     return chart.mean[WHITE_PATCH] / white_ref
+
+
+def standard_error(stats: PatchStatistics) -> NDArray[np.float64]:
+    """Standard error of every patch mean, (24, B): the pixel spread over sqrt(pixels).
+
+    Examples
+    --------
+    >>> s = PatchStatistics(np.ones((24, 2)), np.full((24, 2), 0.2), np.full(24, 4))
+    >>> standard_error(s)[0].tolist()
+    [0.1, 0.1]
+    """
+    return stats.std / np.sqrt(np.maximum(stats.count, 1))[:, None]
 
 
 def white_from_diffuser(white: PatchStatistics, reflectance: float) -> NDArray[np.float64]:

@@ -84,6 +84,7 @@ def report_data(
         "software": f"sassi-bench {__version__}",
         "passed": result.passed,
         "summary": result.summary(),
+        "noise_floors": result.noise_floors(),
         "checks": [c.to_manifest() for c in result.checks],
         "usable_band_nm": list(result.band_nm),
         "notes": result.notes,
@@ -97,6 +98,7 @@ def report_data(
                 "spectral_angle_deg": float(result.angle_deg[k]),
                 "rmse": float(result.rmse[k]),
                 "de00": float(result.de00[k]),
+                **{f"noise_{name}": float(values[k]) for name, values in result.noise.items()},
             }
             for k in range(len(result.patch_names))
         ],
@@ -179,18 +181,24 @@ def _number(value: float, fmt: str = ".4g") -> str:
     return f"{value:{fmt}}"
 
 
-def _check_rows(checks: list[Mapping[str, Any]], fmt: str) -> list[list[str]]:
+def _check_rows(
+    checks: list[Mapping[str, Any]], fmt: str, floors: Mapping[str, float] | None = None
+) -> list[list[str]]:
+    """Table rows of quality checks; with ``floors``, a noise-floor column after the value."""
     esc = html.escape
-    return [
-        [
-            f'<td class="l">{esc(str(c["name"]))}</td>',
-            f"{_number(c['value'], fmt)}{esc(unit_suffix(c['unit']))}",
-            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:g}"
-            f"{esc(unit_suffix(c['unit']))}",
+    rows = []
+    for c in checks:
+        unit = esc(unit_suffix(c["unit"]))
+        row = [f'<td class="l">{esc(str(c["name"]))}</td>', f"{_number(c['value'], fmt)}{unit}"]
+        if floors is not None:
+            floor = floors.get(str(c["name"]))
+            row.append("" if floor is None else f"{_number(floor, fmt)}{unit}")
+        row += [
+            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:g}{unit}",
             "pass" if c["passed"] else '<td class="bad">FAIL</td>',
         ]
-        for c in checks
-    ]
+        rows.append(row)
+    return rows
 
 
 def _setting(key: str, value: Any) -> str:
@@ -234,7 +242,9 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str]) -> str:
     ident = doc["bundle"]
     name = f"{esc(ident['rig_name'])} / {esc(ident['version'] or 'not published')}"
     verdict = "PASS" if doc["passed"] else "FAIL"
-    checks = _table(["check", "value", "tolerance", "result"], _check_rows(doc["checks"], ".3f"))
+    floors = doc.get("noise_floors") or None
+    header = ["check", "value", *(["noise floor"] if floors else []), "tolerance", "result"]
+    checks = _table(header, _check_rows(doc["checks"], ".3f", floors))
     tol = doc["tolerances"]
     patches = _table(
         ["patch", "pixels", "angle (deg)", "RMSE", "dE00"],

@@ -23,11 +23,12 @@ from sassi_bench.validate.locate import ChartGrid, LocateError, detect_chart, gr
 from sassi_bench.validate.macbeth import (
     MacbethResult,
     patch_statistics,
+    standard_error,
     validate_macbeth,
     white_from_diffuser,
     white_from_patch,
 )
-from sassi_bench.validate.reference import ReferenceChart, reference_chart
+from sassi_bench.validate.reference import WHITE_PATCH, ReferenceChart, reference_chart
 
 __all__ = ["guide_picture", "locate_chart", "reference_rgb", "run_macbeth", "validate_scans"]
 
@@ -201,12 +202,13 @@ def validate_scans(
     if source == "diffuser":
         assert white is not None
         white_labels = grid.labels(white.quality.shape, white.origin, interior)
-        white_signal = white_from_diffuser(
-            patch_statistics(white.cube, white.quality, white_labels),
-            float(procedure["white_reference"]["diffuser_reflectance"]),
-        )
+        white_stats = patch_statistics(white.cube, white.quality, white_labels)
+        diffuser = float(procedure["white_reference"]["diffuser_reflectance"])
+        white_signal = white_from_diffuser(white_stats, diffuser)
+        white_error = standard_error(white_stats) / diffuser
     else:
         white_signal = white_from_patch(stats, reference, bundle.bin_edges)
+        white_error = white_signal * standard_error(stats)[WHITE_PATCH] / stats.mean[WHITE_PATCH]
     info = {
         "bundle": f"{bundle.rig_name}/{bundle.version}",
         "bundle_passed": bundle.passed,
@@ -227,6 +229,7 @@ def validate_scans(
         procedure,
         grid,
         settings=info,
+        white_error=white_error,
     )
     result.picture, result.picture_origin = shown, tuple(shown_origin)
     return result

@@ -1,5 +1,6 @@
 """The Macbeth validation on the virtual bench, scored against its ground truth."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -8,6 +9,7 @@ import pytest
 from sassi_bench.cli import main
 from sassi_bench.rig.sim import truth
 from sassi_bench.rig.sim.scenes import colorchecker_layout
+from sassi_bench.validate.macbeth import patch_statistics, standard_error
 from sassi_bench.validate.report import write_report
 from sassi_bench.validate.run import validate_scans
 from sassi_bench.validate.screenshot import chromium_path, screenshot
@@ -37,6 +39,46 @@ def test_calibrated_bundle_meets_the_accuracy_targets(good):
     lo, hi = good.band_nm
     assert lo > 410 and hi > 680  # the LED's blue end is cut, the band is otherwise whole
     assert np.all(good.pixels > 200)
+
+
+def test_noise_floor_sits_well_under_each_tolerance_and_is_honest(chart_scan, good):
+    _, _, _, run = chart_scan
+    floors = good.noise_floors()
+    tolerance_checks = {c.name: c for c in good.checks if c.name != "noise_floor_fraction"}
+    assert set(floors) == set(tolerance_checks)
+    for name, floor in floors.items():
+        assert 0 < floor <= 0.25 * tolerance_checks[name].tolerance, name
+    (noise_check,) = [c for c in good.checks if c.name == "noise_floor_fraction"]
+    assert noise_check.passed
+    # The floor is the standard error of the patch means: two halves of every patch
+    # (even and odd SLM columns, so different pinhole frames) must differ by what it
+    # predicts (their difference has four times the variance of the full mean).
+    scan = run.scan
+    labels = good.grid.labels(scan.quality.shape, scan.origin, interior=0.5)
+    columns = np.arange(scan.quality.shape[1])[None, :] + scan.origin[1]
+    halves = [
+        patch_statistics(scan.cube, scan.quality, np.where(columns % 2 == k, labels, -1))
+        for k in (0, 1)
+    ]
+    whole = patch_statistics(scan.cube, scan.quality, labels)
+    usable = good.usable
+    diff = (halves[0].mean - halves[1].mean)[:, usable] / whole.mean[:, usable]
+    predicted = 2 * standard_error(whole)[:, usable] / whole.mean[:, usable]
+    ratio = np.sqrt(np.mean(diff**2)) / np.sqrt(np.mean(predicted**2))
+    assert 0.6 < ratio < 1.6
+
+
+def test_a_noisy_scan_fails_the_noise_check_and_says_why(chart_scan, patch_procedure, good):
+    _, bundle, _, run = chart_scan
+    rng = np.random.default_rng(1)
+    cube = run.scan.cube
+    scale = np.percentile(np.abs(cube), 99, axis=(0, 1))
+    noisy = cube + (1.5 * scale * rng.standard_normal(cube.shape)).astype(np.float32)
+    result = validate_scans(dataclasses.replace(run.scan, cube=noisy), bundle, patch_procedure)
+    (noise_check,) = [c for c in result.checks if c.name == "noise_floor_fraction"]
+    assert not noise_check.passed and not result.passed
+    assert noise_check.value > 4 * good.checks[-1].value
+    assert any("too noisy to judge the calibration" in n for n in result.notes)
 
 
 def test_measured_reflectance_matches_the_scene(chart_scan, good):

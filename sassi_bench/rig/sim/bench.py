@@ -22,6 +22,7 @@ from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim import as_built
 from sassi_bench.rig.sim.geometry import SpectralRelay
 from sassi_bench.rig.sim.guide import GuideOptics
+from sassi_bench.rig.sim.nuisance import BenchNuisances
 from sassi_bench.rig.sim.render import SpectralRenderer
 from sassi_bench.rig.sim.scenes import Scene, ScenePose, make_scene, posed_scene
 
@@ -84,6 +85,7 @@ class VirtualBench:
         self.guide = GuideOptics(
             gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)
         )
+        self.nuisance = BenchNuisances(desc.nuisance, self.camera_shape, desc.seed, cam.full_well_e)
         self.scene_seed = int(np.random.SeedSequence([desc.seed, 2]).generate_state(1)[0])
         self._exposures_seen: dict[tuple[str, bytes], int] = {}
         self.sparse_limit = (
@@ -196,6 +198,14 @@ class VirtualBench:
         )
         return np.float32(self.eps) + np.float32(1.0 - self.eps) * response
 
+    def slm_transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:
+        """The transmission the SLM really shows for ``pattern`` (with pixel crosstalk)."""
+        transmission = self.transmission(pattern)
+        if self.description.nuisance.slm_crosstalk <= 0:
+            return transmission
+        eps = np.float32(self.eps)
+        return eps + self.nuisance.slm_excess(transmission - eps)
+
     def _background_rate(self) -> NDArray[np.float32]:
         """Light leaking through a fully closed SLM (cached per scene and light)."""
         key = (self.scene.name, self.pose, self.light)
@@ -213,8 +223,17 @@ class VirtualBench:
             return np.zeros(self.camera_shape, dtype=np.float32)
         open_rows, open_cols = np.nonzero(self.pattern)
         if open_rows.size > self.sparse_limit:
-            return self.renderer.render_dense(self.transmission(self.pattern), self.scene, samples)
+            return self.renderer.render_dense(
+                self.slm_transmission(self.pattern), self.scene, samples
+            )
         excess = self.transmission(self.pattern[open_rows, open_cols]) - np.float32(self.eps)
+        if self.description.nuisance.slm_crosstalk > 0:
+            # Crosstalk lights the open pixels' neighbours: splat those too.
+            image = np.zeros(self.slm_shape, dtype=np.float32)
+            image[open_rows, open_cols] = excess
+            image = self.nuisance.slm_excess(image)
+            open_rows, open_cols = np.nonzero(image > 0)
+            excess = image[open_rows, open_cols]
         sparse = self.renderer.render_sparse(open_rows, open_cols, excess, self.scene, samples)
         return self._background_rate() + sparse
 

@@ -74,6 +74,7 @@ class SimSpectralCamera(CameraBase):
     def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
         rate = self._bench.spectral_rate()
         rng = self._bench.noise_rng("spectral", self.exposure_s)
+        rate = self._bench.nuisance.spectral_rate(rate, self._bench.light, rng)
         data = self._bench.sensor.expose(rate, self.exposure_s, rng)
         return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
 
