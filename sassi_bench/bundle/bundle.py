@@ -332,6 +332,7 @@ class CalibrationBundle:
         blur_sigmas: float = 3.0,
         margin_px: float = 3.0,
         row_sigmas: float | None = None,
+        row_pitch: int | None = None,
     ) -> MaskSpacing:
         """How far apart open SLM pixels must be so that their streaks never overlap.
 
@@ -348,8 +349,9 @@ class CalibrationBundle:
         from sassi_bench.bundle.spacing import mask_spacing
 
         return mask_spacing(
-            self, blur_sigmas=blur_sigmas, margin_px=margin_px, row_sigmas=row_sigmas
-        )
+            self, blur_sigmas=blur_sigmas, margin_px=margin_px, row_sigmas=row_sigmas,
+            row_pitch=row_pitch,
+        )  # fmt: skip
 
     # -- other models -------------------------------------------------------------------------
 

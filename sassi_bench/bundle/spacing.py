@@ -39,10 +39,14 @@ Where the numbers come from:
 With the default ``blur_sigmas = 3`` no two footprints share a camera pixel, so each open
 pixel's cells hold less than about 1e-3 of any other pixel's light (the extraction sums
 each bin over +-3 sigma rows; a neighbour 6 sigma away puts ``1 - Phi(3)`` there). The
-SASSI paper uses a 5 px vertical pitch with stacked pixels unmixed; this rule is stricter
-(about 11 rows on the prototype) because the extraction unmixes only pixels stacked in one
-SLM column. A smaller ``blur_sigmas`` gives denser masks at the price of crosstalk at the
-blurry ends of the streaks.
+SASSI paper uses a 5 px vertical pitch with overlapping streaks unmixed by the vertical
+blur model; ``row_pitch`` gives that denser rule in the same form: the pitch is the given
+number of rows and ``left``/``right`` keep pixels fewer rows apart than it in disjoint
+camera columns. Pixels ``row_pitch`` or more rows apart may then share camera pixels; the
+extraction unmixes them (pixels of one SLM column by a banded solve per column, of
+neighbouring columns jointly: :mod:`sassi_bench.spectra.crosstalk`). A smaller
+``blur_sigmas`` gives denser masks at the price of crosstalk at the blurry ends of the
+streaks.
 
 Examples
 --------
@@ -226,6 +230,7 @@ def mask_spacing(
     blur_sigmas: float = BLUR_SIGMAS,
     margin_px: float = MARGIN_PX,
     row_sigmas: float | None = None,
+    row_pitch: int | None = None,
 ) -> MaskSpacing:
     """The separation open SLM pixels need so that their streaks never overlap.
 
@@ -243,6 +248,11 @@ def mask_spacing(
         Blur sigmas added above and below instead (default: ``blur_sigmas``). The pitch
         follows the widest blur (at the ends of the band) for every pair; a smaller value
         packs rows closer at the price of crosstalk where two pixels' blurry ends meet.
+    row_pitch
+        The pitch in SLM rows instead of the one that keeps footprints apart (the SASSI
+        paper's 5): pixels at least this many rows apart may overlap on the camera, and
+        the extraction unmixes them (:mod:`sassi_bench.spectra.crosstalk`). ``left`` and
+        ``right`` are computed for this pitch.
 
     Returns
     -------
@@ -305,6 +315,14 @@ def mask_spacing(
                 "check the bundle's dispersion fit (sassi-bench bundle verify)",
             )
         )
+    if row_pitch is not None:
+        if isinstance(row_pitch, bool) or int(row_pitch) != row_pitch or row_pitch < 1:
+            raise BundleError(
+                step_error(step, f"row_pitch is {row_pitch!r}", "pass a whole number of rows >= 1")
+            )
+        pitch = int(row_pitch)
+        left, right = _window_reaches(lo, hi, pitch, increasing)
+        return MaskSpacing(left, right, pitch, float(blur_sigmas), float(margin_px), float(rows_k))
     # A first pitch from the footprint's own height, then widened by the drift across the
     # forbidden window (which needs the windows, which need the pitch): iterate to a fixpoint.
     height = float((bottom - top).max())

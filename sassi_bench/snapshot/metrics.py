@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.angles import spectral_angle_deg
 
 __all__ = ["affine_fit", "band_psnr", "mean_spectral_angle_deg", "psnr", "ssim"]
 
@@ -153,9 +154,6 @@ def mean_spectral_angle_deg(
     22.5
     """
     ref, est = _pair(reference, estimate, valid)
-    norms = np.linalg.norm(ref, axis=-1) * np.linalg.norm(est, axis=-1)
-    keep = norms > 0
-    if not keep.any():
-        return float("nan")
-    cos = np.einsum("pb,pb->p", ref[keep], est[keep]) / norms[keep]
-    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).mean())
+    angles = spectral_angle_deg(ref, est)
+    keep = np.isfinite(angles)
+    return float(angles[keep].mean()) if keep.any() else float("nan")

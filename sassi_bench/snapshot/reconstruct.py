@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
+from sassi_bench.spectra.crosstalk import columns_interact, extract_with_background
 from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write_netcdf
 from sassi_bench.spectra.extract import SpectralDeblur, extract_spectra
 from sassi_bench.spectra.geometry import reached_rows, streak_geometry
@@ -54,6 +55,9 @@ __all__ = [
 #: Units of the spectra without and with a bundle response (as scan cubes).
 CAMERA_UNITS = "camera ADU per second per bin"
 RADIANCE_UNITS = "relative photon radiance per bin"
+#: Background refinements for dense masks: on the sim rig at a 6 px row pitch the spectra at
+#: the open pixels agreed with the scan to 29.2 dB after none, 31.6 after 2, 35.9 after 8.
+DENSE_BACKGROUND_PASSES = 8
 
 
 def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
@@ -95,6 +99,7 @@ def measure_samples(
     deblur: SpectralDeblur | None = None,
     full_scale: float = 65535.0,
     background_block: tuple[int, int] = (8, 16),
+    background_passes: int | None = None,
 ) -> tuple[NDArray[np.float64], str]:
     """Spectra of the open SLM pixels of one spectral frame, offset removed.
 
@@ -120,6 +125,12 @@ def measure_samples(
         the time of this function (0.43 of 0.46 s for a 698 x 931 adaptive mask on a
         2048 x 2048 frame, 2 shared cores); larger blocks are faster but follow the
         closed pixels' leakage, which carries the scene's vertical structure, less closely.
+    background_passes
+        Refinements of the background from the residual of the unmixed streaks
+        (:func:`~sassi_bench.spectra.crosstalk.extract_with_background`); None:
+        :data:`DENSE_BACKGROUND_PASSES` when streaks of different SLM columns overlap (a
+        dense mask leaves too few pixels outside the footprints), else none. Streaks of
+        different columns are always unmixed jointly where they overlap.
 
     Returns
     -------
@@ -154,10 +165,17 @@ def measure_samples(
     top, bottom = reached_rows(bundle, image.shape[0])
     window = image[top:bottom]
     geometry = streak_geometry(bundle, rows, cols).shifted(top)
-    background = estimate_background(
-        window, streak_footprint(geometry, window.shape), block=background_block
-    )
-    spectra, _ = extract_spectra(window - background.image, geometry, deblur)
+    if background_passes is None:
+        background_passes = DENSE_BACKGROUND_PASSES if columns_interact(geometry) else 0
+    if background_passes:
+        spectra, _, _ = extract_with_background(
+            window, geometry, deblur, block=background_block, passes=background_passes
+        )
+    else:
+        background = estimate_background(
+            window, streak_footprint(geometry, window.shape), block=background_block
+        )
+        spectra, _ = extract_spectra(window - background.image, geometry, deblur)
     spectra /= exposure_s
     if bundle.response is not None:
         return spectra / np.asarray(bundle.response), RADIANCE_UNITS

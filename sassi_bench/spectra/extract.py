@@ -37,6 +37,7 @@ from sassi_bench.spectra.cells import (
     column_cumsum,
     unmix_rows,
 )
+from sassi_bench.spectra.crosstalk import columns_interact, unmix_cells
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, streak_geometry
 
 __all__ = ["SpectralDeblur", "StreakGeometry", "extract_spectra", "streak_geometry"]
@@ -209,6 +210,7 @@ def extract_spectra(
     geometry: StreakGeometry,
     deblur: SpectralDeblur | None = None,
     coupling_floor: float = NEGLIGIBLE_COUPLING,
+    cross_columns: bool | None = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Spectra (N, B) of the open pixels of a background-free frame.
 
@@ -224,6 +226,10 @@ def extract_spectra(
     coupling_floor
         Stacked neighbours that can couple less than this into a cell are neglected
         (:func:`~sassi_bench.spectra.cells.coupling_reach`; 0 keeps all).
+    cross_columns
+        Also unmix pixels of different SLM columns whose streaks overlap (dense snapshot
+        masks; :func:`~sassi_bench.spectra.crosstalk.unmix_cells`); None does so only when
+        some do (:func:`~sassi_bench.spectra.crosstalk.columns_interact`).
 
     Returns
     -------
@@ -244,7 +250,12 @@ def extract_spectra(
         return np.zeros((0, nb)), np.zeros((0, nb), dtype=bool)
     layout = cell_layout(geometry, image.shape)
     sums = cell_sums(column_cumsum(image), layout)
-    amplitudes = unmix_rows(sums, layout, geometry, coupling_floor)
+    if cross_columns is None:
+        cross_columns = columns_interact(geometry)
+    if cross_columns:
+        amplitudes = unmix_cells(sums, layout, geometry, coupling_floor)
+    else:
+        amplitudes = unmix_rows(sums, layout, geometry, coupling_floor)
     if deblur is not None:
         amplitudes = deblur.apply(amplitudes, geometry.rows, geometry.cols)
     core = geometry.core

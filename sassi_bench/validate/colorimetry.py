@@ -20,7 +20,6 @@ __all__ = [
     "reflectance_to_srgb",
     "reflectance_to_xyz",
     "rmse",
-    "spectral_angle_deg",
 ]
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
@@ -110,20 +109,6 @@ def delta_e2000(lab_a: ArrayLike, lab_b: ArrayLike) -> NDArray[np.float64]:
     import colour
 
     return np.asarray(colour.delta_E(lab_a, lab_b, method="CIE 2000"), dtype=np.float64)
-
-
-def spectral_angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
-    """Angle in degrees between spectra along the last axis (insensitive to scale).
-
-    Examples
-    --------
-    >>> round(float(spectral_angle_deg([1.0, 0.0], [1.0, 1.0])), 6)
-    45.0
-    """
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    cos = np.sum(a * b, -1) / (np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1))
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
 def rmse(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:

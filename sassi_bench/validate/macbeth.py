@@ -26,12 +26,12 @@ from numpy.typing import NDArray
 
 from sassi_bench.bundle import QualityCheck
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.angles import spectral_angle_deg
 from sassi_bench.validate.colorimetry import (
     delta_e2000,
     reflectance_to_lab,
     reflectance_to_srgb,
     rmse,
-    spectral_angle_deg,
 )
 from sassi_bench.validate.locate import ChartGrid
 from sassi_bench.validate.reference import PATCH_COUNT, WHITE_PATCH, ReferenceChart

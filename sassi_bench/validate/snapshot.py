@@ -363,7 +363,7 @@ def run_snapshot(
     from sassi_bench.workflows.scan import run_scan
 
     check_inputs(rig, bundle, scene)
-    spacing = bundle.mask_spacing()
+    spacing = bundle.mask_spacing(row_pitch=procedure["snapshot"].get("row_pitch_px"))
     user_mask = None if mask_path is None else load_mask(mask_path, spacing)
     if isinstance(video_frames, bool) or not isinstance(video_frames, int) or video_frames < 0:
         raise ProcedureError(

@@ -93,3 +93,24 @@ def test_window_and_uniform_step():
 def test_bad_parameters_are_refused(bundle):
     with pytest.raises(BundleError, match="blur_sigmas"):
         bundle.mask_spacing(blur_sigmas=-1.0)
+
+
+@pytest.mark.parametrize(("u", "v"), FIELD)
+def test_row_pitch_keeps_columns_apart_within_the_pitch(bundle, spacing, u, v):
+    """A set pitch (the paper's 5 rows): within it the columns are those where footprints
+    overlap (the same exact reach as the default rule, over fewer rows), beyond it any."""
+    dense = bundle.mask_spacing(row_pitch=5)
+    assert dense.pitch == 5 < spacing.pitch
+    h, w = bundle.slm_shape
+    mine = footprint(bundle, u, v)
+    for dv in range(-4, 5):
+        vv = min(max(v + dv, 0), h - 1)
+        for du in (dense.right[v, u] + 1, -dense.left[v, u] - 1):
+            if 0 <= u + du < w:
+                assert not overlap(mine[:2], footprint(bundle, u + du, vv)[:2])
+    assert np.all(dense.right <= spacing.right) and np.all(dense.left <= spacing.left)
+
+
+def test_bad_row_pitch_is_refused(bundle):
+    with pytest.raises(BundleError, match="row_pitch"):
+        bundle.mask_spacing(row_pitch=0)

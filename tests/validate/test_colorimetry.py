@@ -4,11 +4,8 @@ import colour
 import numpy as np
 import pytest
 
-from sassi_bench.validate.colorimetry import (
-    delta_e2000,
-    reflectance_to_lab,
-    spectral_angle_deg,
-)
+from sassi_bench.spectra.angles import spectral_angle_deg
+from sassi_bench.validate.colorimetry import delta_e2000, reflectance_to_lab
 from sassi_bench.validate.reference import reference_chart
 
 
