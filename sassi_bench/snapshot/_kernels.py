@@ -12,6 +12,12 @@ of a mask being built:
   it spans, not pixel by pixel;
 * ``mask`` ``(H, W)`` bool.
 
+Sample placement (:func:`place_samples`, the paper's < 2 ms step) finds each label's row
+runs in one pass (:func:`label_runs`) and searches a superpixel's own runs, reading its
+pixels from a one-bit-per-pixel copy of ``blocked`` 64 at a time (:func:`blocked_bits`);
+fills skip eight blocked bytes at a time (:func:`skip_bytes`). At 698 x 931 with the
+prototype's spacing this halves the placement's CPU time (2.9 -> 1.4 ms, same masks).
+
 No on-disk cache: numba's cache pickles into the package folder (see
 :mod:`sassi_bench.spectra._kernels`).
 """
@@ -71,55 +77,301 @@ def fill_in_order(
     return opened
 
 
+#: Eight bytes that are all 1 (or all 0), read as one word.
+_ALL_ONES = np.uint64(0x0101010101010101)
+_ALL_ZEROS = np.uint64(0)
+
+
+@numba.njit(**_JIT)
+def skip_bytes(flat, words, value, p, stop):  # pragma: no cover
+    """The first index in ``p .. stop - 1`` where the 0/1 bytes ``flat`` differ from
+    ``value``, else ``stop``. ``words`` is ``flat`` read as uint64: a word of eight bytes
+    equal to ``value`` is skipped at once (the arrays scanned here are long stretches of one
+    value: the blocked pixels of a mask, the label boundaries of a segmentation)."""
+    pattern = _ALL_ONES if value else _ALL_ZEROS
+    while p < stop:
+        if p & 7 == 0 and p + 8 <= stop and words[p >> 3] == pattern:
+            p += 8
+            continue
+        if flat[p] != value:
+            return p
+        p += 1
+    return stop
+
+
+@numba.njit(**_JIT)
+def as_words(flat):  # pragma: no cover
+    """The whole words of a flat uint8 array, as uint64 (a view)."""
+    return flat[: (flat.size // 8) * 8].view(np.uint64)
+
+
 @numba.njit(**_JIT)
 def fill_raster(left, right, pitch, blocked, row_cols, row_count, mask):  # pragma: no cover
-    """Open every pixel that keeps the rule, row by row, left to right."""
+    """Open every pixel that keeps the rule, row by row, left to right.
+
+    Once the samples are placed nearly every pixel is blocked (99.98 % at 698 x 931), so
+    blocked pixels are skipped eight at a time (:func:`skip_bytes`; a pixel once blocked
+    stays blocked, so skipping it is exact).
+    """
     h, w = blocked.shape
+    flat = blocked.reshape(h * w)
+    words = as_words(flat)
     opened = 0
-    for r in range(h):
-        for c in range(w):
-            if blocked[r, c] == 0 and is_free(
-                r, c, left, right, pitch, blocked, row_cols, row_count
-            ):
-                open_pixel(r, c, left, right, pitch, blocked, row_cols, row_count, mask)
-                opened += 1
+    p = skip_bytes(flat, words, 1, 0, h * w)
+    while p < h * w:
+        r = p // w
+        c = p - r * w
+        if is_free(r, c, left, right, pitch, blocked, row_cols, row_count):
+            open_pixel(r, c, left, right, pitch, blocked, row_cols, row_count, mask)
+            opened += 1
+        p = skip_bytes(flat, words, 1, p + 1, h * w)
     return opened
 
 
-@numba.njit(**_JIT)
-def label_moments(labels, n_labels):  # pragma: no cover
-    """Pixel count, centroid sums and bounding box of every label (negative labels skipped).
+#: ``(x & -x) * _BYTE_INDEX >> 56`` is the index of the lowest nonzero byte of ``x``.
+_BYTE_INDEX = np.uint64(0x0001020304050607)
 
-    Returns ``count``, ``row_sum``, ``col_sum`` and ``box`` (n, 4: row0, row1, col0, col1).
+
+@numba.njit(**_JIT)
+def run_starts(flat, w):  # pragma: no cover
+    """Flat indices where a run of equal labels starts (every row starts one), ascending.
+
+    The comparison of neighbours compiles to vector instructions; the flags are then read
+    eight at a time and the set ones of a word found by bit arithmetic (the lowest set
+    byte of ``x`` is ``(x & -x) * 0x0001020304050607 >> 56``), without a branch per pixel:
+    2x faster than a byte loop or ``np.flatnonzero`` at 698 x 931.
+    """
+    n = flat.size
+    flags = np.empty(n, np.uint8)
+    if n == 0:
+        return np.empty(0, np.int64)
+    flags[0] = 1
+    for p in range(1, n):
+        flags[p] = flat[p] != flat[p - 1]
+    for p in range(0, n, w):
+        flags[p] = 1
+    words = as_words(flags)
+    starts = np.empty(n, np.int64)
+    m = 0
+    one = np.uint64(1)
+    for i in range(words.size):
+        x = words[i]
+        while x:
+            low = x & (~x + one)
+            starts[m] = 8 * i + ((low * _BYTE_INDEX) >> np.uint64(56))
+            m += 1
+            x ^= low
+    for p in range(8 * words.size, n):
+        if flags[p]:
+            starts[m] = p
+            m += 1
+    return starts[:m]
+
+
+@numba.njit(**_JIT)
+def label_runs(labels, n_labels):  # pragma: no cover
+    """Pixel count, centroid sums and runs of every label (negative labels skipped).
+
+    Labels come in runs along a row (about a superpixel wide), so the runs are found first
+    and each is added to its label's moments at once. The runs are then grouped by label
+    (a counting sort that keeps raster order within a label): label ``k``'s runs are
+    ``run_row``, ``run_start``, ``run_end`` (inclusive) at ``first[k] .. first[k + 1] - 1``,
+    by row, then column. Returns ``count``, ``row_sum``, ``col_sum``, ``first``,
+    ``run_row``, ``run_start``, ``run_end``.
     """
     h, w = labels.shape
     count = np.zeros(n_labels, np.int64)
     row_sum = np.zeros(n_labels, np.int64)  # exact, and integer adds are cheaper
     col_sum = np.zeros(n_labels, np.int64)
-    box = np.empty((n_labels, 4), np.int64)
-    box[:, 0] = h
-    box[:, 1] = -1
-    box[:, 2] = w
-    box[:, 3] = -1
-    # Labels come in runs along a row (about a superpixel wide): one update per run.
-    for r in range(h):
-        c = 0
-        while c < w:
-            k = labels[r, c]
-            end = c
-            while end + 1 < w and labels[r, end + 1] == k:
-                end += 1
-            if k >= 0:
-                run = end - c + 1
-                count[k] += run
-                row_sum[k] += r * run
-                col_sum[k] += (c + end) * run // 2
-                box[k, 0] = min(box[k, 0], r)
-                box[k, 1] = max(box[k, 1], r)
-                box[k, 2] = min(box[k, 2], c)
-                box[k, 3] = max(box[k, 3], end)
-            c = end + 1
-    return count, row_sum, col_sum, box
+    runs_of = np.zeros(n_labels + 1, np.int64)
+    n = h * w
+    flat = labels.reshape(n)
+    starts = run_starts(flat, w)
+    raster_label = np.empty(starts.size, np.int32)
+    raster_row = np.empty(starts.size, np.int32)
+    raster_start = np.empty(starts.size, np.int32)
+    raster_end = np.empty(starts.size, np.int32)
+    n_runs = 0
+    for i in range(starts.size):
+        p = starts[i]
+        k = flat[p]
+        if k < 0:
+            continue
+        r = p // w
+        c = p - r * w
+        end = (starts[i + 1] if i + 1 < starts.size else n) - 1 - r * w
+        run = end - c + 1
+        count[k] += run
+        row_sum[k] += r * run
+        col_sum[k] += (c + end) * run // 2
+        runs_of[k + 1] += 1
+        raster_label[n_runs] = k
+        raster_row[n_runs] = r
+        raster_start[n_runs] = c
+        raster_end[n_runs] = end
+        n_runs += 1
+    first = np.cumsum(runs_of)
+    cursor = first[:-1].copy()
+    run_row = np.empty(n_runs, np.int32)
+    run_start = np.empty(n_runs, np.int32)
+    run_end = np.empty(n_runs, np.int32)
+    for i in range(n_runs):
+        k = raster_label[i]
+        j = cursor[k]
+        cursor[k] += 1
+        run_row[j] = raster_row[i]
+        run_start[j] = raster_start[i]
+        run_end[j] = raster_end[i]
+    return count, row_sum, col_sum, first, run_row, run_start, run_end
+
+
+def _bit_table():
+    table = np.zeros(64, np.int64)
+    for i in range(64):
+        table[((1 << i) * _DE_BRUIJN) % (1 << 64) >> 58] = i
+    return table
+
+
+#: ``_BIT_INDEX[(b * _DE_BRUIJN) >> 58]`` is ``log2(b)`` for ``b`` a power of two (64 bits).
+_DE_BRUIJN = 0x03F79D71B4CB0A89
+_BIT_INDEX = _bit_table()
+_ONES = np.uint64(0xFFFFFFFFFFFFFFFF)
+
+
+@numba.njit(**_JIT)
+def blocked_bits(blocked):  # pragma: no cover
+    """``blocked`` as one bit per pixel, (H, ceil(W / 64)) uint64 (bit ``c % 64`` of word
+    ``c // 64``): a search reads 64 pixels at once. Blocked words are found eight bytes at a
+    time, so a fresh mask's empty map costs next to nothing."""
+    h, w = blocked.shape
+    bits = np.zeros((h, (w + 63) // 64), np.uint64)
+    flat = blocked.reshape(h * w)
+    words = as_words(flat)
+    p = skip_bytes(flat, words, 0, 0, h * w)
+    while p < h * w:
+        r = p // w
+        c = p - r * w
+        bits[r, c >> 6] |= np.uint64(1) << np.uint64(c & 63)
+        p = skip_bytes(flat, words, 0, p + 1, h * w)
+    return bits
+
+
+@numba.njit(**_JIT)
+def span_bits(word, c0, c1):  # pragma: no cover
+    """The bits of columns ``c0 .. c1`` (inclusive) that fall in word ``word``."""
+    lo = max(c0 - 64 * word, 0)
+    hi = min(c1 - 64 * word, 63)
+    return (_ONES >> np.uint64(63 - hi)) & (_ONES << np.uint64(lo))
+
+
+@numba.njit(**_JIT)
+def paint_bits(bits, r0, r1, c0, c1):  # pragma: no cover
+    """Set the bits of rows ``r0 .. r1 - 1``, columns ``c0 .. c1`` (inclusive)."""
+    for word in range(c0 >> 6, (c1 >> 6) + 1):
+        span = span_bits(word, c0, c1)
+        for r in range(r0, r1):
+            bits[r, word] |= span
+
+
+@numba.njit(**_JIT)
+def nearest_free_in_runs(
+    lo,
+    hi,
+    run_row,
+    run_start,
+    run_end,
+    cr,
+    cc,
+    r0,
+    left,
+    right,
+    pitch,
+    bits,
+    row_cols,
+    row_count,
+    band,
+):  # pragma: no cover
+    """The free pixel of runs ``lo .. hi - 1`` (one label's, by row then column) nearest to
+    ``(cr, cc)``, as ``(row, column)``, or ``(-1, -1)`` when none is free.
+
+    Rows are visited by their distance to row ``r0``: ``r0, r0 + 1, r0 - 1, r0 + 2, ...``,
+    and each row's pixels left to right; a pixel replaces the best only when strictly
+    nearer. Each direction stops at the first row farther from ``cr`` than the best pixel.
+    Unblocked pixels are read from ``bits`` (:func:`blocked_bits`) 64 at a time; each is
+    checked against the open columns of the rows its window spans, gathered into ``band``
+    once per row (a row's candidates share them).
+    """
+    h = bits.shape[0]
+    best = np.inf
+    best_r = -1
+    best_c = -1
+    # down: the first run at row >= r0 (binary search); up: the run before it.
+    a = lo
+    b = hi
+    while a < b:
+        m = (a + b) // 2
+        if run_row[m] < r0:
+            a = m + 1
+        else:
+            b = m
+    down = a
+    up = a - 1
+    while down < hi or up >= lo:
+        go_down = down < hi and (up < lo or run_row[down] - r0 <= r0 - run_row[up])
+        if go_down:
+            rr = run_row[down]
+            g0 = down
+            while down < hi and run_row[down] == rr:
+                down += 1
+            g1 = down
+        else:
+            rr = run_row[up]
+            g1 = up + 1
+            while up >= lo and run_row[up] == rr:
+                up -= 1
+            g0 = up + 1
+        dr2 = (rr - cr) * (rr - cr)
+        if dr2 >= best:
+            # Rows beyond this one in the same direction are farther still.
+            if go_down:
+                down = hi
+            else:
+                up = lo - 1
+            continue
+        n_band = -1  # the open columns near row rr, gathered at its first unblocked pixel
+        for j in range(g0, g1):
+            c0 = run_start[j]
+            c1 = run_end[j]
+            nearest = min(max(cc, c0), c1)
+            if dr2 + (nearest - cc) * (nearest - cc) >= best:
+                continue
+            for word in range(c0 >> 6, (c1 >> 6) + 1):
+                free = ~bits[rr, word] & span_bits(word, c0, c1)
+                while free:
+                    low = free & (~free + np.uint64(1))
+                    free ^= low
+                    c = 64 * word + _BIT_INDEX[(low * np.uint64(_DE_BRUIJN)) >> np.uint64(58)]
+                    dist = dr2 + (c - cc) * (c - cc)
+                    if dist >= best:
+                        continue
+                    if n_band < 0:
+                        n_band = 0
+                        for ro in range(max(0, rr - pitch + 1), min(h, rr + pitch)):
+                            for i in range(row_count[ro]):
+                                band[n_band] = row_cols[ro, i]
+                                n_band += 1
+                    lo_c = c - left[rr, c]
+                    hi_c = c + right[rr, c]
+                    is_free_here = True
+                    for i in range(n_band):
+                        if lo_c <= band[i] <= hi_c:
+                            is_free_here = False
+                            break
+                    if is_free_here:
+                        best = dist
+                        best_r = rr
+                        best_c = c
+    return best_r, best_c
 
 
 @numba.njit(**_JIT)
@@ -131,56 +383,49 @@ def place_samples(
 
     Superpixels are visited in label order. The rounded centroid is taken when it is in the
     superpixel and free; else the nearest free pixel (Euclidean, from the centroid) is
-    found by scanning the superpixel's bounding box row by row outwards from the
-    centroid's row, each row's pixels contiguous in memory, stopping once a row is farther
-    than the best pixel found. Writes ``samples`` (n, 2: row, col) and ``owner``
-    (superpixel -> sample index or -1); returns the number of samples.
+    searched among the superpixel's own row runs (:func:`nearest_free_in_runs`): most
+    centroids are forbidden when superpixels are smaller than the spacing, and the runs
+    visit only the superpixel's pixels, not its bounding box. Writes ``samples`` (n, 2:
+    row, col) and ``owner`` (superpixel -> sample index or -1); returns the number of
+    samples.
     """
-    count, row_sum, col_sum, box = label_moments(labels, n_labels)
+    count, row_sum, col_sum, first, run_row, run_start, run_end = label_runs(labels, n_labels)
+    band = np.empty((2 * pitch - 1) * row_cols.shape[1], np.int32)
+    bits = blocked_bits(blocked)
+    h, w = blocked.shape
     n = 0
     for k in range(n_labels):
         owner[k] = -1
+        lo = first[k]
+        hi = first[k + 1]
         if count[k] == 0:
             continue
         cr = row_sum[k] / count[k]
         cc = col_sum[k] / count[k]
-        r0 = min(max(int(np.floor(cr + 0.5)), box[k, 0]), box[k, 1])
-        c0 = min(max(int(np.floor(cc + 0.5)), box[k, 2]), box[k, 3])
-        best = np.inf
-        best_r = -1
-        best_c = -1
-        # Most centroids are free: take the rounded one without a search.
-        if labels[r0, c0] == k and is_free(
-            r0, c0, left, right, pitch, blocked, row_cols, row_count
+        r0 = min(max(int(np.floor(cr + 0.5)), run_row[lo]), run_row[hi - 1])
+        c0 = int(np.floor(cc + 0.5))
+        # Most centroids that fit are taken without a search.
+        if (
+            0 <= c0 < w
+            and labels[r0, c0] == k
+            and is_free(r0, c0, left, right, pitch, blocked, row_cols, row_count)
         ):
-            open_pixel(r0, c0, left, right, pitch, blocked, row_cols, row_count, mask)
-            samples[n, 0] = r0
-            samples[n, 1] = c0
-            owner[k] = n
-            n += 1
-            continue
-        for step in range(2 * (box[k, 1] - box[k, 0]) + 2):
-            # Rows r0, r0 + 1, r0 - 1, r0 + 2, ... inside the box.
-            rr = r0 + (step + 1) // 2 if step % 2 else r0 - step // 2
-            if rr < box[k, 0] or rr > box[k, 1]:
-                if abs(rr - r0) > max(r0 - box[k, 0], box[k, 1] - r0):
-                    break
-                continue
-            dr = abs(rr - cr)
-            # Rows alternate sides, so a later row is at most one row nearer than this one.
-            if dr >= 1.0 and (dr - 1.0) ** 2 >= best:
-                break
-            dr2 = dr * dr
-            for c in range(box[k, 2], box[k, 3] + 1):
-                if labels[rr, c] != k or blocked[rr, c]:
-                    continue
-                dist = dr2 + (c - cc) ** 2
-                if dist < best and is_free(rr, c, left, right, pitch, blocked, row_cols, row_count):
-                    best = dist
-                    best_r = rr
-                    best_c = c
+            best_r = r0
+            best_c = c0
+        else:
+            best_r, best_c = nearest_free_in_runs(
+                lo, hi, run_row, run_start, run_end, cr, cc, r0,
+                left, right, pitch, bits, row_cols, row_count, band,
+            )  # fmt: skip
         if best_r >= 0:
             open_pixel(best_r, best_c, left, right, pitch, blocked, row_cols, row_count, mask)
+            paint_bits(
+                bits,
+                max(0, best_r - pitch + 1),
+                min(h, best_r + pitch),
+                max(0, best_c - left[best_r, best_c]),
+                min(w - 1, best_c + right[best_r, best_c]),
+            )
             samples[n, 0] = best_r
             samples[n, 1] = best_c
             owner[k] = n

@@ -135,3 +135,51 @@ def test_thin_tracks_get_pixels_where_uniform_and_random_masks_miss_them(synthet
     assert tracks_hit(result.mask) > max(randoms) + 2
     assert tracks_hit(result.mask) > tracks_hit(raster.mask) + 4
     assert tracks_hit(uniform_mask(synthetic_spacing)) <= 3
+
+
+def reference_placement(labels, spacing, pairs_in_conflict):
+    """The paper's steps 1 and 2 by brute force: each superpixel in label order takes its
+    rounded centroid if that is its own and free, else its free pixel nearest to the
+    centroid (ties: rows r0, r0 + 1, r0 - 1, r0 + 2, ..., then columns left to right)."""
+    mask = np.zeros(labels.shape, bool)
+    samples = []
+    for k in range(labels.max() + 1):
+        rows, cols = np.nonzero(labels == k)
+        if rows.size == 0:
+            continue
+        cr, cc = rows.mean(), cols.mean()
+        r0, c0 = int(np.floor(cr + 0.5)), int(np.floor(cc + 0.5))
+
+        def free(r, c):
+            trial = mask.copy()
+            trial[r, c] = True
+            return not pairs_in_conflict(trial, spacing)
+
+        if labels[r0, c0] == k and free(r0, c0):
+            best = (r0, c0)
+        else:
+            d = rows - r0
+            rank = np.where(d > 0, 2 * d - 1, -2 * d)
+            dist = (rows - cr) ** 2 + (cols - cc) ** 2
+            best = None
+            for i in np.lexsort((cols, rank, dist)):
+                if free(rows[i], cols[i]):
+                    best = (rows[i], cols[i])
+                    break
+        if best is not None:
+            mask[best] = True
+            samples.append(best)
+    return mask, np.array(samples, np.int32).reshape(-1, 2)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_placement_matches_the_brute_force_rule(helpers, seed):
+    """The compiled search (row runs, 64 pixels per word) places exactly the samples of the
+    rule written out pixel by pixel, on superpixels smaller and larger than the windows."""
+    for block in (4, 9):
+        spacing = helpers.odd_spacing((30, 140), seed=seed)
+        labels = blocky_labels(spacing.slm_shape, block, seed)
+        mask, samples = place_samples(labels, spacing, fill=False)
+        expected_mask, expected = reference_placement(labels, spacing, helpers.pairs_in_conflict)
+        np.testing.assert_array_equal(samples, expected)
+        np.testing.assert_array_equal(mask, expected_mask)

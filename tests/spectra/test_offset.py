@@ -33,3 +33,33 @@ def test_smooth_background_is_recovered_from_the_free_pixels():
 def test_no_free_pixel_is_a_clear_error():
     with pytest.raises(ValueError, match="no background pixels"):
         estimate_background(np.zeros((20, 20)), np.ones((20, 20), bool))
+
+
+def test_holes_are_filled_linearly_from_the_nearer_known_blocks():
+    from sassi_bench.spectra import _offset_kernels
+
+    values = np.add.outer(10.0 * np.arange(5), np.arange(7.0))  # a plane on the block grid
+    holes = values.copy()
+    holes[1:4, 2:5] = np.nan
+    holes[4, :] = np.nan  # a block row with no known block
+    while not np.isfinite(holes).all():
+        _offset_kernels.fill_holes(holes, 8, 16)
+    np.testing.assert_allclose(holes[:4], values[:4], atol=1e-3)  # linear both ways: a plane
+    # Beyond the last known block of a column: that block's value.
+    np.testing.assert_allclose(holes[4, [0, 1, 5, 6]], values[3, [0, 1, 5, 6]])
+    np.testing.assert_allclose(holes[4, 2:5], values[0, 2:5])
+
+
+def test_thin_free_bands_between_streak_rows_give_the_background():
+    """Under a dense mask only thin bands of rows between the streaks are free: a block
+    with 6 of its 128 pixels free still gives a median, so the background follows the
+    bands' level changes instead of being interpolated over the streaks."""
+    rng = np.random.default_rng(0)
+    yy, xx = np.mgrid[0:96, 0:256]
+    background = 100.0 + 300.0 * (yy >= 48) + 0.2 * xx  # a scene edge between two bands
+    streaks = (yy % 16) >= 2  # 2 free rows in every 16
+    frame = background + 800.0 * streaks + rng.normal(0, 1.0, background.shape)
+    estimate = estimate_background(frame, streaks)
+    # Away from the edge (the spline rings next to it) the level of each band is found.
+    for rows in (slice(4, 24), slice(72, 92)):
+        assert np.abs(estimate.image[rows] - background[rows]).max() < 10.0
