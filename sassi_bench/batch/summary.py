@@ -57,7 +57,7 @@ def summary_html(
 ) -> Path:
     """Write the summary table as one self-contained HTML page (failed rows in red; outputs
     by file name, their folder is the page's)."""
-    from sassi_bench.validate.report import _CSS
+    from sassi_bench.validate.report import REPORT_CSS
 
     header, rows = summary_rows(results)
     names = [METRICS.get(h, h.replace("_s", " (s)")) for h in header]
@@ -76,7 +76,7 @@ def summary_html(
     items = "".join(f"<li>{html.escape(f)}</li>" for f in facts)
     page = f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>{_CSS}</style></head><body>
+<style>{REPORT_CSS}</style></head><body>
 <h1>{html.escape(title)}</h1>
 <p><span class="verdict {verdict}">{len(results)} sessions: {html.escape(text)}</span></p>
 <ul>{items}</ul>

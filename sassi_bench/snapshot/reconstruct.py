@@ -121,10 +121,9 @@ def measure_samples(
         The camera's full-scale reading (the deblur's reference signal level).
     background_block
         Camera (rows, columns) of the blocks whose medians outside the footprints give the
-        background (:func:`~sassi_bench.spectra.offset.estimate_background`). It is most of
-        the time of this function (0.43 of 0.46 s for a 698 x 931 adaptive mask on a
-        2048 x 2048 frame, 2 shared cores); larger blocks are faster but follow the
-        closed pixels' leakage, which carries the scene's vertical structure, less closely.
+        background (:func:`~sassi_bench.spectra.offset.estimate_background`; about 20 ms
+        on a 2048 x 2048 frame). Larger blocks follow the closed pixels' leakage, which
+        carries the scene's vertical structure, less closely.
     background_passes
         Refinements of the background from the residual of the unmixed streaks
         (:func:`~sassi_bench.spectra.crosstalk.extract_with_background`); None:

@@ -33,9 +33,10 @@ from sassi_bench.bundle.quality import unit_suffix
 from sassi_bench.plots.macbeth import macbeth_figures
 from sassi_bench.validate.macbeth import MacbethResult
 
-__all__ = ["MacbethReport", "render_report", "report_data", "write_report"]
+__all__ = ["REPORT_CSS", "MacbethReport", "render_report", "report_data", "write_report"]
 
-_CSS = """
+#: The style sheet every HTML report of the workbench shares.
+REPORT_CSS = """
 body { font-family: system-ui, sans-serif; margin: 24px auto; max-width: 1320px; color: #222; }
 h1 { font-size: 22px; margin-bottom: 4px; } h2 { font-size: 17px; margin-top: 28px; }
 .verdict { display: inline-block; padding: 6px 16px; border-radius: 4px; color: white;
@@ -280,7 +281,7 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str]) -> str:
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>Macbeth validation {name}: {verdict}</title>
-<style>{_CSS}</style></head><body>
+<style>{REPORT_CSS}</style></head><body>
 <h1>Macbeth ColorChecker validation: {name}</h1>
 <p><span class="verdict {"pass" if doc["passed"] else "fail"}">{verdict}</span>
 &nbsp; mean dE00 {summary["mean_de00"]:.2f}, max dE00 {summary["max_de00"]:.2f},

@@ -14,7 +14,7 @@ from typing import Any
 
 from sassi_bench import __version__
 from sassi_bench.plots.snapshot import snapshot_figures
-from sassi_bench.validate.report import _CSS, _jsonable, _png, _table
+from sassi_bench.validate.report import REPORT_CSS, _jsonable, _png, _table
 from sassi_bench.validate.snapshot import SnapshotValidation
 
 __all__ = ["snapshot_report_data", "write_snapshot_report"]
@@ -146,7 +146,7 @@ def _html(doc: dict[str, Any], images: dict[str, str]) -> str:
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>Snapshot validation {esc(doc["rig"])} {esc(doc["bundle_version"])}: {verdict}</title>
-<style>{_CSS}</style></head><body>
+<style>{REPORT_CSS}</style></head><body>
 <h1>SASSI snapshot validation: rig {esc(doc["rig"])}, bundle {esc(doc["bundle_version"])},
 scene {esc(doc["scene"])}</h1>
 <p><span class="verdict {"pass" if doc["passed"] else "fail"}">{verdict}</span>
