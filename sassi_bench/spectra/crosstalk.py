@@ -180,8 +180,8 @@ def unmix_cells(
     ...                      np.array([[6.0, 6.0], [8.0, 8.0]]), np.array([1.0, 1.0]), guard=0)
     >>> from sassi_bench.spectra.cells import cell_layout
     >>> layout = cell_layout(geo, (16, 20))
-    >>> truth = np.array([[3.0, 1.0], [2.0, 5.0]])
-    >>> sums = cell_sums(column_cumsum(render_amplitudes(truth, geo, (16, 20))), layout)
+    >>> amplitudes = np.array([[3.0, 1.0], [2.0, 5.0]])
+    >>> sums = cell_sums(column_cumsum(render_amplitudes(amplitudes, geo, (16, 20))), layout)
     >>> unmix_cells(sums, layout, geo).round(6).tolist()
     [[3.0, 1.0], [2.0, 5.0]]
     """

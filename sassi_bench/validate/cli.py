@@ -32,7 +32,6 @@ def _procedure(args) -> dict:
 
 
 def _macbeth(args: argparse.Namespace) -> int:
-    from sassi_bench.bundle.quality import unit_suffix
     from sassi_bench.rig import open_rig
     from sassi_bench.validate.locate import grid_from_corners
     from sassi_bench.validate.reference import reference_chart
@@ -67,17 +66,10 @@ def _macbeth(args: argparse.Namespace) -> int:
     print(f"\nMacbeth validation of bundle {bundle.rig_name}/{bundle.version}")
     white = procedure["white_reference"]["source"]
     print(f"  usable band {lo:.0f}-{hi:.0f} nm; white reference: {white}")
-    for check in result.checks:
-        mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
-        print(f"  {mark}  {check.name:24s} {check.value:10.4f} {limit}")
-    print(f"  report: {html_path}\n  data:   {json_path}")
-    print("VALIDATION PASSED" if result.passed else "VALIDATION FAILED")
-    return 0 if result.passed else 1
+    return _print_verdict(result, html_path, json_path)
 
 
 def _snapshot(args: argparse.Namespace) -> int:
-    from sassi_bench.bundle.quality import unit_suffix
     from sassi_bench.rig import open_rig
     from sassi_bench.validate.snapshot import check_inputs, run_snapshot
     from sassi_bench.validate.snapshot_report import write_snapshot_report
@@ -114,6 +106,13 @@ def _snapshot(args: argparse.Namespace) -> int:
             f"  video frame {frame['frame']:3d}  rank-1 {frame['rank1']['psnr_affine_db']:6.2f} dB,"
             f" guided {frame['guided']['psnr_affine_db']:6.2f} dB (affine)"
         )
+    return _print_verdict(result, html_path, json_path)
+
+
+def _print_verdict(result, html_path, json_path) -> int:
+    """Print a validation's checks and where its report is; the exit status (1: failed)."""
+    from sassi_bench.bundle.quality import unit_suffix
+
     for check in result.checks:
         mark = "PASS" if check.passed else "FAIL"
         limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
