@@ -11,25 +11,16 @@ died between the two renames) is made again.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from sassi_bench.bundle.integrity import sha256_file
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["file_sha256", "finished", "record_path", "write_atomic"]
-
-
-def file_sha256(path: Path) -> str:
-    """SHA-256 of a file, read in 1 MiB blocks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as stream:
-        while block := stream.read(1 << 20):
-            h.update(block)
-    return h.hexdigest()
+__all__ = ["finished", "record_path", "write_atomic"]
 
 
 def record_path(output: Path) -> Path:
@@ -60,7 +51,7 @@ def finished(output: Path, inputs: Mapping[str, Any]) -> bool:
         saved = json.loads(record.read_bytes())
     except ValueError:
         return False
-    if saved.get("sha256") != file_sha256(output):
+    if saved.get("sha256") != sha256_file(output):
         return False  # damaged or replaced since: made again
     if saved.get("inputs") != json.loads(json.dumps(dict(inputs))):
         raise ProcedureError(
@@ -97,7 +88,7 @@ def write_atomic(output: Path, write: Callable[[Path], Any], inputs: Mapping[str
     finally:
         temporary.unlink(missing_ok=True)
     record = record_path(output)
-    body = {"output": output.name, "sha256": file_sha256(output), "inputs": dict(inputs)}
+    body = {"output": output.name, "sha256": sha256_file(output), "inputs": dict(inputs)}
     temporary = _temporary(record)
     try:
         temporary.write_text(json.dumps(body, indent=1) + "\n")

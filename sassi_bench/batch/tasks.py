@@ -102,9 +102,9 @@ def output_path(spec: TaskSpec) -> Path:
 
 def bundle_sha256(bundle: CalibrationBundle) -> str:
     """SHA-256 of the bundle's manifest (which holds the hash of every array)."""
-    import hashlib
+    from sassi_bench.bundle.integrity import sha256_file
 
-    return hashlib.sha256((Path(bundle.path) / "manifest.json").read_bytes()).hexdigest()
+    return sha256_file(Path(bundle.path) / "manifest.json")
 
 
 def scan_dataset(
