@@ -118,7 +118,7 @@ def test_02_dispersion_and_blur_shows_the_fit(lab):
 
 
 def test_03_pinhole_scan_writes_a_cube(lab):
-    book = _run("03_pinhole_scan.ipynb", lab, scan_pitch=(100, 40), response_every=50)
+    book = _run("03_pinhole_scan.ipynb", lab, scan_pitch=(100, 5), response_every=50)
     assert _images(book) >= 1
     bundle = load(rig="sim", data=lab)
     assert bundle.response is not None
