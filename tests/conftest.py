@@ -75,3 +75,25 @@ def true_laser_maps():
         return maps
 
     return _maps
+
+
+@pytest.fixture(scope="session")
+def guided_bundle(calibrated_sim, tmp_path_factory):
+    """The session's calibrated sim bundle plus the bench's true guide homography (the
+    guide registration has its own tests), in a data root of its own."""
+    import dataclasses
+
+    from sassi_bench.bundle import load, publish
+    from sassi_bench.rig.sim import truth
+
+    rig, _, data = calibrated_sim
+    spectral = load(rig="sim", data=data)
+    root = tmp_path_factory.mktemp("snapshot-data")
+    models = dataclasses.replace(
+        spectral.models, guide_to_slm=truth(rig).guide_to_slm, guide_info={"source": "truth"}
+    )
+    path = publish(
+        models, rig=rig.description, quality={"checks": [], "residuals": {}},
+        procedure=dict(spectral.manifest["procedure"]), data=root,
+    )  # fmt: skip
+    return rig, load(path), spectral, root

@@ -65,6 +65,7 @@ def world(tmp_path_factory):
     afile.write_text("not a folder\n")
     zipped = export_zip(bundle, root / "bundle.zip")
     snapshot_session(data)
+    snapshot_video(data)
     return {"root": root, "data": data, "bundle": bundle, "file": afile, "zip": zipped}
 
 
@@ -86,6 +87,22 @@ def snapshot_session(data: Path) -> None:
         {"scene": "white"},
     )
     run_plan(rig, plan, Session.create(rig.description, plan, session_id="snap", data=data))
+
+
+def snapshot_video(data: Path) -> None:
+    """A one-frame snapshot ``snapvid`` on the sim rig (a fixed pinhole mask), for
+    ``snapshot reconstruct``."""
+    import numpy as np
+
+    from sassi_bench.acquire.snapshots import capture_snapshots
+
+    rig = sassi_bench.rig.open_rig("sim")
+    mask = np.zeros(rig.slm.shape, bool)
+    mask[10::25, 20::100] = True
+    capture_snapshots(
+        rig, lambda guide: mask, prefix="snapvid", scene="natural", mask_kind="uniform",
+        exposure_pattern={"kind": "pinholes", "pitch": [100, 25]}, data=data, progress=False,
+    )  # fmt: skip
 
 
 @pytest.fixture(autouse=True)
@@ -110,7 +127,7 @@ def valid_value(words, action, world):
     if dest == "out":
         return str(root / ("cube.nc" if words == ("scan",) else "out"))
     if dest == "session":
-        return "snap"
+        return "snapvid" if words == ("snapshot", "reconstruct") else "snap"
     if dest == "sessions":
         return "snap"  # not a pinhole scan: refused before a cluster starts
     if dest == "step":
@@ -170,6 +187,7 @@ def bad_value(words, action, world):
         "sessions": "no-such-scan-*",
         "scheduler": "not-an-address",
         "workers": "0",
+        "frames": "0",
     }
     if words == ("snapshot", "export") and action.dest == "session":
         return "no-such-session"

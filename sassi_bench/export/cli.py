@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.workflows import snapshot_cli
 
 __all__ = ["parse_tags", "parse_wavelengths", "register", "run_bundle_export"]
 
@@ -176,7 +177,7 @@ def _snapshot_export(args: argparse.Namespace) -> int:
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``snapshot`` command group (``snapshot export``).
+    """Add the ``snapshot`` command group (``take``, ``reconstruct``, ``export``).
 
     Examples
     --------
@@ -189,10 +190,11 @@ def register(subparsers: Any) -> None:
     """
     parser = subparsers.add_parser(
         "snapshot",
-        help="export captured frames for other reconstruction packages",
-        description="Work with captured snapshots (frames of a raw session and their masks).",
+        help="take and reconstruct SASSI snapshots, or export them for other packages",
+        description="Work with SASSI snapshots (frames of a raw session and their masks).",
     )
     sub = parser.add_subparsers(dest="snapshot_command", metavar="SUBCOMMAND", required=True)
+    snapshot_cli.register(sub)
     p = sub.add_parser(
         "export",
         help="a spectral frame, its SLM mask and a guide frame as adaptive_cassi.mat",

@@ -12,6 +12,7 @@ __all__ = [
     "masks_figure",
     "reconstruction_figure",
     "snapshot_figures",
+    "snapshot_quick_look",
     "spectra_figure",
     "video_figure",
 ]
@@ -64,6 +65,35 @@ def masks_figure(result) -> tuple[Any, dict[str, Any]]:
         data[name] = {"open_pixels": int(rows.size), "regions": int(run.labels.max()) + 1}
     fig.suptitle("Masks (cyan) and regions (yellow borders) on the guide image warped to the SLM")
     return fig, data
+
+
+def snapshot_quick_look(frame) -> Any:
+    """One reconstructed frame at a glance: the open pixels on the guide image, and the
+    rank-1 and guided cubes in false colour (three thirds of the band as R, G, B).
+
+    ``frame`` is a :class:`~sassi_bench.snapshot.pipeline.FrameReconstruction`.
+
+    Examples
+    --------
+    >>> snapshot_quick_look(frame).savefig("snap-f000.png")  # doctest: +SKIP
+    """
+    aspect = frame.mask.shape[0] / frame.mask.shape[1]
+    fig = _figure(figsize=(16, 5.4 * aspect + 0.9), layout="constrained")
+    axes = fig.subplots(1, 3)
+    guide = _display(frame.guide_slm)
+    axes[0].imshow(guide if guide.ndim == 3 else guide[..., 0], cmap="gray")
+    rows, cols = np.nonzero(frame.mask)
+    axes[0].plot(cols, rows, "o", ms=2.0, mfc="#00e5ff", mec="black", mew=0.3)
+    axes[0].set_title(f"guide on the SLM, {rows.size} open pixels (cyan)")
+    top = float(np.percentile(_band_image(frame.guided), 99.5)) or 1.0
+    for ax, (title, cube) in zip(
+        axes[1:], [("rank-1", frame.rank1), ("guided filter", frame.guided)], strict=True
+    ):
+        ax.imshow(np.clip(_band_image(cube) / top, 0, 1) ** (1 / 2.2))
+        ax.set_title(f"{title} (false colour)")
+    for ax in axes:
+        ax.set_axis_off()
+    return fig
 
 
 def reconstruction_figure(result) -> tuple[Any, dict[str, Any]]:

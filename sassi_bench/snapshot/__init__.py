@@ -10,6 +10,8 @@ package outside the workbench would:
 * :mod:`~sassi_bench.snapshot.adaptive`: the SASSI paper's adaptive mask;
 * :mod:`~sassi_bench.snapshot.reconstruct`: spectra at the open pixels, then the cube by
   rank-1 per region or by a masked guided filter; cubes on disk like scan cubes;
+* :mod:`~sassi_bench.snapshot.pipeline`: one frame from raw guide and spectral images to
+  both cubes;
 * :mod:`~sassi_bench.snapshot.metrics`: PSNR (raw and after an affine fit), SSIM, spectral
   angle.
 """
@@ -28,6 +30,11 @@ from sassi_bench.snapshot.metrics import (
     psnr,
     ssim,
 )
+from sassi_bench.snapshot.pipeline import (
+    FrameReconstruction,
+    adaptive_samples,
+    reconstruct_frame,
+)
 from sassi_bench.snapshot.reconstruct import (
     guide_intensity,
     guided_cube,
@@ -40,8 +47,10 @@ from sassi_bench.snapshot.superpixels import Superpixels, guide_features, guide_
 
 __all__ = [
     "AdaptiveMask",
+    "FrameReconstruction",
     "Superpixels",
     "adaptive_mask",
+    "adaptive_samples",
     "affine_fit",
     "band_psnr",
     "check_mask",
@@ -56,6 +65,7 @@ __all__ = [
     "psnr",
     "random_mask",
     "rank1_cube",
+    "reconstruct_frame",
     "segment_around_samples",
     "snapshot_dataset",
     "ssim",

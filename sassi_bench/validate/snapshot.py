@@ -31,13 +31,10 @@ from sassi_bench.snapshot import (
     band_psnr,
     check_mask,
     guide_on_slm,
-    guided_cube,
     mean_spectral_angle_deg,
-    measure_samples,
     psnr,
     random_mask,
-    rank1_cube,
-    segment_around_samples,
+    reconstruct_frame,
     ssim,
     uniform_mask,
 )
@@ -262,28 +259,26 @@ def _reconstruct(
     """Measure, segment, reconstruct and score frame ``t`` of a snapshot video."""
     compactness = float(procedure["snapshot"]["compactness"])
     mask = video.mask(t)
-    guide_slm = guide_on_slm(bundle, video.guide(t))
+    samples = None
     if kind == "adaptive":
         # The samples were placed on the previous guide frame; regions follow this one.
         previous = guide_on_slm(bundle, video.guide(t - 1 if t > 0 else -1))
-        centres = adaptive_mask(previous, spacing, compactness=compactness).samples
-    else:
-        centres = np.argwhere(mask).astype(np.int32)
-    labels = segment_around_samples(guide_slm, centres, compactness=compactness)
+        samples = adaptive_mask(previous, spacing, compactness=compactness).samples
     exposure = video.exposures.spectral_s
-    spectra, _ = measure_samples(video.spectral(t), mask, bundle, exposure_s=exposure)
     recon = procedure["reconstruction"]
-    rank = rank1_cube(guide_slm, labels, mask, spectra)
-    guided = guided_cube(
-        guide_slm, mask, spectra, radius=recon["guided_radius_px"], eps=recon["guided_eps"]
-    )
+    frame = reconstruct_frame(
+        bundle, video.guide(t), video.spectral(t), mask, exposure_s=exposure, samples=samples,
+        compactness=compactness, guided_radius=recon["guided_radius_px"],
+        guided_eps=recon["guided_eps"],
+    )  # fmt: skip
+    rank, guided = frame.rank1, frame.guided
     peak = float(reference[valid].max())
     return MaskRun(
         kind=kind,
         mask=mask,
-        labels=labels,
-        guide_slm=guide_slm,
-        spectra=spectra,
+        labels=frame.labels,
+        guide_slm=frame.guide_slm,
+        spectra=frame.spectra,
         rank1=rank,
         guided=guided,
         scores={

@@ -3,32 +3,12 @@ and bad input."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 
 import numpy as np
 import pytest
 
-from sassi_bench.bundle import load, publish
 from sassi_bench.cli import main
-from sassi_bench.rig.sim import truth
-
-
-@pytest.fixture(scope="module")
-def guided_bundle(calibrated_sim, tmp_path_factory):
-    """The session's calibrated sim bundle plus the bench's true guide homography (the
-    guide registration has its own tests), in a data root of its own."""
-    rig, _, data = calibrated_sim
-    spectral = load(rig="sim", data=data)
-    root = tmp_path_factory.mktemp("snapshot-data")
-    models = dataclasses.replace(
-        spectral.models, guide_to_slm=truth(rig).guide_to_slm, guide_info={"source": "truth"}
-    )
-    path = publish(
-        models, rig=rig.description, quality={"checks": [], "residuals": {}},
-        procedure=dict(spectral.manifest["procedure"]), data=root,
-    )  # fmt: skip
-    return rig, load(path), spectral, root
 
 
 @pytest.fixture(scope="module")
@@ -140,3 +120,32 @@ def test_user_mask_that_breaks_the_spacing_is_refused(guided_bundle, tmp_path, c
     err = capsys.readouterr().err
     assert status == 2 and "mask check" in err and "forbidden window" in err
     assert not (tmp_path / "sessions").exists()
+
+
+def test_the_validated_snapshot_reconstructs_from_disk_to_the_same_scores(
+    natural_run, guided_bundle, tmp_path
+):
+    """`snapshot reconstruct` of the run's raw sessions recovers its samples and regions
+    from the stored guide frames: its cube scores exactly what the report says."""
+    import xarray as xr
+
+    from sassi_bench.validate.snapshot import Scores, load_scan_cube
+    from sassi_bench.workflows.procedure import load_procedure
+
+    _, doc, out = natural_run
+    _, bundle, _, root = guided_bundle
+    status = main(
+        ["snapshot", "reconstruct", "--session", "nat-adaptive", "--bundle", str(bundle.path),
+         "--data", str(root), "--out", str(tmp_path), "--no-envi", "--quiet"]
+    )  # fmt: skip
+    assert status == 0
+    reference, valid, _ = load_scan_cube(out / "scan.nc", bundle)
+    border = load_procedure("snapshot_validation")["scoring"]["border_px"]
+    valid[:border] = valid[-border:] = False
+    valid[:, :border] = valid[:, -border:] = False
+    reported = doc["snapshots"]["adaptive"]["scores"]
+    for method in ("rank1", "guided"):
+        with xr.open_dataset(tmp_path / f"nat-adaptive-f000-{method}.nc") as ds:
+            cube = ds["radiance"].transpose("y", "x", "wavelength").values
+        score = Scores.of(cube, reference, valid)
+        assert score.psnr_affine_db == pytest.approx(reported[method]["psnr_affine_db"], abs=1e-3)

@@ -1,0 +1,101 @@
+"""Snapshot accuracy against the pinhole scan, per rig: the numbers the README quotes.
+
+For each rig, calibrates the whole chain (``sassi-bench calibrate``; or reuses the latest
+bundle of a data root given with ``--data``), then runs the snapshot validation
+(``sassi-bench validate snapshot``) on the natural scene with the photon-starved snapshot:
+a 100 x 5 pinhole scan of the whole SLM as the reference, the adaptive snapshot
+reconstructed by rank-1 and by the guided filter. Prints a Markdown table, one column per
+rig. The reconstruction never sees the bench's truth; the scan is the reference.
+
+Run: ``python benchmarks/snapshot_accuracy.py [--rigs sim sim-prototype] [--data DIR]
+[--row-pitch N]`` (sim: about 6 minutes on two quiet cores; sim-prototype: about 40
+minutes, most of it the calibration and the 500-frame scan of a 2048 x 2048 camera, and
+about 10 GB of memory).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sassi_bench import open_rig
+from sassi_bench.bundle import load
+from sassi_bench.bundle.errors import BundleError
+from sassi_bench.validate.snapshot import run_snapshot
+from sassi_bench.workflows.full import run_full_calibration
+from sassi_bench.workflows.procedure import load_procedure
+
+
+def _bundle(rig, data: Path):
+    """The latest bundle of the rig under ``data``, calibrating first if there is none."""
+    try:
+        return load(rig=rig.description.name, data=data)
+    except BundleError:  # none published yet: calibrate (minutes to half an hour)
+        procedure = load_procedure("full_calibration")
+        result = run_full_calibration(
+            rig, procedure, session_id="accuracy", data=data, progress=True, allow_failed=True
+        )
+        return load(result.bundle_path)
+
+
+def measure(rig_name: str, data: Path, row_pitch: int | None) -> dict[str, str]:
+    """Calibrate (or reuse) and validate snapshots on one rig."""
+    rig = open_rig(rig_name)
+    bundle = _bundle(rig, data)
+    procedure = load_procedure("snapshot_validation")
+    procedure["snapshot"]["compare_masks"] = []  # the adaptive mask and its low-light twin
+    procedure["snapshot"]["row_pitch_px"] = row_pitch
+    start = time.perf_counter()
+    result = run_snapshot(
+        rig, bundle, procedure, scene="natural", low_light=True, data=data,
+        session_id=f"accuracy-{int(time.time())}", progress=True,
+    )  # fmt: skip
+    elapsed = time.perf_counter() - start
+    main, low = result.runs["adaptive"], result.runs["adaptive_low_light"]
+    r, g = main.scores["rank1"], main.scores["guided"]
+    lr, lg = low.scores["rank1"], low.scores["guided"]
+    h, w = bundle.slm_shape
+    return {
+        "SLM (px)": f"{w} x {h}",
+        "bundle bins": f"{bundle.wavelengths.size}",
+        "row pitch / uniform step (px)": f"{result.spacing['pitch']} / "
+        f"{result.spacing['uniform_step']}",
+        "open pixels (SLM px per open px)": f"{int(main.mask.sum())} "
+        f"({h * w / max(int(main.mask.sum()), 1):.0f})",
+        "rank-1 PSNR raw / affine": f"{r.psnr_db:.1f} / {r.psnr_affine_db:.1f} dB",
+        "guided PSNR raw / affine": f"{g.psnr_db:.1f} / {g.psnr_affine_db:.1f} dB",
+        "rank-1 SSIM / spectral angle": f"{r.ssim:.3f} / {r.spectral_angle_deg:.1f} deg",
+        "low light (0.02x): rank-1 / guided affine": f"{lr.psnr_affine_db:.1f} / "
+        f"{lg.psnr_affine_db:.1f} dB",
+        "all checks pass": "yes" if result.passed else "no",
+        "validation time (scan included)": f"{elapsed / 60:.1f} min",
+        "scan pixels scored": f"{int(np.count_nonzero(result.valid))}",
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rigs", nargs="+", default=["sim", "sim-prototype"])
+    parser.add_argument("--data", help="data root with calibrated bundles (default: a temp dir)")
+    parser.add_argument("--row-pitch", type=int, help="the mask rule's fixed row pitch")
+    args = parser.parse_args()
+    columns = {}
+    for rig_name in args.rigs:
+        if args.data:
+            columns[rig_name] = measure(rig_name, Path(args.data), args.row_pitch)
+        else:
+            with tempfile.TemporaryDirectory(prefix="snapshot-accuracy-") as tmp:
+                columns[rig_name] = measure(rig_name, Path(tmp), args.row_pitch)
+    rows = next(iter(columns.values())).keys()
+    print("| | " + " | ".join(f"`{name}`" for name in columns) + " |")
+    print("| --- |" + " --- |" * len(columns))
+    for row in rows:
+        print(f"| {row} | " + " | ".join(col[row] for col in columns.values()) + " |")
+
+
+if __name__ == "__main__":
+    main()

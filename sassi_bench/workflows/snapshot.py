@@ -1,0 +1,275 @@
+"""SASSI snapshots as a lab takes them: adaptive masks, capture, reconstruction to cubes.
+
+:func:`take_snapshots` shows the adaptive mask of the latest guide image (video mode: the
+mask of frame t comes from the guide image of frame t-1) and stores every frame in a raw
+session, like every other capture. :func:`reconstruct_snapshots` turns those sessions
+(just taken, or taken long ago and re-read from disk) into cubes on the SLM grid at the
+bundle's bins, rank-1 and guided, and :func:`write_frame` writes them like scan cubes
+(NetCDF, ENVI) beside a quick-look PNG. ``sassi-bench snapshot take`` and
+``sassi-bench snapshot reconstruct`` run them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.acquire.snapshots import SnapshotVideo, capture_snapshots
+from sassi_bench.bundle import CalibrationBundle, MaskSpacing
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.paths import data_root
+from sassi_bench.plots.snapshot import snapshot_quick_look
+from sassi_bench.rig.rig import Rig
+from sassi_bench.snapshot import (
+    FrameReconstruction,
+    adaptive_mask,
+    adaptive_samples,
+    guide_on_slm,
+    reconstruct_frame,
+    snapshot_dataset,
+    write_cube,
+)
+from sassi_bench.spectra.extract import SpectralDeblur
+
+__all__ = [
+    "METHODS",
+    "check_outputs_free",
+    "frame_outputs",
+    "open_snapshots",
+    "reconstruct_snapshots",
+    "take_snapshots",
+    "write_frame",
+]
+
+#: The reconstructions written, by file suffix.
+METHODS = {"rank1": "rank-1 per region", "guided": "masked guided filter"}
+
+
+def _spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -> MaskSpacing:
+    return bundle.mask_spacing(row_pitch=procedure["snapshot"].get("row_pitch_px"))
+
+
+def take_snapshots(
+    rig: Rig,
+    bundle: CalibrationBundle,
+    procedure: Mapping[str, Any],
+    *,
+    scene: str,
+    frames: int = 1,
+    low_light: float = 1.0,
+    moving: bool = False,
+    session_id: str,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> SnapshotVideo:
+    """Capture (or resume) ``frames`` adaptive snapshots of ``scene``.
+
+    Parameters
+    ----------
+    rig, bundle
+        Device handles and the bundle whose homography and spacing rule draw the masks.
+    procedure
+        ``load_procedure("snapshot_validation")``: its ``snapshot`` (light, compactness,
+        row pitch) and ``video`` (motion) sections.
+    scene
+        What is in front of the bench.
+    frames
+        Snapshot frames; each frame's mask comes from the previous frame's guide image.
+    low_light
+        Factor on the spectral exposure (0.02: a photon-starved frame).
+    moving
+        Move the scene between frames by the procedure's ``video`` motion (virtual bench).
+    session_id
+        Prefix of the raw sessions ``<id>-preview`` and ``<id>-fNNN``; an existing one
+        resumes.
+    data, progress
+        Data root; progress bar over the frames.
+
+    Returns
+    -------
+    SnapshotVideo
+
+    Examples
+    --------
+    >>> video = take_snapshots(rig, bundle, load_procedure("snapshot_validation"),
+    ...                        scene="natural", session_id="snap")  # doctest: +SKIP
+    >>> len(video.frames)  # doctest: +SKIP
+    1
+    """
+    from sassi_bench.validate.snapshot import check_inputs
+
+    check_inputs(rig, bundle, scene)
+    if not (np.isfinite(low_light) and 0 < low_light <= 1):
+        raise ProcedureError(
+            step_error("snapshot take", f"low light {low_light}", "give a factor in (0, 1]")
+        )
+    spacing = _spacing(bundle, procedure)
+    snap = procedure["snapshot"]
+    compactness = float(snap["compactness"])
+
+    def next_mask(guide: NDArray[Any]) -> NDArray[np.bool_]:
+        return adaptive_mask(guide_on_slm(bundle, guide), spacing, compactness=compactness).mask
+
+    motion = None
+    if moving:
+        cfg = procedure["video"]
+        motion = (tuple(cfg["shift_px_per_frame"]), float(cfg["rotation_deg_per_frame"]))
+    return capture_snapshots(
+        rig, next_mask, prefix=session_id, frames=frames, scene=scene, light=snap["light"],
+        exposure_pattern={"kind": "pinholes", "pitch": [spacing.uniform_step, spacing.pitch]},
+        low_light=low_light, motion=motion, mask_kind="adaptive", data=data, progress=progress,
+    )  # fmt: skip
+
+
+def open_snapshots(prefix: str, *, data: str | os.PathLike[str] | None = None) -> SnapshotVideo:
+    """The sessions of a snapshot video taken before: ``<prefix>-preview`` and its frames.
+
+    Examples
+    --------
+    >>> video = open_snapshots("snap", data="calib_data")  # doctest: +SKIP
+    """
+    step = "snapshot reconstruct"
+    root = data_root(data) / "sessions"
+    try:
+        preview = Session.open(f"{prefix}-preview", data=data)
+    except SessionError as exc:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"no snapshot session {prefix!r} under {root} ({exc})",
+                "give the --session of `sassi-bench snapshot take` (or of a `validate "
+                "snapshot` run, e.g. <prefix>-adaptive), and the same --data",
+            )
+        ) from exc
+    pattern = re.compile(re.escape(prefix) + r"-f(\d{3})$")
+    numbers = sorted(
+        int(m.group(1)) for p in root.iterdir() if (m := pattern.match(p.name)) and p.is_dir()
+    )
+    frames = []
+    for t in range(len(numbers)):
+        if numbers[t] != t:
+            break  # frames are taken in order: a gap ends the video
+        session = Session.open(f"{prefix}-f{t:03d}", data=data)
+        if not session.is_complete:
+            break
+        frames.append(session)
+    if not frames:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"snapshot {prefix!r} has a preview but no complete frame",
+                f"resume the capture: `sassi-bench snapshot take --session {prefix}`",
+            )
+        )
+    return SnapshotVideo(preview, tuple(frames))
+
+
+def _frame_samples(
+    video: SnapshotVideo, t: int, bundle: CalibrationBundle, spacing: MaskSpacing, compactness
+) -> NDArray[np.int32] | None:
+    """Region centres of frame ``t``: the adaptive samples of the guide image its mask was
+    planned on (the previous frame's, or the preview's), else None (every open pixel)."""
+    if video.frames[t].plan.parameters.get("mask_kind") != "adaptive":
+        return None
+    planned_on = guide_on_slm(bundle, video.guide(t - 1 if t > 0 else -1))
+    return adaptive_samples(video.mask(t), planned_on, spacing, compactness=compactness)
+
+
+def reconstruct_snapshots(
+    video: SnapshotVideo,
+    bundle: CalibrationBundle,
+    procedure: Mapping[str, Any],
+    *,
+    progress: bool = True,
+) -> Iterator[FrameReconstruction]:
+    """Reconstruct every frame of a snapshot video, one at a time (cubes are large).
+
+    Examples
+    --------
+    >>> for frame in reconstruct_snapshots(video, bundle, procedure):  # doctest: +SKIP
+    ...     frame.rank1.shape
+    """
+    from tqdm.auto import tqdm
+
+    spacing = _spacing(bundle, procedure)
+    compactness = float(procedure["snapshot"]["compactness"])
+    recon = procedure["reconstruction"]
+    deblur = SpectralDeblur.from_bundle(bundle)
+    for t in tqdm(range(len(video.frames)), desc="reconstruct", disable=not progress):
+        yield reconstruct_frame(
+            bundle, video.guide(t), video.spectral(t), video.mask(t),
+            exposure_s=video.exposures.spectral_s,
+            samples=_frame_samples(video, t, bundle, spacing, compactness),
+            compactness=compactness, guided_radius=recon["guided_radius_px"],
+            guided_eps=recon["guided_eps"], deblur=deblur,
+        )  # fmt: skip
+
+
+def frame_outputs(out: str | os.PathLike[str], name: str) -> list[Path]:
+    """The files :func:`write_frame` writes for frame ``name`` (ENVI aside).
+
+    Examples
+    --------
+    >>> [p.name for p in frame_outputs("snaps", "snap-f000")]
+    ['snap-f000-rank1.nc', 'snap-f000-guided.nc', 'snap-f000.png']
+    """
+    folder = Path(out)
+    return [folder / f"{name}-{m}.nc" for m in METHODS] + [folder / f"{name}.png"]
+
+
+def check_outputs_free(out: str | os.PathLike[str], names: list[str]) -> None:
+    """Refuse to write frames whose cubes already exist in ``out`` (checked before any
+    capture, so nothing is captured for nothing and nothing is overwritten).
+
+    Examples
+    --------
+    >>> check_outputs_free("a-new-folder", ["snap-f000"])
+    """
+    taken = [str(p) for name in names for p in frame_outputs(out, name) if p.exists()]
+    if taken:
+        raise ProcedureError(
+            step_error(
+                "snapshot cubes",
+                f"{', '.join(taken[:3])}{' and more' if len(taken) > 3 else ''} already exist",
+                "write into another --out folder, or move the old cubes away",
+            )
+        )
+
+
+def write_frame(
+    frame: FrameReconstruction,
+    bundle: CalibrationBundle,
+    out: str | os.PathLike[str],
+    name: str,
+    *,
+    session: str,
+    envi: bool = True,
+) -> list[Path]:
+    """Write a frame's cubes (``<name>-rank1.nc``, ``<name>-guided.nc``, and ENVI) and a
+    quick-look PNG (``<name>.png``) into ``out``; never over an existing file.
+
+    Examples
+    --------
+    >>> write_frame(frame, bundle, "snapshots", "snap-f000", session="snap-f000")  # doctest: +SKIP
+    """
+    check_outputs_free(out, [name])
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for method, title in METHODS.items():
+        ds = snapshot_dataset(
+            getattr(frame, method), bundle, units=frame.units, method=title,
+            attrs={"session": session, "open_pixels": int(frame.mask.sum())},
+        )  # fmt: skip
+        envi_path = folder / f"{name}-{method}" if envi else None
+        written += write_cube(ds, folder / f"{name}-{method}.nc", envi=envi_path)
+    snapshot_quick_look(frame).savefig(folder / f"{name}.png", dpi=100)
+    written.append(folder / f"{name}.png")
+    return written

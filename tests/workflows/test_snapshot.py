@@ -1,0 +1,87 @@
+"""`sassi-bench snapshot take` and `snapshot reconstruct` on the sim rig."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from sassi_bench.acquire.session import Session
+from sassi_bench.cli import main
+from sassi_bench.workflows.snapshot import open_snapshots
+
+
+@pytest.fixture(scope="module")
+def taken(guided_bundle, tmp_path_factory):
+    """Two frames of the natural scene moving, taken and written once."""
+    _, bundle, _, root = guided_bundle
+    out = tmp_path_factory.mktemp("snapshots")
+    status = main(
+        ["snapshot", "take", "--rig", "sim", "--bundle", str(bundle.path), "--frames", "2",
+         "--moving", "--session", "mov", "--data", str(root), "--out", str(out), "--quiet"]
+    )  # fmt: skip
+    return status, bundle, root, out
+
+
+def test_take_writes_both_cubes_envi_and_a_quick_look_per_frame(taken):
+    status, bundle, _, out = taken
+    assert status == 0
+    for t in range(2):
+        name = f"mov-f{t:03d}"
+        for method in ("rank1", "guided"):
+            with xr.open_dataset(out / f"{name}-{method}.nc") as ds:
+                cube = ds["radiance"]
+                assert cube.dims == ("y", "x", "wavelength")
+                assert cube.shape == (*bundle.slm_shape, bundle.wavelengths.size)
+                np.testing.assert_allclose(ds["wavelength"].values, bundle.wavelengths)
+                assert ds.attrs["bundle_version"] == bundle.version
+                assert ds.attrs["session"] == name
+                values = cube.values
+                assert np.isfinite(values).all() and float(values.max()) > 0
+            assert (out / f"{name}-{method}.hdr").is_file()
+        assert (out / f"{name}.png").stat().st_size > 10_000
+
+
+def test_each_mask_comes_from_the_previous_guide_frame(taken):
+    _, _, root, _ = taken
+    video = open_snapshots("mov", data=root)
+    assert len(video.frames) == 2
+    assert video.pose(1).shift_px == pytest.approx((2.0, 1.0))
+    # The scene moved between the frames, so their adaptive masks differ.
+    assert not np.array_equal(video.mask(0), video.mask(1))
+    assert all(f.plan.parameters["mask_kind"] == "adaptive" for f in video.frames)
+
+
+def test_reconstruct_from_disk_gives_the_cubes_take_wrote(taken, tmp_path):
+    _, bundle, root, out = taken
+    status = main(
+        ["snapshot", "reconstruct", "--session", "mov", "--bundle", str(bundle.path),
+         "--data", str(root), "--out", str(tmp_path), "--no-envi", "--quiet"]
+    )  # fmt: skip
+    assert status == 0 and not list(tmp_path.glob("*.hdr"))
+    for name in ("mov-f000-rank1.nc", "mov-f001-guided.nc"):
+        with xr.open_dataset(out / name) as a, xr.open_dataset(tmp_path / name) as b:
+            np.testing.assert_array_equal(a["radiance"].values, b["radiance"].values)
+
+
+def test_take_again_resumes_the_sessions_and_never_overwrites_cubes(taken, capsys):
+    _, bundle, root, out = taken
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    frames_before = Session.open("mov-f001", data=root).completed
+    status = main(
+        ["snapshot", "take", "--rig", "sim", "--bundle", str(bundle.path), "--frames", "2",
+         "--moving", "--session", "mov", "--data", str(root), "--out", str(out), "--quiet"]
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and "already exist" in err and "Fix: " in err
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+    assert Session.open("mov-f001", data=root).completed == frames_before
+
+
+def test_reconstruct_an_unknown_snapshot_names_it(tmp_path, capsys):
+    status = main(
+        ["snapshot", "reconstruct", "--session", "nothing-here", "--data", str(tmp_path),
+         "--out", str(tmp_path / "o")]
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and "no snapshot session 'nothing-here'" in err
