@@ -67,16 +67,19 @@ def masks_figure(result) -> tuple[Any, dict[str, Any]]:
     return fig, data
 
 
-def snapshot_quick_look(frame) -> Any:
+def snapshot_quick_look(frame, wavelengths_nm: NDArray) -> Any:
     """One reconstructed frame at a glance: the open pixels on the guide image, and the
-    rank-1 and guided cubes in false colour (three thirds of the band as R, G, B).
+    rank-1 and guided cubes rendered in sRGB (CIE 1931 colour matching functions).
 
-    ``frame`` is a :class:`~sassi_bench.snapshot.pipeline.FrameReconstruction`.
+    ``frame`` is a :class:`~sassi_bench.snapshot.pipeline.FrameReconstruction`; both cubes
+    share the guided cube's brightness scale.
 
     Examples
     --------
-    >>> snapshot_quick_look(frame).savefig("snap-f000.png")  # doctest: +SKIP
+    >>> snapshot_quick_look(frame, bundle.wavelengths).savefig("f000.png")  # doctest: +SKIP
     """
+    from sassi_bench.calibrate.guide_render import render_rgb
+
     aspect = frame.mask.shape[0] / frame.mask.shape[1]
     fig = _figure(figsize=(16, 5.4 * aspect + 0.9), layout="constrained")
     axes = fig.subplots(1, 3)
@@ -85,12 +88,15 @@ def snapshot_quick_look(frame) -> Any:
     rows, cols = np.nonzero(frame.mask)
     axes[0].plot(cols, rows, "o", ms=2.0, mfc="#00e5ff", mec="black", mew=0.3)
     axes[0].set_title(f"guide on the SLM, {rows.size} open pixels (cyan)")
-    top = float(np.percentile(_band_image(frame.guided), 99.5)) or 1.0
-    for ax, (title, cube) in zip(
-        axes[1:], [("rank-1", frame.rank1), ("guided filter", frame.guided)], strict=True
+    # One rendering of both cubes side by side, so they share one brightness scale.
+    both = render_rgb(np.concatenate([frame.rank1, frame.guided], axis=1), wavelengths_nm)
+    width = frame.rank1.shape[1]
+    for ax, title, image in (
+        (axes[1], "rank-1", both[:, :width]),
+        (axes[2], "guided filter", both[:, width:]),
     ):
-        ax.imshow(np.clip(_band_image(cube) / top, 0, 1) ** (1 / 2.2))
-        ax.set_title(f"{title} (false colour)")
+        ax.imshow(image)
+        ax.set_title(f"{title} (sRGB)")
     for ax in axes:
         ax.set_axis_off()
     return fig

@@ -270,6 +270,6 @@ def write_frame(
         )  # fmt: skip
         envi_path = folder / f"{name}-{method}" if envi else None
         written += write_cube(ds, folder / f"{name}-{method}.nc", envi=envi_path)
-    snapshot_quick_look(frame).savefig(folder / f"{name}.png", dpi=100)
+    snapshot_quick_look(frame, bundle.wavelengths).savefig(folder / f"{name}.png", dpi=100)
     written.append(folder / f"{name}.png")
     return written

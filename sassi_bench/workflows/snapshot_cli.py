@@ -19,12 +19,14 @@ def _check_out(step: str, out: str) -> None:
 
 
 def _write(video, bundle, procedure, out: str, envi: bool, quiet: bool) -> None:
+    from tqdm.auto import tqdm
+
     from sassi_bench.workflows.snapshot import reconstruct_snapshots, write_frame
 
     frames = reconstruct_snapshots(video, bundle, procedure, progress=not quiet)
     for session, frame in zip(video.frames, frames, strict=True):
         paths = write_frame(frame, bundle, out, session.id, session=session.id, envi=envi)
-        print(
+        tqdm.write(
             f"  {session.id}: {int(frame.mask.sum())} open pixels, cubes "
             f"{frame.rank1.shape} ({frame.units}) -> {paths[0].parent}"
         )
