@@ -8,9 +8,10 @@ reconstructed by rank-1 and by the guided filter. Prints a Markdown table, one c
 rig. The reconstruction never sees the bench's truth; the scan is the reference.
 
 Run: ``python benchmarks/snapshot_accuracy.py [--rigs sim sim-prototype] [--data DIR]
-[--row-pitch N]`` (sim: about 6 minutes on two quiet cores; sim-prototype: about 40
-minutes, most of it the calibration and the 500-frame scan of a 2048 x 2048 camera, and
-about 10 GB of memory).
+[--row-pitch N] [--scan CUBE.nc]``. With ``--data`` the scan is kept there as
+``scan-<rig>-natural.nc``, for ``--scan`` in later runs. sim takes about 6 minutes on two
+quiet cores; sim-prototype about 40 minutes (most of it the calibration and the 500-frame
+scan of a 2048 x 2048 camera) and about 10 GB of memory.
 """
 
 from __future__ import annotations
@@ -42,8 +43,11 @@ def _bundle(rig, data: Path):
         return load(result.bundle_path)
 
 
-def measure(rig_name: str, data: Path, row_pitch: int | None) -> dict[str, str]:
-    """Calibrate (or reuse) and validate snapshots on one rig."""
+def measure(
+    rig_name: str, data: Path, row_pitch: int | None, scan: str | None = None
+) -> dict[str, str]:
+    """Calibrate (or reuse) and validate snapshots on one rig (against ``scan``, a scan
+    cube taken before, when given)."""
     rig = open_rig(rig_name)
     bundle = _bundle(rig, data)
     procedure = load_procedure("snapshot_validation")
@@ -51,7 +55,7 @@ def measure(rig_name: str, data: Path, row_pitch: int | None) -> dict[str, str]:
     procedure["snapshot"]["row_pitch_px"] = row_pitch
     start = time.perf_counter()
     result = run_snapshot(
-        rig, bundle, procedure, scene="natural", low_light=True, data=data,
+        rig, bundle, procedure, scene="natural", scan_path=scan, low_light=True, data=data,
         session_id=f"accuracy-{int(time.time())}", progress=True,
     )  # fmt: skip
     elapsed = time.perf_counter() - start
@@ -59,6 +63,10 @@ def measure(rig_name: str, data: Path, row_pitch: int | None) -> dict[str, str]:
     r, g = main.scores["rank1"], main.scores["guided"]
     lr, lg = low.scores["rank1"], low.scores["guided"]
     h, w = bundle.slm_shape
+    if result.scan_dataset is not None:  # keep the scan for later runs (--scan)
+        from sassi_bench.spectra.cube_io import write_netcdf
+
+        write_netcdf(result.scan_dataset, data / f"scan-{rig_name}-natural.nc", overwrite=True)
     return {
         "SLM (px)": f"{w} x {h}",
         "bundle bins": f"{bundle.wavelengths.size}",
@@ -82,11 +90,16 @@ def main() -> None:
     parser.add_argument("--rigs", nargs="+", default=["sim", "sim-prototype"])
     parser.add_argument("--data", help="data root with calibrated bundles (default: a temp dir)")
     parser.add_argument("--row-pitch", type=int, help="the mask rule's fixed row pitch")
+    parser.add_argument("--scan", help="a scan cube (NetCDF) of the natural scene, one rig only")
     args = parser.parse_args()
+    if args.scan and len(args.rigs) != 1:
+        parser.error("--scan scores one rig: give one --rigs")
+    if args.scan and not args.data:
+        parser.error("--scan needs the --data root of the bundle the scan was assembled with")
     columns = {}
     for rig_name in args.rigs:
         if args.data:
-            columns[rig_name] = measure(rig_name, Path(args.data), args.row_pitch)
+            columns[rig_name] = measure(rig_name, Path(args.data), args.row_pitch, args.scan)
         else:
             with tempfile.TemporaryDirectory(prefix="snapshot-accuracy-") as tmp:
                 columns[rig_name] = measure(rig_name, Path(tmp), args.row_pitch)
