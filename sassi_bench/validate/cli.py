@@ -101,6 +101,12 @@ def _snapshot(args: argparse.Namespace) -> int:
                 f"  {name:18s} {method:7s} PSNR {s.psnr_db:6.2f} dB, affine {s.psnr_affine_db:6.2f}"
                 f" dB, SSIM {s.ssim:.3f}, angle {s.spectral_angle_deg:5.2f} deg"
             )
+    split = next(iter(result.runs.values())).error_split
+    print(
+        f"  where the error comes from: spectra at the open pixels {split['samples_psnr_db']:.2f}"
+        f" dB against the scan; rank-1 from the scan's own spectra there "
+        f"{split['rank1_from_scan_psnr_db']:.2f} dB (the mask's limit)"
+    )
     for frame in result.video:
         print(
             f"  video frame {frame['frame']:3d}  rank-1 {frame['rank1']['psnr_affine_db']:6.2f} dB,"

@@ -34,6 +34,7 @@ from sassi_bench.snapshot import (
     mean_spectral_angle_deg,
     psnr,
     random_mask,
+    rank1_cube,
     reconstruct_frame,
     ssim,
     uniform_mask,
@@ -176,7 +177,14 @@ class Scores:
 
 @dataclass
 class MaskRun:
-    """One snapshot: its mask, regions, reconstructions and scores."""
+    """One snapshot: its mask, regions, reconstructions and scores.
+
+    ``error_split`` separates the two sources of error: ``samples_psnr_db``, the measured
+    spectra at the open pixels against the scan's there (calibration and extraction), and
+    ``rank1_from_scan_psnr_db``, rank-1 fed with the scan's own spectra at the open pixels
+    (after the affine fit): the best this mask and these regions allow, whatever the
+    calibration.
+    """
 
     kind: str
     mask: NDArray[np.bool_]
@@ -187,6 +195,7 @@ class MaskRun:
     guided: NDArray[np.float32]
     scores: dict[str, Scores]
     detail_psnr_db: dict[str, float]
+    error_split: dict[str, float]
     sessions: list[str]
     exposure_s: float
     low_light: float = 1.0
@@ -273,6 +282,14 @@ def _reconstruct(
     )  # fmt: skip
     rank, guided = frame.rank1, frame.guided
     peak = float(reference[valid].max())
+    rows, cols = np.nonzero(mask)
+    scored = valid[rows, cols]
+    at_samples = reference[rows, cols].astype(np.float64)
+    from_scan = rank1_cube(frame.guide_slm, frame.labels, mask, np.nan_to_num(at_samples))
+    error_split = {
+        "samples_psnr_db": _psnr_on(frame.spectra, at_samples, scored, peak),
+        "rank1_from_scan_psnr_db": psnr(reference, from_scan, valid=valid, affine=True),
+    }
     return MaskRun(
         kind=kind,
         mask=mask,
@@ -289,6 +306,7 @@ def _reconstruct(
             "rank1": _psnr_on(rank, reference, detail, peak),
             "guided": _psnr_on(guided, reference, detail, peak),
         },
+        error_split=error_split,
         sessions=[video.preview.id, video.frames[t].id],
         exposure_s=exposure,
         low_light=video.exposures.low_light,

@@ -42,6 +42,12 @@ def test_report_scores_both_reconstructions_against_the_scan(natural_run):
     assert adaptive["rank1"]["psnr_affine_db"] >= adaptive["rank1"]["psnr_db"] - 1e-9
     assert adaptive["rank1"]["spectral_angle_deg"] < 12.0
     assert 0.5 < adaptive["rank1"]["ssim"] <= 1.0
+    # The measured spectra at the open pixels are far closer to the scan than the spread
+    # cube; rank-1 from the scan's own spectra there bounds what this mask allows.
+    split = doc["snapshots"]["adaptive"]["error_split"]
+    assert split["samples_psnr_db"] > adaptive["rank1"]["psnr_db"] + 5.0
+    assert split["rank1_from_scan_psnr_db"] > adaptive["rank1"]["psnr_affine_db"] - 0.5
+    assert "Where the error comes from" in (out / "snapshot_report.html").read_text()
     assert len(adaptive["guided"]["band_psnr_db"]) == len(
         doc["figures"]["band_psnr"]["wavelength_nm"]
     )
