@@ -37,7 +37,7 @@ from sassi_bench.spectra.cells import (
     column_cumsum,
     unmix_rows,
 )
-from sassi_bench.spectra.crosstalk import columns_interact, unmix_cells
+from sassi_bench.spectra.crosstalk import StreakModel, columns_interact
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, streak_geometry
 
 __all__ = ["SpectralDeblur", "StreakGeometry", "extract_spectra", "streak_geometry"]
@@ -228,7 +228,7 @@ def extract_spectra(
         (:func:`~sassi_bench.spectra.cells.coupling_reach`; 0 keeps all).
     cross_columns
         Also unmix pixels of different SLM columns whose streaks overlap (dense snapshot
-        masks; :func:`~sassi_bench.spectra.crosstalk.unmix_cells`); None does so only when
+        masks; :class:`~sassi_bench.spectra.crosstalk.StreakModel`); None does so only when
         some do (:func:`~sassi_bench.spectra.crosstalk.columns_interact`).
 
     Returns
@@ -249,12 +249,13 @@ def extract_spectra(
         nb = geometry.sigma.size - 2 * geometry.guard
         return np.zeros((0, nb)), np.zeros((0, nb), dtype=bool)
     layout = cell_layout(geometry, image.shape)
-    sums = cell_sums(column_cumsum(image), layout)
     if cross_columns is None:
         cross_columns = columns_interact(geometry)
     if cross_columns:
-        amplitudes = unmix_cells(sums, layout, geometry, coupling_floor)
+        model = StreakModel(geometry, image.shape)
+        amplitudes = model.bins(model.fit(image))
     else:
+        sums = cell_sums(column_cumsum(image), layout)
         amplitudes = unmix_rows(sums, layout, geometry, coupling_floor)
     if deblur is not None:
         amplitudes = deblur.apply(amplitudes, geometry.rows, geometry.cols)

@@ -83,3 +83,77 @@ def test_bad_frames_and_pixels_are_refused(synthetic_bundle, scene):
         measure_samples(frame, mask[:10], synthetic_bundle, exposure_s=1.0)
     with pytest.raises(ProcedureError, match="exposure_s"):
         measure_samples(frame, mask, synthetic_bundle, exposure_s=0.0)
+
+
+@pytest.fixture(scope="module")
+def dense_snapshot(calibrated_sim):
+    """A dense snapshot of the natural scene on the sim rig (a random mask at a 6 px row
+    pitch: streaks of neighbouring columns overlap) and, as its reference, the same open
+    pixels in pinhole frames that keep the default rule (no two footprints meet), each
+    minus a frame with the SLM closed, as the pinhole scan removes the leakage."""
+    from sassi_bench.bundle import load
+    from sassi_bench.snapshot import mask_conflicts, random_mask
+    from sassi_bench.spectra.extract import SpectralDeblur
+
+    rig, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    dense, sparse = bundle.mask_spacing(row_pitch=6), bundle.mask_spacing()
+    mask = random_mask(dense, seed=0)
+    deblur = SpectralDeblur.from_bundle(bundle)
+    rig.set_scene("natural")
+    rig.light.select("led")
+    exposure = 0.08  # the auto-exposure's choice for this mask and light, about 0.09 s
+    rig.spectral_camera.set_exposure(exposure)
+
+    def capture(open_pixels):
+        rig.slm.show(np.where(open_pixels, 255, 0).astype(np.uint8))
+        return rig.spectral_camera.capture().data.astype(np.float64)
+
+    frame, closed = capture(mask), capture(np.zeros_like(mask))
+    assert 0.3 < frame.max() / 65535 < 0.95  # well exposed, nothing saturated
+    # Rows of one band of `dense.pitch` rows keep disjoint camera columns (the dense rule);
+    # bands of one subset are at least `sparse.pitch` rows apart. The few pixels the default
+    # rule's wider column windows still forbid wait for a further frame.
+    subsets = -(-(sparse.pitch - 1) // dense.pitch) + 1
+    bands = np.arange(mask.shape[0]) // dense.pitch % subsets
+    order = np.full(mask.shape, -1)
+    order[mask] = np.arange(mask.sum())
+    reference = np.full((int(mask.sum()), bundle.wavelengths.size), np.nan)
+    remaining, frames = mask.copy(), 0
+    while remaining.any():
+        for k in range(subsets):
+            pinholes = remaining & (bands == k)[:, None]
+            while (conflicts := mask_conflicts(pinholes, sparse)).size:
+                pinholes[tuple(conflicts[0])] = False
+            if pinholes.any():
+                spectra, _ = measure_samples(
+                    capture(pinholes) - closed, pinholes, bundle, exposure_s=exposure, deblur=deblur
+                )
+                reference[order[pinholes]] = spectra
+                remaining &= ~pinholes
+                frames += 1
+    assert frames <= 2 * subsets
+    return bundle, deblur, mask, frame, exposure, reference
+
+
+def _psnr_db(estimate, reference):
+    return 10 * np.log10(reference.max() ** 2 / np.mean((estimate - reference) ** 2))
+
+
+def test_dense_snapshot_spectra_agree_with_pinhole_frames(dense_snapshot):
+    from sassi_bench.spectra.crosstalk import columns_interact
+
+    bundle, deblur, mask, frame, exposure, reference = dense_snapshot
+    rows, cols = np.nonzero(mask)
+    assert mask.sum() > 250
+    assert columns_interact(streak_geometry(bundle, rows, cols))
+    refined, _ = measure_samples(frame, mask, bundle, exposure_s=exposure, deblur=deblur)
+    first, _ = measure_samples(
+        frame, mask, bundle, exposure_s=exposure, deblur=deblur, background_passes=0
+    )
+    accuracy, unrefined = _psnr_db(refined, reference), _psnr_db(first, reference)
+    # Measured 42.5 dB, against 24.3 dB from the footprint-based background alone: a dense
+    # mask leaves too few free camera pixels to see the closed pixels' leakage under the
+    # streaks, and the refinements from the fitted streaks' residual recover it.
+    assert accuracy > 38.0
+    assert accuracy > unrefined + 12.0
