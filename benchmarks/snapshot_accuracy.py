@@ -52,7 +52,8 @@ def measure(
     bundle = _bundle(rig, data)
     procedure = load_procedure("snapshot_validation")
     procedure["snapshot"]["compare_masks"] = []  # the adaptive mask and its low-light twin
-    procedure["snapshot"]["row_pitch_px"] = row_pitch
+    if row_pitch is not None:  # 0: the rule whose footprints never overlap
+        procedure["snapshot"]["row_pitch_px"] = row_pitch or None
     start = time.perf_counter()
     result = run_snapshot(
         rig, bundle, procedure, scene="natural", scan_path=scan, low_light=True, data=data,
@@ -89,7 +90,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rigs", nargs="+", default=["sim", "sim-prototype"])
     parser.add_argument("--data", help="data root with calibrated bundles (default: a temp dir)")
-    parser.add_argument("--row-pitch", type=int, help="the mask rule's fixed row pitch")
+    parser.add_argument(
+        "--row-pitch", type=int,
+        help="the mask rule's row pitch (default: the procedure's; 0: footprints never overlap)",
+    )  # fmt: skip
     parser.add_argument("--scan", help="a scan cube (NetCDF) of the natural scene, one rig only")
     args = parser.parse_args()
     if args.scan and len(args.rigs) != 1:

@@ -188,6 +188,7 @@ class MaskRun:
 
     kind: str
     mask: NDArray[np.bool_]
+    samples: NDArray[np.int32]
     labels: NDArray[np.int32]
     guide_slm: NDArray[np.float32]
     spectra: NDArray[np.float64]
@@ -264,12 +265,13 @@ def _reconstruct(
     reference: NDArray[np.float32],
     valid: NDArray[np.bool_],
     detail: NDArray[np.bool_],
+    samples: NDArray[np.int32] | None = None,
 ) -> MaskRun:
-    """Measure, segment, reconstruct and score frame ``t`` of a snapshot video."""
+    """Measure, segment, reconstruct and score frame ``t`` of a snapshot video (regions
+    around ``samples`` when given, else around the adaptive samples or every open pixel)."""
     compactness = float(procedure["snapshot"]["compactness"])
     mask = video.mask(t)
-    samples = None
-    if kind == "adaptive":
+    if samples is None and kind == "adaptive":
         # The samples were placed on the previous guide frame; regions follow this one.
         previous = guide_on_slm(bundle, video.guide(t - 1 if t > 0 else -1))
         samples = adaptive_mask(previous, spacing, compactness=compactness).samples
@@ -293,6 +295,7 @@ def _reconstruct(
     return MaskRun(
         kind=kind,
         mask=mask,
+        samples=frame.samples,
         labels=frame.labels,
         guide_slm=frame.guide_slm,
         spectra=frame.spectra,
@@ -358,7 +361,8 @@ def run_snapshot(
     scan_path
         A scan cube (NetCDF) to reuse instead of scanning.
     low_light
-        Also take a photon-starved snapshot (``snapshot.low_light`` of the exposure).
+        Also take a photon-starved snapshot (``snapshot.low_light`` of the exposure) with
+        the first snapshot's mask and samples, so the two differ by their photons alone.
     video_frames
         Also take a video of this many frames of the scene moving.
     mask_path
@@ -421,11 +425,13 @@ def run_snapshot(
         return lambda guide: mask
 
     first = "user" if user_mask is not None else "adaptive"
+    # (name, next mask, exposure factor); None: the first snapshot's mask and samples, so
+    # the photon-starved snapshot differs from it by its photons alone.
     plans: list[tuple[str, Any, float]] = [
         (first, adaptive_from if user_mask is None else fixed(user_mask), 1.0)
     ]
     if low_light:
-        plans.append((f"{first}_low_light", plans[0][1], float(snap["low_light"])))
+        plans.append((f"{first}_low_light", None, float(snap["low_light"])))
     for kind in snap["compare_masks"]:
         mask = (
             uniform_mask(spacing)
@@ -435,6 +441,9 @@ def run_snapshot(
         plans.append((kind, fixed(mask), 1.0))
     runs: dict[str, MaskRun] = {}
     for name, next_mask, factor in plans:
+        samples = None
+        if next_mask is None:
+            next_mask, samples = fixed(runs[first].mask), runs[first].samples
         video = capture_snapshots(
             rig, next_mask, prefix=f"{prefix}-{name.replace('_', '-')}", scene=scene,
             light=light, exposure_pattern=exposure_pattern, low_light=factor,
@@ -442,7 +451,7 @@ def run_snapshot(
         )  # fmt: skip
         kind = "adaptive" if name.startswith("adaptive") else "fixed"
         runs[name] = _reconstruct(
-            kind, video, 0, bundle, spacing, procedure, reference, valid, detail
+            kind, video, 0, bundle, spacing, procedure, reference, valid, detail, samples
         )
         runs[name].kind = name.split("_")[0]
 

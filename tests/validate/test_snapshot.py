@@ -10,16 +10,34 @@ import pytest
 
 from sassi_bench.cli import main
 
+#: The photon-starved snapshot's exposure factor in these tests. On the sim rig's small SLM
+#: the error is mostly spatial sampling (rank-1 from the scan's own spectra at the open
+#: pixels: 32.2 dB), so at the procedure's 0.02 both methods lose under 1 dB and stay
+#: within 0.3 dB of each other; 200 times fewer photons make photon noise dominate, which
+#: the guided filter's averaging is for (calibrated bundle: guided 29.7 dB against rank-1
+#: 28.4 dB). At the prototype's scale it leads at 0.02 already (benchmarks/
+#: snapshot_accuracy.py).
+LOW_LIGHT = 0.005
+
 
 @pytest.fixture(scope="module")
 def natural_run(guided_bundle, tmp_path_factory):
     """The command run once: natural scene, low light and a two-frame video."""
+    import yaml
+
+    from sassi_bench.workflows.procedure import load_procedure
+
     _, bundle, _, root = guided_bundle
     out = tmp_path_factory.mktemp("snapshot-report")
+    procedure = load_procedure("snapshot_validation")
+    procedure.pop("source", None)
+    procedure["snapshot"]["low_light"] = LOW_LIGHT
+    procedure_path = out.parent / "snapshot-procedure.yaml"
+    procedure_path.write_text(yaml.safe_dump(procedure))
     status = main(
         ["validate", "snapshot", "--rig", "sim", "--bundle", str(bundle.path), "--scene",
          "natural", "--out", str(out), "--data", str(root), "--low-light", "--video", "2",
-         "--session", "nat", "--quiet"]
+         "--procedure", str(procedure_path), "--session", "nat", "--quiet"]
     )  # fmt: skip
     doc = json.loads((out / "snapshot_report.json").read_text())
     return status, doc, out
@@ -58,8 +76,14 @@ def test_report_scores_both_reconstructions_against_the_scan(natural_run):
 def test_guided_filter_beats_rank1_under_low_light(natural_run):
     _, doc, _ = natural_run
     low = doc["snapshots"]["adaptive_low_light"]
-    assert low["low_light"] == pytest.approx(0.02)
-    assert low["scores"]["guided"]["psnr_affine_db"] > low["scores"]["rank1"]["psnr_affine_db"]
+    assert low["low_light"] == pytest.approx(LOW_LIGHT)
+    # The same mask as the full-light snapshot: the two differ by their photons alone.
+    assert low["open_pixels"] == doc["snapshots"]["adaptive"]["open_pixels"]
+    assert low["error_split"]["samples_psnr_db"] < (
+        doc["snapshots"]["adaptive"]["error_split"]["samples_psnr_db"] - 3.0
+    )
+    guided, rank1 = (low["scores"][m]["psnr_affine_db"] for m in ("guided", "rank1"))
+    assert guided > rank1 + 0.5
 
 
 def test_video_frames_are_scored_one_by_one(natural_run):
