@@ -143,7 +143,7 @@ def open_snapshots(prefix: str, *, data: str | os.PathLike[str] | None = None) -
         raise ProcedureError(
             step_error(
                 step,
-                f"no snapshot session {prefix!r} under {root} ({exc})",
+                f"no snapshot session {prefix!r} under {root} (no {prefix}-preview session)",
                 "give the --session of `sassi-bench snapshot take` (or of a `validate "
                 "snapshot` run, e.g. <prefix>-adaptive), and the same --data",
             )
