@@ -78,6 +78,21 @@ def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
     return value
 
 
+def check_output_folder(step: str, out: str) -> None:
+    """Refuse an output folder (``--out``) that is a file, before anything is captured.
+
+    Examples
+    --------
+    >>> check_output_folder("validate snapshot", "a-new-folder")
+    """
+    from pathlib import Path
+
+    from sassi_bench.errors import ProcedureError, step_error
+
+    if Path(out).exists() and not Path(out).is_dir():
+        raise ProcedureError(step_error(step, f"--out {out} is a file", "give a folder"))
+
+
 def resume_command(argv: Sequence[str], args: argparse.Namespace) -> str | None:
     """The command line that resumes an interrupted run: the one that started it, with the
     session options (``args.resume_options``: (dest, flag) pairs) set to the sessions the

@@ -6,8 +6,7 @@ import argparse
 from pathlib import Path
 
 from sassi_bench.bundle.cli import add_bundle_options
-from sassi_bench.cli import new_session
-from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.cli import check_output_folder, new_session
 
 __all__ = ["register"]
 
@@ -49,7 +48,7 @@ def _macbeth(args: argparse.Namespace) -> int:
     if args.corners:
         corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
         grid_from_corners(corners)
-    _check_report_folder("validate macbeth", args.out)
+    check_output_folder("validate macbeth", args.out)
     args.rig_name = rig.description.name
     bundle = _bundle(args)
     new_session(args, "session", f"scan-{scan_cfg['scene']}")
@@ -76,7 +75,7 @@ def _snapshot(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.procedure import load_procedure
 
     procedure = load_procedure("snapshot_validation", args.procedure)
-    _check_report_folder("validate snapshot", args.out)
+    check_output_folder("validate snapshot", args.out)
     rig = open_rig(args.rig)
     args.rig_name = rig.description.name
     bundle = _bundle(args)
@@ -138,12 +137,6 @@ def _report_options(parser: argparse.ArgumentParser, procedure: str) -> None:
     parser.add_argument(
         "--procedure", help=f"procedure YAML (default: procedures/{procedure}.yaml)"
     )
-
-
-def _check_report_folder(step: str, out: str) -> None:
-    """Refuse a report folder that is a file, before anything is captured."""
-    if Path(out).exists() and not Path(out).is_dir():
-        raise ProcedureError(step_error(step, f"--out {out} is a file", "give a folder"))
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -27,10 +27,8 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import SCENES, Rig
 from sassi_bench.rig.scene_pose import ScenePose
 from sassi_bench.snapshot import (
-    adaptive_mask,
     band_psnr,
     check_mask,
-    guide_on_slm,
     mean_spectral_angle_deg,
     psnr,
     random_mask,
@@ -39,6 +37,7 @@ from sassi_bench.snapshot import (
     ssim,
     uniform_mask,
 )
+from sassi_bench.workflows.snapshot import adaptive_planner, frame_samples, procedure_spacing
 
 __all__ = [
     "MaskRun",
@@ -271,10 +270,8 @@ def _reconstruct(
     around ``samples`` when given, else around the adaptive samples or every open pixel)."""
     compactness = float(procedure["snapshot"]["compactness"])
     mask = video.mask(t)
-    if samples is None and kind == "adaptive":
-        # The samples were placed on the previous guide frame; regions follow this one.
-        previous = guide_on_slm(bundle, video.guide(t - 1 if t > 0 else -1))
-        samples = adaptive_mask(previous, spacing, compactness=compactness).samples
+    if samples is None:  # placed on the previous guide frame; regions follow this one
+        samples = frame_samples(video, t, bundle, spacing, compactness)
     exposure = video.exposures.spectral_s
     recon = procedure["reconstruction"]
     frame = reconstruct_frame(
@@ -380,7 +377,7 @@ def run_snapshot(
     from sassi_bench.workflows.scan import run_scan
 
     check_inputs(rig, bundle, scene)
-    spacing = bundle.mask_spacing(row_pitch=procedure["snapshot"].get("row_pitch_px"))
+    spacing = procedure_spacing(bundle, procedure)
     user_mask = None if mask_path is None else load_mask(mask_path, spacing)
     if isinstance(video_frames, bool) or not isinstance(video_frames, int) or video_frames < 0:
         raise ProcedureError(
@@ -415,11 +412,8 @@ def run_snapshot(
     detail = _detail_pixels(reference, valid, float(score_cfg["detail_fraction"]))
 
     # 2. Snapshots: adaptive (or the user's mask), photon-starved, comparison masks.
-    compactness = float(snap["compactness"])
     exposure_pattern = {"kind": "pinholes", "pitch": [spacing.uniform_step, spacing.pitch]}
-
-    def adaptive_from(guide: NDArray) -> NDArray[np.bool_]:
-        return adaptive_mask(guide_on_slm(bundle, guide), spacing, compactness=compactness).mask
+    adaptive_from = adaptive_planner(bundle, spacing, float(snap["compactness"]))
 
     def fixed(mask: NDArray[np.bool_]):
         return lambda guide: mask

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -40,9 +40,12 @@ from sassi_bench.spectra.extract import SpectralDeblur
 
 __all__ = [
     "METHODS",
+    "adaptive_planner",
     "check_outputs_free",
     "frame_outputs",
+    "frame_samples",
     "open_snapshots",
+    "procedure_spacing",
     "reconstruct_snapshots",
     "take_snapshots",
     "write_frame",
@@ -52,8 +55,31 @@ __all__ = [
 METHODS = {"rank1": "rank-1 per region", "guided": "masked guided filter"}
 
 
-def _spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -> MaskSpacing:
+def procedure_spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -> MaskSpacing:
+    """The bundle's spacing rule at the procedure's row pitch (``snapshot.row_pitch_px``).
+
+    Examples
+    --------
+    >>> spacing = procedure_spacing(bundle, load_procedure("snapshot_validation"))  # doctest: +SKIP
+    """
     return bundle.mask_spacing(row_pitch=procedure["snapshot"].get("row_pitch_px"))
+
+
+def adaptive_planner(
+    bundle: CalibrationBundle, spacing: MaskSpacing, compactness: float
+) -> Callable[[NDArray[Any]], NDArray[np.bool_]]:
+    """The next frame's mask as a function of a raw guide image: its adaptive mask on the
+    SLM grid (what :func:`~sassi_bench.acquire.snapshots.capture_snapshots` calls).
+
+    Examples
+    --------
+    >>> next_mask = adaptive_planner(bundle, spacing, 10.0)  # doctest: +SKIP
+    """
+
+    def next_mask(guide: NDArray[Any]) -> NDArray[np.bool_]:
+        return adaptive_mask(guide_on_slm(bundle, guide), spacing, compactness=compactness).mask
+
+    return next_mask
 
 
 def take_snapshots(
@@ -110,13 +136,9 @@ def take_snapshots(
         raise ProcedureError(
             step_error("snapshot take", f"low light {low_light}", "give a factor in (0, 1]")
         )
-    spacing = _spacing(bundle, procedure)
+    spacing = procedure_spacing(bundle, procedure)
     snap = procedure["snapshot"]
-    compactness = float(snap["compactness"])
-
-    def next_mask(guide: NDArray[Any]) -> NDArray[np.bool_]:
-        return adaptive_mask(guide_on_slm(bundle, guide), spacing, compactness=compactness).mask
-
+    next_mask = adaptive_planner(bundle, spacing, float(snap["compactness"]))
     motion = None
     if moving:
         cfg = procedure["video"]
@@ -171,11 +193,20 @@ def open_snapshots(prefix: str, *, data: str | os.PathLike[str] | None = None) -
     return SnapshotVideo(preview, tuple(frames))
 
 
-def _frame_samples(
-    video: SnapshotVideo, t: int, bundle: CalibrationBundle, spacing: MaskSpacing, compactness
+def frame_samples(
+    video: SnapshotVideo,
+    t: int,
+    bundle: CalibrationBundle,
+    spacing: MaskSpacing,
+    compactness: float,
 ) -> NDArray[np.int32] | None:
     """Region centres of frame ``t``: the adaptive samples of the guide image its mask was
-    planned on (the previous frame's, or the preview's), else None (every open pixel)."""
+    planned on (the previous frame's, or the preview's), else None (every open pixel).
+
+    Examples
+    --------
+    >>> samples = frame_samples(video, 0, bundle, spacing, 10.0)  # doctest: +SKIP
+    """
     if video.frames[t].plan.parameters.get("mask_kind") != "adaptive":
         return None
     planned_on = guide_on_slm(bundle, video.guide(t - 1 if t > 0 else -1))
@@ -198,7 +229,7 @@ def reconstruct_snapshots(
     """
     from tqdm.auto import tqdm
 
-    spacing = _spacing(bundle, procedure)
+    spacing = procedure_spacing(bundle, procedure)
     compactness = float(procedure["snapshot"]["compactness"])
     recon = procedure["reconstruction"]
     deblur = SpectralDeblur.from_bundle(bundle)
@@ -206,7 +237,7 @@ def reconstruct_snapshots(
         yield reconstruct_frame(
             bundle, video.guide(t), video.spectral(t), video.mask(t),
             exposure_s=video.exposures.spectral_s,
-            samples=_frame_samples(video, t, bundle, spacing, compactness),
+            samples=frame_samples(video, t, bundle, spacing, compactness),
             compactness=compactness, guided_radius=recon["guided_radius_px"],
             guided_eps=recon["guided_eps"], deblur=deblur,
         )  # fmt: skip

@@ -6,16 +6,10 @@ import argparse
 from pathlib import Path
 
 from sassi_bench.bundle.cli import add_bundle_options
-from sassi_bench.cli import new_session
+from sassi_bench.cli import check_output_folder, new_session
 from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["register"]
-
-
-def _check_out(step: str, out: str) -> None:
-    """Refuse an output folder that is a file, before anything is captured."""
-    if Path(out).exists() and not Path(out).is_dir():
-        raise ProcedureError(step_error(step, f"--out {out} is a file", "give a folder"))
 
 
 def _write(video, bundle, procedure, out: str, envi: bool, quiet: bool) -> None:
@@ -45,7 +39,7 @@ def _take(args: argparse.Namespace) -> int:
             step_error("snapshot take", f"--frames {args.frames}", "take 1 frame or more")
         )
     procedure = load_procedure("snapshot_validation", args.procedure)
-    _check_out("snapshot take", args.out)
+    check_output_folder("snapshot take", args.out)
     rig = open_rig(args.rig)
     bundle = bundle_from_args(args, rig.description.name)
     check_inputs(rig, bundle, args.scene)
@@ -73,7 +67,7 @@ def _reconstruct(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.snapshot import check_outputs_free, open_snapshots
 
     procedure = load_procedure("snapshot_validation", args.procedure)
-    _check_out("snapshot reconstruct", args.out)
+    check_output_folder("snapshot reconstruct", args.out)
     video = open_snapshots(args.session, data=args.data)
     check_outputs_free(args.out, [session.id for session in video.frames])
     rig_name = args.rig or str(video.preview.rig.get("name", "sim"))
