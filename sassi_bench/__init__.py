@@ -14,13 +14,9 @@ Examples
 (400, 640)
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
+from sassi_bench.provenance import package_version
 from sassi_bench.rig import open_rig
 
-try:
-    __version__ = version("sassi-bench")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0+unknown"
+__version__ = package_version()
 
 __all__ = ["__version__", "open_rig"]

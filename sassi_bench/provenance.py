@@ -15,12 +15,14 @@ from __future__ import annotations
 import json
 import re
 import subprocess
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
 __all__ = [
     "BUILD_INFO_NAME",
     "git_state",
+    "package_version",
     "read_build_info",
     "source_provenance",
     "write_build_info",
@@ -28,6 +30,21 @@ __all__ = [
 
 BUILD_INFO_NAME = "_build_info.json"
 PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def package_version() -> str:
+    """The running package's version: the installed distribution's, else the one its build
+    recorded, else ``"0+unknown"`` (a source tree that was never installed).
+
+    Examples
+    --------
+    >>> isinstance(package_version(), str)
+    True
+    """
+    try:
+        return version("sassi-bench")
+    except PackageNotFoundError:
+        return (read_build_info() or {}).get("version") or "0+unknown"
 
 
 def git_state(root: str | Path) -> tuple[str | None, bool | None]:

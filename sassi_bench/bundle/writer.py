@@ -23,8 +23,6 @@ import tempfile
 import warnings
 from collections.abc import Callable, Iterable, Mapping
 from datetime import UTC, datetime
-from importlib.metadata import PackageNotFoundError
-from importlib.metadata import version as package_version
 from pathlib import Path
 from typing import Any
 
@@ -54,7 +52,7 @@ from sassi_bench.bundle.quality import normalize_quality
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION, validate_manifest
 from sassi_bench.errors import step_error
 from sassi_bench.paths import shared_mode
-from sassi_bench.provenance import read_build_info, source_provenance
+from sassi_bench.provenance import package_version, source_provenance
 
 __all__ = ["ReportSource", "publish", "software_info"]
 
@@ -83,10 +81,7 @@ def software_info() -> dict[str, Any]:
     >>> sorted(software_info())
     ['git_commit', 'git_dirty', 'name', 'numpy', 'python', 'version']
     """
-    try:
-        version = package_version("sassi-bench")
-    except PackageNotFoundError:  # a source tree that was never installed
-        version = (read_build_info() or {}).get("version") or "0+unknown"
+    version = package_version()
     source = source_provenance()
     return {
         "name": "sassi-bench",
