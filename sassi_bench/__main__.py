@@ -2,6 +2,6 @@
 
 import sys
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 
 sys.exit(main())

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import csv
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 
 
 def _batch(kind: str, scans, client, out, *extra: str) -> list[str]:

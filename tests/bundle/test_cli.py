@@ -1,4 +1,4 @@
-"""``sassi-bench bundle ...`` through the real entry point ``sassi_bench.cli.main``."""
+"""``sassi-bench bundle ...`` through the real entry point ``sassi_bench.commands.main``."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -127,8 +127,8 @@ def test_every_subcommand_names_a_bundle_the_same_way(capsys, data_root: Path, s
 def test_bundle_options_of_other_commands_use_the_same_rule(data_root: Path, synthetic):
     import argparse
 
-    from sassi_bench.bundle.cli import add_bundle_options, bundle_from_args
-    from sassi_bench.cli import build_parser
+    from sassi_bench.commands import build_parser
+    from sassi_bench.commands.options import add_bundle_options, bundle_from_args
 
     synthetic.publish_synthetic(data_root)
     parser = argparse.ArgumentParser()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.io import loadmat
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 from sassi_bench.errors import ProcedureError
 from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, guide_to_uint8, lcos_mask
 

@@ -8,7 +8,7 @@ from scipy.io import loadmat
 
 from sassi_bench.bundle import load
 from sassi_bench.bundle.integrity import sha256_file
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 from sassi_bench.errors import ProcedureError
 from sassi_bench.export.sassi_mat import export_sassi_mat, suggested_ksizes
 

@@ -8,7 +8,7 @@ import json
 import numpy as np
 
 from sassi_bench.bundle import load, verify
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 from sassi_bench.rig import open_rig
 from sassi_bench.rig.sim import truth
 

@@ -144,7 +144,7 @@ def test_coarse_plan_checks_the_stride():
 
 
 def test_cli_command_is_registered_and_reports_a_missing_bundle(tmp_path, capsys):
-    from sassi_bench.cli import main
+    from sassi_bench.commands import main
 
     code = main(["calibrate", "guide", "--rig", "sim", "--data", str(tmp_path), "--quiet"])
     assert code == 2

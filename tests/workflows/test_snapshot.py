@@ -7,7 +7,7 @@ import pytest
 import xarray as xr
 
 from sassi_bench.acquire.session import Session
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 from sassi_bench.workflows.snapshot import open_snapshots
 
 

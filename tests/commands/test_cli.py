@@ -18,11 +18,11 @@ from pathlib import Path
 import pytest
 
 import sassi_bench.rig
-from sassi_bench.cli import PROG, build_parser, main
+from sassi_bench.commands import PROG, build_parser, main
 from sassi_bench.rig.config import load_rig_description
 
 _SPEC = importlib.util.spec_from_file_location(
-    "sassi_bench_test_synthetic", Path(__file__).parent / "bundle" / "conftest.py"
+    "sassi_bench_test_synthetic", Path(__file__).parents[1] / "bundle" / "conftest.py"
 )
 synthetic = importlib.util.module_from_spec(_SPEC)
 sys.modules[_SPEC.name] = synthetic

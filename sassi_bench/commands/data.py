@@ -2,7 +2,7 @@
 
 Examples
 --------
->>> from sassi_bench.cli import main
+>>> from sassi_bench.commands import main
 >>> main(["data", "list", "--data", "calib_data"])  # doctest: +SKIP
 >>> main(["data", "clean", "--include-referenced"])  # doctest: +SKIP
 """
@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import argparse
 from datetime import UTC, datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from sassi_bench.commands.options import add_data_option
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.paths import data_root
-from sassi_bench.storage.clean import clean_candidates, remove
-from sassi_bench.storage.inventory import DataEntry, format_size, inventory
+
+if TYPE_CHECKING:
+    from sassi_bench.storage.inventory import DataEntry
 
 __all__ = ["register"]
 
@@ -27,21 +28,22 @@ def _age(entry: DataEntry, now: datetime) -> str:
 
 
 def _table(entries: list[DataEntry]) -> str:
+    from sassi_bench._shared.tables import text_table
+    from sassi_bench.storage.inventory import format_size
+
     now = datetime.now(UTC)
-    header = ["KIND", "NAME", "SIZE", "AGE", "USED BY"]
     rows = [
         [e.kind, e.name, format_size(e.size_bytes), _age(e, now), ", ".join(e.used_by) or "-"]
         for e in entries
     ]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    return "\n".join(
-        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()
-        for row in [header, *rows]
-    )
+    return text_table(["KIND", "NAME", "SIZE", "AGE", "USED BY"], rows)
 
 
 def cmd_list(args: argparse.Namespace) -> int:
     """``data list``: every session, staging folder, bundle and report, with sizes."""
+    from sassi_bench.paths import data_root
+    from sassi_bench.storage.inventory import format_size, inventory
+
     root = data_root(args.data)
     entries = inventory(root)
     if not entries:
@@ -56,6 +58,10 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def cmd_clean(args: argparse.Namespace) -> int:
     """``data clean``: a dry run unless ``--yes``; never a published bundle."""
+    from sassi_bench.paths import data_root
+    from sassi_bench.storage.clean import clean_candidates, remove
+    from sassi_bench.storage.inventory import format_size, inventory
+
     if not args.older_than >= 0:
         raise ProcedureError(
             step_error(
@@ -101,9 +107,7 @@ def register(subparsers: Any) -> None:
     )
     sub = parser.add_subparsers(dest="data_command", metavar="SUBCOMMAND", required=True)
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument(
-        "--data", metavar="DIR", default=None, help="data root (see sassi_bench.paths)"
-    )
+    add_data_option(common)
     p = sub.add_parser(
         "list", parents=[common], help="sessions, staging folders, bundles, reports; sizes"
     )

@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import yaml
+from sassi_bench.commands.options import add_rig_option
 
 __all__ = ["register"]
 
 
 def _show(args: argparse.Namespace) -> int:
+    import yaml
+
     from sassi_bench.rig.config import load_rig_description
 
     desc = load_rig_description(args.rig)
@@ -39,12 +41,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     rig = sub.add_parser("rig", help="inspect a rig and take snapshots")
     rig_sub = rig.add_subparsers(dest="rig_command", metavar="SUBCOMMAND", required=True)
     show = rig_sub.add_parser("show", help="print the validated rig description")
-    show.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    add_rig_option(show)
     show.set_defaults(func=_show)
     snap = rig_sub.add_parser(
         "snapshot", help="save a guide image and spectral frames as PNG and 16-bit TIFF"
     )
-    snap.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    add_rig_option(snap)
     snap.add_argument("--out", required=True, help="output directory")
     snap.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
     snap.add_argument("--light", default="led", help="light (default: led)")

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 
-from sassi_bench.bundle.cli import add_bundle_options
+from sassi_bench.commands.options import (
+    add_bundle_options,
+    add_rig_option,
+    bundle_from_args,
+)
+from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["register"]
 
@@ -13,8 +18,6 @@ def _batch(args: argparse.Namespace) -> int:
     from sassi_bench.batch.engine import check_scheduler
     from sassi_bench.batch.run import check_out, run_batch
     from sassi_bench.batch.select import select_sessions
-    from sassi_bench.bundle.cli import bundle_from_args
-    from sassi_bench.errors import ProcedureError, step_error
     from sassi_bench.rig.config import load_rig_description
     from sassi_bench.spectra.scan import check_roi
 
@@ -71,7 +74,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         which = p.add_mutually_exclusive_group(required=True)
         which.add_argument("--sessions", metavar="PATTERN", help="session ids, e.g. 'scan-*'")
         which.add_argument("--all", action="store_true", help="every pinhole-scan session")
-        p.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+        add_rig_option(p)
         add_bundle_options(p)
         p.add_argument("--data", help="data root, shared by every worker")
         p.add_argument("--out", required=True, help="output folder, shared by every worker")

@@ -3,14 +3,16 @@
 Every subcommand accepts ``--data DIR`` (the data root; see :func:`sassi_bench.paths.data_root`).
 A bundle is named the same way everywhere (:func:`~sassi_bench.bundle.layout.resolve_bundle_ref`):
 a version of ``--rig`` (``v0003``, ``3`` or ``latest``) or the path of its folder (``verify``
-also takes an exported zip). Other commands' ``--bundle`` options use the same rule through
-:func:`add_bundle_options` and :func:`bundle_from_args`.
+also takes an exported zip). ``export --format sassi-mat`` writes the files of the SASSI
+authors' reconstruction code (:mod:`sassi_bench.export.sassi_mat`).
 
 Examples
 --------
->>> from sassi_bench.cli import main
+>>> from sassi_bench.commands import main
 >>> main(["bundle", "list", "--data", "calib_data"])  # doctest: +SKIP
 >>> main(["bundle", "diff", "v0001", "latest", "--rig", "sim"])  # doctest: +SKIP
+>>> main(["bundle", "export", "latest", "--format", "sassi-mat",
+...       "--out", "for_sassi"])  # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -18,29 +20,17 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sassi_bench.bundle.archive import export_zip, import_zip, verify_zip
-from sassi_bench.bundle.bundle import CalibrationBundle
-from sassi_bench.bundle.diff import diff_bundles, format_diff
-from sassi_bench.bundle.errors import BundleIntegrityError, BundleSchemaError
-from sassi_bench.bundle.integrity import MANIFEST_NAME
-from sassi_bench.bundle.jsonio import thaw
-from sassi_bench.bundle.layout import (
-    latest_version,
-    resolve_bundle_ref,
-    rig_dir,
-    rig_names,
-    versions,
-)
-from sassi_bench.bundle.loader import load, verify
-from sassi_bench.bundle.quality import unit_suffix
+from sassi_bench.commands.options import DATA_HELP, load_bundle_ref
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.paths import data_root
 
-__all__ = ["add_bundle_options", "bundle_from_args", "register"]
+if TYPE_CHECKING:
+    from sassi_bench.bundle import CalibrationBundle
+
+__all__ = ["describe", "parse_wavelengths", "register"]
 
 DEFAULT_RIG = "sim"
 
@@ -68,12 +58,7 @@ def register(subparsers: Any) -> None:
     )
     sub = parser.add_subparsers(dest="bundle_command", metavar="SUBCOMMAND", required=True)
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument(
-        "--data",
-        metavar="DIR",
-        default=None,
-        help="data root (default: $SASSI_BENCH_DATA or ./calib_data)",
-    )
+    common.add_argument("--data", metavar="DIR", default=None, help=DATA_HELP)
     rig_help = f"rig name (default: {DEFAULT_RIG})"
     ref_help = "a version of --rig (v0003, 3, latest) or a bundle folder"
 
@@ -130,48 +115,13 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=cmd_import)
 
 
-def _load_ref(ref: str, rig: str, data: str | None) -> CalibrationBundle:
-    """Load a bundle named by a version of ``rig`` or by a folder path."""
-    return load(resolve_bundle_ref(ref, rig=rig, data=data))
-
-
-def _bundle_path(ref: str, rig: str, data: str | None) -> Path:
-    return _load_ref(ref, rig, data).path
-
-
-def add_bundle_options(parser: argparse.ArgumentParser) -> None:
-    """``--bundle`` and ``--bundle-rig``, for commands that use a bundle with a rig.
-
-    Examples
-    --------
-    >>> parser = argparse.ArgumentParser()
-    >>> add_bundle_options(parser)
-    >>> vars(parser.parse_args(["--bundle", "v0002"]))
-    {'bundle': 'v0002', 'bundle_rig': None}
-    """
-    parser.add_argument(
-        "--bundle", help="bundle: a version (latest, v0003, 3; default latest) or a folder"
-    )
-    parser.add_argument("--bundle-rig", help="rig folder of the bundle (default: the rig's name)")
-
-
-def bundle_from_args(args: argparse.Namespace, rig_name: str) -> CalibrationBundle:
-    """Load the bundle ``--bundle``/``--bundle-rig``/``--data`` name (see
-    :func:`~sassi_bench.bundle.layout.resolve_bundle_ref`).
-
-    Examples
-    --------
-    >>> bundle_from_args(args, rig.description.name)  # doctest: +SKIP
-    """
-    rig = getattr(args, "bundle_rig", None) or rig_name
-    return _load_ref(args.bundle, rig, getattr(args, "data", None))
-
-
 # -- list ---------------------------------------------------------------------------------------
 
 
 def _summary_row(folder: Path, rig: str, version: str, latest: str | None) -> list[str]:
     """One row of ``bundle list``, read from the manifest without full verification."""
+    from sassi_bench.bundle.integrity import MANIFEST_NAME
+
     marker = "*" if version == latest else ""
     try:
         manifest = json.loads((folder / version / MANIFEST_NAME).read_text("utf-8"))
@@ -188,17 +138,12 @@ def _summary_row(folder: Path, rig: str, version: str, latest: str | None) -> li
     return [rig, version + marker, created, status, parent]
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    lines = [
-        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()
-        for row in [header, *rows]
-    ]
-    return "\n".join(lines)
-
-
 def cmd_list(args: argparse.Namespace) -> int:
     """``bundle list``: a table of versions (``*`` marks LATEST)."""
+    from sassi_bench._shared.tables import text_table
+    from sassi_bench.bundle.layout import latest_version, rig_dir, rig_names, versions
+    from sassi_bench.paths import data_root
+
     rigs = [args.rig] if args.rig else rig_names(args.data)
     rows = []
     for rig in rigs:
@@ -209,7 +154,7 @@ def cmd_list(args: argparse.Namespace) -> int:
         where = rig_dir(args.rig, args.data) if args.rig else data_root(args.data)
         print(f"no calibration bundles under {where}")
         return 0
-    print(_table(["RIG", "VERSION", "CREATED", "STATUS", "PARENT"], rows))
+    print(text_table(["RIG", "VERSION", "CREATED", "STATUS", "PARENT"], rows))
     print("(* = LATEST)")
     return 0
 
@@ -228,6 +173,9 @@ def describe(bundle: CalibrationBundle) -> str:
     --------
     >>> print(describe(load(rig="sim")))  # doctest: +SKIP
     """
+    from sassi_bench.bundle.jsonio import thaw
+    from sassi_bench.bundle.quality import unit_suffix
+
     m = bundle.manifest
     models = bundle.models
     soft = m["software"]
@@ -293,7 +241,7 @@ def describe(bundle: CalibrationBundle) -> str:
 
 def cmd_show(args: argparse.Namespace) -> int:
     """``bundle show``: verify, then summarise one bundle."""
-    print(describe(_load_ref(args.version, args.rig, args.data)))
+    print(describe(load_bundle_ref(args.version, args.rig, args.data)))
     return 0
 
 
@@ -302,6 +250,12 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 def cmd_verify(args: argparse.Namespace) -> int:
     """``bundle verify``: exit 0 with "OK", or 1 naming the failing file and why."""
+    from sassi_bench.bundle.archive import verify_zip
+    from sassi_bench.bundle.errors import BundleIntegrityError, BundleSchemaError
+    from sassi_bench.bundle.integrity import MANIFEST_NAME
+    from sassi_bench.bundle.layout import resolve_bundle_ref
+    from sassi_bench.bundle.loader import verify
+
     given = Path(args.path)
     is_zip = given.is_file() and given.name != MANIFEST_NAME
     path = given if is_zip else resolve_bundle_ref(args.path, rig=args.rig, data=args.data)
@@ -320,8 +274,10 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 def cmd_diff(args: argparse.Namespace) -> int:
     """``bundle diff A B``: what changed from A to B."""
-    a = _load_ref(args.a, args.rig, args.data)
-    b = _load_ref(args.b, args.rig, args.data)
+    from sassi_bench.bundle.diff import diff_bundles, format_diff
+
+    a = load_bundle_ref(args.a, args.rig, args.data)
+    b = load_bundle_ref(args.b, args.rig, args.data)
     print(format_diff(diff_bundles(a, b, grid=max(2, args.grid))))
     return 0
 
@@ -331,11 +287,11 @@ def cmd_diff(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     """``bundle export PATH --zip OUT.zip`` or ``--format sassi-mat --out DIR``."""
-    if args.format == "sassi-mat":
-        from sassi_bench.export.cli import run_bundle_export
+    from sassi_bench.bundle.archive import export_zip
 
-        return run_bundle_export(_load_ref(args.path, args.rig, args.data), args)
-    source = _bundle_path(args.path, args.rig, args.data)
+    if args.format == "sassi-mat":
+        return _export_sassi_mat(load_bundle_ref(args.path, args.rig, args.data), args)
+    source = load_bundle_ref(args.path, args.rig, args.data).path
     if args.out is not None:
         raise ProcedureError(
             step_error(
@@ -355,9 +311,64 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 def cmd_import(args: argparse.Namespace) -> int:
     """``bundle import ZIP``: verify and add the bundle under the data root."""
+    from sassi_bench.bundle.archive import import_zip
+
     result = import_zip(args.zip, rig=args.rig, data=args.data)
     if result.created:
         print(f"imported {args.zip} -> {result.path}")
     else:
         print(f"already present (identical): {result.path}")
+    return 0
+
+
+def parse_wavelengths(text: str | None) -> np.ndarray | None:
+    """``"450,532,635"`` or ``"START:STOP:STEP"`` (STOP included when on the grid) in nm.
+
+    Examples
+    --------
+    >>> parse_wavelengths("400:700:100").tolist(), parse_wavelengths("450, 532").tolist()
+    ([400.0, 500.0, 600.0, 700.0], [450.0, 532.0])
+    """
+    if text is None:
+        return None
+    try:
+        if ":" in text:
+            start, stop, step = (float(p) for p in text.split(":"))
+            if step <= 0:
+                raise ValueError
+            return np.arange(start, stop + step / 2, step)
+        return np.array([float(p) for p in text.split(",")])
+    except ValueError:
+        raise ProcedureError(
+            step_error(
+                "bundle export",
+                f"--wavelengths {text!r} is not a list of nm",
+                "pass e.g. 450,532,635 or 400:700:5",
+            )
+        ) from None
+
+
+def _export_sassi_mat(bundle: CalibrationBundle, args: argparse.Namespace) -> int:
+    """``bundle export ... --format sassi-mat --out DIR``: write the two calibration files."""
+    from sassi_bench.export.sassi_mat import export_sassi_mat
+
+    if not args.out:
+        raise ProcedureError(
+            step_error("bundle export", "--format sassi-mat needs --out DIR", "add --out DIR")
+        )
+    done = export_sassi_mat(
+        bundle, args.out, wavelengths=parse_wavelengths(args.wavelengths), progress=not args.quiet
+    )
+    lam = done.wavelengths
+    print(
+        f"exported {bundle.rig_name}/{bundle.version} for the SASSI reconstruction code: "
+        f"{lam.size} bands {lam[0]:.1f}-{lam[-1]:.1f} nm, camera {done.camera_shape}, "
+        f"SLM {done.slm_shape}, {done.seconds:.1f} s"
+    )
+    for name, size in done.sizes.items():
+        print(f"  {done.folder / name}  ({size / 1e6:.1f} MB)")
+    if not bundle.passed:
+        print("  note: this bundle FAILED its quality checks (published with an override)")
+    print(f"next: read {done.folder / 'README.txt'}, copy both .mat files to <root>/calibration/")
+    print("      and export a capture with: sassi-bench snapshot export --format sassi-mat ...")
     return 0

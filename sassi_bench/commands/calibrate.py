@@ -1,33 +1,22 @@
-"""``sassi-bench calibrate``: run calibration procedures on a rig."""
+"""``sassi-bench calibrate``: the whole chain, or one procedure (``spectral``, ``response``,
+``guide``) on a rig."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from sassi_bench.cli import new_session
+from sassi_bench.commands.options import (
+    add_bundle_options,
+    add_data_option,
+    add_rig_option,
+    bundle_from_args,
+    check_output_folder,
+    new_session,
+    print_checks,
+)
 
-__all__ = ["print_checks", "register"]
-
-
-def _check_report_folder(out: str | None) -> None:
-    """Refuse a report folder that cannot be one, before the chain runs for minutes."""
-    from sassi_bench.errors import ProcedureError, step_error
-
-    if out is not None and Path(out).exists() and not Path(out).is_dir():
-        raise ProcedureError(
-            step_error("calibrate", f"--out {out} is a file", "give a folder for the report")
-        )
-
-
-def print_checks(checks) -> None:
-    """One line per quality check: PASS/FAIL, name, value, tolerance."""
-    from sassi_bench.bundle.quality import unit_suffix
-
-    for check in checks:
-        mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
-        print(f"  {mark}  {check.name:40s} {check.value:10.4f} {limit}")
+__all__ = ["register"]
 
 
 def _print_notes(notes: list[str]) -> None:
@@ -43,7 +32,7 @@ def _full(args: argparse.Namespace) -> int:
 
     procedure = load_procedure("full_calibration", args.procedure)
     rig = open_rig(args.rig)
-    _check_report_folder(args.out)
+    check_output_folder("calibrate", args.out, "give a folder for the report")
     new_session(args, "session", "full")
     result = run_full_calibration(
         rig,
@@ -113,8 +102,25 @@ def _spectral(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _response(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.workflows.scan import check_scan, response_source, run_response
+
+    rig = open_rig(args.rig)
+    check_scan(rig, "white", args.light, (100, 5))
+    response_source(rig, args.temperature, args.reference)
+    bundle = bundle_from_args(args, rig.description.name)
+    new_session(args, "session", "response")
+    path = run_response(
+        rig, bundle, light=args.light, temperature_k=args.temperature, reference_csv=args.reference,
+        session_id=args.session, data=args.data, progress=not args.quiet,
+        allow_failed=args.allow_failed,
+    )  # fmt: skip
+    print(f"bundle with radiometric response: {path}")
+    return 0
+
+
 def _guide(args: argparse.Namespace) -> int:
-    from sassi_bench.bundle.cli import bundle_from_args
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.guide import run_guide_registration
     from sassi_bench.workflows.procedure import load_procedure
@@ -150,11 +156,12 @@ def _guide(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
-def _run_arguments(parser: argparse.ArgumentParser, kind: str, publish: bool = True) -> None:
-    """The options every calibration procedure takes."""
-    parser.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
-    parser.add_argument("--procedure", help=f"procedure YAML (default: procedures/{kind}.yaml)")
-    parser.add_argument("--data", help="data root for sessions and bundles")
+def _run_arguments(parser: argparse.ArgumentParser, kind: str | None, publish: bool = True) -> None:
+    """The options every calibration procedure takes (``kind``: its procedure YAML)."""
+    add_rig_option(parser)
+    if kind is not None:
+        parser.add_argument("--procedure", help=f"procedure YAML (default: procedures/{kind}.yaml)")
+    add_data_option(parser)
     parser.add_argument("--session", help="session id; an existing one resumes its capture")
     parser.add_argument(
         "--allow-failed", action="store_true", help="publish even if a tolerance failed"
@@ -165,9 +172,19 @@ def _run_arguments(parser: argparse.ArgumentParser, kind: str, publish: bool = T
     parser.set_defaults(resume_options=(("session", "--session"),))
 
 
-def _register_guide(groups: argparse._SubParsersAction) -> None:
-    from sassi_bench.bundle.cli import add_bundle_options
+def _register_response(groups: argparse._SubParsersAction) -> None:
+    resp = groups.add_parser(
+        "response", help="radiometric response from a white diffuser; publishes a new bundle"
+    )
+    _run_arguments(resp, None, publish=False)
+    add_bundle_options(resp)
+    resp.add_argument("--light", default="halogen", help="source (default: halogen)")
+    resp.add_argument("--temperature", type=float, help="blackbody temperature (K) of the source")
+    resp.add_argument("--reference", help="CSV of the source spectrum (wavelength_nm,power)")
+    resp.set_defaults(func=_response)
 
+
+def _register_guide(groups: argparse._SubParsersAction) -> None:
     guide = groups.add_parser(
         "guide", help="guide camera -> SLM homography from a scan; publishes a new bundle"
     )
@@ -199,7 +216,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     _run_arguments(spectral, "spectral_calibration")
     spectral.set_defaults(func=_spectral)
-    from sassi_bench.spectra.cli import register_response
-
-    register_response(groups)
+    _register_response(groups)
     _register_guide(groups)

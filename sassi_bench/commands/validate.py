@@ -5,16 +5,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sassi_bench.bundle.cli import add_bundle_options
-from sassi_bench.cli import check_output_folder, new_session
+from sassi_bench.commands.options import (
+    add_bundle_options,
+    add_data_option,
+    add_rig_option,
+    bundle_from_args,
+    check_output_folder,
+    new_session,
+    print_checks,
+)
 
 __all__ = ["register"]
-
-
-def _bundle(args):
-    from sassi_bench.bundle.cli import bundle_from_args
-
-    return bundle_from_args(args, args.rig_name)
 
 
 def _procedure(args) -> dict:
@@ -35,7 +36,7 @@ def _macbeth(args: argparse.Namespace) -> int:
     from sassi_bench.validate.locate import grid_from_corners
     from sassi_bench.validate.reference import reference_chart
     from sassi_bench.validate.report import write_report
-    from sassi_bench.validate.run import run_macbeth
+    from sassi_bench.workflows.macbeth import run_macbeth
     from sassi_bench.workflows.scan import check_scan
 
     procedure = _procedure(args)
@@ -49,8 +50,7 @@ def _macbeth(args: argparse.Namespace) -> int:
         corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
         grid_from_corners(corners)
     check_output_folder("validate macbeth", args.out)
-    args.rig_name = rig.description.name
-    bundle = _bundle(args)
+    bundle = bundle_from_args(args, rig.description.name)
     new_session(args, "session", f"scan-{scan_cfg['scene']}")
     if procedure["white_reference"]["source"] == "diffuser":
         scene = procedure["white_reference"]["diffuser_scene"]
@@ -70,15 +70,15 @@ def _macbeth(args: argparse.Namespace) -> int:
 
 def _snapshot(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
-    from sassi_bench.validate.snapshot import check_inputs, run_snapshot
     from sassi_bench.validate.snapshot_report import write_snapshot_report
     from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.workflows.snapshot import check_inputs
+    from sassi_bench.workflows.snapshot_validation import run_snapshot
 
     procedure = load_procedure("snapshot_validation", args.procedure)
     check_output_folder("validate snapshot", args.out)
     rig = open_rig(args.rig)
-    args.rig_name = rig.description.name
-    bundle = _bundle(args)
+    bundle = bundle_from_args(args, rig.description.name)
     check_inputs(rig, bundle, args.scene)  # before any session is created
     new_session(args, "session", f"snapshot-{args.scene}")
     result = run_snapshot(
@@ -116,12 +116,7 @@ def _snapshot(args: argparse.Namespace) -> int:
 
 def _print_verdict(result, html_path, json_path) -> int:
     """Print a validation's checks and where its report is; the exit status (1: failed)."""
-    from sassi_bench.bundle.quality import unit_suffix
-
-    for check in result.checks:
-        mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
-        print(f"  {mark}  {check.name:24s} {check.value:10.4f} {limit}")
+    print_checks(result.checks, name_width=24)
     print(f"  report: {html_path}\n  data:   {json_path}")
     print("VALIDATION PASSED" if result.passed else "VALIDATION FAILED")
     return 0 if result.passed else 1
@@ -130,9 +125,9 @@ def _print_verdict(result, html_path, json_path) -> int:
 def _report_options(parser: argparse.ArgumentParser, procedure: str) -> None:
     """The options every validation shares: rig, bundle, data root, report folder and
     procedure file."""
-    parser.add_argument("--rig", default="sim", help="rig name or YAML path (default: sim)")
+    add_rig_option(parser)
     add_bundle_options(parser)
-    parser.add_argument("--data", help="data root for sessions and bundles")
+    add_data_option(parser)
     parser.add_argument("--out", required=True, help="folder for the HTML and JSON report")
     parser.add_argument(
         "--procedure", help=f"procedure YAML (default: procedures/{procedure}.yaml)"

@@ -1,7 +1,8 @@
 """`sassi-bench calibrate`: the whole chain without a procedure name, one stage with one."""
 
-from sassi_bench.cli import build_parser
-from sassi_bench.workflows import cli
+from sassi_bench.commands import build_parser
+from sassi_bench.commands import calibrate as cli
+from sassi_bench.commands.options import print_checks
 
 
 def test_calibrate_without_a_procedure_runs_the_whole_chain():
@@ -20,6 +21,6 @@ def test_calibrate_with_a_procedure_runs_that_stage():
 def test_checks_print_one_line_each(capsys):
     from sassi_bench.bundle import QualityCheck
 
-    cli.print_checks([QualityCheck.at_most("rms", 0.2, 0.1, "px")])
+    print_checks([QualityCheck.at_most("rms", 0.2, 0.1, "px")])
     line = capsys.readouterr().out.strip()
     assert line.startswith("FAIL") and "rms" in line and "<= 0.1 px" in line

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 
 
 def _folder(path: Path, size: int) -> Path:
@@ -72,7 +72,7 @@ def test_clean_is_a_dry_run_and_spares_bundles_and_their_inputs(root, capsys):
 
 
 def test_calibrate_says_where_its_data_went(tmp_path, capsys):
-    from sassi_bench.workflows.cli import _print_data_use
+    from sassi_bench.commands.calibrate import _print_data_use
 
     staging = _folder(tmp_path / "staging" / "full-x" / "sessions" / "s", 2048).parents[1]
     _print_data_use(staging, tmp_path / "sim" / "v0001", str(tmp_path))

@@ -1,0 +1,215 @@
+"""What every command group shares: the rig, data-root and bundle options, new session ids,
+output checks made before anything is captured, the resume line, and check tables.
+
+Examples
+--------
+>>> import argparse
+>>> parser = argparse.ArgumentParser()
+>>> add_rig_option(parser); add_bundle_options(parser); add_data_option(parser)
+>>> sorted(vars(parser.parse_args(["--bundle", "v0002"])).items())
+[('bundle', 'v0002'), ('bundle_rig', None), ('data', None), ('rig', 'sim')]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from collections.abc import Iterable, Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from sassi_bench.errors import ProcedureError, step_error
+
+if TYPE_CHECKING:
+    from sassi_bench.bundle import CalibrationBundle
+
+__all__ = [
+    "PROG",
+    "add_bundle_options",
+    "add_data_option",
+    "add_rig_option",
+    "bundle_from_args",
+    "check_output_file",
+    "check_output_folder",
+    "load_bundle_ref",
+    "new_session",
+    "print_checks",
+    "resume_command",
+]
+
+PROG = "sassi-bench"
+
+DATA_HELP = "data root (default: $SASSI_BENCH_DATA, else the checkout's calib_data/)"
+
+
+def add_rig_option(parser: argparse.ArgumentParser, default: str | None = "sim") -> None:
+    """``--rig``: a shipped rig name or a rig YAML path.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_rig_option(parser)
+    >>> parser.parse_args([]).rig
+    'sim'
+    """
+    shown = f"default: {default}" if default else "default: see the command"
+    parser.add_argument("--rig", default=default, help=f"rig name or YAML path ({shown})")
+
+
+def add_data_option(parser: argparse.ArgumentParser) -> None:
+    """``--data DIR``: the data root (see :func:`sassi_bench.paths.data_root`).
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_data_option(parser)
+    >>> parser.parse_args(["--data", "lab"]).data
+    'lab'
+    """
+    parser.add_argument("--data", metavar="DIR", default=None, help=DATA_HELP)
+
+
+def add_bundle_options(parser: argparse.ArgumentParser) -> None:
+    """``--bundle`` and ``--bundle-rig``, for commands that use a bundle with a rig.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_bundle_options(parser)
+    >>> vars(parser.parse_args(["--bundle", "v0002"]))
+    {'bundle': 'v0002', 'bundle_rig': None}
+    """
+    parser.add_argument(
+        "--bundle", help="bundle: a version (latest, v0003, 3; default latest) or a folder"
+    )
+    parser.add_argument("--bundle-rig", help="rig folder of the bundle (default: the rig's name)")
+
+
+def load_bundle_ref(ref: str | None, rig: str, data: str | None) -> CalibrationBundle:
+    """Load (and verify) the bundle named by a version of ``rig`` or by a folder path (see
+    :func:`~sassi_bench.bundle.layout.resolve_bundle_ref`).
+
+    Examples
+    --------
+    >>> load_bundle_ref("latest", "sim", None).version  # doctest: +SKIP
+    'v0003'
+    """
+    from sassi_bench.bundle.layout import resolve_bundle_ref
+    from sassi_bench.bundle.loader import load
+
+    return load(resolve_bundle_ref(ref, rig=rig, data=data))
+
+
+def bundle_from_args(args: argparse.Namespace, rig_name: str) -> CalibrationBundle:
+    """Load the bundle ``--bundle``/``--bundle-rig``/``--data`` name for rig ``rig_name``.
+
+    Examples
+    --------
+    >>> bundle_from_args(args, rig.description.name)  # doctest: +SKIP
+    """
+    rig = getattr(args, "bundle_rig", None) or rig_name
+    return load_bundle_ref(args.bundle, rig, getattr(args, "data", None))
+
+
+def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
+    """The session id option ``dest`` of a command that captures: the one given (checked
+    before anything is captured), else a new ``<prefix>-<UTC time>``, stored back in
+    ``args`` so an interrupted run can be resumed with it.
+
+    A command that captures registers its session options as ``resume_options`` (see
+    :func:`resume_command`).
+
+    Examples
+    --------
+    >>> args = argparse.Namespace(session=None)
+    >>> new_session(args, "session", "scan").startswith("scan-"), args.session[:5]
+    (True, 'scan-')
+    """
+    from sassi_bench.acquire.session import check_session_id
+
+    value = getattr(args, dest)
+    if value is None:
+        value = f"{prefix}-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+        setattr(args, dest, value)
+    check_session_id(value)
+    return value
+
+
+def check_output_folder(step: str, out: str | None, what: str = "give a folder") -> None:
+    """Refuse an output folder (``--out``) that is a file, before anything is captured.
+
+    Examples
+    --------
+    >>> check_output_folder("validate snapshot", "a-new-folder")
+    """
+    if out is not None and Path(out).exists() and not Path(out).is_dir():
+        raise ProcedureError(step_error(step, f"--out {out} is a file", what))
+
+
+def check_output_file(step: str, path: str, option: str) -> None:
+    """Refuse an output file whose folder does not exist, before anything is captured.
+
+    Examples
+    --------
+    >>> check_output_file("scan", "cube.nc", "--out")
+    >>> check_output_file("scan", "no/such/folder/cube.nc", "--out")
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: scan: --out no/such/folder/cube.nc: the folder ...
+    """
+    folder = Path(path).resolve().parent
+    if not folder.is_dir():
+        raise ProcedureError(
+            step_error(step, f"{option} {path}: the folder {folder} does not exist", "create it")
+        )
+
+
+def resume_command(argv: Sequence[str], args: argparse.Namespace) -> str | None:
+    """The command line that resumes an interrupted run: the one that started it, with the
+    session options (``args.resume_options``: (dest, flag) pairs) set to the sessions the
+    run used. None for a command that keeps nothing to resume.
+
+    Examples
+    --------
+    >>> args = argparse.Namespace(session="full-1", resume_options=(("session", "--session"),))
+    >>> resume_command(["calibrate", "--rig", "sim", "--quiet"], args)
+    'sassi-bench calibrate --rig sim --quiet --session full-1'
+    >>> resume_command(["calibrate", "--session=old", "--quiet"], args)
+    'sassi-bench calibrate --quiet --session full-1'
+    """
+    options = getattr(args, "resume_options", ())
+    if not options:
+        return None
+    flags = {flag for _, flag in options}
+    kept: list[str] = []
+    skip = False
+    for token in argv:
+        if skip:
+            skip = False
+        elif token in flags:
+            skip = True
+        elif not token.startswith(tuple(f"{flag}=" for flag in flags)):
+            kept.append(token)
+    for dest, flag in options:
+        value = getattr(args, dest, None)
+        if value is not None:
+            kept += [flag, str(value)]
+    return shlex.join([PROG, *kept])
+
+
+def print_checks(checks: Iterable[Any], name_width: int = 40) -> None:
+    """One line per quality check: PASS/FAIL, name, value, tolerance.
+
+    Examples
+    --------
+    >>> from sassi_bench.bundle import QualityCheck
+    >>> print_checks([QualityCheck.at_most("rms", 0.02, 0.1, "px")], name_width=8)
+      PASS  rms          0.0200 <= 0.1 px
+    """
+    from sassi_bench.bundle.quality import unit_suffix
+
+    for check in checks:
+        mark = "PASS" if check.passed else "FAIL"
+        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
+        print(f"  {mark}  {check.name:{name_width}s} {check.value:10.4f} {limit}")

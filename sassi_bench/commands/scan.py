@@ -1,0 +1,62 @@
+"""``sassi-bench scan``: a Nyquist pinhole scan of a scene into a reference cube."""
+
+from __future__ import annotations
+
+import argparse
+
+from sassi_bench.commands.options import (
+    add_bundle_options,
+    add_data_option,
+    add_rig_option,
+    bundle_from_args,
+    check_output_file,
+    new_session,
+)
+
+__all__ = ["register"]
+
+
+def _scan(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.spectra.cube_io import write_envi, write_netcdf
+    from sassi_bench.workflows.scan import check_scan, run_scan
+
+    rig = open_rig(args.rig)
+    roi = tuple(args.roi) if args.roi else None
+    check_scan(rig, args.scene, args.light, tuple(args.pitch), roi)
+    check_output_file("scan", args.out, "--out")
+    if args.envi:
+        check_output_file("scan", args.envi, "--envi")
+    bundle = bundle_from_args(args, rig.description.name)
+    new_session(args, "session", f"scan-{args.scene}")
+    run = run_scan(
+        rig, bundle, scene=args.scene, light=args.light, pitch=tuple(args.pitch), roi=roi,
+        session_id=args.session, data=args.data, progress=not args.quiet,
+    )  # fmt: skip
+    ds = run.dataset()
+    out = write_netcdf(ds, args.out)
+    print(f"cube {ds['radiance'].shape} ({ds['radiance'].attrs['units']}) -> {out}")
+    if args.envi:
+        print(f"ENVI -> {write_envi(ds, args.envi)}")
+    bad = int((run.scan.quality != 0).sum())
+    print(f"flagged pixels: {bad}; problems: {len(run.scan.problems)}")
+    for line in run.scan.problems[:10]:
+        print(f"  {line}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``scan`` to the top-level parser."""
+    scan = sub.add_parser("scan", help="Nyquist pinhole scan of a scene into a reference cube")
+    add_rig_option(scan)
+    add_bundle_options(scan)
+    add_data_option(scan)
+    scan.add_argument("--session", help="session id; an existing one resumes its capture")
+    scan.add_argument("--quiet", action="store_true", help="no progress bars")
+    scan.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
+    scan.add_argument("--light", default="led", help="light (default: led)")
+    scan.add_argument("--pitch", type=int, nargs=2, default=[100, 5], metavar=("PX", "PY"))
+    scan.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
+    scan.add_argument("--out", required=True, help="NetCDF file to write")
+    scan.add_argument("--envi", help="also export ENVI (.hdr/.img) at this path")
+    scan.set_defaults(func=_scan, resume_options=(("session", "--session"),))

@@ -1,0 +1,304 @@
+"""``sassi-bench snapshot take|reconstruct|export``: SASSI snapshots into cubes, or into the
+files of the SASSI authors' reconstruction code.
+
+Examples
+--------
+>>> from sassi_bench.commands import main
+>>> main(["snapshot", "take", "--out", "snaps"])  # doctest: +SKIP
+>>> main(["snapshot", "export", "--session", "snap-1", "--step", "0", "--guide-step", "1",
+...       "--out", "exp1"])  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from sassi_bench.commands.options import (
+    DATA_HELP,
+    add_bundle_options,
+    add_data_option,
+    add_rig_option,
+    bundle_from_args,
+    check_output_folder,
+    load_bundle_ref,
+    new_session,
+)
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = ["parse_tags", "register"]
+
+
+def _write(video, bundle, procedure, out: str, envi: bool, quiet: bool) -> None:
+    from tqdm.auto import tqdm
+
+    from sassi_bench.workflows.snapshot import reconstruct_snapshots, write_frame
+
+    frames = reconstruct_snapshots(video, bundle, procedure, progress=not quiet)
+    for session, frame in zip(video.frames, frames, strict=True):
+        paths = write_frame(frame, bundle, out, session.id, session=session.id, envi=envi)
+        tqdm.write(
+            f"  {session.id}: {int(frame.mask.sum())} open pixels, cubes "
+            f"{frame.rank1.shape} ({frame.units}) -> {paths[0].parent}"
+        )
+    print(f"  quick look: {Path(out) / (video.frames[0].id + '.png')}")
+
+
+def _take(args: argparse.Namespace) -> int:
+    from sassi_bench.rig import open_rig
+    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.workflows.snapshot import check_inputs, check_outputs_free, take_snapshots
+
+    if args.frames < 1:
+        raise ProcedureError(
+            step_error("snapshot take", f"--frames {args.frames}", "take 1 frame or more")
+        )
+    procedure = load_procedure("snapshot_validation", args.procedure)
+    check_output_folder("snapshot take", args.out)
+    rig = open_rig(args.rig)
+    bundle = bundle_from_args(args, rig.description.name)
+    check_inputs(rig, bundle, args.scene, step="snapshot take")
+    new_session(args, "session", f"snapshot-{args.scene}")
+    check_outputs_free(args.out, [f"{args.session}-f{t:03d}" for t in range(args.frames)])
+    low_light = float(procedure["snapshot"]["low_light"]) if args.low_light else 1.0
+    video = take_snapshots(
+        rig, bundle, procedure, scene=args.scene, frames=args.frames, low_light=low_light,
+        moving=args.moving, session_id=args.session, data=args.data, progress=not args.quiet,
+    )  # fmt: skip
+    print(f"Snapshots of {args.scene} on rig {rig.description.name} with bundle "
+          f"{bundle.rig_name}/{bundle.version}: sessions {args.session}-*")  # fmt: skip
+    _write(video, bundle, procedure, args.out, not args.no_envi, args.quiet)
+    print(
+        f"next: score snapshots against a pinhole scan with `sassi-bench validate snapshot "
+        f"--rig {args.rig} --scene {args.scene} --out REPORT`"
+    )
+    return 0
+
+
+def _reconstruct(args: argparse.Namespace) -> int:
+    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.workflows.snapshot import check_outputs_free, open_snapshots
+
+    procedure = load_procedure("snapshot_validation", args.procedure)
+    check_output_folder("snapshot reconstruct", args.out)
+    video = open_snapshots(args.session, data=args.data)
+    check_outputs_free(args.out, [session.id for session in video.frames])
+    rig_name = args.rig or str(video.preview.rig.get("name", "sim"))
+    bundle = load_bundle_ref(args.bundle, rig_name, args.data)
+    if bundle.guide_to_slm is None or tuple(bundle.slm_shape) != video.mask(0).shape:
+        raise ProcedureError(
+            step_error(
+                "snapshot reconstruct",
+                f"bundle {bundle.rig_name}/{bundle.version} cannot reconstruct these frames "
+                f"(SLM {bundle.slm_shape} against masks {video.mask(0).shape}; guide "
+                f"homography {'present' if bundle.guide_to_slm is not None else 'missing'})",
+                "pass the bundle of the rig that took them, with a guide homography (--bundle)",
+            )
+        )
+    print(f"Snapshot {args.session} ({len(video.frames)} frames) with bundle "
+          f"{bundle.rig_name}/{bundle.version}")  # fmt: skip
+    _write(video, bundle, procedure, args.out, not args.no_envi, args.quiet)
+    return 0
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    add_data_option(parser)
+    parser.add_argument("--out", required=True, help="folder for the cubes and quick looks")
+    parser.add_argument(
+        "--procedure", help="procedure YAML (default: procedures/snapshot_validation.yaml)"
+    )
+    parser.add_argument("--no-envi", action="store_true", help="NetCDF cubes only")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def parse_tags(pairs: list[str] | None) -> dict[str, Any]:
+    """``["role=snapshot", "index=3"]`` -> ``{"role": "snapshot", "index": 3}`` (values
+    that read as JSON are JSON, others strings).
+
+    Examples
+    --------
+    >>> parse_tags(["role=snapshot", "index=3", "on=true"])
+    {'role': 'snapshot', 'index': 3, 'on': True}
+    """
+    tags: dict[str, Any] = {}
+    for pair in pairs or []:
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise ProcedureError(
+                step_error("snapshot export", f"tag {pair!r} is not KEY=VALUE", "e.g. role=snap")
+            )
+        try:
+            tags[key] = json.loads(value)
+        except ValueError:
+            tags[key] = value
+    return tags
+
+
+def _snapshot_export(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.session import Session
+    from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
+
+    check_output_folder("snapshot export", args.out)
+    session = Session.open(args.session, data=args.data)
+    guide_session = (
+        session if args.guide_session is None else Session.open(args.guide_session, data=args.data)
+    )
+    spectral = select_steps(session, "spectral", step=args.step, tags=parse_tags(args.tag))
+    if len(spectral) > 1:
+        raise ProcedureError(
+            step_error(
+                "snapshot export",
+                f"the tags {parse_tags(args.tag)} match {len(spectral)} spectral frames "
+                f"({spectral[:8]})",
+                "pass --step N or tags that match one frame",
+            )
+        )
+    if args.guide_step is None and not args.guide_tag:
+        captured = [
+            i for i in sorted(guide_session.completed)
+            if guide_session.plan.steps[i].camera == "guide"
+        ]  # fmt: skip
+        if len(captured) != 1:
+            raise ProcedureError(
+                step_error(
+                    "snapshot export",
+                    f"session {guide_session.id!r} has {len(captured)} guide frames "
+                    f"({captured[:8]}), so which to pair is ambiguous",
+                    "pass --guide-step N (repeatable) or --guide-tag KEY=VALUE",
+                )
+            )
+        guides = captured
+    else:
+        guides = []
+        for i in args.guide_step or [None]:
+            guides += select_steps(guide_session, "guide", step=i, tags=parse_tags(args.guide_tag))
+    darks = (
+        select_steps(guide_session, "guide", tags=parse_tags(args.guide_dark_tag))
+        if args.guide_dark_tag
+        else []
+    )
+    bundle = load_bundle_ref(
+        args.bundle, args.rig or str(session.rig.get("name", "sim")), args.data
+    )
+    done = export_adaptive_cassi(
+        bundle, session, spectral[0], args.out, guide_steps=sorted(set(guides)),
+        guide_session=guide_session, guide_dark_steps=darks, limits=args.limits,
+    )  # fmt: skip
+    h1, h2, w1, w2 = done.limits
+    print(
+        f"exported session {session.id!r} step {spectral[0]} ({done.open_pixels} open SLM "
+        f"pixels), guide steps {sorted(set(guides))}"
+        + (f" minus dark {darks}" if darks else "")
+        + f", bundle {bundle.rig_name}/{bundle.version}, limits [{h1} {h2} {w1} {w2}]"
+    )
+    print(f"  {done.path}")
+    for note in done.notes:
+        print(f"  note: {note}")
+    print(
+        "next: with the calibration files from 'sassi-bench bundle export --format sassi-mat' "
+        "in <root>/calibration/, run cassi.py with expname set to this folder's name"
+    )
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``snapshot`` command group (``take``, ``reconstruct``, ``export``).
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser(prog="sassi-bench")
+    >>> register(parser.add_subparsers())
+    >>> args = parser.parse_args(["snapshot", "take", "--out", "snaps", "--frames", "3"])
+    >>> args.func.__name__, args.frames, args.scene
+    ('_take', 3, 'natural')
+    >>> args = parser.parse_args(["snapshot", "export", "--session", "s", "--step", "0",
+    ...                           "--out", "x"])
+    >>> args.func.__name__, args.format, args.limits
+    ('_snapshot_export', 'sassi-mat', None)
+    """
+    parser = subparsers.add_parser(
+        "snapshot",
+        help="take and reconstruct SASSI snapshots, or export them for other packages",
+        description="Work with SASSI snapshots (frames of a raw session and their masks).",
+    )
+    sub = parser.add_subparsers(dest="snapshot_command", metavar="SUBCOMMAND", required=True)
+    take = sub.add_parser(
+        "take",
+        help="take adaptive SASSI snapshots and reconstruct them into cubes",
+        description=(
+            "Show the adaptive mask of the guide image (each frame's from the previous "
+            "frame's guide image), capture the guide and spectral frames into raw sessions, "
+            "and write rank-1 and guided cubes (NetCDF, ENVI) and a quick-look PNG per frame."
+        ),
+    )
+    add_rig_option(take)
+    add_bundle_options(take)
+    take.add_argument("--scene", default="natural", help="scene (default: natural)")
+    take.add_argument("--frames", type=int, default=1, help="snapshot frames (default: 1)")
+    take.add_argument(
+        "--moving", action="store_true", help="move the scene between frames (virtual bench)"
+    )
+    take.add_argument(
+        "--low-light", action="store_true", help="the procedure's photon-starved exposure"
+    )
+    take.add_argument("--session", help="session id prefix; an existing one resumes")
+    _common(take)
+    take.set_defaults(func=_take, resume_options=(("session", "--session"),))
+
+    rec = sub.add_parser(
+        "reconstruct",
+        help="reconstruct snapshots taken before into cubes",
+        description=(
+            "Read the raw sessions of a snapshot (`snapshot take`, or a `validate snapshot` "
+            "run's <prefix>-adaptive) and write rank-1 and guided cubes and a quick look."
+        ),
+    )
+    rec.add_argument("--session", required=True, help="session id prefix of the snapshot")
+    rec.add_argument(
+        "--bundle", default="latest",
+        help="bundle version of the session's rig (v0003, 3, latest) or folder (default latest)",
+    )  # fmt: skip
+    rec.add_argument("--rig", help="rig of --bundle (default: the session's rig)")
+    _common(rec)
+    rec.set_defaults(func=_reconstruct)
+
+    p = sub.add_parser(
+        "export",
+        help="a spectral frame, its SLM mask and a guide frame as adaptive_cassi.mat",
+        description=(
+            "Write OUT/adaptive_cassi.mat (lcos_mask, cassi_img, guide_img_rec, limits) for "
+            "the SASSI authors' reconstruction code, from one spectral frame of a raw "
+            "session, the SLM pattern it was captured with and the guide frame(s) to pair."
+        ),
+    )
+    p.add_argument("--format", choices=["sassi-mat"], default="sassi-mat", help="(sassi-mat)")
+    p.add_argument("--session", required=True, help="session id or folder of the spectral frame")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--step", type=int, help="plan step index of the spectral frame")
+    which.add_argument(
+        "--tag", action="append", metavar="KEY=VALUE", help="tags of the spectral frame"
+    )
+    p.add_argument(
+        "--guide-step", type=int, action="append", metavar="N",
+        help="guide frame(s) to pair, averaged (default: the session's only guide frame)",
+    )  # fmt: skip
+    p.add_argument("--guide-tag", action="append", metavar="KEY=VALUE", help="guide frames by tag")
+    p.add_argument(
+        "--guide-dark-tag", action="append", metavar="KEY=VALUE",
+        help="dark guide frames (light off) to subtract, by tag",
+    )  # fmt: skip
+    p.add_argument("--guide-session", help="session of the guide frames (default: --session)")
+    p.add_argument(
+        "--bundle", default="latest",
+        help="bundle version of the session's rig (v0003, 3, latest) or folder (default latest)",
+    )  # fmt: skip
+    p.add_argument("--rig", help="rig of --bundle (default: the session's rig)")
+    p.add_argument(
+        "--limits", type=int, nargs=4, metavar=("H1", "H2", "W1", "W2"),
+        help="SLM crop as Python slice bounds (default: the whole SLM, which cassi.py needs)",
+    )  # fmt: skip
+    p.add_argument("--out", required=True, help="folder to write adaptive_cassi.mat into")
+    p.add_argument("--data", metavar="DIR", default=None, help=DATA_HELP)
+    p.set_defaults(func=_snapshot_export)
