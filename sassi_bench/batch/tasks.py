@@ -21,8 +21,10 @@ import xarray as xr
 from sassi_bench.acquire.session import Session
 from sassi_bench.batch.outputs import finished, write_atomic
 from sassi_bench.bundle import CalibrationBundle, load
+from sassi_bench.bundle.integrity import sha256_file
 from sassi_bench.spectra.cube_io import write_netcdf
-from sassi_bench.spectra.scan import assemble_scan
+from sassi_bench.spectra.scan import Roi, assemble_scan
+from sassi_bench.validate.chart import validate_scans
 from sassi_bench.workflows.scan import ScanRun
 
 __all__ = ["SessionResult", "TaskSpec", "bundle_sha256", "output_path", "run_task", "scan_dataset"]
@@ -65,7 +67,7 @@ class TaskSpec:
     data: str
     bundle: str
     out: str
-    roi: tuple[int, int, int, int] | None = None
+    roi: Roi | None = None
     procedure: Mapping[str, Any] | None = None
     corners: tuple[tuple[float, float], ...] | None = None
     threads: int = 1
@@ -102,8 +104,6 @@ def output_path(spec: TaskSpec) -> Path:
 
 def bundle_sha256(bundle: CalibrationBundle) -> str:
     """SHA-256 of the bundle's manifest (which holds the hash of every array)."""
-    from sassi_bench.bundle.integrity import sha256_file
-
     return sha256_file(Path(bundle.path) / "manifest.json")
 
 
@@ -111,7 +111,7 @@ def scan_dataset(
     session: Session,
     bundle: CalibrationBundle,
     *,
-    roi: tuple[int, int, int, int] | None = None,
+    roi: Roi | None = None,
     threads: int | None = None,
 ) -> xr.Dataset:
     """A scan session's cube as written by ``sassi-bench scan`` and by batches.
@@ -138,8 +138,6 @@ def _inputs(spec: TaskSpec, session: Session, bundle: CalibrationBundle) -> dict
 
 def _macbeth(spec: TaskSpec, session: Session, bundle: CalibrationBundle) -> dict[str, Any]:
     """Validate a chart scan alone: the chart's white patch is the white reference."""
-    from sassi_bench.validate.run import validate_scans
-
     assert spec.procedure is not None
     procedure = {
         **spec.procedure,

@@ -24,7 +24,12 @@ from sassi_bench.bundle.derive import derived_checks
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
+from sassi_bench.validate.report import render_report
+from sassi_bench.workflows.guide import run_guide_registration
+from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.procedure import load_procedure, with_changes
+from sassi_bench.workflows.scan import check_scan, response_source, run_response
+from sassi_bench.workflows.spectral import run_spectral_calibration
 
 __all__ = ["FullCalibration", "run_full_calibration"]
 
@@ -72,6 +77,8 @@ def run_full_calibration(
         The lab's data root (the bundle is published there).
     out
         Folder for the Macbeth report (default ``<data>/reports/<session id>``).
+    progress
+        Show progress bars.
     allow_failed
         Publish even if a tolerance failed (the bundle is then marked as failed).
 
@@ -87,12 +94,6 @@ def run_full_calibration(
     >>> result.passed, result.bundle_path  # doctest: +SKIP
     (True, PosixPath('calib_data/sim/v0001'))
     """
-    from sassi_bench.validate.report import render_report
-    from sassi_bench.validate.run import run_macbeth
-    from sassi_bench.workflows.guide import run_guide_registration
-    from sassi_bench.workflows.scan import check_scan, response_source, run_response
-    from sassi_bench.workflows.spectral import run_spectral_calibration
-
     response_cfg = procedure["response"]
     check_scan(rig, "white", response_cfg["light"], (100, 5))
     response_source(rig)  # the lamp's spectrum must be known before anything is captured

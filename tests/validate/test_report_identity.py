@@ -12,7 +12,7 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import QualityCheck, load, publish, publish_derived
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.plots.macbeth import localisation_figure, spectra_figure
-from sassi_bench.validate.run import validate_scans
+from sassi_bench.validate.chart import validate_scans
 from sassi_bench.workflows import full
 from sassi_bench.workflows.procedure import load_procedure
 
@@ -51,10 +51,10 @@ def _staged_stages(monkeypatch, rig, calibrated, result):
         settings = {**result.settings, "chart_session": chart.id}
         return dataclasses.replace(result, settings=settings)
 
-    monkeypatch.setattr("sassi_bench.workflows.spectral.run_spectral_calibration", spectral)
-    monkeypatch.setattr("sassi_bench.workflows.scan.run_response", response)
-    monkeypatch.setattr("sassi_bench.workflows.guide.run_guide_registration", guide)
-    monkeypatch.setattr("sassi_bench.validate.run.run_macbeth", macbeth)
+    monkeypatch.setattr("sassi_bench.workflows.full.run_spectral_calibration", spectral)
+    monkeypatch.setattr("sassi_bench.workflows.full.run_response", response)
+    monkeypatch.setattr("sassi_bench.workflows.full.run_guide_registration", guide)
+    monkeypatch.setattr("sassi_bench.workflows.full.run_macbeth", macbeth)
 
 
 def test_a_chain_bundles_report_names_its_published_version(

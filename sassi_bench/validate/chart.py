@@ -1,9 +1,6 @@
-"""The Macbeth validation end to end: capture (or reuse) scans, find the patches, compare.
-
-:func:`validate_scans` works on assembled scans (pure: no devices); :func:`run_macbeth`
-captures the chart and, when the procedure asks for it, the white diffuser with pinhole
-scans on a rig, then calls it. Sessions resume, so re-running with the same session ids
-re-analyses existing captures (e.g. with another bundle) without capturing again.
+"""The Macbeth validation of assembled scans: find the patches, take the white reference,
+compare with the reference chart (no devices; :func:`sassi_bench.workflows.macbeth.run_macbeth`
+captures the scans on a rig and calls :func:`validate_scans`).
 """
 
 from __future__ import annotations
@@ -16,7 +13,6 @@ from numpy.typing import NDArray
 
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanCube
 from sassi_bench.validate.colorimetry import cube_to_srgb, reflectance_to_xyz
 from sassi_bench.validate.locate import ChartGrid, LocateError, detect_chart, grid_from_corners
@@ -30,7 +26,7 @@ from sassi_bench.validate.macbeth import (
 )
 from sassi_bench.validate.reference import WHITE_PATCH, ReferenceChart, reference_chart
 
-__all__ = ["guide_picture", "locate_chart", "reference_rgb", "run_macbeth", "validate_scans"]
+__all__ = ["locate_chart", "reference_rgb", "starting_corners", "validate_scans"]
 
 
 def reference_rgb(reference: ReferenceChart) -> NDArray[np.float64]:
@@ -53,31 +49,6 @@ def _scan_picture(scan: ScanCube) -> NDArray[np.float32]:
     return cube_to_srgb(scan.wavelengths_nm, scan.cube)
 
 
-def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np.float32]:
-    """The guide camera's view of the current scene, warped onto the SLM grid (sRGB-like 0-1).
-
-    Needs a bundle with a guide -> SLM homography.
-    """
-    from sassi_bench.acquire.exposure import auto_exposure
-
-    if bundle.guide_to_slm is None:
-        raise ProcedureError(
-            step_error(
-                "Macbeth patch localisation",
-                f"bundle {bundle.rig_name}/{bundle.version} has no guide -> SLM homography",
-                "set localisation.image to 'cube' or calibrate the guide homography first",
-            )
-        )
-    exposure = auto_exposure(rig, light, {"kind": "full"}, camera="guide", target_fraction=0.7)
-    rig.light.select(light)
-    rig.guide_camera.set_exposure(exposure)
-    raw = rig.guide_camera.capture().as_float()
-    linear = np.clip(raw - np.percentile(raw, 0.5), 0, None)
-    linear /= max(float(np.percentile(linear, 99.5)), 1e-12)
-    warped = bundle.warp_guide_to_slm(np.clip(linear, 0, 1).astype(np.float32))
-    return (np.clip(warped, 0, 1) ** (1 / 2.2)).astype(np.float32)
-
-
 def locate_chart(
     scan: ScanCube,
     reference: ReferenceChart,
@@ -96,7 +67,8 @@ def locate_chart(
     corners
         SLM ``(u, v)`` centres of patches 1, 6, 24 and 19; skips detection.
     picture
-        (H_slm, W_slm, 3) picture on the full SLM grid (e.g. :func:`guide_picture`)
+        (H_slm, W_slm, 3) picture on the full SLM grid (e.g.
+        :func:`sassi_bench.workflows.macbeth.guide_picture`)
         instead of the cube's rendering.
     """
     if corners is not None:
@@ -233,54 +205,3 @@ def validate_scans(
     )
     result.picture, result.picture_origin = shown, tuple(shown_origin)
     return result
-
-
-def run_macbeth(
-    rig: Rig,
-    bundle: CalibrationBundle,
-    procedure: Mapping[str, Any],
-    *,
-    corners: Sequence[Sequence[float]] | None = None,
-    session_id: str | None = None,
-    white_session_id: str | None = None,
-    roi: tuple[int, int, int, int] | None = None,
-    data=None,
-    progress: bool = True,
-) -> MacbethResult:
-    """Scan the chart (and the diffuser) on ``rig`` and validate ``bundle``.
-
-    Examples
-    --------
-    >>> from sassi_bench import open_rig
-    >>> from sassi_bench.bundle import load
-    >>> from sassi_bench.workflows.procedure import load_procedure
-    >>> result = run_macbeth(open_rig("sim"), load(rig="sim"),
-    ...                      load_procedure("macbeth_validation"))  # doctest: +SKIP
-    >>> result.passed, result.summary()["mean_de00"]  # doctest: +SKIP
-    (True, 0.16)
-    """
-    from sassi_bench.workflows.scan import run_scan
-
-    scan_cfg = procedure["scan"]
-    light, pitch = scan_cfg["light"], tuple(scan_cfg["pitch_px"])
-    chart = run_scan(
-        rig, bundle, scene=scan_cfg["scene"], light=light, pitch=pitch, roi=roi,
-        session_id=session_id, data=data, progress=progress,
-    )  # fmt: skip
-    picture = None
-    loc = procedure["localisation"]
-    if corners is None and loc["method"] == "auto" and loc["image"] == "guide":
-        picture = guide_picture(rig, bundle, light)
-    white = None
-    settings: dict[str, Any] = {"chart_session": chart.session.id, "light": light}
-    if procedure["white_reference"]["source"] == "diffuser":
-        diffuser = run_scan(
-            rig, bundle, scene=procedure["white_reference"]["diffuser_scene"], light=light,
-            pitch=pitch, roi=roi, session_id=white_session_id, data=data, progress=progress,
-        )  # fmt: skip
-        white = diffuser.scan
-        settings["white_session"] = diffuser.session.id
-    return validate_scans(
-        chart.scan, bundle, procedure, white=white, corners=corners, picture=picture,
-        settings=settings,
-    )  # fmt: skip
