@@ -84,15 +84,23 @@ def psnr(
     valid: ArrayLike | None = None,
     affine: bool = False,
     per_band_fit: bool = False,
+    peak: float | None = None,
 ) -> float:
     """PSNR in dB over the whole cube, peak = the reference's maximum.
 
     Parameters
     ----------
+    reference, estimate
+        Cubes of one shape ``(..., B)``.
+    valid
+        Pixels to score, ``(...)``; default all.
     affine
         Fit ``a * estimate + b`` to the reference first (see the module docstring).
     per_band_fit
         With ``affine``, one fit per band instead of one for the cube.
+    peak
+        The peak signal; default the reference's maximum over the scored pixels (give the
+        whole cube's peak to score a subset of pixels, e.g. edges, on the same scale).
 
     Examples
     --------
@@ -101,12 +109,14 @@ def psnr(
     20.0
     >>> psnr(ref, 2 * ref + 3, affine=True)
     inf
+    >>> round(psnr(ref, est, peak=10.0), 3)
+    40.0
     """
     ref, est = _pair(reference, estimate, valid)
     if affine:
         a, b = affine_fit(ref, est, per_band=per_band_fit)
         est = a * est + b
-    return float(_psnr(np.mean((est - ref) ** 2), ref.max()))
+    return float(_psnr(np.mean((est - ref) ** 2), ref.max() if peak is None else peak))
 
 
 def band_psnr(

@@ -26,7 +26,7 @@ from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.plots.snapshot import snapshot_quick_look
-from sassi_bench.rig.rig import Rig
+from sassi_bench.rig.rig import SCENES, Rig
 from sassi_bench.snapshot import (
     FrameReconstruction,
     adaptive_mask,
@@ -41,6 +41,7 @@ from sassi_bench.spectra.extract import SpectralDeblur
 __all__ = [
     "METHODS",
     "adaptive_planner",
+    "check_inputs",
     "check_outputs_free",
     "frame_outputs",
     "frame_samples",
@@ -53,6 +54,54 @@ __all__ = [
 
 #: The reconstructions written, by file suffix.
 METHODS = {"rank1": "rank-1 per region", "guided": "masked guided filter"}
+
+
+def check_inputs(
+    rig: Rig, bundle: CalibrationBundle, scene: str, step: str = "validate snapshot"
+) -> None:
+    """Refuse a bad scene or a bundle that cannot take snapshots, before any capture.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    bundle
+        The bundle that will draw the masks and reconstruct (it needs a guide homography and
+        the rig's SLM).
+    scene
+        The scene to put in front of the bench.
+    step
+        The command or step named in the error.
+
+    Examples
+    --------
+    >>> check_inputs(open_rig("sim"), load(rig="sim"), "natral")  # doctest: +SKIP
+    Traceback (most recent call last):
+    ProcedureError: validate snapshot: unknown scene 'natral'. Fix: use one of ...
+    """
+    if scene not in SCENES:
+        raise ProcedureError(
+            step_error(step, f"unknown scene {scene!r}", f"use one of {', '.join(SCENES)}")
+        )
+    if bundle.guide_to_slm is None:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"bundle {bundle.rig_name}/{bundle.version} has no guide -> SLM homography, "
+                "so adaptive masks cannot be drawn from the guide image",
+                "run `sassi-bench calibrate guide` (or the full `sassi-bench calibrate`) and "
+                "validate the bundle it publishes",
+            )
+        )
+    if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
+        raise ProcedureError(
+            step_error(
+                step,
+                f"bundle {bundle.rig_name}/{bundle.version} is for a {bundle.slm_shape} SLM, "
+                f"the rig has {rig.slm.shape}",
+                "load this rig's bundle (--bundle)",
+            )
+        )
 
 
 def procedure_spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -> MaskSpacing:
@@ -129,9 +178,7 @@ def take_snapshots(
     >>> len(video.frames)  # doctest: +SKIP
     1
     """
-    from sassi_bench.validate.snapshot import check_inputs
-
-    check_inputs(rig, bundle, scene)
+    check_inputs(rig, bundle, scene, step="snapshot take")
     if not (np.isfinite(low_light) and 0 < low_light <= 1):
         raise ProcedureError(
             step_error("snapshot take", f"low light {low_light}", "give a factor in (0, 1]")

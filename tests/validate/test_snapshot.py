@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
 
 #: The photon-starved snapshot's exposure factor in these tests. On the sim rig's small SLM
 #: the error is mostly spatial sampling (rank-1 from the scan's own spectra at the open
