@@ -8,7 +8,9 @@ import io
 from collections.abc import Sequence
 from pathlib import Path
 
+from sassi_bench._shared.tables import html_table
 from sassi_bench.batch.tasks import SessionResult
+from sassi_bench.plots.html import page
 
 __all__ = ["summary_csv", "summary_html", "summary_rows"]
 
@@ -56,33 +58,45 @@ def summary_html(
     results: Sequence[SessionResult], path: str | Path, *, title: str, facts: Sequence[str] = ()
 ) -> Path:
     """Write the summary table as one self-contained HTML page (failed rows in red; outputs
-    by file name, their folder is the page's)."""
-    from sassi_bench.validate.report import REPORT_CSS
+    by file name, their folder is the page's).
 
+    Parameters
+    ----------
+    results
+        One result per session.
+    path
+        The HTML file to write.
+    title
+        The page's title and heading.
+    facts
+        Sentences listed under the heading (cluster, bundle, ...).
+
+    Returns
+    -------
+    Path
+
+    Examples
+    --------
+    >>> summary_html([SessionResult("scan-1", "done", 20, 1.2, "/o/scan-1.nc")],
+    ...              "batch.html", title="batch assemble")  # doctest: +SKIP
+    """
     header, rows = summary_rows(results)
-    names = [METRICS.get(h, h.replace("_s", " (s)")) for h in header]
-    head = "".join(f'<th class="l">{html.escape(h)}</th>' for h in names)
-    body = []
+    names = [html.escape(METRICS.get(h, h.replace("_s", " (s)"))) for h in header]
     out = header.index("output")
+    cells = []
     for row in rows:
         cls = "l bad" if row[1] == "failed" else "l"
         row = [*row[:out], Path(row[out]).name if row[out] else "", *row[out + 1 :]]
-        cells = "".join(f'<td class="{cls}">{html.escape(c)}</td>' for c in row)
-        body.append(f"<tr>{cells}</tr>")
+        cells.append([f'<td class="{cls}">{html.escape(c)}</td>' for c in row])
     failed = sum(r.status == "failed" for r in results)
     counts = {s: sum(r.status == s for r in results) for s in ("done", "skipped", "failed")}
     verdict = "fail" if failed else "pass"
     text = ", ".join(f"{n} {s}" for s, n in counts.items())
     items = "".join(f"<li>{html.escape(f)}</li>" for f in facts)
-    page = f"""<!DOCTYPE html>
-<html><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>{REPORT_CSS}</style></head><body>
-<h1>{html.escape(title)}</h1>
+    body = f"""<h1>{html.escape(title)}</h1>
 <p><span class="verdict {verdict}">{len(results)} sessions: {html.escape(text)}</span></p>
 <ul>{items}</ul>
-<table><tr>{head}</tr>{"".join(body)}</table>
-</body></html>
-"""
+{html_table(names, cells, left=len(names))}"""
     path = Path(path)
-    path.write_text(page)
+    path.write_text(page(title, body))
     return path

@@ -98,6 +98,7 @@ def checks_table(checks: Iterable[Any]) -> str:
     >>> "PASS" in checks_table([QualityCheck.at_most("rms", 0.02, 0.1, "px")])
     True
     """
+    from sassi_bench._shared.tables import html_table
     from sassi_bench.bundle.quality import unit_suffix
 
     rows = []
@@ -105,13 +106,14 @@ def checks_table(checks: Iterable[Any]) -> str:
         mark = "PASS" if check.passed else "FAIL"
         colour = "#1a7f37" if check.passed else "#cf222e"
         rows.append(
-            f"<tr><td>{html.escape(check.name)}</td><td>{check.value:.4g}"
-            f"{html.escape(unit_suffix(check.unit))}</td>"
-            f"<td>{check.comparison} {check.tolerance:g}</td>"
-            f'<td style="color:{colour};font-weight:bold">{mark}</td></tr>'
+            [
+                html.escape(check.name),
+                f"{check.value:.4g}{html.escape(unit_suffix(check.unit))}",
+                f"{html.escape(check.comparison)} {check.tolerance:g}",
+                f'<td style="color:{colour};font-weight:bold">{mark}</td>',
+            ]
         )
-    head = "<tr><th>check</th><th>value</th><th>tolerance</th><th></th></tr>"
-    return f"<table>{head}{''.join(rows)}</table>"
+    return html_table(["check", "value", "tolerance", ""], rows)
 
 
 def accept_checks(checks: Sequence[Any]):
@@ -198,7 +200,7 @@ def pick_chart_corners(start, slm_shape: tuple[int, int]):
     ----------
     start
         (4, 2) starting centres (e.g. the detector's,
-        :func:`sassi_bench.validate.run.starting_corners`).
+        :func:`sassi_bench.validate.chart.starting_corners`).
     slm_shape
         (height, width) of the SLM.
 

@@ -14,9 +14,7 @@ scan was assembled with.
 
 from __future__ import annotations
 
-import base64
 import html
-import io
 import json
 import os
 from collections.abc import Mapping
@@ -27,50 +25,14 @@ from typing import Any
 
 import numpy as np
 
-from sassi_bench import __version__
+from sassi_bench._shared.tables import html_table
 from sassi_bench.bundle import CalibrationBundle
-from sassi_bench.bundle.quality import unit_suffix
+from sassi_bench.plots.html import check_rows, figure_base64, image_tags, jsonable, page
 from sassi_bench.plots.macbeth import macbeth_figures
+from sassi_bench.provenance import package_version
 from sassi_bench.validate.macbeth import MacbethResult
 
-__all__ = ["REPORT_CSS", "MacbethReport", "render_report", "report_data", "write_report"]
-
-#: The style sheet every HTML report of the workbench shares.
-REPORT_CSS = """
-body { font-family: system-ui, sans-serif; margin: 24px auto; max-width: 1320px; color: #222; }
-h1 { font-size: 22px; margin-bottom: 4px; } h2 { font-size: 17px; margin-top: 28px; }
-.verdict { display: inline-block; padding: 6px 16px; border-radius: 4px; color: white;
-           font-weight: bold; font-size: 18px; }
-.pass { background: #2e7d32; } .fail { background: #c62828; }
-table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
-td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; }
-th { background: #f2f2f2; } td.l, th.l { text-align: left; }
-td.bad, span.bad { color: #c62828; font-weight: bold; }
-img { max-width: 100%; border: 1px solid #ddd; margin: 6px 0; }
-.note { background: #fff8e1; border-left: 4px solid #f9a825; padding: 6px 12px; margin: 6px 0;
-        font-size: 14px; }
-.flex { display: flex; gap: 24px; flex-wrap: wrap; align-items: flex-start; }
-"""
-
-
-def _png(fig) -> str:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100)
-    return base64.b64encode(buffer.getvalue()).decode("ascii")
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
+__all__ = ["MacbethReport", "render_report", "report_data", "write_report"]
 
 
 def report_data(
@@ -82,7 +44,7 @@ def report_data(
     doc = {
         "kind": "macbeth_validation",
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
-        "software": f"sassi-bench {__version__}",
+        "software": f"sassi-bench {package_version()}",
         "passed": result.passed,
         "summary": result.summary(),
         "noise_floors": result.noise_floors(),
@@ -105,16 +67,7 @@ def report_data(
         ],
         "figures": {name: data for name, (_, data) in figures.items()},
     }
-    return _jsonable(doc), {name: fig for name, (fig, _) in figures.items()}
-
-
-def _table(header: list[str], rows: list[list[str]], left: int = 1) -> str:
-    head = "".join(f'<th class="{"l" if i < left else ""}">{h}</th>' for i, h in enumerate(header))
-    body = "".join(
-        "<tr>" + "".join(cell if cell.startswith("<td") else f"<td>{cell}</td>" for cell in row)
-        for row in rows
-    )
-    return f"<table><tr>{head}</tr>{body}</table>"
+    return jsonable(doc), {name: fig for name, (fig, _) in figures.items()}
 
 
 def _array_hashes(manifest: Mapping[str, Any]) -> dict[str, str]:
@@ -178,30 +131,6 @@ change its spectral shape by up to 10.6 % (relative to the median bin).']
     return found
 
 
-def _number(value: float, fmt: str = ".4g") -> str:
-    return f"{value:{fmt}}"
-
-
-def _check_rows(
-    checks: list[Mapping[str, Any]], fmt: str, floors: Mapping[str, float] | None = None
-) -> list[list[str]]:
-    """Table rows of quality checks; with ``floors``, a noise-floor column after the value."""
-    esc = html.escape
-    rows = []
-    for c in checks:
-        unit = esc(unit_suffix(c["unit"]))
-        row = [f'<td class="l">{esc(str(c["name"]))}</td>', f"{_number(c['value'], fmt)}{unit}"]
-        if floors is not None:
-            floor = floors.get(str(c["name"]))
-            row.append("" if floor is None else f"{_number(floor, fmt)}{unit}")
-        row += [
-            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:g}{unit}",
-            "pass" if c["passed"] else '<td class="bad">FAIL</td>',
-        ]
-        rows.append(row)
-    return rows
-
-
 def _setting(key: str, value: Any) -> str:
     if key == "patches_detected" and isinstance(value, int) and value < 24:
         return f"{value} of 24 (the 6 x 4 lattice was fitted to them)"
@@ -245,9 +174,9 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str]) -> str:
     verdict = "PASS" if doc["passed"] else "FAIL"
     floors = doc.get("noise_floors") or None
     header = ["check", "value", *(["noise floor"] if floors else []), "tolerance", "result"]
-    checks = _table(header, _check_rows(doc["checks"], ".3f", floors))
+    checks = html_table(header, check_rows(doc["checks"], ".3f", floors))
     tol = doc["tolerances"]
-    patches = _table(
+    patches = html_table(
         ["patch", "pixels", "angle (deg)", "RMSE", "dE00"],
         [
             [
@@ -263,26 +192,25 @@ def _html(doc: Mapping[str, Any], images: Mapping[str, str]) -> str:
         ],
     )
     shown = {k: v for k, v in doc["settings"].items() if k not in ("bundle", "bundle_passed")}
-    settings = _table(
+    settings = html_table(
         ["setting", "value"],
         [[f'<td class="l">{esc(k)}</td>', f'<td class="l">{esc(_setting(k, v))}</td>']
          for k, v in shown.items()],
         left=2,
     )  # fmt: skip
     wl = doc["figures"]["wavelength_calibration"]
-    bundle_checks = _table(
+    bundle_checks = html_table(
         ["bundle quality check (every stage)", "value", "tolerance", "result"],
-        _check_rows(ident["checks"], ".4g"),
+        check_rows(ident["checks"], ".4g"),
     )
     notes = "".join(f'<div class="note">{esc(n)}</div>' for n in doc["notes"])
     summary = doc["summary"]
-    img = {k: f'<img alt="{k}" src="data:image/png;base64,{v}">' for k, v in images.items()}
+    img = image_tags(images)
     res = np.asarray(wl["bin_resolution_nm"])
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8">
-<title>Macbeth validation {name}: {verdict}</title>
-<style>{REPORT_CSS}</style></head><body>
-<h1>Macbeth ColorChecker validation: {name}</h1>
+    title = f"Macbeth validation {ident['rig_name']} / {ident['version'] or 'not published'}"
+    return page(
+        f"{title}: {verdict}",
+        f"""<h1>Macbeth ColorChecker validation: {name}</h1>
 <p><span class="verdict {"pass" if doc["passed"] else "fail"}">{verdict}</span>
 &nbsp; mean dE00 {summary["mean_de00"]:.2f}, max dE00 {summary["max_de00"]:.2f},
 mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
@@ -301,9 +229,8 @@ mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
 {wl["bin_edges_nm"][-1]:.1f} nm, resolution {res.min():.1f}-{res.max():.1f} nm per bin.</p>
 {img["wavelength_calibration"]}
 {bundle_checks}
-{"".join(f'<div class="note">{esc(f)}</div>' for f in ident.get("findings", []))}
-</body></html>
-"""
+{"".join(f'<div class="note">{esc(f)}</div>' for f in ident.get("findings", []))}""",
+    )
 
 
 @dataclass(frozen=True)
@@ -332,7 +259,7 @@ class MacbethReport:
     def document(self, manifest: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The JSON document for the bundle of ``manifest`` (default: the scanned one)."""
         ident = bundle_identity(manifest or self.scanned_with, self.scanned_with)
-        return _jsonable({**self.doc, "bundle": ident})
+        return jsonable({**self.doc, "bundle": ident})
 
     def html(self, manifest: Mapping[str, Any] | None = None) -> str:
         """The self-contained HTML page for the bundle of ``manifest``."""
@@ -366,7 +293,7 @@ def render_report(
     >>> publish(models, ..., reports={"macbeth_report.html": report.html})  # doctest: +SKIP
     """
     doc, figures = report_data(result, bundle, procedure)
-    images = {name: _png(fig) for name, fig in figures.items()}
+    images = {name: figure_base64(fig) for name, fig in figures.items()}
     return MacbethReport(doc, images, bundle.manifest)
 
 

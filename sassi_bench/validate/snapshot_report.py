@@ -12,9 +12,10 @@ import os
 from pathlib import Path
 from typing import Any
 
-from sassi_bench import __version__
+from sassi_bench._shared.tables import html_table
+from sassi_bench.plots.html import check_rows, figure_base64, image_tags, jsonable, page
 from sassi_bench.plots.snapshot import snapshot_figures
-from sassi_bench.validate.report import REPORT_CSS, _jsonable, _png, _table
+from sassi_bench.provenance import package_version
 from sassi_bench.validate.snapshot import SnapshotValidation
 
 __all__ = ["snapshot_report_data", "write_snapshot_report"]
@@ -28,7 +29,7 @@ def snapshot_report_data(
     doc = {
         "kind": "snapshot_validation",
         "created": result.created,
-        "software": f"sassi-bench {__version__}",
+        "software": f"sassi-bench {package_version()}",
         "rig": result.rig_name,
         "bundle_version": result.bundle_version,
         "scene": result.scene,
@@ -56,7 +57,7 @@ def snapshot_report_data(
         "video": result.video,
         "figures": {name: data for name, (_, data) in figures.items()},
     }
-    return _jsonable(doc), {name: fig for name, (fig, _) in figures.items()}
+    return jsonable(doc), {name: fig for name, (fig, _) in figures.items()}
 
 
 def _scores_table(doc: dict[str, Any]) -> str:
@@ -75,7 +76,7 @@ def _scores_table(doc: dict[str, Any]) -> str:
                     f"{snap['detail_psnr_db'][method]:.2f}",
                 ]
             )
-    return _table(
+    return html_table(
         ["snapshot", "method", "open px", "PSNR (dB)", "PSNR affine (dB)", "SSIM",
          "angle (deg)", "detail PSNR (dB)"],
         rows, left=2,
@@ -102,31 +103,20 @@ def _video_table(doc: dict[str, Any]) -> str:
         ]
         for f in doc["video"]
     ]
-    return _table(["frame", "pose", "open px", "rank-1 (dB)", "guided (dB)"], rows)
+    return html_table(["frame", "pose", "open px", "rank-1 (dB)", "guided (dB)"], rows)
 
 
 def _html(doc: dict[str, Any], images: dict[str, str]) -> str:
     esc = html.escape
     verdict = "PASS" if doc["passed"] else "FAIL"
-    checks = _table(
-        ["check", "value", "tolerance", "result"],
-        [
-            [
-                f'<td class="l">{esc(c["name"])}</td>',
-                f"{c['value']:.2f} {esc(c['unit'])}",
-                f"{esc(c['comparison'])} {c['tolerance']:g}",
-                "pass" if c["passed"] else '<td class="bad">FAIL</td>',
-            ]
-            for c in doc["checks"]
-        ],
-    )
-    settings = _table(
+    checks = html_table(["check", "value", "tolerance", "result"], check_rows(doc["checks"], ".2f"))
+    settings = html_table(
         ["setting", "value"],
         [[f'<td class="l">{esc(k)}</td>', f'<td class="l">{esc(str(v))}</td>']
          for k, v in doc["settings"].items()],
         left=2,
     )  # fmt: skip
-    img = {k: f'<img alt="{k}" src="data:image/png;base64,{v}">' for k, v in images.items()}
+    img = image_tags(images)
     notes = "".join(f'<div class="note">{esc(n)}</div>' for n in doc["notes"])
     first = next(iter(doc["snapshots"].values()))["scores"]
     video = ""
@@ -152,12 +142,10 @@ def _html(doc: dict[str, Any], images: dict[str, str]) -> str:
             "<p>Detail PSNR (rank-1, on the pixels of strongest gradient in the scan: "
             f"edges and thin structures): {', '.join(parts)}.</p>"
         )
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8">
-<title>Snapshot validation {esc(doc["rig"])} {esc(doc["bundle_version"])}: {verdict}</title>
-<style>{REPORT_CSS}</style></head><body>
-<h1>SASSI snapshot validation: rig {esc(doc["rig"])}, bundle {esc(doc["bundle_version"])},
-scene {esc(doc["scene"])}</h1>
+    return page(
+        f"Snapshot validation {doc['rig']} {doc['bundle_version']}: {verdict}",
+        f"""<h1>SASSI snapshot validation: rig {esc(doc["rig"])},
+bundle {esc(doc["bundle_version"])}, scene {esc(doc["scene"])}</h1>
 <p><span class="verdict {"pass" if doc["passed"] else "fail"}">{verdict}</span>
 &nbsp; rank-1 {first["rank1"]["psnr_db"]:.1f} dB ({first["rank1"]["psnr_affine_db"]:.1f} dB
 after the affine fit), guided filter {first["guided"]["psnr_db"]:.1f} dB
@@ -170,9 +158,8 @@ after the affine fit), guided filter {first["guided"]["psnr_db"]:.1f} dB
 <h2>Reconstruction and error maps</h2>{img["reconstruction"]}
 <h2>Per-band PSNR</h2>{img["band_psnr"]}
 <h2>Spectra at a few pixels</h2>{img["spectra"]}
-{video}
-</body></html>
-"""
+{video}""",
+    )
 
 
 def write_snapshot_report(
@@ -188,7 +175,7 @@ def write_snapshot_report(
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     doc, figures = snapshot_report_data(result, points)
-    images = {name: _png(fig) for name, fig in figures.items()}
+    images = {name: figure_base64(fig) for name, fig in figures.items()}
     html_path = folder / "snapshot_report.html"
     json_path = folder / "snapshot_report.json"
     html_path.write_text(_html(doc, images), encoding="utf-8")

@@ -6,13 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from sassi_bench.cli import main
+from sassi_bench.commands import main
+from sassi_bench.plots.screenshot import chromium_path, screenshot
 from sassi_bench.rig.sim import truth
 from sassi_bench.rig.sim.scenes import colorchecker_layout
+from sassi_bench.validate.chart import validate_scans
 from sassi_bench.validate.macbeth import patch_statistics, standard_error
 from sassi_bench.validate.report import write_report
-from sassi_bench.validate.run import validate_scans
-from sassi_bench.validate.screenshot import chromium_path, screenshot
 
 
 def _bin_average(values, grid, edges):
@@ -172,9 +172,10 @@ def test_guide_image_warped_to_the_slm_locates_the_chart(calibrated_sim, tmp_pat
     import dataclasses
 
     from sassi_bench.bundle import load, publish
+    from sassi_bench.validate.chart import reference_rgb
     from sassi_bench.validate.locate import detect_chart
     from sassi_bench.validate.reference import reference_chart
-    from sassi_bench.validate.run import guide_picture, reference_rgb
+    from sassi_bench.workflows.macbeth import guide_picture
 
     rig, _, data = calibrated_sim
     bundle = load(rig="sim", data=data)
