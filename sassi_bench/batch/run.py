@@ -63,7 +63,7 @@ def run_batch(
     data: str | os.PathLike[str] | None = None,
     scheduler: str | None = None,
     workers: int | None = None,
-    roi: tuple[int, int, int, int] | None = None,
+    roi: Sequence[int] | None = None,
     procedure: Mapping[str, Any] | None = None,
     corners: Sequence[Sequence[float]] | None = None,
     progress: bool = True,

@@ -28,8 +28,10 @@ from __future__ import annotations
 import os
 import threading
 from collections import deque
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,7 +49,15 @@ from sassi_bench.spectra.extract import SpectralDeblur
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
 
-__all__ = ["QUALITY_FLAGS", "ScanCube", "assemble_scan", "check_pitch", "check_roi", "scan_plan"]
+__all__ = [
+    "QUALITY_FLAGS",
+    "Roi",
+    "ScanCube",
+    "assemble_scan",
+    "check_pitch",
+    "check_roi",
+    "scan_plan",
+]
 
 #: Bits of the quality mask.
 QUALITY_FLAGS = {"not_measured": 1, "off_camera": 2, "saturated": 4, "bad_frame": 8}
@@ -59,19 +69,46 @@ QUALITY_FLAGS = {"not_measured": 1, "off_camera": 2, "saturated": 4, "bad_frame"
 ROI_MARGIN_ROWS = 100
 
 
+class Roi(NamedTuple):
+    """A region of the SLM grid: rows ``row0:row1`` and columns ``col0:col1`` (Python slice
+    bounds, the end excluded).
+
+    Examples
+    --------
+    >>> roi = Roi(10, 20, 30, 40)
+    >>> roi.shape, roi.slices
+    ((20, 20), (slice(10, 30, None), slice(20, 40, None)))
+    """
+
+    row0: int
+    col0: int
+    row1: int
+    col1: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, columns) of the region."""
+        return (self.row1 - self.row0, self.col1 - self.col0)
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """The region as a NumPy index of an SLM-sized array."""
+        return (slice(self.row0, self.row1), slice(self.col0, self.col1))
+
+
 def check_roi(
-    roi: tuple[int, int, int, int] | None, slm_shape: tuple[int, int], step: str = "scan assembly"
-) -> tuple[int, int, int, int]:
-    """A region (row0, col0, row1, col1) of the SLM, or the whole SLM for None.
+    roi: Sequence[int] | None, slm_shape: tuple[int, int], step: str = "scan assembly"
+) -> Roi:
+    """A region ``(row0, col0, row1, col1)`` of the SLM, checked; the whole SLM for None.
 
     Examples
     --------
     >>> check_roi(None, (400, 640)), check_roi([10, 20, 30, 40], (400, 640))
-    ((0, 0, 400, 640), (10, 20, 30, 40))
+    (Roi(row0=0, col0=0, row1=400, col1=640), Roi(row0=10, col0=20, row1=30, col1=40))
     """
     h, w = slm_shape
     if roi is None:
-        return (0, 0, h, w)
+        return Roi(0, 0, h, w)
     r0, c0, r1, c1 = (int(v) for v in roi)
     if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
         raise ProcedureError(
@@ -82,7 +119,7 @@ def check_roi(
                 f"0 <= col0 < col1 <= {w}",
             )
         )
-    return (r0, c0, r1, c1)
+    return Roi(r0, c0, r1, c1)
 
 
 def check_pitch(pitch: tuple[int, int], slm_shape: tuple[int, int]) -> tuple[int, int]:
@@ -363,7 +400,7 @@ def assemble_scan(
     session: Session,
     bundle: CalibrationBundle,
     *,
-    roi: tuple[int, int, int, int] | None = None,
+    roi: Sequence[int] | None = None,
     deblur: bool = True,
     progress: bool = True,
     workers: int | None = None,

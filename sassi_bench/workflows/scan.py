@@ -9,6 +9,7 @@ cube with a bundle and divides by its response when it has one.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -44,7 +45,7 @@ def check_scan(
     scene: str,
     light: str,
     pitch: tuple[int, int],
-    roi: tuple[int, int, int, int] | None = None,
+    roi: Sequence[int] | None = None,
 ) -> None:
     """Refuse a scan the rig cannot take (scene, light, pitch, ROI), before any capture."""
     check_scene(scene, step="scan")
@@ -258,7 +259,7 @@ def run_scan(
     scene: str = "colorchecker",
     light: str = "led",
     pitch: tuple[int, int] = (100, 5),
-    roi: tuple[int, int, int, int] | None = None,
+    roi: Sequence[int] | None = None,
     session_id: str | None = None,
     data=None,
     progress: bool = True,
