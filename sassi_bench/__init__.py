@@ -1,10 +1,13 @@
 """sassi_bench: calibration and lab-bench workbench for SASSI hyperspectral cameras.
 
-The package is organised in layers (see docs/ARCHITECTURE.md): ``optics`` (physics),
-``rig`` (devices and the virtual bench), ``bundle`` (the calibration product and its
-model contract), ``acquire`` (patterns, plans, sessions: the code that drives devices),
-``calibrate`` and ``spectra`` (pure fits and extraction on arrays), ``workflows``
-(procedures end to end) and the ``cli``.
+The package is organised in layers (the table in docs/ARCHITECTURE.md, held by
+``tests/test_layers.py``): ``optics`` (physics), ``rig`` (devices and the virtual bench),
+``acquire`` (patterns, plans, sessions: the code that drives devices), ``bundle`` (the
+calibration product and its model contract), ``calibrate`` and ``spectra`` (pure fits and
+extraction on arrays), ``snapshot`` (the reference bundle consumer), ``validate`` (scoring),
+``workflows`` (procedures end to end) and ``commands`` (the ``sassi-bench`` command line).
+
+``open_rig`` is loaded on first use, so importing one layer loads only what it needs.
 
 Examples
 --------
@@ -14,9 +17,20 @@ Examples
 (400, 640)
 """
 
+from __future__ import annotations
+
+from typing import Any
+
 from sassi_bench.provenance import package_version
-from sassi_bench.rig import open_rig
 
 __version__ = package_version()
 
 __all__ = ["__version__", "open_rig"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "open_rig":
+        from sassi_bench.rig import open_rig
+
+        return open_rig
+    raise AttributeError(f"module 'sassi_bench' has no attribute {name!r}")
