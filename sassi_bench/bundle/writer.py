@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench.bundle.errors import BundleError, BundleQualityError
 from sassi_bench.bundle.integrity import (
     MANIFEST_CHECKSUM_NAME,
@@ -36,7 +37,7 @@ from sassi_bench.bundle.integrity import (
     format_manifest_checksum,
     sha256_bytes,
 )
-from sassi_bench.bundle.jsonio import canonical_json, dump_manifest, to_jsonable
+from sassi_bench.bundle.jsonio import dump_manifest, to_jsonable
 from sassi_bench.bundle.layout import (
     check_rig_name,
     format_version,
