@@ -21,8 +21,6 @@ True
 from __future__ import annotations
 
 import difflib
-import hashlib
-import json
 import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -31,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from sassi_bench._shared.canonical_json import canonical_json, canonical_sha256
 from sassi_bench.errors import ConfigError, step_error
 
 __all__ = [
@@ -38,7 +37,6 @@ __all__ = [
     "Plan",
     "PlanError",
     "Step",
-    "canonical_json",
     "to_json_value",
 ]
 
@@ -115,19 +113,6 @@ def to_json_value(value: Any, where: str = "value") -> Any:
         f"has type {type(value).__name__}, which JSON cannot hold",
         "use dict, list, str, int, float, bool or None",
     )
-
-
-def canonical_json(value: Any) -> str:
-    """Canonical JSON text (sorted keys, no spaces, ASCII) used for hashing.
-
-    The same form :meth:`sassi_bench.rig.config.RigDescription.sha256` hashes.
-
-    Examples
-    --------
-    >>> canonical_json({"b": 1, "a": [0.5, None]})
-    '{"a":[0.5,null],"b":1}'
-    """
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
 def _freeze(value: Any) -> Any:
@@ -407,7 +392,7 @@ class Plan:
         >>> p.sha256() == Plan.from_dict(p.to_dict()).sha256()
         True
         """
-        return hashlib.sha256(canonical_json(self.to_dict()).encode("ascii")).hexdigest()
+        return canonical_sha256(self.to_dict())
 
     @classmethod
     def concat(cls, *plans: Plan, name: str, parameters: Mapping[str, Any] | None = None) -> Plan:

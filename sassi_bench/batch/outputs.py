@@ -12,11 +12,11 @@ died between the two renames) is made again.
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from sassi_bench._shared.atomic import atomic_path, atomic_write_text
 from sassi_bench.bundle.integrity import sha256_file
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -65,33 +65,30 @@ def finished(output: Path, inputs: Mapping[str, Any]) -> bool:
     return True
 
 
-def _temporary(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
-def _replace(temporary: Path, path: Path) -> None:
-    with open(temporary, "rb") as stream:
-        os.fsync(stream.fileno())
-    os.replace(temporary, path)
-
-
 def write_atomic(output: Path, write: Callable[[Path], Any], inputs: Mapping[str, Any]) -> None:
     """``write(temporary_path)``, then rename into ``output`` and record its hash and inputs.
 
     A reader never sees a partial output; a crash leaves at most a hidden temporary file.
+
+    Parameters
+    ----------
+    output
+        The output file; its folder is created if needed. An existing one is replaced.
+    write
+        Called with a temporary path beside ``output`` (not yet created) to write into.
+    inputs
+        What the output is made from (JSON-compatible), kept in its record.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "s.txt"
+    >>> write_atomic(out, lambda p: p.write_text("cube"), {"session": "ab"})
+    >>> sorted(p.name for p in out.parent.iterdir())
+    ['s.txt', 's.txt.json']
     """
     output.parent.mkdir(parents=True, exist_ok=True)
-    temporary = _temporary(output)
-    try:
+    with atomic_path(output, overwrite=True) as temporary:
         write(temporary)
-        _replace(temporary, output)
-    finally:
-        temporary.unlink(missing_ok=True)
-    record = record_path(output)
     body = {"output": output.name, "sha256": sha256_file(output), "inputs": dict(inputs)}
-    temporary = _temporary(record)
-    try:
-        temporary.write_text(json.dumps(body, indent=1) + "\n")
-        _replace(temporary, record)
-    finally:
-        temporary.unlink(missing_ok=True)
+    atomic_write_text(record_path(output), json.dumps(body, indent=1) + "\n", overwrite=True)

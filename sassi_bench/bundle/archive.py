@@ -20,12 +20,12 @@ import zipfile
 from pathlib import Path
 from typing import NamedTuple
 
+from sassi_bench._shared.atomic import atomic_path, fsync_dir
 from sassi_bench.bundle.errors import BundleError, BundleIntegrityError, UnsafeArchiveError
 from sassi_bench.bundle.integrity import MANIFEST_CHECKSUM_NAME, MANIFEST_NAME, sha256_file
 from sassi_bench.bundle.jsonio import load_json_strict
 from sassi_bench.bundle.layout import (
     check_rig_name,
-    fsync_dir,
     rig_dir,
     update_latest,
     version_number,
@@ -97,17 +97,16 @@ def export_zip(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> Pat
     order = sorted(
         verified.files, key=lambda f: (f not in (MANIFEST_NAME, MANIFEST_CHECKSUM_NAME), f)
     )
-    fd, tmp_name = tempfile.mkstemp(prefix=".export-", suffix=".zip", dir=out_path.parent)
-    os.fchmod(fd, shared_mode(directory=False))
-    os.close(fd)
     try:
-        with zipfile.ZipFile(tmp_name, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        with (
+            atomic_path(out_path, overwrite=False) as temporary,
+            zipfile.ZipFile(temporary, "x", compression=zipfile.ZIP_DEFLATED) as archive,
+        ):
             for file in order:
                 info = zipfile.ZipInfo(file, date_time=_ZIP_DATE)
                 info.external_attr = (stat.S_IFREG | 0o644) << 16
                 info.compress_type = zipfile.ZIP_DEFLATED
                 archive.writestr(info, (verified.path / file).read_bytes())
-        os.replace(tmp_name, out_path)
     except OSError as exc:
         raise BundleError(
             step_error(
@@ -116,9 +115,6 @@ def export_zip(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> Pat
                 "check the folder and free space",
             )
         ) from exc
-    finally:
-        if os.path.exists(tmp_name):
-            os.unlink(tmp_name)
     return out_path
 
 

@@ -1,7 +1,9 @@
-"""JSON in and out of a bundle: conversion of numpy values, canonical form, strict parsing.
+"""JSON in and out of a bundle: conversion of numpy values, manifest encoding, strict parsing.
 
 The manifest must be plain JSON (no NaN, no Infinity, string keys only) so that any language
-can read it and so that its canonical form, used for ``rig_hash``, is well defined.
+can read it and so that its canonical form
+(:func:`~sassi_bench._shared.canonical_json.canonical_json`), used for ``rig_hash``, is
+well defined.
 """
 
 from __future__ import annotations
@@ -19,7 +21,6 @@ from sassi_bench.bundle.errors import BundleError, BundleSchemaError
 from sassi_bench.errors import step_error
 
 __all__ = [
-    "canonical_json",
     "dump_manifest",
     "freeze",
     "load_json_strict",
@@ -99,20 +100,6 @@ def _refuse(where: str, cause: str, step: str, fix: str | None = None) -> None:
             fix or "pass JSON-compatible values (dict, list, str, int, float, bool, None)",
         )
     )
-
-
-def canonical_json(value: Any) -> bytes:
-    """Canonical JSON encoding (sorted keys, no spaces, ASCII escapes) used for hashing.
-
-    The same form as :meth:`sassi_bench.rig.config.RigDescription.sha256` hashes, so a
-    bundle's ``rig_hash`` equals the rig description's own hash.
-
-    Examples
-    --------
-    >>> canonical_json({"b": 1, "a": [1.5, None]})
-    b'{"a":[1.5,null],"b":1}'
-    """
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False).encode("ascii")
 
 
 def dump_manifest(manifest: Mapping[str, Any]) -> bytes:

@@ -10,21 +10,19 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import re
-import tempfile
 from pathlib import Path
 
+from sassi_bench._shared.atomic import atomic_write_text
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.errors import step_error
-from sassi_bench.paths import data_root, shared_mode
+from sassi_bench.paths import data_root
 
 __all__ = [
     "LATEST_NAME",
     "check_rig_name",
     "format_version",
-    "fsync_dir",
     "latest_version",
     "normalize_version",
     "resolve_bundle_dir",
@@ -174,8 +172,8 @@ def latest_version(folder: Path) -> str | None:
 def update_latest(folder: Path, version: str) -> None:
     """Point ``LATEST`` at ``version`` unless it already names a newer one.
 
-    The file is replaced atomically (write a temporary file, then :func:`os.replace`), so a
-    reader sees either the old or the new content, never a partial one. Two concurrent
+    The file is replaced atomically (:func:`~sassi_bench._shared.atomic.atomic_write_text`),
+    so a reader sees either the old or the new content, never a partial one. Two concurrent
     publishers may both replace it; either way it names one of their intact versions.
     """
     current = latest_version(folder)
@@ -184,35 +182,7 @@ def update_latest(folder: Path, version: str) -> None:
         current_number = version_number(current) or 0
         if current_number > new_number:
             return
-    fd, tmp = tempfile.mkstemp(prefix=".LATEST-", dir=folder)
-    os.fchmod(fd, shared_mode(directory=False))
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(version + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, folder / LATEST_NAME)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    fsync_dir(folder)
-
-
-def fsync_dir(folder: Path) -> None:
-    """Flush a directory entry to disk where the platform allows it (POSIX)."""
-    if os.name != "posix":
-        return
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
+    atomic_write_text(folder / LATEST_NAME, version + "\n", overwrite=True)
 
 
 def resolve_bundle_dir(

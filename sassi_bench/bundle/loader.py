@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench.bundle import migrations
 from sassi_bench.bundle.bundle import CalibrationBundle
 from sassi_bench.bundle.errors import BundleError, BundleIntegrityError, BundleSchemaError
@@ -35,7 +36,7 @@ from sassi_bench.bundle.integrity import (
     parse_manifest_checksum,
     sha256_bytes,
 )
-from sassi_bench.bundle.jsonio import canonical_json, freeze, load_json_strict
+from sassi_bench.bundle.jsonio import freeze, load_json_strict
 from sassi_bench.bundle.layout import resolve_bundle_dir, version_number
 from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.bundle.schema import SCHEMA_NAME, validate_manifest

@@ -29,6 +29,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from sassi_bench._shared.atomic import atomic_write_bytes, fsync_dir
+from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench.bundle.errors import BundleError, BundleQualityError
 from sassi_bench.bundle.integrity import (
     MANIFEST_CHECKSUM_NAME,
@@ -36,11 +38,10 @@ from sassi_bench.bundle.integrity import (
     format_manifest_checksum,
     sha256_bytes,
 )
-from sassi_bench.bundle.jsonio import canonical_json, dump_manifest, to_jsonable
+from sassi_bench.bundle.jsonio import dump_manifest, to_jsonable
 from sassi_bench.bundle.layout import (
     check_rig_name,
     format_version,
-    fsync_dir,
     rig_dir,
     update_latest,
     version_number,
@@ -170,17 +171,12 @@ def _inputs(inputs: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _write(path: Path, data: bytes) -> None:
-    with open(path, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-
-
 def _write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
+    # Written again for every version number tried (see _rename_into_place).
     raw = dump_manifest(manifest)
-    _write(folder / MANIFEST_NAME, raw)
-    _write(folder / MANIFEST_CHECKSUM_NAME, format_manifest_checksum(sha256_bytes(raw)).encode())
+    checksum = format_manifest_checksum(sha256_bytes(raw)).encode()
+    atomic_write_bytes(folder / MANIFEST_NAME, raw, overwrite=True)
+    atomic_write_bytes(folder / MANIFEST_CHECKSUM_NAME, checksum, overwrite=True)
 
 
 def _utc_now() -> str:
@@ -330,11 +326,11 @@ def publish(
     try:
         (staging / ARRAYS_DIR).mkdir()
         for raw, entry in payload.values():
-            _write(staging / entry["file"], raw)
+            atomic_write_bytes(staging / entry["file"], raw, overwrite=False)
         if report_payload or rendered:
             (staging / REPORT_DIR).mkdir()
             for key, raw in report_payload.items():
-                _write(staging / REPORT_DIR / key, raw)
+                atomic_write_bytes(staging / REPORT_DIR / key, raw, overwrite=False)
         return _rename_into_place(staging, folder, base, report_payload, rendered)
     except OSError as exc:
         raise _bad(
@@ -355,7 +351,7 @@ def _render_reports(
     contents = dict(written)
     for key, render in rendered.items():
         contents[key] = _report_bytes(key, render(copy.deepcopy(manifest)))
-        _write(staging / REPORT_DIR / key, contents[key])
+        atomic_write_bytes(staging / REPORT_DIR / key, contents[key], overwrite=True)
     return {
         key: {"file": f"{REPORT_DIR}/{key}", "sha256": sha256_bytes(raw)}
         for key, raw in sorted(contents.items())

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import os
 import struct
-import uuid
 import zlib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
@@ -31,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.io import savemat
 
+from sassi_bench._shared.atomic import atomic_path
 from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["MAX_VARIABLE_BYTES", "BandStream", "write_mat"]
@@ -155,25 +155,6 @@ def _write_stream(fh, name: str, stream: BandStream, level: int) -> None:
     fh.seek(end)
 
 
-def _rename_new(tmp: Path, path: Path) -> None:
-    """Move ``tmp`` to ``path`` unless ``path`` exists."""
-    refuse = ProcedureError(
-        step_error(
-            "MAT file export",
-            f"{path} appeared while it was being written",
-            "export to a folder no other process writes to",
-        )
-    )
-    try:
-        os.link(tmp, path)  # atomic, and fails if path exists
-    except FileExistsError:
-        raise refuse from None
-    except OSError:  # a filesystem without hard links (e.g. FAT): check, then rename
-        if path.exists():
-            raise refuse from None
-        os.replace(tmp, path)
-
-
 def write_mat(
     path: str | os.PathLike[str],
     variables: Mapping[str, ArrayLike | str | BandStream],
@@ -230,16 +211,18 @@ def write_mat(
         if not isinstance(value, str):
             _check_variable(name, np.shape(value), np.asarray(value).dtype)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
     try:
-        with open(tmp, "xb") as fh:
+        with atomic_path(path, overwrite=False) as temporary, open(temporary, "xb") as fh:
             # savemat writes the 128-byte header first (the stream is at position 0).
             savemat(fh, small, do_compression=True, oned_as="row")
             for name, stream in streams.items():
                 _write_stream(fh, name, stream, compression_level)
-            fh.flush()
-            os.fsync(fh.fileno())
-        _rename_new(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    except FileExistsError:
+        raise ProcedureError(
+            step_error(
+                "MAT file export",
+                f"{path} appeared while it was being written",
+                "export to a folder no other process writes to",
+            )
+        ) from None
     return path

@@ -14,7 +14,8 @@ from typing import Any
 
 import yaml
 
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench._shared.atomic import atomic_write_text
+from sassi_bench._shared.yaml_io import load_yaml_mapping
 from sassi_bench.paths import data_root
 from sassi_bench.schema_validation import validate_against_schema
 
@@ -44,29 +45,18 @@ def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None
     True
     """
     if name_or_path is None:
-        resource = resources.files("sassi_bench.procedures").joinpath(f"{kind}.yaml")
-        text, source = resource.read_text(), f"procedures/{kind}.yaml"
+        file = resources.files("sassi_bench.procedures").joinpath(f"{kind}.yaml")
+        source = f"procedures/{kind}.yaml"
     else:
-        path = Path(name_or_path)
-        if not path.is_file():
-            raise ConfigError(
-                step_error(
-                    f"{kind} procedure",
-                    f"no such file {str(path)!r}",
-                    f"check the path, or leave the option out for procedures/{kind}.yaml",
-                )
-            )
-        text, source = path.read_text(), str(path)
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(
-            step_error(
-                f"procedure {source}",
-                f"not valid YAML ({' '.join(str(exc).split())})",
-                "correct the YAML syntax at the line named",
-            )
-        ) from exc
+        file = Path(name_or_path)
+        source = str(file)
+    data = load_yaml_mapping(
+        file,
+        "procedure",
+        label=source,
+        missing_fix=f"check the path, or leave the option out for procedures/{kind}.yaml",
+        mapping_fix=f"write the procedure as YAML keys (see procedures/{kind}.yaml)",
+    )
     data = json.loads(json.dumps(data))
     _validate(kind, data, f"procedure {source}")
     data["source"] = source
@@ -128,10 +118,7 @@ def save_working_procedure(
     path.parent.mkdir(parents=True, exist_ok=True)
     body = {k: v for k, v in procedure.items() if k != "source"}
     header = f"# {kind} as settled for session {session_id} (from {procedure.get('source')})\n"
-    temporary = path.with_suffix(".yaml.tmp")
-    temporary.write_text(header + yaml.safe_dump(body, sort_keys=False))
-    temporary.replace(path)
-    return path
+    return atomic_write_text(path, header + yaml.safe_dump(body, sort_keys=False), overwrite=True)
 
 
 def working_procedure(

@@ -10,7 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sassi_bench.acquire.plan import Plan, PlanError, Step, canonical_json
+from sassi_bench._shared.canonical_json import canonical_json
+from sassi_bench.acquire.plan import Plan, PlanError, Step
 from sassi_bench.errors import ConfigError
 
 
@@ -55,7 +56,7 @@ def test_json_round_trip_is_exact():
 def test_sha256_is_the_hash_of_the_canonical_json_and_is_stable():
     plan = golden_plan()
     canonical = canonical_json(plan.to_dict())
-    assert plan.sha256() == hashlib.sha256(canonical.encode()).hexdigest()
+    assert plan.sha256() == hashlib.sha256(canonical).hexdigest()
     # A change of the canonical form would silently change every session's identity.
     assert plan.sha256() == "601fcf331bb377ead9bca08b51b9888f63241beccdb3d138f2f40e8fab3d5c2e"
 

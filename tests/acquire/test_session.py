@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import zarr
 
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.session import (
@@ -24,6 +25,8 @@ from sassi_bench.acquire.session import (
     SessionWarning,
     frame_sha256,
 )
+from sassi_bench.acquire.session.events import EventLog
+from sassi_bench.acquire.session.frames import FrameStore
 from sassi_bench.errors import SassiBenchError
 from sassi_bench.rig.config import rig_description_from_dict
 
@@ -199,19 +202,18 @@ def test_event_is_appended_only_after_the_chunk_is_on_disk(
     rig_description, mixed_plan, data, make_frame, monkeypatch
 ):
     session = new_session(rig_description, mixed_plan, data)
-    original = Session._append_event
+    original = EventLog.append
     seen = []
 
-    def checking_append(self, line):
-        chunk = self.path / "frames.zarr" / "spectral" / "c" / "0" / "0" / "0"
+    def checking_append(self, event):
+        chunk = session.path / "frames.zarr" / "spectral" / "c" / "0" / "0" / "0"
         seen.append(chunk.is_file())
         # The data must already read back from disk, independently of this object.
-        np.testing.assert_array_equal(
-            Session.open(self.path)._array("spectral")[0], make_frame(value=0).data
-        )
-        original(self, line)
+        stored = zarr.open_array(session.path / "frames.zarr" / "spectral", mode="r")
+        np.testing.assert_array_equal(stored[0], make_frame(value=0).data)
+        original(self, event)
 
-    monkeypatch.setattr(Session, "_append_event", checking_append)
+    monkeypatch.setattr(EventLog, "append", checking_append)
     session.write_frame(0, make_frame(value=0))
     assert seen == [True]
 
@@ -221,10 +223,10 @@ def test_a_failed_chunk_write_logs_no_event(
 ):
     session = new_session(rig_description, mixed_plan, data)
 
-    def crash(self, arr, slot):
+    def crash(self, camera, slot):
         raise OSError("disk full")
 
-    monkeypatch.setattr(Session, "_sync_chunk", crash)
+    monkeypatch.setattr(FrameStore, "_sync_chunk", crash)
     with pytest.raises(OSError, match="disk full"):
         session.write_frame(0, make_frame())
     monkeypatch.undo()

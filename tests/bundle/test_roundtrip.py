@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench.bundle import BundleError, CalibrationBundle, load
 from sassi_bench.bundle.integrity import sha256_bytes
-from sassi_bench.bundle.jsonio import canonical_json
 
 
 def test_layout_on_disk(published: Path, data_root: Path):

@@ -1,0 +1,547 @@
+"""The :class:`Session`: a raw capture session's header, event log, frames and write lock
+put together (the layout is described in :mod:`sassi_bench.acquire.session`).
+
+It creates, opens and resumes sessions, writes each frame then its event under the write
+lock, reads frames back and verifies them against their events.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import hashlib
+import os
+import warnings
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.session.errors import (
+    SessionError,
+    SessionIntegrityError,
+    SessionLockedError,
+    SessionWarning,
+    session_error,
+)
+from sassi_bench.acquire.session.events import EventLog, frame_event
+from sassi_bench.acquire.session.folder import (
+    LOCK_FILE,
+    create_session_folder,
+    find_session,
+    read_header,
+    session_folder,
+)
+from sassi_bench.acquire.session.frames import FRAMES_DIR, FrameStore, check_frame
+from sassi_bench.acquire.session.header import check_resumable
+from sassi_bench.acquire.session.lock import LockHeldError, WriteLock
+from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.frame import Frame
+
+__all__ = ["Session"]
+
+
+def _camera_slots(plan: Plan) -> tuple[dict[str, list[int]], list[tuple[str, int]]]:
+    """Per camera, the plan step of each array slot; per step, its camera and slot."""
+    steps: dict[str, list[int]] = {camera: [] for camera in plan.cameras}
+    slots = []
+    for i, step in enumerate(plan.steps):
+        slots.append((step.camera, len(steps[step.camera])))
+        steps[step.camera].append(i)
+    return steps, slots
+
+
+class Session:
+    """A raw capture session on disk (see :mod:`sassi_bench.acquire.session` for the layout).
+
+    Use :meth:`create`, :meth:`open` or :meth:`open_or_create`; the constructor is
+    private.
+    """
+
+    def __init__(self, path: Path, header: dict[str, Any], header_bytes: bytes) -> None:
+        self._path = path
+        self._header = header
+        self._header_bytes = header_bytes
+        self._plan = Plan.from_dict(header["plan"])
+        steps_of_camera, slots = _camera_slots(self._plan)
+        self._frames = FrameStore(path, steps_of_camera)
+        self._log = EventLog(path, slots, f"session {self.id!r}")
+        self._lock = WriteLock(path / LOCK_FILE)
+        self._warn_problems(stacklevel=3)  # at the caller of open/create
+
+    # -- creating and opening ---------------------------------------------------------
+    @classmethod
+    def create(
+        cls,
+        rig_description: RigDescription,
+        plan: Plan,
+        *,
+        session_id: str | None = None,
+        data: str | os.PathLike[str] | None = None,
+    ) -> Session:
+        """Create a new, empty session for ``plan`` on the rig ``rig_description``.
+
+        Parameters
+        ----------
+        rig_description
+            The rig the frames will come from (``rig.description``).
+        plan
+            What will be captured.
+        session_id
+            Folder name under ``<data>/sessions/``; letters, digits, ``.``, ``_``, ``-``.
+            Default: ``<UTC time>-<plan name>``, e.g. ``20250101T120000Z-gray-532``.
+        data
+            Data root (see :func:`sassi_bench.paths.data_root`).
+
+        Returns
+        -------
+        Session
+
+        Raises
+        ------
+        SessionError
+            If a session with this id exists (it is never overwritten).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import load_rig_description
+        >>> plan = Plan("dark", [Step("spectral", "off", 0.1, {"kind": "blank"})])
+        >>> s = Session.create(load_rig_description("sim"), plan, session_id="d",
+        ...                    data=tmp.name)
+        >>> s.id, s.is_complete, sorted(p.name for p in s.path.iterdir())
+        ('d', False, ['events.jsonl', 'frames.zarr', 'session.json'])
+        >>> tmp.cleanup()
+        """
+        return cls(*create_session_folder(rig_description, plan, session_id, data))
+
+    @classmethod
+    def open(
+        cls, path_or_id: str | os.PathLike[str], *, data: str | os.PathLike[str] | None = None
+    ) -> Session:
+        """Open an existing session by folder path or by id under ``<data>/sessions/``.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import load_rig_description
+        >>> root = tmp.name
+        >>> plan = Plan("dark", [Step("spectral", "off", 0.1, {"kind": "blank"})])
+        >>> s = Session.create(load_rig_description("sim"), plan, session_id="d", data=root)
+        >>> Session.open("d", data=root).plan == plan, Session.open(s.path).id
+        (True, 'd')
+        >>> tmp.cleanup()
+        """
+        path = find_session(path_or_id, data)
+        return cls(path, *read_header(path))
+
+    @classmethod
+    def resume_or_plan(
+        cls,
+        rig_description: RigDescription,
+        make_plan: Callable[[], Plan],
+        *,
+        session_id: str,
+        data: str | os.PathLike[str] | None = None,
+    ) -> Session:
+        """Resume session ``session_id`` with its stored plan, or create it from ``make_plan()``.
+
+        ``make_plan`` is called only for a new session: planning may run auto-exposure
+        on the devices, which a resumed capture must not repeat (nor change).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import load_rig_description
+        >>> root, rig = tmp.name, load_rig_description("sim")
+        >>> plan = lambda: Plan("dark", [Step("spectral", "off", 0.1, {"kind": "blank"})])
+        >>> a = Session.resume_or_plan(rig, plan, session_id="d", data=root)
+        >>> b = Session.resume_or_plan(rig, lambda: 1 / 0, session_id="d", data=root)
+        >>> a.path == b.path
+        True
+        >>> tmp.cleanup()
+        """
+        try:
+            existing = cls.open(session_id, data=data)
+        except SessionError:
+            existing = None  # planned outside the handler: its errors are not chained to this
+        if existing is None:
+            return cls.create(rig_description, make_plan(), session_id=session_id, data=data)
+        return cls.open_or_create(rig_description, existing.plan, session_id=session_id, data=data)
+
+    @classmethod
+    def open_or_create(
+        cls,
+        rig_description: RigDescription,
+        plan: Plan,
+        *,
+        session_id: str,
+        data: str | os.PathLike[str] | None = None,
+    ) -> Session:
+        """Resume session ``session_id`` if it exists for the same plan and rig, else create it.
+
+        Raises
+        ------
+        SessionError
+            If the session exists but was made for another plan or rig; nothing is
+            changed on disk.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import load_rig_description
+        >>> root, rig = tmp.name, load_rig_description("sim")
+        >>> plan = Plan("dark", [Step("spectral", "off", 0.1, {"kind": "blank"})])
+        >>> a = Session.open_or_create(rig, plan, session_id="d", data=root)
+        >>> Session.open_or_create(rig, plan, session_id="d", data=root).path == a.path
+        True
+        >>> tmp.cleanup()
+        """
+        path = session_folder(session_id, data)
+        if not path.exists():
+            return cls.create(rig_description, plan, session_id=session_id, data=data)
+        session = cls.open(path)
+        check_resumable(session._header, rig_description, plan)
+        return session
+
+    # -- properties -------------------------------------------------------------------
+    @property
+    def id(self) -> str:
+        """The session id (its folder name)."""
+        return str(self._header["id"])
+
+    @property
+    def path(self) -> Path:
+        """The session folder."""
+        return self._path
+
+    @property
+    def created(self) -> str:
+        """Creation time, UTC ISO 8601."""
+        return str(self._header["created"])
+
+    @property
+    def plan(self) -> Plan:
+        """The plan the session captures."""
+        return self._plan
+
+    @property
+    def plan_sha256(self) -> str:
+        """SHA-256 of the plan (:meth:`Plan.sha256`)."""
+        return str(self._header["plan_sha256"])
+
+    @property
+    def rig(self) -> dict[str, Any]:
+        """The rig description (a copy of ``RigDescription.to_dict()``)."""
+        return copy.deepcopy(self._header["rig"])
+
+    @property
+    def rig_sha256(self) -> str:
+        """SHA-256 of the rig description (:meth:`RigDescription.sha256`)."""
+        return str(self._header["rig_sha256"])
+
+    @property
+    def problems(self) -> tuple[str, ...]:
+        """Recoverable problems found when the session was opened (also warned about)."""
+        return self._log.problems
+
+    @property
+    def completed(self) -> frozenset[int]:
+        """Indices of the steps whose frames are stored."""
+        return self._log.completed
+
+    @property
+    def missing(self) -> tuple[int, ...]:
+        """Indices of the steps still to capture, in plan order."""
+        return tuple(i for i in range(len(self._plan)) if i not in self._log)
+
+    @property
+    def is_complete(self) -> bool:
+        """Whether every step of the plan is stored."""
+        return len(self._log) == len(self._plan)
+
+    def __repr__(self) -> str:
+        return (
+            f"Session({self.id!r}, plan={self._plan.name!r}, "
+            f"{len(self._log)}/{len(self._plan)} frames, path={str(self._path)!r})"
+        )
+
+    # -- writing ----------------------------------------------------------------------
+    @property
+    def locked_for_writing(self) -> bool:
+        """Whether this object holds the session's write lock."""
+        return self._lock.held
+
+    def lock_for_writing(self) -> None:
+        """Take the session's write lock (held until :meth:`close` or process exit).
+
+        The event log is read again once the lock is held if another writer added to it
+        since this object read it, so the frames it stored count as completed.
+
+        Raises
+        ------
+        SessionLockedError
+            If another process or Session object holds it; the message names the
+            holder's pid, host, command and start time.
+        """
+        if self._lock.held:
+            return
+        try:
+            self._lock.acquire()
+        except LockHeldError as exc:
+            raise session_error(
+                f"session {self.id!r} write",
+                f"another writer holds the session ({exc.holder})",
+                "let it finish or stop it, then resume; one process at a time may capture "
+                "into a session (reading it is always fine)",
+                SessionLockedError,
+            ) from None
+        if self._lock.held and self._log.changed_on_disk():
+            self._log.reload()
+            self._warn_problems(stacklevel=2)
+
+    def close(self) -> None:
+        """Release the write lock, if this object holds it (reading stays possible)."""
+        self._lock.release()
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[Session]:
+        """Hold the write lock for a block (released at its end unless held before).
+
+        Examples
+        --------
+        >>> with session.writing():  # doctest: +SKIP
+        ...     session.write_frame(0, frame)
+        """
+        held = self._lock.held
+        self.lock_for_writing()
+        try:
+            yield self
+        finally:
+            if not held:
+                self.close()
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def write_frame(self, step_index: int, frame: Frame) -> None:
+        """Store the frame of step ``step_index``, then log its event.
+
+        The chunk is written and fsync'd first; the event line is appended and fsync'd
+        after, so a crash never leaves an event without its frame.
+
+        The session's write lock is held while the frame is stored (for the whole run
+        inside :meth:`writing`, as :func:`~sassi_bench.acquire.runner.run_plan` does).
+
+        Raises
+        ------
+        SessionError
+            For an index out of range, a completed step, a frame from the other camera,
+            or a shape/dtype that differs from the camera's earlier frames.
+        SessionLockedError
+            If another writer holds the session.
+
+        Examples
+        --------
+        See :mod:`sassi_bench.acquire.session`.
+        """
+        with self.writing():
+            self._write_frame(step_index, frame)
+
+    def _write_frame(self, step_index: int, frame: Frame) -> None:
+        i = self._check_index(step_index)
+        step = self._plan.steps[i]
+        where = f"session {self.id!r} write step {i}"
+        if i in self._log:
+            raise session_error(
+                where,
+                "this step is already stored (completed steps are never overwritten)",
+                "capture into a new session (Session.create with another id) to retake it",
+            )
+        if not isinstance(frame, Frame):
+            raise session_error(
+                where, f"got a {type(frame).__name__}", "pass a Frame from a camera"
+            )
+        data = np.asarray(frame.data)
+        check_frame(where, step.camera, frame.meta.camera, data)
+        event = frame_event(i, step, self._log.slots[i][1], data, frame.meta, where)
+        camera_logged = any(self._plan.steps[j].camera == step.camera for j in self._log.completed)
+        self._frames.write(
+            step.camera, event["slot"], data, replace_ok=not camera_logged, where=where
+        )
+        self._log.append(event)
+
+    # -- reading ----------------------------------------------------------------------
+    def read_frame(self, step_index: int) -> NDArray[Any]:
+        """The stored frame of step ``step_index`` (a read-only array).
+
+        Examples
+        --------
+        See :mod:`sassi_bench.acquire.session`.
+        """
+        i = self._check_index(step_index)
+        camera, slot = self._locate(i, "read")
+        out = self._frames.read(camera, slot)
+        out.setflags(write=False)
+        return out
+
+    def read_frames(self, step_indices: Iterable[int]) -> NDArray[Any]:
+        """Frames of several steps of one camera, stacked along a new first axis.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import FrameMeta, Frame, load_rig_description
+        >>> plan = Plan("p", [Step("spectral", "off", 1, {"kind": "blank"})] * 3)
+        >>> s = Session.create(load_rig_description("sim"), plan, session_id="p",
+        ...                    data=tmp.name)
+        >>> for i in range(3):
+        ...     s.write_frame(i, Frame(np.full((2, 2), i, np.uint16),
+        ...                   FrameMeta("spectral", 1.0, 0.0, i, "off", i)))
+        >>> s.read_frames([2, 0]).shape, s.read_frames([2, 0])[:, 0, 0].tolist()
+        ((2, 2, 2), [2, 0])
+        >>> tmp.cleanup()
+        """
+        indices = [self._check_index(i) for i in step_indices]
+        if not indices:
+            raise session_error("session read", "no step indices given", "pass at least one index")
+        located = [self._locate(i, "read") for i in indices]
+        cameras = {self._plan.steps[i].camera for i in indices}
+        if len(cameras) > 1:
+            raise session_error(
+                f"session {self.id!r} read",
+                f"steps {indices} mix cameras {sorted(cameras)}",
+                "read each camera's steps separately (plan.select / step.camera)",
+            )
+        out = self._frames.read_slots(located[0][0], [slot for _, slot in located])
+        out.setflags(write=False)
+        return out
+
+    def iter_frames(self, step_indices: Iterable[int]) -> Iterator[NDArray[Any]]:
+        """Yield the frames of ``step_indices`` one at a time (one chunk in memory).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> tmp = tempfile.TemporaryDirectory()
+        >>> from sassi_bench.acquire.plan import Plan, Step
+        >>> from sassi_bench.rig import FrameMeta, Frame, load_rig_description
+        >>> plan = Plan("p", [Step("spectral", "off", 1, {"kind": "blank"})] * 2)
+        >>> s = Session.create(load_rig_description("sim"), plan, session_id="p",
+        ...                    data=tmp.name)
+        >>> for i in range(2):
+        ...     s.write_frame(i, Frame(np.full((2, 2), i, np.uint16),
+        ...                   FrameMeta("spectral", 1.0, 0.0, i, "off", i)))
+        >>> [int(f.sum()) for f in s.iter_frames([1, 0])]
+        [4, 0]
+        >>> tmp.cleanup()
+        """
+        for i in step_indices:
+            yield self.read_frame(i)
+
+    def events(self) -> list[dict[str, Any]]:
+        """The stored frames' events, in log order (copies).
+
+        Each has ``step``, ``camera``, ``slot``, ``meta`` (``FrameMeta.to_dict()``),
+        ``pattern``, ``tags``, ``sha256`` (of the pixels), ``dtype`` (numpy ``str``),
+        ``shape`` and ``written`` (UTC ISO 8601).
+        """
+        return [copy.deepcopy(event) for event in self._log.in_log_order()]
+
+    def event(self, step_index: int) -> dict[str, Any]:
+        """The event of one stored step (a copy)."""
+        i = self._check_index(step_index)
+        self._locate(i, "read")
+        return copy.deepcopy(self._log.event(i))
+
+    # -- identity and integrity -------------------------------------------------------
+    def sha256(self) -> str:
+        """SHA-256 over ``session.json`` and the completed steps' event lines in step order.
+
+        Each event carries its frame's hash, so this identifies the session's content
+        (for a bundle's ``inputs``). It changes when frames are added.
+        """
+        h = hashlib.sha256(self._header_bytes)
+        for line in self._log.lines_in_step_order():
+            h.update(line)
+        return h.hexdigest()
+
+    def verify(self) -> int:
+        """Re-hash every stored frame against its event.
+
+        Returns
+        -------
+        int
+            Number of frames verified.
+
+        Raises
+        ------
+        SessionIntegrityError
+            Naming the first step whose stored data changed or cannot be read.
+        """
+        for i in sorted(self._log.completed):
+            event = self._log.event(i)
+            camera, slot = self._locate(i, "verify")
+            where = f"session {self.id!r} verify step {i}"
+            self._frames.check(camera, slot, event["sha256"], event["shape"], where)
+        return len(self._log)
+
+    # -- internals --------------------------------------------------------------------
+    def _check_index(self, step_index: int) -> int:
+        n = len(self._plan)
+        if isinstance(step_index, bool) or not isinstance(step_index, (int, np.integer)):
+            raise session_error(
+                f"session {self.id!r}",
+                f"step index {step_index!r} is not an integer",
+                "pass a step index (see plan.select)",
+            )
+        if not 0 <= step_index < n:
+            raise session_error(
+                f"session {self.id!r}",
+                f"step index {step_index} is out of range (the plan has {n} steps)",
+                f"use 0..{n - 1}",
+            )
+        return int(step_index)
+
+    def _locate(self, i: int, action: str) -> tuple[str, int]:
+        """The camera and slot of a logged step whose camera array exists."""
+        camera = self._plan.steps[i].camera
+        where = f"session {self.id!r} {action} step {i}"
+        if i not in self._log:
+            raise session_error(
+                where,
+                "this step was never captured",
+                "run the plan to capture it (run_plan resumes where it stopped); "
+                "session.missing lists what is left",
+            )
+        if self._frames.array(camera) is None:
+            raise session_error(
+                where,
+                f"the step is logged but {FRAMES_DIR}/{camera} is missing",
+                "restore the session folder from a backup",
+                SessionIntegrityError,
+            )
+        return camera, self._log.slots[i][1]
+
+    def _warn_problems(self, stacklevel: int) -> None:
+        """Warn about the log's problems; ``stacklevel`` counts from this method's caller."""
+        for message in self._log.problems:
+            warnings.warn(
+                f"session {self.id!r}: {message}", SessionWarning, stacklevel=stacklevel + 1
+            )
