@@ -53,7 +53,7 @@ from sassi_bench.bundle import (
     load,
     publish,
 )
-from sassi_bench.bundle.models import sellmeier_index
+from sassi_bench.optics.glass import sellmeier_index
 from sassi_bench.rig.config import load_rig_description
 from sassi_bench.rig.frame import Frame, FrameMeta
 from sassi_bench.snapshot import (

@@ -66,8 +66,9 @@ from numpy.polynomial import legendre
 from numpy.typing import NDArray
 
 from sassi_bench.bundle.errors import BundleError
-from sassi_bench.bundle.models import DispersionModel, legendre2d_terms
+from sassi_bench.bundle.model_types import DispersionModel
 from sassi_bench.errors import step_error
+from sassi_bench.maths.legendre import legendre2d_terms
 
 if TYPE_CHECKING:
     from sassi_bench.bundle.bundle import CalibrationBundle
