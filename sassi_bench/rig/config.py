@@ -463,11 +463,11 @@ def _check_named_data(desc: RigDescription) -> None:
 def _check_streaks_fit(desc: RigDescription) -> None:
     """The SLM's image with its 400-700 nm streaks (and 3 sigma of blur) must lie on the
     spectral camera, by the description's nominal optics (a ray trace through the prism)."""
-    from sassi_bench.optics.blur import BlurModel, line_spread_sigma
+    from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
     from sassi_bench.rig.sim.geometry import SpectralRelay
 
     band = np.array([400.0, 700.0])
-    blur = BlurModel(desc.blur.sigma_px)(band)
+    blur = PsfSigmaCurve(desc.blur.sigma_px)(band)
     h, w = desc.slm.height, desc.slm.width
     hc, wc = desc.spectral_camera.height, desc.spectral_camera.width
     relay = SpectralRelay((h, w), (hc, wc), desc.relay, desc.prism)

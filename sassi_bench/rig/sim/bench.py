@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.optics.blur import BlurModel
+from sassi_bench.optics.blur import PsfSigmaCurve
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
     SpectralSamples,
@@ -78,7 +78,7 @@ class VirtualBench:
             true_glass=as_built.prism_glass(desc),
             true_apex_deg=as_built.prism_apex_deg(desc),
         )
-        self.blur = BlurModel(desc.blur.sigma_px)
+        self.blur = PsfSigmaCurve(desc.blur.sigma_px)
         self.renderer = SpectralRenderer(
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
         )

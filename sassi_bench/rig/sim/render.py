@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.optics.blur import BlurModel, line_spread_sigma
+from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim.geometry import SpectralRelay, linear_upsampler
 from sassi_bench.rig.sim.scenes import Scene
@@ -163,7 +163,7 @@ class SpectralRenderer:
     def __init__(
         self,
         relay: SpectralRelay,
-        blur: BlurModel,
+        blur: PsfSigmaCurve,
         fill_factor: float,
         quantum_efficiency,
         coarse_step: int = 8,
