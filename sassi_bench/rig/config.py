@@ -41,6 +41,11 @@ import numpy as np
 import yaml
 
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
+from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.datasets import photo_loader, require_dataset
+from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.relay import BAND_NM, SpectralRelay
+from sassi_bench.optics.sensor import qe_curve
 from sassi_bench.schema_validation import validate_against_schema
 
 __all__ = [
@@ -260,6 +265,33 @@ class RigDescription:
         text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
+    def nominal_relay(self) -> SpectralRelay:
+        """The SLM -> spectral camera optics as described: a ray trace of the relay and prism.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> relay = load_rig_description("sim").nominal_relay()
+        >>> x, _ = relay.forward(319.5, 199.5, [400.0, 700.0])
+        >>> round(float(x[1] - x[0]), 6)  # prism.spread_px
+        68.0
+        """
+        relay, prism = self.relay, self.prism
+        return SpectralRelay(
+            (self.slm.height, self.slm.width),
+            (self.spectral_camera.height, self.spectral_camera.width),
+            scale=relay.scale,
+            rotation_deg=relay.rotation_deg,
+            offset_px=relay.offset_px,
+            distortion_k1=relay.distortion_k1,
+            glass=get_glass(prism.glass),
+            apex_deg=prism.apex_deg,
+            spread_px=prism.spread_px,
+            smile_px=prism.smile_px,
+            incidence_deg=prism.incidence_deg,
+            reference_nm=prism.reference_nm,
+        )
+
 
 _CONNECTION_KEYS = {"port", "baudrate", "timeout_s", "boot_s", "monitor", "cti", "library"}
 
@@ -424,10 +456,6 @@ def _check_ranges(desc: RigDescription) -> None:
 
 def _check_named_data(desc: RigDescription) -> None:
     """Every glass, lamp, sensor and curve the description names must exist."""
-    from sassi_bench.optics.datasets import require_dataset
-    from sassi_bench.optics.glass import get_glass
-    from sassi_bench.optics.sensor import qe_curve
-
     get_glass(desc.prism.glass)
     if desc.spectral_camera.qe is not None:
         qe_curve(desc.spectral_camera.qe, key="spectral_camera.qe")
@@ -454,8 +482,6 @@ def _check_named_data(desc: RigDescription) -> None:
         else:
             require_dataset("camera", curves, "as_built.guide_sensitivities")
     if desc.backend == "sim":  # the scenes are the virtual bench's
-        from sassi_bench.rig.sim.scenes import photo_loader
-
         require_dataset("colourchecker", desc.scenes.colorchecker_data, "scenes.colorchecker_data")
         photo_loader(desc.scenes.natural_image)
 
@@ -463,14 +489,11 @@ def _check_named_data(desc: RigDescription) -> None:
 def _check_streaks_fit(desc: RigDescription) -> None:
     """The SLM's image with its 400-700 nm streaks (and 3 sigma of blur) must lie on the
     spectral camera, by the description's nominal optics (a ray trace through the prism)."""
-    from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
-    from sassi_bench.rig.sim.geometry import SpectralRelay
-
-    band = np.array([400.0, 700.0])
+    band = np.array(BAND_NM)
     blur = PsfSigmaCurve(desc.blur.sigma_px)(band)
     h, w = desc.slm.height, desc.slm.width
     hc, wc = desc.spectral_camera.height, desc.spectral_camera.width
-    relay = SpectralRelay((h, w), (hc, wc), desc.relay, desc.prism)
+    relay = desc.nominal_relay()
     u = np.array([0.0, w - 1, 0.0, w - 1])[:, None]
     v = np.array([0.0, 0.0, h - 1, h - 1])[:, None]
     x, y = relay.forward(u, v, band[None, :])
