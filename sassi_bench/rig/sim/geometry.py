@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.rig.config import RigDescription
-from sassi_bench.rig.sim import as_built
+from sassi_bench.rig.sim.as_built import prism_apex_deg, prism_glass
 
 __all__ = ["bench_relay", "linear_upsampler"]
 
@@ -43,9 +43,7 @@ def bench_relay(desc: RigDescription) -> SpectralRelay:
     >>> round(float(x[1] - x[0]), 6)  # a bench built as described
     68.0
     """
-    return desc.nominal_relay().with_prism(
-        as_built.prism_glass(desc), as_built.prism_apex_deg(desc)
-    )
+    return desc.nominal_relay().with_prism(prism_glass(desc), prism_apex_deg(desc))
 
 
 def linear_upsampler(coarse_positions: NDArray[np.float64], size: int) -> NDArray[np.float32]:
