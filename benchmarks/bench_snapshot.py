@@ -66,7 +66,7 @@ from sassi_bench.snapshot import (
     superpixels,
 )
 from sassi_bench.snapshot.adaptive import default_segments
-from sassi_bench.spectra.extract import SpectralDeblur
+from sassi_bench.spectra.deblur import SpectralDeblur
 
 SLM = (698, 931)
 CAMERA = (2048, 2048)
