@@ -53,7 +53,7 @@ from sassi_bench.bundle import (
     load,
     publish,
 )
-from sassi_bench.bundle.models import sellmeier_index
+from sassi_bench.optics.glass import sellmeier_index
 from sassi_bench.rig.config import load_rig_description
 from sassi_bench.rig.frame import Frame, FrameMeta
 from sassi_bench.snapshot import (
@@ -66,7 +66,7 @@ from sassi_bench.snapshot import (
     superpixels,
 )
 from sassi_bench.snapshot.adaptive import default_segments
-from sassi_bench.spectra.extract import SpectralDeblur
+from sassi_bench.spectra.deblur import SpectralDeblur
 
 SLM = (698, 931)
 CAMERA = (2048, 2048)

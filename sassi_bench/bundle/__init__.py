@@ -6,7 +6,8 @@ A bundle is a folder ``<data_root>/<rig>/<version>/`` holding ``manifest.json`` 
 ``report/*``), every file checksummed. :func:`publish` writes one atomically and never
 overwrites; :func:`load` returns a :class:`CalibrationBundle` only after the schema and every
 checksum verify. The model contract (how the dispersion, bins and blur are evaluated) is
-documented in :mod:`sassi_bench.bundle.models`; how far apart open SLM pixels must be
+documented in :mod:`sassi_bench.bundle.models` (its field basis, also exported here, comes from
+:mod:`sassi_bench.maths.legendre`); how far apart open SLM pixels must be
 (:meth:`CalibrationBundle.mask_spacing`) in :mod:`sassi_bench.bundle.spacing`.
 
 Examples
@@ -30,18 +31,13 @@ from sassi_bench.bundle.errors import (
     UnsupportedSchemaError,
 )
 from sassi_bench.bundle.loader import load, verify
-from sassi_bench.bundle.models import (
-    BlurModel,
-    CalibrationModels,
-    DispersionModel,
-    WavelengthBins,
-    legendre2d_design,
-    legendre2d_terms,
-)
+from sassi_bench.bundle.model_types import BlurModel, DispersionModel, WavelengthBins
+from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.bundle.quality import QualityCheck
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION
 from sassi_bench.bundle.spacing import MaskSpacing, mask_spacing
 from sassi_bench.bundle.writer import publish
+from sassi_bench.maths.legendre import legendre2d_design, legendre2d_terms
 
 __all__ = [
     "SCHEMA_NAME",

@@ -17,17 +17,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.bundle.models import CalibrationModels
+from sassi_bench.bundle.spacing import MaskSpacing, mask_spacing
 from sassi_bench.errors import step_error
-
-if TYPE_CHECKING:
-    from sassi_bench.bundle.spacing import MaskSpacing
 
 __all__ = ["CalibrationBundle", "Streak"]
 
@@ -346,10 +344,8 @@ class CalibrationBundle:
         >>> spacing.window(320, 200)  # rows v0..v1, columns u0..u1  # doctest: +SKIP
         (192, 208, 246, 394)
         """
-        from sassi_bench.bundle.spacing import mask_spacing
-
         return mask_spacing(
-            self, blur_sigmas=blur_sigmas, margin_px=margin_px, row_sigmas=row_sigmas,
+            self.models, blur_sigmas=blur_sigmas, margin_px=margin_px, row_sigmas=row_sigmas,
             row_pitch=row_pitch,
         )  # fmt: skip
 

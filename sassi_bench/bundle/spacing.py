@@ -50,7 +50,7 @@ streaks.
 
 Examples
 --------
->>> spacing = mask_spacing(bundle)  # doctest: +SKIP
+>>> spacing = mask_spacing(bundle.models)  # doctest: +SKIP
 >>> int(spacing.right[200, 320]), spacing.pitch  # doctest: +SKIP
 (74, 9)
 """
@@ -58,7 +58,6 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -66,11 +65,10 @@ from numpy.polynomial import legendre
 from numpy.typing import NDArray
 
 from sassi_bench.bundle.errors import BundleError
-from sassi_bench.bundle.models import DispersionModel, legendre2d_terms
+from sassi_bench.bundle.model_types import DispersionModel
+from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.errors import step_error
-
-if TYPE_CHECKING:
-    from sassi_bench.bundle.bundle import CalibrationBundle
+from sassi_bench.maths.legendre import field_coordinates, horner, legendre2d_terms
 
 __all__ = ["MaskSpacing", "mask_spacing"]
 
@@ -153,8 +151,9 @@ def _field_polynomials(model: DispersionModel) -> tuple[NDArray[np.float64], NDA
     polynomials in û and v̂, so each power's field is one small matrix product."""
     h, w = model.slm_shape
     degree = model.field_degree
-    pu = legendre.legvander(2.0 * np.arange(w) / (w - 1) - 1.0, degree)  # (W, D + 1)
-    pv = legendre.legvander(2.0 * np.arange(h) / (h - 1) - 1.0, degree)  # (H, D + 1)
+    u_hat, v_hat = field_coordinates(np.arange(w), np.arange(h), (h, w))
+    pu = legendre.legvander(u_hat, degree)  # (W, D + 1)
+    pv = legendre.legvander(v_hat, degree)  # (H, D + 1)
     terms = legendre2d_terms(degree)
     out = []
     for coeffs in (model.x_coeffs, model.y_coeffs):
@@ -168,29 +167,20 @@ def _field_polynomials(model: DispersionModel) -> tuple[NDArray[np.float64], NDA
     return out[0], out[1]
 
 
-def _evaluate(fields: NDArray[np.float64], s: float) -> NDArray[np.float64]:
-    """``sum_k fields[k] s**k`` (Horner)."""
-    out = fields[-1].copy()
-    for c in fields[-2::-1]:
-        out *= s
-        out += c
-    return out
-
-
 def _row_range(cy, s_ends) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lowest and highest camera row of every pixel's streak between the band's ends: the
     row is a polynomial in ``s_y``; for a quadratic its extremes are at the ends or at the
     vertex, otherwise it is sampled finely."""
     s0, s1 = float(min(s_ends)), float(max(s_ends))
     if cy.shape[0] <= 3:
-        points = [_evaluate(cy, s0), _evaluate(cy, s1)]
+        points = [horner(s0, cy), horner(s1, cy)]
         if cy.shape[0] == 3:
             with np.errstate(divide="ignore", invalid="ignore"):
                 vertex = np.clip(-cy[1] / (2.0 * cy[2]), s0, s1)
             vertex = np.where(np.isfinite(vertex), vertex, s0)
             points.append(cy[0] + vertex * (cy[1] + vertex * cy[2]))
     else:
-        points = [_evaluate(cy, float(s)) for s in np.linspace(s0, s1, 65)]
+        points = [horner(float(s), cy) for s in np.linspace(s0, s1, 65)]
     return np.minimum.reduce(points), np.maximum.reduce(points)
 
 
@@ -225,7 +215,7 @@ def _reaches(lo, hi, pitch: int) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
 
 
 def mask_spacing(
-    bundle: CalibrationBundle,
+    models: CalibrationModels,
     *,
     blur_sigmas: float = BLUR_SIGMAS,
     margin_px: float = MARGIN_PX,
@@ -236,8 +226,8 @@ def mask_spacing(
 
     Parameters
     ----------
-    bundle
-        The calibration bundle (dispersion, bins and blur).
+    models
+        The calibration's models (a bundle's ``models``): dispersion, bins and blur.
     blur_sigmas
         Blur sigmas added at each end of a streak's footprint, horizontally (with the
         sigma at that end) and vertically (with the largest sigma). 3 keeps every pair of
@@ -267,7 +257,7 @@ def mask_spacing(
 
     Examples
     --------
-    >>> spacing = mask_spacing(bundle)  # doctest: +SKIP
+    >>> spacing = mask_spacing(bundle.models)  # doctest: +SKIP
     >>> spacing.window(320, 200)  # doctest: +SKIP
     (192, 208, 246, 394)
     """
@@ -276,14 +266,14 @@ def mask_spacing(
         raise BundleError(step_error(step, f"blur_sigmas is {blur_sigmas}", "pass a number >= 0"))
     if not (np.isfinite(margin_px) and margin_px >= 0):
         raise BundleError(step_error(step, f"margin_px is {margin_px}", "pass a number >= 0"))
-    model = bundle.models.dispersion
+    model = models.dispersion
     cx, cy = _field_polynomials(model)
-    edges = np.asarray(bundle.bin_edges, dtype=np.float64)
-    centres = np.asarray(bundle.wavelengths, dtype=np.float64)
-    sigma_ends = np.asarray(bundle.blur_width(edges[[0, -1]]), dtype=np.float64)
-    sigma_max = float(np.max(bundle.blur_width(np.linspace(edges[0], edges[-1], 257))))
+    edges = np.asarray(models.bins.edges_nm, dtype=np.float64)
+    centres = np.asarray(models.bins.centres_nm, dtype=np.float64)
+    sigma_ends = np.asarray(models.blur.sigma(edges[[0, -1]]), dtype=np.float64)
+    sigma_max = float(np.max(models.blur.sigma(np.linspace(edges[0], edges[-1], 257))))
     reach = blur_sigmas * sigma_ends + margin_px
-    ends = [_evaluate(cx, float(s)) for s in model.spectral_x(edges[[0, -1]])]
+    ends = [horner(float(s), cx) for s in model.spectral_x(edges[[0, -1]])]
     lo = np.minimum(ends[0] - reach[0], ends[1] - reach[1])
     hi = np.maximum(ends[0] + reach[0], ends[1] + reach[1])
     del ends

@@ -24,14 +24,10 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.bundle.models import (
-    DispersionModel,
-    WavelengthBins,
-    field_coordinates,
-    legendre2d_design,
-)
+from sassi_bench.bundle import DispersionModel, WavelengthBins
 from sassi_bench.calibrate.field import FieldFit
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 from sassi_bench.optics.glass import Glass, get_glass
 
 __all__ = [
@@ -66,7 +62,7 @@ class DispersionFit:
     Attributes
     ----------
     model
-        The bundle's :class:`~sassi_bench.bundle.models.DispersionModel`.
+        The bundle's :class:`~sassi_bench.bundle.DispersionModel`.
     bins
         Wavelength bins, one per camera column of the 400-700 nm streak at the field centre.
     residual_px

@@ -3,7 +3,7 @@
 The SLM -> camera map at one wavelength is smooth across the field (relay distortion,
 field-dependent dispersion and the skew-ray curvature of a prism are all low order), so
 it is fitted as a polynomial in normalised SLM coordinates, the same basis the
-calibration bundle uses (:func:`sassi_bench.bundle.models.legendre2d_design`).
+calibration bundle uses (:func:`sassi_bench.maths.legendre.legendre2d_design`).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.bundle.models import field_coordinates, legendre2d_design
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 
 __all__ = ["FieldFit", "fit_field"]
 
@@ -26,7 +26,7 @@ class FieldFit:
     Attributes
     ----------
     coeffs
-        Legendre coefficients, ordered as :func:`~sassi_bench.bundle.models.legendre2d_terms`.
+        Legendre coefficients, ordered as :func:`~sassi_bench.maths.legendre.legendre2d_terms`.
     degree, slm_shape
         Basis degree and the SLM (height, width) defining the normalisation.
     rms, median_abs

@@ -1,9 +1,11 @@
-"""Wavelength-dependent blur of the relay optics.
+"""Wavelength-dependent blur of the relay optics, as a rig describes it.
 
 A lab describes the optics' point-spread width at a few wavelengths (Gaussian sigma in
-spectral-camera pixels). Through three points the blur is the quadratic the SASSI paper
+spectral-camera pixels). Through three points the curve is the quadratic the SASSI paper
 fits; through more it is a shape-preserving PCHIP interpolant, so a quadratic fit is
-an approximation the calibration has to earn.
+an approximation the calibration has to earn. (What the calibration fits and a bundle
+stores is another thing: :class:`sassi_bench.bundle.BlurModel`, the quadratic of the
+recorded spot width with its summation window.)
 
 What a camera records for one SLM pixel is wider than the optics' PSF: the pixel's
 square aperture and the camera pixel's own area add to it. :func:`line_spread_sigma`
@@ -20,22 +22,30 @@ from scipy.interpolate import PchipInterpolator
 
 from sassi_bench.errors import ConfigError
 
-__all__ = ["MIN_SIGMA_PX", "BlurModel", "line_spread_sigma"]
+__all__ = ["MIN_SIGMA_PX", "PsfSigmaCurve", "line_spread_sigma"]
 
 MIN_SIGMA_PX = 0.2
 
 
-class BlurModel:
-    """Optics PSF sigma as a smooth function of wavelength.
+class PsfSigmaCurve:
+    """Optics PSF sigma as a smooth function of wavelength, through described points.
+
+    Calling it gives the sigma (camera px) at the wavelengths passed, at least
+    :data:`MIN_SIGMA_PX`.
 
     Parameters
     ----------
     sigma_px
         Mapping wavelength (nm) -> Gaussian sigma (camera px), at least three points.
 
+    Raises
+    ------
+    ConfigError
+        On fewer than three points or a sigma <= 0.
+
     Examples
     --------
-    >>> blur = BlurModel({405: 1.7, 520: 0.42, 635: 1.7})
+    >>> blur = PsfSigmaCurve({405: 1.7, 520: 0.42, 635: 1.7})
     >>> round(float(blur(520.0)), 3)
     0.42
     """

@@ -1,14 +1,16 @@
-"""The colour-science data sets a rig description names, looked up by name.
+"""The data sets a rig description names, looked up by name.
 
 A rig names its LED and fluorescent lamps (``colour.SDS_ILLUMINANTS``), its guide
-camera's sensor (``colour.MSDS_CAMERA_SENSITIVITIES``) and the ColorChecker data of the
-virtual bench's chart (``colour.SDS_COLOURCHECKERS``). :func:`require_dataset` refuses an
+camera's sensor (``colour.MSDS_CAMERA_SENSITIVITIES``), the ColorChecker data of the
+virtual bench's chart (``colour.SDS_COLOURCHECKERS``) and the photo of its natural scene
+(a scikit-image data image). :func:`require_dataset` and :func:`photo_loader` refuse an
 unknown name with the key named and the closest known name, so a rig description is
 checked when it is loaded rather than when a device first needs the data.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -16,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
 
-__all__ = ["DATASETS", "camera_sensitivities", "require_dataset"]
+__all__ = ["DATASETS", "camera_sensitivities", "photo_loader", "require_dataset"]
 
 #: Kind of data -> (colour-science attribute, what one entry is).
 DATASETS: dict[str, tuple[str, str]] = {
@@ -96,3 +98,37 @@ def camera_sensitivities(
         [np.interp(grid, msds.wavelengths, values[:, c], left=0.0, right=0.0) for c in range(3)]
     )
     return out / out.max()
+
+
+def photo_loader(name: str) -> Callable[[], NDArray[np.uint8]]:
+    """scikit-image's loader of the data image ``name`` (``scenes.natural_image``).
+
+    Parameters
+    ----------
+    name
+        The name of a function of ``skimage.data``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``scenes.natural_image`` and the closest data image, if scikit-image has none
+        of that name.
+
+    Examples
+    --------
+    >>> photo_loader("coffee").__name__
+    'coffee'
+    """
+    import skimage.data
+
+    loader = getattr(skimage.data, name, None)
+    if loader is None or name.startswith("_") or not callable(loader):
+        raise ConfigError(
+            step_error(
+                "scenes.natural_image",
+                f"scikit-image has no data image {name!r}"
+                f"{did_you_mean(name, [n for n in dir(skimage.data) if not n.startswith('_')])}",
+                "use a bundled colour image such as 'coffee', 'astronaut' or 'chelsea'",
+            )
+        )
+    return loader

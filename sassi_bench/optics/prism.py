@@ -14,7 +14,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["deviation_deg", "min_deviation_incidence_deg", "refract", "trace_prism"]
+__all__ = [
+    "deviation_deg",
+    "min_deviation_incidence_deg",
+    "refract",
+    "rotation_about_y",
+    "trace_prism",
+]
 
 
 def deviation_deg(n: ArrayLike, apex_deg: float, incidence_deg: ArrayLike) -> NDArray[np.float64]:
@@ -92,7 +98,14 @@ def refract(
     return eta * d + (cos_t - eta * cos_i) * normal
 
 
-def _rot_y(angle_rad: float) -> NDArray[np.float64]:
+def rotation_about_y(angle_rad: float) -> NDArray[np.float64]:
+    """The 3x3 matrix of a rotation by ``angle_rad`` about the y axis (z towards x).
+
+    Examples
+    --------
+    >>> (rotation_about_y(np.pi / 2) @ [0.0, 0.0, 1.0]).round(12).tolist()
+    [1.0, 0.0, 0.0]
+    """
     c, s = np.cos(angle_rad), np.sin(angle_rad)
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
@@ -132,6 +145,6 @@ def trace_prism(
     # angle; the second by (apex - incidence) the other way, so the faces meet at the
     # apex angle and the ray bends towards -x (the base) at both faces.
     normal1 = np.array([-np.sin(ti), 0.0, np.cos(ti)])
-    normal2 = _rot_y(a) @ normal1
+    normal2 = rotation_about_y(a) @ normal1
     inside = refract(directions, normal1, 1.0, n)
     return refract(inside, normal2, n, 1.0)

@@ -23,7 +23,7 @@ from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.snapshot.adaptive import adaptive_mask, segment_around_samples
 from sassi_bench.snapshot.reconstruct import guided_cube, measure_samples, rank1_cube
 from sassi_bench.snapshot.superpixels import guide_on_slm
-from sassi_bench.spectra.extract import SpectralDeblur
+from sassi_bench.spectra.deblur import SpectralDeblur
 
 __all__ = ["FrameReconstruction", "adaptive_samples", "reconstruct_frame"]
 

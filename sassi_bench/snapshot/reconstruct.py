@@ -4,7 +4,7 @@
    frame with :mod:`sassi_bench.spectra`: the streak geometry of the open pixels, the
    background estimated from the camera pixels outside their predicted footprints
    (:func:`~sassi_bench.spectra.offset.estimate_background`), row unmixing and the
-   within-streak deblur (:class:`~sassi_bench.spectra.extract.SpectralDeblur`); divided by
+   within-streak deblur (:class:`~sassi_bench.spectra.deblur.SpectralDeblur`); divided by
    the exposure, and by the bundle's response when it has one.
 2. The spectra are spread over the SLM with the guide image:
 
@@ -37,9 +37,10 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
-from sassi_bench.spectra.crosstalk import columns_interact, extract_with_background
+from sassi_bench.spectra.crosstalk import columns_interact
 from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write_netcdf
-from sassi_bench.spectra.extract import SpectralDeblur, extract_spectra
+from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.spectra.extract import extract_spectra, extract_with_background
 from sassi_bench.spectra.geometry import reached_rows, streak_geometry
 from sassi_bench.spectra.offset import estimate_background, streak_footprint
 
@@ -129,7 +130,7 @@ def measure_samples(
         carries the scene's vertical structure, less closely.
     background_passes
         Refinements of the background from the residual of the unmixed streaks
-        (:func:`~sassi_bench.spectra.crosstalk.extract_with_background`); None:
+        (:func:`~sassi_bench.spectra.extract.extract_with_background`); None:
         :data:`DENSE_BACKGROUND_PASSES` when streaks of different SLM columns overlap (a
         dense mask leaves too few pixels outside the footprints), else none. Streaks of
         different columns are always unmixed jointly where they overlap.

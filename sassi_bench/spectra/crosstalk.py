@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 from functools import cached_property
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
@@ -37,14 +36,9 @@ from numpy.typing import NDArray
 from scipy.sparse import csc_array, csr_array, diags_array
 from scipy.sparse.linalg import splu
 
-from sassi_bench.spectra.cells import cell_layout
 from sassi_bench.spectra.geometry import StreakGeometry
 
-if TYPE_CHECKING:
-    from sassi_bench.spectra.extract import SpectralDeblur
-    from sassi_bench.spectra.offset import Background
-
-__all__ = ["StreakModel", "columns_interact", "extract_with_background"]
+__all__ = ["StreakModel", "columns_interact"]
 
 #: Rows of a streak's profile in a camera column, above and below its centre, in blur sigmas.
 PROFILE_SIGMAS = 6.0
@@ -256,66 +250,3 @@ def _meet(top, bottom, left, right, cols):  # pragma: no cover - compiled
                     elif o != cols[n]:
                         return True
     return False
-
-
-def extract_with_background(
-    window: NDArray[np.floating],
-    geometry: StreakGeometry,
-    deblur: SpectralDeblur | None = None,
-    *,
-    block: tuple[int, int] = (8, 16),
-    passes: int = 2,
-) -> tuple[NDArray[np.float64], NDArray[np.bool_], Background]:
-    """Spectra of a raw frame's open pixels with the background refined from the residual.
-
-    A dense mask leaves few camera pixels outside the streak footprints (a 6 px row pitch
-    on the sim rig: 10 %), too few for :func:`~sassi_bench.spectra.offset.estimate_background`
-    to follow the closed pixels' leakage. So the first estimate (from those pixels) is
-    refined ``passes`` times: the open pixels' light is fitted (:class:`StreakModel`, across
-    columns), painted back and subtracted, and the background is re-estimated from the
-    block medians of what is left over the *whole* frame. The model is factorised once, so
-    a pass costs one block-median estimate and two sparse products.
-
-    Parameters
-    ----------
-    window
-        The raw frame (camera rows any streak can reach), dark level included.
-    geometry
-        :func:`~sassi_bench.spectra.geometry.streak_geometry` of the open pixels, in the
-        window's rows.
-    deblur
-        The within-streak unmixing (None keeps each bin's column sum).
-    block
-        Camera (rows, columns) of the background's median blocks.
-    passes
-        Background refinements (0: the footprint-based estimate only).
-
-    Returns
-    -------
-    spectra : ndarray
-        (N, B) at the bundle's bins, camera units.
-    off_frame : ndarray
-        (N, B) True where part of a bin's window fell off the camera.
-    background : Background
-        The last background estimate.
-
-    Examples
-    --------
-    >>> spectra, off, bg = extract_with_background(window, geometry, deblur)  # doctest: +SKIP
-    """
-    from sassi_bench.spectra.offset import estimate_background, streak_footprint
-
-    image = np.asarray(window, dtype=np.float64)
-    background = estimate_background(image, streak_footprint(geometry, image.shape), block)
-    model = StreakModel(geometry, image.shape)
-    everywhere = np.zeros(image.shape, dtype=bool)
-    for refinement in range(int(passes) + 1):
-        light = model.fit(image - background.image)
-        if refinement == passes:
-            break
-        background = estimate_background(image - model.render(light), everywhere, block)
-    amplitudes = model.bins(light)
-    if deblur is not None:
-        amplitudes = deblur.apply(amplitudes, geometry.rows, geometry.cols)
-    off = cell_layout(geometry, image.shape).off
-    return amplitudes[:, geometry.core], off[:, geometry.core], background

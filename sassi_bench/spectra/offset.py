@@ -17,7 +17,7 @@ from scipy.interpolate import BSpline, RectBivariateSpline
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels, _offset_kernels
-from sassi_bench.spectra.extract import StreakGeometry
+from sassi_bench.spectra.geometry import StreakGeometry
 
 __all__ = ["Background", "estimate_background", "footprint_rectangles", "streak_footprint"]
 

@@ -45,7 +45,7 @@ from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
-from sassi_bench.spectra.extract import SpectralDeblur
+from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
 
@@ -424,7 +424,7 @@ def assemble_scan(
         Optional (row0, col0, row1, col1) SLM region (end exclusive) to assemble.
     deblur
         Undo the spill of each bin into its neighbours along the streak (see
-        :mod:`sassi_bench.spectra.extract`).
+        :mod:`sassi_bench.spectra.deblur`).
     progress
         Show progress bars.
     workers

@@ -36,7 +36,7 @@ from sassi_bench.snapshot import (
     snapshot_dataset,
     write_cube,
 )
-from sassi_bench.spectra.extract import SpectralDeblur
+from sassi_bench.spectra.deblur import SpectralDeblur
 
 __all__ = [
     "METHODS",

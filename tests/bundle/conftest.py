@@ -24,7 +24,7 @@ from sassi_bench.bundle import (
     WavelengthBins,
     publish,
 )
-from sassi_bench.bundle.models import sellmeier_index
+from sassi_bench.optics.glass import sellmeier_index
 
 SLM_SHAPE = (400, 640)
 # N-SF11, SCHOTT catalog (B dimensionless, C in µm²).

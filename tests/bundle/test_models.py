@@ -1,19 +1,18 @@
-"""The model contract: field basis, Sellmeier index, dispersion/blur evaluation, validation."""
+"""The model contract: dispersion/blur evaluation against the documented formulas, validation."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sassi_bench.bundle import BundleSchemaError, CalibrationModels, DispersionModel
-from sassi_bench.bundle.models import (
+from sassi_bench.bundle import (
     BlurModel,
+    BundleSchemaError,
+    CalibrationModels,
+    DispersionModel,
     WavelengthBins,
-    field_coordinates,
-    legendre2d_design,
-    legendre2d_terms,
-    sellmeier_index,
 )
+from sassi_bench.optics.glass import sellmeier_index
 
 # Closed forms of the first Legendre polynomials, independent of numpy.polynomial.
 LEGENDRE = [
@@ -40,29 +39,6 @@ def reference_xy(model: DispersionModel, u, v, lam):
             x = x + model.x_coeffs[k, t] * basis * s_x**k
             y = y + model.y_coeffs[k, t] * basis * s_y**k
     return x, y
-
-
-def test_legendre2d_terms_order():
-    assert list(legendre2d_terms(3)) == TERMS_DEGREE_3
-    assert legendre2d_terms(0) == ((0, 0),)
-    assert len(legendre2d_terms(5)) == 21
-    with pytest.raises(ValueError):
-        legendre2d_terms(-1)
-
-
-def test_legendre2d_design_matches_closed_forms():
-    rng = np.random.default_rng(0)
-    uh, vh = rng.uniform(-1, 1, (2, 7, 3))
-    design = legendre2d_design(uh, vh, 3)
-    assert design.shape == (7, 3, 10)
-    for t, (i, j) in enumerate(TERMS_DEGREE_3):
-        np.testing.assert_allclose(design[..., t], LEGENDRE[i](uh) * LEGENDRE[j](vh), atol=1e-14)
-
-
-def test_field_coordinates_span_minus_one_to_one():
-    uh, vh = field_coordinates([0, 319.5, 639], [0, 199.5, 399], (400, 640))
-    np.testing.assert_allclose(uh, [-1, 0, 1])
-    np.testing.assert_allclose(vh, [-1, 0, 1])
 
 
 def test_dispersion_evaluates_documented_formula(synthetic):

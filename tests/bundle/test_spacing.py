@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sassi_bench.bundle import BundleError, MaskSpacing, load
+from sassi_bench.bundle import BundleError, MaskSpacing, load, mask_spacing
 
 
 @pytest.fixture(scope="module")
@@ -88,6 +88,15 @@ def test_window_and_uniform_step():
     assert s.window(29, 9) == (7, 9, 27, 29)
     assert s.uniform_step == 5
     assert not s.left.flags.writeable
+
+
+def test_spacing_needs_only_the_models(bundle, spacing):
+    """The rule is a function of the dispersion, bins and blur: the bundle's method is the
+    same computation on its models."""
+    from_models = mask_spacing(bundle.models)
+    np.testing.assert_array_equal(from_models.left, spacing.left)
+    np.testing.assert_array_equal(from_models.right, spacing.right)
+    assert from_models.pitch == spacing.pitch
 
 
 def test_bad_parameters_are_refused(bundle):

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from sassi_bench.errors import ConfigError
-from sassi_bench.optics.blur import BlurModel, line_spread_sigma
+from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.sources import (
     blackbody_power,
     broadband_samples,
@@ -42,14 +42,14 @@ def test_halogen_is_red_heavy_and_led_has_no_deep_blue():
 
 
 def test_blur_through_three_points_is_the_quadratic():
-    blur = BlurModel({405: 1.7, 520: 0.42, 635: 1.7})
+    blur = PsfSigmaCurve({405: 1.7, 520: 0.42, 635: 1.7})
     assert blur([405, 520, 635]) == pytest.approx([1.7, 0.42, 1.7])
     assert blur(577.5) == pytest.approx(0.42 + 1.28 * 0.25)
 
 
 def test_blur_with_more_points_is_smooth_and_not_quadratic():
     points = {400: 2.0, 480: 0.8, 550: 0.5, 640: 1.2, 700: 2.5}
-    blur = BlurModel(points)
+    blur = PsfSigmaCurve(points)
     assert blur(list(points)) == pytest.approx(list(points.values()))
     lam = np.linspace(400, 700, 61)
     quad = np.polyval(np.polyfit(list(points), list(points.values()), 2), lam)
@@ -58,7 +58,7 @@ def test_blur_with_more_points_is_smooth_and_not_quadratic():
 
 def test_blur_rejects_too_few_points():
     with pytest.raises(ConfigError, match="three"):
-        BlurModel({400: 1.0, 500: 1.0})
+        PsfSigmaCurve({400: 1.0, 500: 1.0})
 
 
 def test_line_spread_adds_aperture_and_pixel_variances():

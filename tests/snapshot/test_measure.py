@@ -8,7 +8,7 @@ from scipy.special import ndtr
 
 from sassi_bench.errors import ProcedureError
 from sassi_bench.snapshot import measure_samples, uniform_mask
-from sassi_bench.spectra.extract import _psi
+from sassi_bench.spectra.deblur import _psi
 from sassi_bench.spectra.geometry import streak_geometry
 
 CAMERA = (2048, 2048)
@@ -93,7 +93,7 @@ def dense_snapshot(calibrated_sim):
     minus a frame with the SLM closed, as the pinhole scan removes the leakage."""
     from sassi_bench.bundle import load
     from sassi_bench.snapshot import mask_conflicts, random_mask
-    from sassi_bench.spectra.extract import SpectralDeblur
+    from sassi_bench.spectra.deblur import SpectralDeblur
 
     rig, _, data = calibrated_sim
     bundle = load(rig="sim", data=data)

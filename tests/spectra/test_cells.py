@@ -5,7 +5,7 @@ import pytest
 
 from sassi_bench.bundle import load
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum
-from sassi_bench.spectra.extract import SpectralDeblur, spill_matrix
+from sassi_bench.spectra.deblur import SpectralDeblur, spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
 
 

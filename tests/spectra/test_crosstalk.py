@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sassi_bench.spectra.crosstalk import StreakModel, columns_interact, extract_with_background
-from sassi_bench.spectra.extract import StreakGeometry, extract_spectra
+from sassi_bench.spectra.crosstalk import StreakModel, columns_interact
+from sassi_bench.spectra.extract import extract_spectra, extract_with_background
+from sassi_bench.spectra.geometry import StreakGeometry
 
 
 def _staggered_frame(sigma, rng, shift=1.3, pitch=5, height=120, width=200):

@@ -4,12 +4,10 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sassi_bench.spectra.extract import (
-    NEGLIGIBLE_COUPLING,
-    StreakGeometry,
-    extract_spectra,
-    spill_matrix,
-)
+from sassi_bench.spectra.cells import NEGLIGIBLE_COUPLING
+from sassi_bench.spectra.deblur import spill_matrix
+from sassi_bench.spectra.extract import extract_spectra
+from sassi_bench.spectra.geometry import StreakGeometry
 
 
 def _stacked_frame(sigma, rng, height=120, width=200, pitch=5):

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from sassi_bench.spectra.extract import StreakGeometry
+from sassi_bench.spectra.geometry import StreakGeometry
 from sassi_bench.spectra.offset import estimate_background, streak_footprint
 
 

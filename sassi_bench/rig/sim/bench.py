@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.optics.blur import BlurModel
+from sassi_bench.optics.blur import PsfSigmaCurve
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
     SpectralSamples,
@@ -20,7 +20,7 @@ from sassi_bench.optics.sources import (
 )
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim import as_built
-from sassi_bench.rig.sim.geometry import SpectralRelay
+from sassi_bench.rig.sim.geometry import bench_relay
 from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.nuisance import BenchNuisances
 from sassi_bench.rig.sim.render import SpectralRenderer
@@ -70,15 +70,8 @@ class VirtualBench:
             dark_offset_adu=0.0 if gc.bit_depth <= 8 else 16.0,
             qe="flat",  # the colour sensitivities already include the sensor's QE
         )
-        self.relay = SpectralRelay(
-            self.slm_shape,
-            self.camera_shape,
-            desc.relay,
-            desc.prism,
-            true_glass=as_built.prism_glass(desc),
-            true_apex_deg=as_built.prism_apex_deg(desc),
-        )
-        self.blur = BlurModel(desc.blur.sigma_px)
+        self.relay = bench_relay(desc)
+        self.blur = PsfSigmaCurve(desc.blur.sigma_px)
         self.renderer = SpectralRenderer(
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
         )

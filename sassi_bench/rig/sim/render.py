@@ -1,8 +1,8 @@
 """Rendering spectral-camera frames on the virtual bench.
 
 Two exact-in-expectation renderers share one optical model (the ray-traced relay of
-:mod:`~sassi_bench.rig.sim.geometry` and the spot width of
-:func:`~sassi_bench.optics.blur.line_spread_sigma`):
+:mod:`~sassi_bench.optics.relay`, as built: :func:`~sassi_bench.rig.sim.geometry.bench_relay`;
+and the spot width of :func:`~sassi_bench.optics.blur.line_spread_sigma`):
 
 * **dense** (:meth:`SpectralRenderer.render_dense`), for patterns with many open
   pixels: for every wavelength sample the SLM image is warped onto the camera through
@@ -31,9 +31,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.optics.blur import BlurModel, line_spread_sigma
+from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
-from sassi_bench.rig.sim.geometry import SpectralRelay, linear_upsampler
+from sassi_bench.rig.sim.geometry import linear_upsampler
 from sassi_bench.rig.sim.scenes import Scene
 
 __all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
@@ -163,7 +164,7 @@ class SpectralRenderer:
     def __init__(
         self,
         relay: SpectralRelay,
-        blur: BlurModel,
+        blur: PsfSigmaCurve,
         fill_factor: float,
         quantum_efficiency,
         coarse_step: int = 8,
@@ -187,14 +188,14 @@ class SpectralRenderer:
     # -- the optical model shared by both renderers ---------------------------------
     def spot_sigma(self, wavelength_nm: NDArray[np.float64]) -> NDArray[np.float64]:
         """Sigma (camera px) of the spot one SLM pixel makes, at each wavelength."""
-        return line_spread_sigma(self.blur(wavelength_nm), self.relay.relay.scale, self.fill_factor)
+        return line_spread_sigma(self.blur(wavelength_nm), self.relay.scale, self.fill_factor)
 
     def _tent_blur(self, spot_sigma: NDArray[np.float64]) -> NDArray[np.float64]:
         """Gaussian sigma that, on top of a tent of one SLM pitch, gives ``spot_sigma``.
 
         A tent of half-width ``scale`` has variance ``scale**2 / 6``.
         """
-        scale = self.relay.relay.scale
+        scale = self.relay.scale
         return np.sqrt(np.clip(spot_sigma**2 - scale**2 / 6.0, 0.0, None))
 
     def _spot_table(self, wavelengths_nm: NDArray[np.float64]) -> _SpotTable:
@@ -204,7 +205,7 @@ class SpectralRenderer:
         if table is None:
             spot = self.spot_sigma(wavelengths_nm)
             sigma = self._tent_blur(spot)
-            scale = self.relay.relay.scale
+            scale = self.relay.scale
             own_reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.intp) + 1
             half = (int(own_reach.max()) + _RUN_SPAN_PX) * _TABLE_STEPS
             offsets = np.arange(-half, half + 1) / _TABLE_STEPS

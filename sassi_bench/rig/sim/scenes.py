@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import ConfigError, did_you_mean, step_error
-from sassi_bench.optics.datasets import require_dataset
+from sassi_bench.errors import ConfigError
+from sassi_bench.optics.datasets import photo_loader, require_dataset
 from sassi_bench.rig.rig import check_scene
 from sassi_bench.rig.scene_pose import ScenePose
 
@@ -276,29 +276,6 @@ def pcb_scene(
     silk = 0.82 - 0.25 * np.exp(-(lam - 390) / 25)
     spectra = np.clip(np.vstack([mask, copper, gold, silk]), 0.0, 1.0)
     return LabelScene("pcb", grid, margin, labels=img.astype(np.intp), spectra=spectra)
-
-
-def photo_loader(name: str):
-    """scikit-image's loader of the data image ``name`` (``scenes.natural_image``).
-
-    Examples
-    --------
-    >>> photo_loader("coffee").__name__
-    'coffee'
-    """
-    import skimage.data
-
-    loader = getattr(skimage.data, name, None)
-    if loader is None or name.startswith("_") or not callable(loader):
-        raise ConfigError(
-            step_error(
-                "scenes.natural_image",
-                f"scikit-image has no data image {name!r}"
-                f"{did_you_mean(name, [n for n in dir(skimage.data) if not n.startswith('_')])}",
-                "use a bundled colour image such as 'coffee', 'astronaut' or 'chelsea'",
-            )
-        )
-    return loader
 
 
 def _photo(name: str) -> NDArray[np.float64]:

@@ -1,0 +1,281 @@
+"""What a rig description holds: one frozen dataclass per section, and the whole description.
+
+Built and checked by :func:`~sassi_bench.rig.config.load_rig_description`; see
+:mod:`sassi_bench.rig.config` for the bench-only sections ``as_built`` and ``nuisance``.
+
+Examples
+--------
+>>> light_names((450.0,))
+('off', 'laser:450', 'led', 'halogen', 'fluorescent')
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.relay import SpectralRelay
+
+__all__ = [
+    "AsBuiltConfig",
+    "BlurConfig",
+    "GuideCameraConfig",
+    "LightConfig",
+    "NuisanceConfig",
+    "PrismConfig",
+    "RelayConfig",
+    "RigDescription",
+    "ScenesConfig",
+    "SlmConfig",
+    "SpectralCameraConfig",
+    "SpectralGridConfig",
+    "as_built_path",
+    "light_names",
+]
+
+
+def light_names(lasers_nm: tuple[float, ...]) -> tuple[str, ...]:
+    """The light names of a rig with these laser lines.
+
+    Examples
+    --------
+    >>> light_names((450.0, 532.5))
+    ('off', 'laser:450', 'laser:532.5', 'led', 'halogen', 'fluorescent')
+    """
+    return ("off", *(f"laser:{x:g}" for x in lasers_nm), "led", "halogen", "fluorescent")
+
+
+@dataclass(frozen=True)
+class SlmConfig:
+    width: int
+    height: int
+    contrast_ratio: float
+    gamma: float = 2.2
+    fill_factor: float = 0.93
+
+
+@dataclass(frozen=True)
+class SpectralCameraConfig:
+    width: int
+    height: int
+    read_noise_e: float
+    full_well_e: float
+    bit_depth: int
+    dark_offset_adu: float = 100.0
+    dark_current_e_per_s: float = 0.5
+    qe: str | dict[str, float] | None = None
+    exposure_range_s: tuple[float, float] = (1e-5, 10.0)
+
+
+@dataclass(frozen=True)
+class RelayConfig:
+    scale: float
+    rotation_deg: float
+    offset_px: tuple[float, float]
+    distortion_k1: float
+
+
+@dataclass(frozen=True)
+class PrismConfig:
+    glass: str
+    apex_deg: float
+    spread_px: float
+    smile_px: float
+    incidence_deg: float | None = None
+    reference_nm: float = 550.0
+
+
+@dataclass(frozen=True)
+class BlurConfig:
+    sigma_px: dict[float, float]
+
+
+@dataclass(frozen=True)
+class GuideCameraConfig:
+    width: int
+    height: int
+    scale: float = 1.0
+    rotation_deg: float = 0.0
+    offset_px: tuple[float, float] = (0.0, 0.0)
+    homography: tuple[tuple[float, ...], ...] | None = None
+    read_noise_e: float = 3.0
+    full_well_e: float = 10000.0
+    bit_depth: int = 12
+    sensitivities: str | None = None
+    blur_px: float = 0.6
+    exposure_range_s: tuple[float, float] = (1e-5, 10.0)
+
+
+@dataclass(frozen=True)
+class LightConfig:
+    laser_fwhm_nm: float = 1.0
+    laser_flux: float = 2.0e6
+    broadband_flux: float = 2.0e7
+    led: str | None = None
+    halogen_k: float | None = None
+    fluorescent: str | None = None
+
+
+@dataclass(frozen=True)
+class SpectralGridConfig:
+    start_nm: float = 390.0
+    stop_nm: float = 720.0
+    step_nm: float = 2.0
+
+
+@dataclass(frozen=True)
+class ScenesConfig:
+    margin_px: int = 48
+    colorchecker_data: str = "BabelColor Average"
+    colorchecker_rotation_deg: float = 1.5
+    natural_image: str = "coffee"
+
+
+@dataclass(frozen=True)
+class AsBuiltConfig:
+    """How the virtual bench as built differs from its description (bench-only).
+
+    Each key left out means "as described".
+    """
+
+    #: Nominal laser line (nm, as in ``lasers_nm``) -> the line's true centre (nm).
+    lasers_nm: dict[float, float] = field(default_factory=dict)
+    #: Added to the catalogue glass's refractive index at every wavelength.
+    glass_index_offset: float = 0.0
+    apex_deg: float | None = None
+    halogen_k: float | None = None
+    #: The LED's true spectrum: a colour-science illuminant name.
+    led: str | None = None
+    #: The guide camera's true curves: a colour-science camera name or a CSV path.
+    guide_sensitivities: str | None = None
+    slm_gamma: float | None = None
+
+
+@dataclass(frozen=True)
+class NuisanceConfig:
+    """Real-bench nuisances the virtual bench renders (bench-only); zero is none."""
+
+    #: Relative RMS of the laser's power from frame to frame.
+    laser_power_jitter: float = 0.0
+    #: Fraction of the spectral camera's pixels that are hot.
+    hot_pixels_fraction: float = 0.0
+    #: Fraction of an open SLM pixel's light that leaks into each 4-neighbour.
+    slm_crosstalk: float = 0.0
+    #: Fraction of the scene's light spread evenly over the sensor.
+    stray_light: float = 0.0
+    #: Contrast of static multiplicative speckle under laser light.
+    speckle_contrast: float = 0.0
+
+
+@dataclass(frozen=True)
+class RigDescription:
+    """A validated rig description (all defaults filled in).
+
+    Use :func:`~sassi_bench.rig.config.load_rig_description` to build one from YAML and
+    :meth:`to_dict` for the canonical JSON-compatible form stored in calibration bundles.
+    """
+
+    name: str
+    backend: str
+    slm: SlmConfig
+    spectral_camera: SpectralCameraConfig
+    relay: RelayConfig
+    prism: PrismConfig
+    blur: BlurConfig
+    guide_camera: GuideCameraConfig
+    lasers_nm: tuple[float, ...]
+    seed: int = 0
+    description: str = ""
+    light: LightConfig = field(default_factory=LightConfig)
+    spectral_grid: SpectralGridConfig = field(default_factory=SpectralGridConfig)
+    scenes: ScenesConfig = field(default_factory=ScenesConfig)
+    hardware: dict[str, Any] | None = None
+    source: str | None = None
+    # Bench-only sections: not part of the description procedures rely on, its
+    # dictionary form or its hash (see sassi_bench.rig.config).
+    as_built: AsBuiltConfig = field(default_factory=AsBuiltConfig, repr=False, compare=False)
+    nuisance: NuisanceConfig = field(default_factory=NuisanceConfig, repr=False, compare=False)
+
+    @property
+    def light_names(self) -> tuple[str, ...]:
+        """The names of the rig's lights: ``off``, ``laser:<nm>`` per line, ``led``,
+        ``halogen`` and ``fluorescent``.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> load_rig_description("sim").light_names[:3]
+        ('off', 'laser:450', 'laser:520')
+        """
+        return light_names(self.lasers_nm)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Canonical JSON-compatible form (the ``source`` path and the bench-only
+        ``as_built`` and ``nuisance`` sections are left out)."""
+        data = asdict(self)
+        for key in ("source", "as_built", "nuisance"):
+            data.pop(key)
+        if data["hardware"] is None:
+            data.pop("hardware")
+        return json.loads(json.dumps(data, sort_keys=True))
+
+    def sha256(self) -> str:
+        """SHA-256 of the canonical JSON form; identifies the rig in bundles.
+
+        Where hardware is plugged in (serial port, monitor, producer or library path,
+        timeouts) is left out: moving a cable does not make another rig.
+        """
+        data = self.to_dict()
+        if "hardware" in data:
+            data["hardware"] = _without_connection(data["hardware"])
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def nominal_relay(self) -> SpectralRelay:
+        """The SLM -> spectral camera optics as described: a ray trace of the relay and prism.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> relay = load_rig_description("sim").nominal_relay()
+        >>> x, _ = relay.forward(319.5, 199.5, [400.0, 700.0])
+        >>> round(float(x[1] - x[0]), 6)  # prism.spread_px
+        68.0
+        """
+        relay, prism = self.relay, self.prism
+        return SpectralRelay(
+            (self.slm.height, self.slm.width),
+            (self.spectral_camera.height, self.spectral_camera.width),
+            scale=relay.scale,
+            rotation_deg=relay.rotation_deg,
+            offset_px=relay.offset_px,
+            distortion_k1=relay.distortion_k1,
+            glass=get_glass(prism.glass),
+            apex_deg=prism.apex_deg,
+            spread_px=prism.spread_px,
+            smile_px=prism.smile_px,
+            incidence_deg=prism.incidence_deg,
+            reference_nm=prism.reference_nm,
+        )
+
+
+_CONNECTION_KEYS = {"port", "baudrate", "timeout_s", "boot_s", "monitor", "cti", "library"}
+
+
+def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
+    return {
+        device: {k: v for k, v in spec.items() if k not in _CONNECTION_KEYS}
+        for device, spec in hardware.items()
+    }
+
+
+def as_built_path(desc: RigDescription, name: str) -> Path:
+    """A file an ``as_built`` key names, relative to the rig YAML's folder."""
+    path = Path(name)
+    if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
+        path = Path(desc.source).parent / path
+    return path

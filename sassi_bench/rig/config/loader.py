@@ -1,0 +1,190 @@
+"""Loading rig descriptions: YAML or a mapping -> schema -> dataclasses -> load-time checks.
+
+The JSON Schema shipped beside the rig package (``rig.schema.json``) checks types, ranges
+and unknown keys; :func:`~sassi_bench.rig.config.checks.check_description` then checks
+physics and the named data sets. A ``backend: sim`` rig gets :data:`SIM_DEFAULTS` for the
+keys it leaves out. The bench-only sections ``as_built`` and ``nuisance`` are parsed here
+into their own dataclasses.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from sassi_bench.errors import ConfigError, did_you_mean, step_error
+from sassi_bench.rig.config.checks import check_description
+from sassi_bench.rig.config.description import (
+    AsBuiltConfig,
+    BlurConfig,
+    GuideCameraConfig,
+    LightConfig,
+    NuisanceConfig,
+    PrismConfig,
+    RelayConfig,
+    RigDescription,
+    ScenesConfig,
+    SlmConfig,
+    SpectralCameraConfig,
+    SpectralGridConfig,
+)
+from sassi_bench.schema_validation import validate_against_schema
+
+__all__ = ["SIM_DEFAULTS", "available_rigs", "load_rig_description", "rig_description_from_dict"]
+
+
+#: Sections built into their own dataclass; ``as_built`` and ``nuisance`` are built apart.
+_SECTIONS: dict[str, type] = {
+    "slm": SlmConfig,
+    "spectral_camera": SpectralCameraConfig,
+    "relay": RelayConfig,
+    "prism": PrismConfig,
+    "blur": BlurConfig,
+    "guide_camera": GuideCameraConfig,
+    "light": LightConfig,
+    "spectral_grid": SpectralGridConfig,
+    "scenes": ScenesConfig,
+}
+
+
+def _schema() -> dict[str, Any]:
+    text = resources.files("sassi_bench.rig").joinpath("rig.schema.json").read_text()
+    return json.loads(text)
+
+
+def _validate_schema(data: dict[str, Any], source: str) -> None:
+    validate_against_schema(data, _schema(), f"rig description {source}")
+
+
+#: Values a ``backend: sim`` rig gets for keys it leaves out (or sets to null): the parts
+#: of the virtual bench itself. A real rig never gets them: these keys stay None there
+#: (the guide rendering then uses CIE 1931 -> sRGB, the radiometric response needs the
+#: lamp's temperature or a reference spectrum, the rest describe simulated parts).
+SIM_DEFAULTS: dict[str, dict[str, Any]] = {
+    "spectral_camera": {"qe": "scmos"},
+    "guide_camera": {"sensitivities": "Nikon 5100 (NPL)"},
+    "light": {"led": "LED-B3", "halogen_k": 3000.0, "fluorescent": "FL2"},
+}
+
+
+def _build(data: dict[str, Any], source: str | None) -> RigDescription:
+    bench_only = ("as_built", "nuisance")
+    kwargs: dict[str, Any] = {
+        k: v for k, v in data.items() if k not in _SECTIONS and k not in bench_only
+    }
+    for key, cls in _SECTIONS.items():
+        section = {k: v for k, v in data.get(key, {}).items() if v is not None}
+        if data["backend"] == "sim":
+            section = {**SIM_DEFAULTS.get(key, {}), **section}
+        for name, value in list(section.items()):
+            if isinstance(value, list):
+                section[name] = tuple(tuple(v) if isinstance(v, list) else v for v in value)
+        if key == "blur":
+            section["sigma_px"] = {float(k): float(v) for k, v in section["sigma_px"].items()}
+        kwargs[key] = cls(**section)
+    kwargs["lasers_nm"] = tuple(float(x) for x in data["lasers_nm"])
+    as_built = dict(data.get("as_built", {}))
+    as_built["lasers_nm"] = {float(k): float(v) for k, v in as_built.get("lasers_nm", {}).items()}
+    kwargs["as_built"] = AsBuiltConfig(**as_built)
+    kwargs["nuisance"] = NuisanceConfig(**data.get("nuisance", {}))
+    return RigDescription(source=source, **kwargs)
+
+
+def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> RigDescription:
+    """Validate a rig description given as a mapping (e.g. parsed YAML).
+
+    Raises
+    ------
+    ConfigError
+        Naming the offending key, on unknown keys, wrong types or impossible values.
+
+    Examples
+    --------
+    >>> base = load_rig_description("sim").to_dict()
+    >>> base["prism"]["apex_deg"] = 120
+    >>> try:  # doctest: +ELLIPSIS
+    ...     rig_description_from_dict(base)
+    ... except ConfigError as exc:
+    ...     print(exc)
+    rig description <dict>: prism.apex_deg: 120 is greater than the maximum of 75. Fix: correct ...
+    """
+    if not isinstance(data, dict):
+        raise ConfigError(
+            step_error(
+                f"rig description {source}",
+                f"expected a mapping of keys at the top level, got {type(data).__name__}",
+                "write the rig as YAML keys (see procedures/rigs/sim.yaml)",
+            )
+        )
+    data = json.loads(json.dumps(data))  # YAML int keys -> str, tuples -> lists
+    _validate_schema(data, source)
+    desc = _build(data, source if source != "<dict>" else None)
+    check_description(desc)
+    return desc
+
+
+def available_rigs() -> list[str]:
+    """Names of the rig descriptions shipped in ``procedures/rigs``."""
+    folder = resources.files("sassi_bench.procedures").joinpath("rigs")
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def load_rig_description(name_or_path: str | os.PathLike[str]) -> RigDescription:
+    """Load and validate a rig description by shipped name or by path.
+
+    Parameters
+    ----------
+    name_or_path
+        ``"sim"``, ``"sim-prototype"`` (files in ``procedures/rigs``) or a path to a
+        YAML file describing another rig.
+
+    Returns
+    -------
+    RigDescription
+
+    Examples
+    --------
+    >>> load_rig_description("sim-prototype").slm.width
+    1920
+    """
+    path = Path(name_or_path)
+    # A folder named like a rig (the data root keeps bundles in ``<rig>/``) is not a path.
+    if path.suffix in (".yaml", ".yml") or path.is_file():
+        if not path.is_file():
+            raise ConfigError(
+                step_error(
+                    "rig description",
+                    f"no such file {str(path)!r}",
+                    f"check the path, or use one of the shipped rigs {', '.join(available_rigs())}",
+                )
+            )
+        text = path.read_text()
+        source = str(path)
+    else:
+        resource = resources.files("sassi_bench.procedures").joinpath("rigs", f"{path}.yaml")
+        if not resource.is_file():
+            raise ConfigError(
+                step_error(
+                    "rig description",
+                    f"unknown rig {str(name_or_path)!r}{did_you_mean(path, available_rigs())}",
+                    f"use one of {', '.join(available_rigs())} or a path to a YAML file",
+                )
+            )
+        text = resource.read_text()
+        source = f"procedures/rigs/{path}.yaml"
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(
+            step_error(
+                f"rig description {source}",
+                f"not valid YAML ({' '.join(str(exc).split())})",
+                "correct the YAML syntax at the line named",
+            )
+        ) from exc
+    return rig_description_from_dict(data, source)
