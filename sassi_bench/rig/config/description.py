@@ -11,12 +11,12 @@ Examples
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from sassi_bench._shared.canonical_json import canonical_sha256
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.relay import SpectralRelay
 
@@ -232,8 +232,7 @@ class RigDescription:
         data = self.to_dict()
         if "hardware" in data:
             data["hardware"] = _without_connection(data["hardware"])
-        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
-        return hashlib.sha256(text.encode()).hexdigest()
+        return canonical_sha256(data)
 
     def nominal_relay(self) -> SpectralRelay:
         """The SLM -> spectral camera optics as described: a ray trace of the relay and prism.

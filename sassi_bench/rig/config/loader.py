@@ -15,8 +15,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from sassi_bench._shared.yaml_io import load_yaml_mapping
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.rig.config.checks import check_description
 from sassi_bench.rig.config.description import (
@@ -155,19 +154,10 @@ def load_rig_description(name_or_path: str | os.PathLike[str]) -> RigDescription
     path = Path(name_or_path)
     # A folder named like a rig (the data root keeps bundles in ``<rig>/``) is not a path.
     if path.suffix in (".yaml", ".yml") or path.is_file():
-        if not path.is_file():
-            raise ConfigError(
-                step_error(
-                    "rig description",
-                    f"no such file {str(path)!r}",
-                    f"check the path, or use one of the shipped rigs {', '.join(available_rigs())}",
-                )
-            )
-        text = path.read_text()
-        source = str(path)
+        file, source = path, str(path)
     else:
-        resource = resources.files("sassi_bench.procedures").joinpath("rigs", f"{path}.yaml")
-        if not resource.is_file():
+        file = resources.files("sassi_bench.procedures").joinpath("rigs", f"{path}.yaml")
+        if not file.is_file():
             raise ConfigError(
                 step_error(
                     "rig description",
@@ -175,16 +165,12 @@ def load_rig_description(name_or_path: str | os.PathLike[str]) -> RigDescription
                     f"use one of {', '.join(available_rigs())} or a path to a YAML file",
                 )
             )
-        text = resource.read_text()
         source = f"procedures/rigs/{path}.yaml"
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(
-            step_error(
-                f"rig description {source}",
-                f"not valid YAML ({' '.join(str(exc).split())})",
-                "correct the YAML syntax at the line named",
-            )
-        ) from exc
+    data = load_yaml_mapping(
+        file,
+        "rig description",
+        label=source,
+        missing_fix=f"check the path, or use one of the shipped rigs {', '.join(available_rigs())}",
+        mapping_fix="write the rig as YAML keys (see procedures/rigs/sim.yaml)",
+    )
     return rig_description_from_dict(data, source)
