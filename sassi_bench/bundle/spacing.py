@@ -58,6 +58,7 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numba
 import numpy as np
@@ -214,8 +215,15 @@ def _reaches(lo, hi, pitch: int) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
     return np.ascontiguousarray(mirrored[:, ::-1]), right
 
 
+class _HasModels(Protocol):
+    """What carries calibration models: a :class:`~sassi_bench.bundle.CalibrationBundle`."""
+
+    @property
+    def models(self) -> CalibrationModels: ...
+
+
 def mask_spacing(
-    models: CalibrationModels,
+    calibration: CalibrationModels | _HasModels,
     *,
     blur_sigmas: float = BLUR_SIGMAS,
     margin_px: float = MARGIN_PX,
@@ -226,8 +234,8 @@ def mask_spacing(
 
     Parameters
     ----------
-    models
-        The calibration's models (a bundle's ``models``): dispersion, bins and blur.
+    calibration
+        A bundle, or its ``models`` (dispersion, bins and blur: all the rule needs).
     blur_sigmas
         Blur sigmas added at each end of a streak's footprint, horizontally (with the
         sigma at that end) and vertically (with the largest sigma). 3 keeps every pair of
@@ -262,6 +270,7 @@ def mask_spacing(
     (192, 208, 246, 394)
     """
     step = "mask spacing"
+    models = getattr(calibration, "models", calibration)
     if not (np.isfinite(blur_sigmas) and blur_sigmas >= 0):
         raise BundleError(step_error(step, f"blur_sigmas is {blur_sigmas}", "pass a number >= 0"))
     if not (np.isfinite(margin_px) and margin_px >= 0):
