@@ -2,9 +2,9 @@
 
 Under a laser line the SLM -> camera map is a smooth warp. Each SLM axis ("x": columns
 u, "y": rows v) is coded twice: a Gray code in blocks of ``block`` px gives the block
-each camera pixel sees (:mod:`~sassi_bench.calibrate.gray_code`, robust and coarse),
+each camera pixel sees (:mod:`~sassi_bench.calibrate.gray_decode`, robust and coarse),
 phase-shifted fringes give the position within a period to a small fraction of a pixel
-(:mod:`~sassi_bench.calibrate.phase_shift`), and the Gray estimate picks the period.
+(:mod:`~sassi_bench.calibrate.phase_decode`), and the Gray estimate picks the period.
 :func:`decode_axis` combines them for one axis and excludes the pixels it cannot trust
 (:mod:`~sassi_bench.calibrate.pixel_validity`); :func:`decode_correspondences` pairs
 the two axes.
@@ -31,8 +31,8 @@ from sassi_bench.calibrate.frame_stacks import (
     frame_stack,
     subtract_dark,
 )
-from sassi_bench.calibrate.gray_code import check_block, decode_gray
-from sassi_bench.calibrate.phase_shift import blur_from_modulation, decode_phase, unwrap
+from sassi_bench.calibrate.gray_decode import check_block, decode_gray
+from sassi_bench.calibrate.phase_decode import blur_from_modulation, decode_phase, unwrap
 from sassi_bench.calibrate.pixel_validity import (
     first_reason,
     local_outliers,
@@ -75,7 +75,7 @@ class AxisDecode:
     blur_sigma
         Line-spread sigma along the axis (SLM px), estimated from the median
         modulation depth of the decodable pixels (see
-        :func:`~sassi_bench.calibrate.phase_shift.blur_from_modulation`).
+        :func:`~sassi_bench.calibrate.phase_decode.blur_from_modulation`).
     edge_margin
         The border margin (SLM px) the ``edge`` test used.
     """
@@ -189,7 +189,7 @@ def decode_axis(
         SLM, which pulls the decoded position inwards (by ~0.4 px on the border
         itself at sigma 0.5 px). By default the margin is ``0.5 + 2.5 sigma``, with
         the blur sigma estimated from the fringes' modulation depth
-        (:func:`~sassi_bench.calibrate.phase_shift.blur_from_modulation`).
+        (:func:`~sassi_bench.calibrate.phase_decode.blur_from_modulation`).
     ``outlier``
         The coordinate lies more than ``max_jump`` SLM px from the median of the
         valid pixels within 2 camera px: the map is smooth, so the pixel decoded a

@@ -12,7 +12,7 @@ from scipy.special import ndtr
 import sassi_bench
 from sassi_bench.acquire.patterns import gray_bit_count, render_pattern
 from sassi_bench.calibrate.grey_response import measure_grey_response, sinusoid_profile
-from sassi_bench.calibrate.phase_shift import blur_from_modulation
+from sassi_bench.calibrate.phase_decode import blur_from_modulation
 from sassi_bench.calibrate.pixel_validity import REASONS
 from sassi_bench.calibrate.structured_light import (
     AxisDecode,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sassi_bench.acquire.patterns import gray_bit_count, render_pattern
-from sassi_bench.calibrate.gray_code import decode_gray
+from sassi_bench.calibrate.gray_decode import decode_gray
 
 
 @pytest.mark.parametrize(("length", "block"), [(160, 8), (100, 8), (37, 1), (64, 4), (1920, 8)])

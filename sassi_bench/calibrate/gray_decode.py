@@ -2,7 +2,7 @@
 
 Each SLM axis is coded in blocks of ``block`` px, every bit followed by its inverse: a
 robust, coarse estimate (+-block/2) that picks the period of the phase-shifted fringes
-(:mod:`sassi_bench.calibrate.phase_shift`). Gray block ``k`` is centred on
+(:mod:`sassi_bench.calibrate.phase_decode`). Gray block ``k`` is centred on
 ``block * k + (block - 1) / 2`` (pixel centres at integers).
 """
 

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sassi_bench.calibrate.phase_shift import decode_phase, unwrap
+from sassi_bench.calibrate.phase_decode import decode_phase, unwrap
 
 PERIOD = 16
 

@@ -3,7 +3,7 @@
 ``S`` frames of transmission ``t_s(p) = 0.5 + 0.5 cos(2 pi (p - shift_s) / period)``
 along one SLM axis give every camera pixel's position within a period to a small
 fraction of a pixel; a coarse absolute estimate (the Gray-code block,
-:mod:`sassi_bench.calibrate.gray_code`) picks the period (:func:`unwrap`). The fringes'
+:mod:`sassi_bench.calibrate.gray_decode`) picks the period (:func:`unwrap`). The fringes'
 modulation depth also measures the blur (:func:`blur_from_modulation`).
 """
 
