@@ -19,7 +19,7 @@ from sassi_bench import open_rig
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.workflows.procedure import load_procedure
-from sassi_bench.workflows.spectral import analyse_sweep
+from sassi_bench.workflows.spectral_decode import analyse_sweep
 from sassi_bench.workflows.spectral_plans import sweep_plan
 
 LASER = 532.0

@@ -3,10 +3,10 @@
 A capture plan stores each frame's pattern as a *descriptor* (``{"kind": "gray", ...}``)
 rather than as pixels: sessions stay small, and analysis code regenerates exactly the
 pattern that was shown. :func:`render_pattern` turns a descriptor into a uint8 image
-(255 = fully open).
+(255 = fully open) with the renderer that :data:`PATTERN_RENDERERS` holds for its kind.
 
-Kinds
------
+Kinds (:data:`PATTERN_RENDERERS`)
+---------------------------------
 ``blank``                   all closed
 ``full``                    all open
 ``uniform``                 ``level``: one grey level everywhere
@@ -23,15 +23,18 @@ Kinds
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.errors import ProcedureError, did_you_mean, step_error
 
 __all__ = [
+    "PATTERN_RENDERERS",
+    "PatternRenderer",
     "gray_bit_count",
     "gray_code",
     "gray_pattern",
@@ -234,40 +237,119 @@ def open_pixels(
     return np.nonzero(render_pattern(descriptor, shape))
 
 
+def _render_blank(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    return np.zeros(shape, dtype=np.uint8)
+
+
+def _render_full(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    return np.full(shape, 255, dtype=np.uint8)
+
+
+def _render_uniform(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    return np.full(shape, int(descriptor["level"]), dtype=np.uint8)
+
+
+def _render_gray(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    return gray_pattern(
+        shape,
+        descriptor["axis"],
+        int(descriptor["bit"]),
+        int(descriptor["block"]),
+        bool(descriptor["inverse"]),
+    )
+
+
+def _render_periodic(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    profile = np.asarray(descriptor["profile"])
+    return periodic_pattern(shape, descriptor["axis"], profile, int(descriptor["shift"]))
+
+
+def _render_lines(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    return lines_pattern(
+        shape,
+        descriptor["axis"],
+        int(descriptor["offset"]),
+        int(descriptor["spacing"]),
+        int(descriptor.get("width", 1)),
+    )
+
+
+def _render_pinholes(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    offset = tuple(descriptor.get("offset", (0, 0)))
+    return pinhole_pattern(shape, tuple(descriptor["pitch"]), offset)
+
+
+def _render_pixels(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
+    out = np.zeros(shape, dtype=np.uint8)
+    out[_pixel_list(descriptor, shape)] = 255
+    return out
+
+
+PatternRenderer = Callable[[Mapping[str, Any], tuple[int, int]], NDArray[np.uint8]]
+
+PATTERN_RENDERERS: Mapping[str, PatternRenderer] = MappingProxyType(
+    {
+        "blank": _render_blank,
+        "full": _render_full,
+        "uniform": _render_uniform,
+        "gray": _render_gray,
+        "periodic": _render_periodic,
+        "lines": _render_lines,
+        "pinholes": _render_pinholes,
+        "pixels": _render_pixels,
+    }
+)
+"""Renderer of every pattern kind: ``renderer(descriptor, shape)`` -> uint8 image.
+
+The kinds and their descriptor keys are listed in the module docstring; sessions store
+descriptors by kind, so the mapping is read-only.
+
+Examples
+--------
+>>> sorted(PATTERN_RENDERERS)[:3]
+['blank', 'full', 'gray']
+"""
+
+
 def render_pattern(descriptor: Mapping[str, Any], shape: tuple[int, int]) -> NDArray[np.uint8]:
     """Render a pattern descriptor (see the module docstring) for an SLM of ``shape``.
+
+    Parameters
+    ----------
+    descriptor
+        ``{"kind": <a key of PATTERN_RENDERERS>, ...}`` with that kind's keys.
+    shape
+        The SLM's (height, width).
+
+    Returns
+    -------
+    ndarray
+        uint8 image of ``shape``, 255 = fully open.
+
+    Raises
+    ------
+    ProcedureError
+        For an unknown kind (naming the closest known one) or bad parameters;
+        ``KeyError`` for a missing descriptor key.
 
     Examples
     --------
     >>> render_pattern({"kind": "uniform", "level": 7}, (2, 3)).tolist()
     [[7, 7, 7], [7, 7, 7]]
+    >>> render_pattern({"kind": "pinhole"}, (2, 3))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: pattern: ... 'pinhole' (did you mean 'pinholes'?). Fix: ...
     """
     kind = descriptor.get("kind")
-    d = descriptor
-    if kind == "blank":
-        return np.zeros(shape, dtype=np.uint8)
-    if kind == "full":
-        return np.full(shape, 255, dtype=np.uint8)
-    if kind == "uniform":
-        return np.full(shape, int(d["level"]), dtype=np.uint8)
-    if kind == "gray":
-        return gray_pattern(shape, d["axis"], int(d["bit"]), int(d["block"]), bool(d["inverse"]))
-    if kind == "periodic":
-        return periodic_pattern(shape, d["axis"], np.asarray(d["profile"]), int(d["shift"]))
-    if kind == "lines":
-        return lines_pattern(
-            shape, d["axis"], int(d["offset"]), int(d["spacing"]), int(d.get("width", 1))
+    renderer = PATTERN_RENDERERS.get(kind) if isinstance(kind, str) else None
+    if renderer is None:
+        *others, last = PATTERN_RENDERERS
+        raise ProcedureError(
+            step_error(
+                "pattern",
+                f"unknown pattern kind {kind!r}{did_you_mean(kind, PATTERN_RENDERERS)}",
+                f"use {', '.join(others)} or {last}",
+            )
         )
-    if kind == "pinholes":
-        return pinhole_pattern(shape, tuple(d["pitch"]), tuple(d.get("offset", (0, 0))))
-    if kind == "pixels":
-        out = np.zeros(shape, dtype=np.uint8)
-        out[_pixel_list(d, shape)] = 255
-        return out
-    raise ProcedureError(
-        step_error(
-            "pattern",
-            f"unknown pattern kind {kind!r}",
-            "use blank, full, uniform, gray, periodic, lines, pinholes or pixels",
-        )
-    )
+    return renderer(descriptor, shape)

@@ -24,7 +24,19 @@ __all__ = ["LineCentres", "fit_line_axis", "line_centres"]
 
 @dataclass(frozen=True)
 class LineCentres:
-    """Centres of line images: camera (x, y) and the SLM coordinate of the line."""
+    """Centres of line images: camera (x, y) and the SLM coordinate of the line.
+
+    Attributes
+    ----------
+    x, y
+        Camera column and row of every centre (N,): sub-pixel across the line, the
+        pixel row (axis "x") or column (axis "y") along it.
+    slm
+        The SLM column (axis "x") or row (axis "y") of the line each centre belongs
+        to (N,).
+    skipped_frames
+        Frames whose line images could not be matched one-to-one with the open lines.
+    """
 
     x: NDArray[np.float64]
     y: NDArray[np.float64]
@@ -120,6 +132,26 @@ def line_centres(
 def fit_line_axis(centres: LineCentres, camera_shape: tuple[int, int], degree: int = 5) -> FieldFit:
     """Fit the SLM coordinate of the lines as a smooth function of camera position.
 
-    The returned fit is called with camera coordinates: ``fit(x, y)``.
+    Parameters
+    ----------
+    centres
+        From :func:`line_centres`.
+    camera_shape
+        The camera's (height, width): the polynomial's domain.
+    degree
+        Total degree of the field polynomial.
+
+    Returns
+    -------
+    FieldFit
+        Called with camera coordinates: ``fit(x, y)`` is the SLM coordinate.
+
+    Examples
+    --------
+    >>> y, x = np.mgrid[0:40:4, 0:60:3].astype(float)
+    >>> centres = LineCentres(x.ravel(), y.ravel(), 2.0 * x.ravel() + 0.1 * y.ravel(), 0)
+    >>> fit = fit_line_axis(centres, (40, 60), degree=1)
+    >>> round(float(fit(np.array([10.0]), np.array([20.0]))[0]), 6)
+    22.0
     """
     return fit_field(centres.x, centres.y, centres.slm, camera_shape, degree)

@@ -28,7 +28,7 @@ def _full(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.full import run_full_calibration
     from sassi_bench.workflows.procedure import load_procedure
-    from sassi_bench.workflows.spectral import laser_line_notes
+    from sassi_bench.workflows.spectral_analysis import laser_line_notes
 
     procedure = load_procedure("full_calibration", args.procedure)
     rig = open_rig(args.rig)
@@ -74,7 +74,8 @@ def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -
 def _spectral(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.procedure import load_procedure
-    from sassi_bench.workflows.spectral import laser_line_notes, run_spectral_calibration
+    from sassi_bench.workflows.spectral import run_spectral_calibration
+    from sassi_bench.workflows.spectral_analysis import laser_line_notes
 
     procedure = load_procedure("spectral_calibration", args.procedure)
     rig = open_rig(args.rig)

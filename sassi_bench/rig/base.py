@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -19,7 +20,14 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.frame import Frame, FrameMeta
 from sassi_bench.rig.rig import check_light
 
-__all__ = ["CameraBase", "LightSourceBase", "SlmBase", "TriggerBase", "check_pattern"]
+__all__ = [
+    "CameraBase",
+    "Exposure",
+    "LightSourceBase",
+    "SlmBase",
+    "TriggerBase",
+    "check_pattern",
+]
 
 
 def check_pattern(pattern: ArrayLike, shape: tuple[int, int]) -> NDArray[np.uint8]:
@@ -98,6 +106,37 @@ class SlmBase(ABC):
         """Put the checked uint8 pattern on the device."""
 
 
+@dataclass(frozen=True, eq=False)
+class Exposure:
+    """What a camera backend read in one exposure: the result of its ``_expose`` hook.
+
+    :meth:`CameraBase.capture` adds the exposure time, timestamp and frame index and
+    returns a :class:`~sassi_bench.rig.frame.Frame`.
+
+    Parameters
+    ----------
+    data
+        The pixels, (height, width) or (height, width, 3), unsigned integers.
+    pattern_id
+        Id of the SLM pattern on display while exposing (``None`` if none was shown).
+    light
+        Name of the selected light (``"laser:532"``, ``"off"``, ``"unknown"`` ...).
+    extra
+        Backend-specific metadata (JSON-compatible), kept as ``FrameMeta.extra``.
+
+    Examples
+    --------
+    >>> shot = Exposure(np.zeros((2, 3), np.uint16), pattern_id=4, light="led")
+    >>> shot.pattern_id, shot.light, shot.extra
+    (4, 'led', {})
+    """
+
+    data: NDArray[Any]
+    pattern_id: int | None
+    light: str
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
 class CameraBase(ABC):
     """Checked :class:`~sassi_bench.rig.protocols.Camera` implementation skeleton."""
 
@@ -150,25 +189,25 @@ class CameraBase(ABC):
         self._exposure = value
 
     def capture(self) -> Frame:
-        data, pattern_id, light, extra = self._expose()
+        shot = self._expose()
         meta = FrameMeta(
             camera=self.name,
             exposure_s=self._exposure,
             timestamp=time.time(),
-            pattern_id=pattern_id,
-            light=light,
+            pattern_id=shot.pattern_id,
+            light=shot.light,
             index=self._index,
-            extra=extra,
+            extra=shot.extra,
         )
         self._index += 1
-        return Frame(data, meta)
+        return Frame(shot.data, meta)
 
     def _set_exposure(self, seconds: float) -> None:  # noqa: B027 - optional hook
         """Send the exposure to the device (hook; the default only stores it)."""
 
     @abstractmethod
-    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
-        """Return (pixels, pattern id on display, light name, extra metadata)."""
+    def _expose(self) -> Exposure:
+        """Expose and read the device: pixels, pattern id on display, light, extras."""
 
 
 class LightSourceBase(ABC):

@@ -24,6 +24,11 @@ __all__ = ["grey_levels", "grey_plan", "laser_light", "sweep_plan"]
 def laser_light(wavelength_nm: float) -> str:
     """Light name of a laser line, e.g. ``laser:532``.
 
+    Parameters
+    ----------
+    wavelength_nm
+        The laser's labelled wavelength, nm.
+
     Examples
     --------
     >>> laser_light(532.0)
@@ -35,6 +40,11 @@ def laser_light(wavelength_nm: float) -> str:
 def grey_levels(count: int) -> list[int]:
     """``count`` grey levels spread over 0..255, always including both ends.
 
+    Parameters
+    ----------
+    count
+        How many levels (fewer when rounding makes two equal).
+
     Examples
     --------
     >>> grey_levels(5)
@@ -45,6 +55,20 @@ def grey_levels(count: int) -> list[int]:
 
 def grey_plan(procedure: Mapping[str, Any], laser_nm: float, exposure_s: float) -> Plan:
     """Uniform SLM grey levels under one laser, plus a dark frame.
+
+    Parameters
+    ----------
+    procedure
+        The validated spectral-calibration procedure (``sweep.grey_levels``).
+    laser_nm
+        The laser the response is measured under.
+    exposure_s
+        Exposure of every frame, seconds.
+
+    Returns
+    -------
+    Plan
+        Steps tagged ``role: dark`` and ``role: grey`` (with their ``level``).
 
     Examples
     --------

@@ -1,4 +1,4 @@
-"""Structured-light decoding: Gray code, phase shifting, unwrapping, masks, the virtual bench."""
+"""Structured-light decoding of one axis and of both: masks, counts, the virtual bench."""
 
 from __future__ import annotations
 
@@ -7,22 +7,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 from scipy.special import ndtr
 
 import sassi_bench
 from sassi_bench.acquire.patterns import gray_bit_count, render_pattern
 from sassi_bench.calibrate.grey_response import measure_grey_response, sinusoid_profile
+from sassi_bench.calibrate.phase_decode import blur_from_modulation
+from sassi_bench.calibrate.pixel_validity import REASONS
 from sassi_bench.calibrate.structured_light import (
-    REASONS,
     AxisDecode,
-    blur_from_modulation,
     decode_axis,
     decode_correspondences,
-    decode_gray,
-    decode_phase,
-    unwrap,
 )
 from sassi_bench.rig.sim import truth
 
@@ -203,95 +198,9 @@ def test_correspondence_arrays_match_the_maps(synthetic):
     assert np.isfinite(pairs.v_map[pairs.valid]).all()
 
 
-# -- Gray code ------------------------------------------------------------------------
-@pytest.mark.parametrize(("length", "block"), [(160, 8), (100, 8), (37, 1), (64, 4), (1920, 8)])
-def test_gray_decoding_is_exact_on_noiseless_frames(length, block):
-    shape = (2, length)
-    bits = range(gray_bit_count(length, block))
-    pos = np.stack([render_pattern({"kind": "gray", "axis": "x", "bit": b, "block": block,
-                                    "inverse": False}, shape) for b in bits])  # fmt: skip
-    neg = 255 - pos
-    coord, margin, valid = decode_gray(pos, neg, block)
-    expected = block * (np.arange(length) // block) + (block - 1) / 2
-    assert np.array_equal(coord[0], expected) and np.array_equal(coord[1], expected)
-    assert np.all(margin == 1.0) and valid.all()
-
-
-def test_gray_margin_flags_the_undecidable_bit():
-    pos = np.array([[[100.0, 100.0, 60.0]]]).repeat(2, axis=0)
-    neg = np.array([[[0.0, 100.0, 40.0]]]).repeat(2, axis=0)
-    _, margin, valid = decode_gray(pos, neg, block=8, min_margin=0.25)
-    assert margin[0].tolist() == pytest.approx([1.0, 0.0, 0.2])
-    assert valid[0].tolist() == [True, False, False]
-
-
-def test_gray_dark_is_subtracted_before_the_margin():
-    pos, neg = np.full((1, 1, 1), 1100.0), np.full((1, 1, 1), 150.0)
-    assert decode_gray(pos, neg, 8)[1].item() == pytest.approx(950 / 1250)
-    assert decode_gray(pos, neg, 8, dark=100.0)[1].item() == pytest.approx(950 / 1050)
-
-
-# -- phase ----------------------------------------------------------------------------
-@pytest.mark.parametrize(("steps", "period"), [(3, 12), (4, 16), (8, 16), (5, 16), (12, 24)])
-def test_phase_decoding_of_pure_sinusoids(steps, period):
-    rng = np.random.default_rng(steps)
-    truth_coord = rng.uniform(0, period, (6, 7))
-    offset = rng.uniform(100, 1000, (6, 7))
-    amplitude = rng.uniform(0.1, 1.0, (6, 7)) * offset
-    shifts = np.arange(steps) * period // steps  # not equally spaced for 5 steps of 16
-    frames = np.stack(
-        [offset + amplitude * np.cos(2 * np.pi * (truth_coord - s) / period) for s in shifts]
-    )
-    coord, modulation, mean = decode_phase(frames.astype(np.float32), period)
-    error = (coord - truth_coord + period / 2) % period - period / 2
-    assert np.abs(error).max() < 1e-4
-    assert np.all((coord >= 0) & (coord < period))
-    np.testing.assert_allclose(modulation, amplitude, rtol=1e-5)
-    np.testing.assert_allclose(mean, offset, rtol=1e-5)
-
-
-def test_phase_decoding_with_explicit_shifts_and_dark():
-    shifts = np.array([0.0, 3.0, 7.5, 11.0])
-    p = np.linspace(0, 15.9, 50)[None, :]
-    frames = np.stack([110 + 50 * np.cos(2 * np.pi * (p - s) / 16) for s in shifts])
-    coord, _, offset = decode_phase(frames, 16, shifts=shifts, dark=10.0)
-    # Frames are converted to float32 one by one: ~1e-7 relative precision.
-    np.testing.assert_allclose((coord - p + 8) % 16 - 8, 0.0, atol=1e-5)
-    np.testing.assert_allclose(offset, 100.0, rtol=1e-6)
-
-
-@settings(max_examples=200, deadline=None)
-@given(
-    true_coord=st.floats(0.0, 400.0),
-    coarse_error=st.floats(-7.9, 7.9),
-    noise=st.floats(-0.05, 0.05),
-)
-def test_unwrap_picks_the_right_period_even_at_period_boundaries(true_coord, coarse_error, noise):
-    measured = true_coord + noise
-    phase = np.mod(measured, PERIOD)
-    got = unwrap(phase, true_coord + coarse_error, PERIOD)
-    assert got == pytest.approx(measured, abs=1e-9)
-
-
-def test_unwrap_at_exact_boundaries():
-    phase = np.array([0.0, 15.999, 0.001, 15.999, 0.001])
-    coarse = np.array([16.0, 15.5, 16.5, 32.0 - 7.0, 7.9])
-    assert unwrap(phase, coarse, 16).tolist() == pytest.approx(
-        [16.0, 15.999, 16.001, 31.999, 0.001]
-    )
-
-
 # -- errors -----------------------------------------------------------------------------
 def test_errors_name_step_cause_and_fix():
     frames = np.zeros((4, 3, 5))
-    with pytest.raises(ValueError, match=r"phase decoding: .*\(2, 3, 5\).*Fix: pass at least 3"):
-        decode_phase(frames[:2], 16)
-    with pytest.raises(ValueError, match=r"phase decoding: phase shifts .* do not span"):
-        decode_phase(frames, 16, shifts=[0, 0, 0, 0])
-    with pytest.raises(ValueError, match=r"Gray decoding: positive frames .* differ"):
-        decode_gray(frames, frames[:3], 8)
-    with pytest.raises(ValueError, match="Gray decoding: block 0"):
-        decode_gray(frames, frames, 0)
     gray = frames[:1]  # 5 px in blocks of 8: one Gray bit
     refs = {"blank": frames[0], "full": frames[0], "length": 5}
     decode_axis(gray, gray, frames, **refs)  # well-formed input decodes (to all dark)

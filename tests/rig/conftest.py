@@ -1,5 +1,7 @@
 """Fixtures for the hardware adapters: the trigger firmware in simavr, a pty fake of
-it, a dual-head dummy X server and the GenTL producer shipped with ``genicam``.
+it, a dual-head dummy X server and the GenTL producer shipped with ``genicam``; the
+helper modules in ``hardware/`` (fakes of GenApi nodes and of pylablib's DCAM camera)
+are loaded here for the tests to share.
 
 Each skips with the reason when its system tools are missing (``.ci/run`` installs
 them).
@@ -32,6 +34,7 @@ simavr = _load("simavr_device")
 xserver = _load("xserver")
 fake_trigger_module = _load("fake_trigger")
 fake_genicam = _load("fake_genicam")
+fake_dcam = _load("fake_dcam")
 
 SLM_SIZE = (640, 400)  # the sim rig's SLM (width, height)
 

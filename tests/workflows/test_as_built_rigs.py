@@ -19,12 +19,9 @@ from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import capture_guide
 from sassi_bench.workflows.procedure import load_procedure
 from sassi_bench.workflows.scan import run_response
-from sassi_bench.workflows.spectral import (
-    analyse_spectral_sweeps,
-    capture_spectral_sweeps,
-    laser_line_notes,
-    publish_spectral,
-)
+from sassi_bench.workflows.spectral_analysis import analyse_spectral_sweeps, laser_line_notes
+from sassi_bench.workflows.spectral_capture import capture_spectral_sweeps
+from sassi_bench.workflows.spectral_publish import publish_spectral
 
 RIGS = "tests/rigs/"
 

@@ -8,7 +8,8 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.calibrate.dispersion import fit_dispersion
 from sassi_bench.errors import ConfigError
 from sassi_bench.workflows.procedure import load_procedure
-from sassi_bench.workflows.spectral import analyse_sweep, run_spectral_calibration
+from sassi_bench.workflows.spectral import run_spectral_calibration
+from sassi_bench.workflows.spectral_decode import analyse_sweep
 from sassi_bench.workflows.spectral_plans import sweep_plan
 
 
@@ -77,7 +78,7 @@ def test_resuming_with_another_procedure_is_refused(tmp_path):
 def test_fit_settings_may_change_between_capture_and_analysis():
     from types import MappingProxyType, SimpleNamespace
 
-    from sassi_bench.workflows.spectral import _check_same_procedure
+    from sassi_bench.workflows.spectral_capture import _check_same_procedure
 
     proc = load_procedure("spectral_calibration")
     stored = MappingProxyType({k: v for k, v in proc.items() if k != "source"})

@@ -11,10 +11,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from sassi_bench.errors import DeviceError, step_error
-from sassi_bench.rig.base import CameraBase
+from sassi_bench.rig.base import CameraBase, Exposure
 from sassi_bench.rig.hardware import require
 
 __all__ = ["DcamCamera", "open_dcam"]
@@ -94,7 +93,7 @@ class DcamCamera(CameraBase):
     def _set_exposure(self, seconds: float) -> None:
         self._cam.set_exposure(seconds)
 
-    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
+    def _expose(self) -> Exposure:
         pattern_id, light = self._state()
         if self.trigger == "none":
             data = self._cam.snap(timeout=self._timeout)
@@ -124,7 +123,7 @@ class DcamCamera(CameraBase):
         frame = np.asarray(data)
         if frame.dtype.kind != "u":
             frame = frame.astype(np.uint16)
-        return np.array(frame, copy=True), pattern_id, light, {}
+        return Exposure(np.array(frame, copy=True), pattern_id, light)
 
     def close(self) -> None:
         """Stop acquisition and close the camera."""

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.errors import DeviceError, step_error
-from sassi_bench.rig.base import CameraBase
+from sassi_bench.rig.base import CameraBase, Exposure
 from sassi_bench.rig.hardware import require
 
 __all__ = ["PIXEL_FORMATS", "GenICamCamera", "frame_from_component", "open_genicam"]
@@ -304,7 +304,7 @@ class GenICamCamera(CameraBase):
         while (buffer := self._ia.try_fetch(timeout=0.0)) is not None:
             buffer.queue()
 
-    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
+    def _expose(self) -> Exposure:
         pattern_id, light = self._state()
         if self.trigger == "none":
             self._ia.start()
@@ -323,7 +323,7 @@ class GenICamCamera(CameraBase):
                 for _ in range(self._settle):
                     self._fetch()
             data = self._fetch()
-        return data, pattern_id, light, {"pixel_format": self.pixel_format}
+        return Exposure(data, pattern_id, light, {"pixel_format": self.pixel_format})
 
     def close(self) -> None:
         """Stop streaming and release the camera."""

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.rig.base import CameraBase, LightSourceBase, SlmBase, TriggerBase
+from sassi_bench.rig.base import CameraBase, Exposure, LightSourceBase, SlmBase, TriggerBase
 from sassi_bench.rig.sim.bench import VirtualBench
 
 __all__ = ["SimGuideCamera", "SimLight", "SimSlm", "SimSpectralCamera", "SimTrigger"]
@@ -71,12 +69,14 @@ class SimSpectralCamera(CameraBase):
         )
         self._bench, self._slm, self._light = bench, slm, light
 
-    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
+    def _expose(self) -> Exposure:
         rate = self._bench.spectral_rate()
         rng = self._bench.noise_rng("spectral", self.exposure_s)
         rate = self._bench.nuisance.spectral_rate(rate, self._bench.light, rng)
         data = self._bench.sensor.expose(rate, self.exposure_s, rng)
-        return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
+        return Exposure(
+            data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
+        )
 
 
 class SimGuideCamera(CameraBase):
@@ -89,8 +89,10 @@ class SimGuideCamera(CameraBase):
         )
         self._bench, self._slm, self._light = bench, slm, light
 
-    def _expose(self) -> tuple[NDArray[Any], int | None, str, dict[str, Any]]:
+    def _expose(self) -> Exposure:
         rate = self._bench.guide_rate()
         rng = self._bench.noise_rng("guide", self.exposure_s)
         data = self._bench.guide_sensor.expose(rate, self.exposure_s, rng)
-        return data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
+        return Exposure(
+            data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
+        )

@@ -1,0 +1,102 @@
+"""Camera frames as the sweep decoders take them: (N, H, W) stacks and a dark level.
+
+The decoders accept raw uint16 or float frames and subtract the dark frame themselves,
+converting one frame at a time to float32 so a long sweep is never held as floats.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = ["check_frame_shape", "dark_level", "frame_stack", "subtract_dark"]
+
+
+def frame_stack(frames: ArrayLike, step: str, name: str, minimum: int = 1) -> NDArray:
+    """``frames`` as an (N, H, W) array, dtype kept, with at least ``minimum`` frames.
+
+    Parameters
+    ----------
+    frames
+        The stacked frames.
+    step, name
+        The decoding step and the argument's name, for the error message.
+    minimum
+        The fewest frames the step needs.
+
+    Raises
+    ------
+    ProcedureError
+        For a stack that is not 3-D or has too few frames.
+
+    Examples
+    --------
+    >>> frame_stack(np.zeros((3, 2, 4), np.uint16), "phase decoding", "phase").shape
+    (3, 2, 4)
+    >>> frame_stack(np.zeros((2, 4)), "phase decoding", "phase")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: phase decoding: phase has shape (2, 4). Fix: ...
+    """
+    arr = np.asarray(frames)
+    if arr.ndim != 3 or arr.shape[0] < minimum:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"{name} has shape {arr.shape}",
+                f"pass at least {minimum} frame(s) stacked as (N, H, W)",
+            )
+        )
+    return arr
+
+
+def check_frame_shape(
+    shape: tuple[int, ...], expected: tuple[int, ...], step: str, name: str
+) -> None:
+    """Refuse frames ``name`` of ``shape`` when the other frames are ``expected``.
+
+    Examples
+    --------
+    >>> check_frame_shape((4, 5), (4, 5), "Gray decoding", "dark")
+    >>> check_frame_shape((4, 6), (4, 5), "Gray decoding", "dark")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: Gray decoding: dark frames are (4, 6), the others ...
+    """
+    if tuple(shape) != tuple(expected):
+        raise ProcedureError(
+            step_error(
+                step,
+                f"{name} frames are {tuple(shape)}, the others are {tuple(expected)}",
+                "pass frames of one camera, all of the same shape",
+            )
+        )
+
+
+def dark_level(dark: ArrayLike | None, shape: tuple[int, ...], step: str) -> NDArray[np.float32]:
+    """The dark frame as float32 (H, W), or a float32 scalar (0 for ``None``).
+
+    Examples
+    --------
+    >>> float(dark_level(None, (2, 3), "Gray decoding")), dark_level(7, (2, 3), "x").dtype
+    (0.0, dtype('float32'))
+    """
+    if dark is None:
+        return np.float32(0.0)
+    arr = np.asarray(dark, dtype=np.float32)
+    if arr.ndim != 0:
+        check_frame_shape(arr.shape, shape, step, "dark")
+    return arr
+
+
+def subtract_dark(raw: ArrayLike, dark: NDArray[np.float32]) -> NDArray[np.float32]:
+    """One raw frame as float32, minus the dark level.
+
+    Examples
+    --------
+    >>> subtract_dark(np.array([[110, 90]], np.uint16), np.float32(100.0)).tolist()
+    [[10.0, -10.0]]
+    """
+    return np.asarray(raw, dtype=np.float32) - dark

@@ -1,0 +1,351 @@
+"""What the spectral calibration's sessions measure, read back from their frames.
+
+The grey-level session gives the SLM's grey-level response
+(:func:`measure_response`); the sweep session gives every laser's camera <-> SLM
+correspondences and their smooth field maps (:func:`analyse_sweep`, structured light
+or the paper's line sweep) and the blur from its pinhole frames
+(:func:`blur_from_pinholes`). Frames are selected by the tags of the plans in
+:mod:`sassi_bench.workflows.spectral_plans`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.acquire.session import Session
+from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
+from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap
+from sassi_bench.calibrate.field import fit_field
+from sassi_bench.calibrate.grey_response import GreyResponse, measure_grey_response
+from sassi_bench.calibrate.line_sweep import fit_line_axis, line_centres
+from sassi_bench.calibrate.structured_light import decode_axis
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = [
+    "LaserDecode",
+    "SweepDecode",
+    "analyse_sweep",
+    "blur_from_pinholes",
+    "excluded_regions",
+    "measure_response",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class SweepDecode:
+    """One laser's decoded correspondences, before the field fit.
+
+    Attributes
+    ----------
+    camera_x, camera_y
+        Camera column and row of every decoded pixel (N,).
+    slm_u, slm_v
+        Their SLM column and row (N,).
+    valid_fraction
+        Share of the camera pixels the open SLM lights that were decoded.
+    counts
+        Decoding diagnostics, stored in the bundle's quality section: per-axis reason
+        counts (``x_valid``, ``y_dark`` ...) for structured light; skipped frames,
+        pixels outside the SLM and the line fits' RMS (``x_line_fit_rms_slm_px``) for
+        the line sweep.
+    """
+
+    camera_x: NDArray[np.float64]
+    camera_y: NDArray[np.float64]
+    slm_u: NDArray[np.float64]
+    slm_v: NDArray[np.float64]
+    valid_fraction: float
+    counts: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class LaserDecode:
+    """What one laser's sweep gave: correspondences, their smooth map, and counts."""
+
+    wavelength_nm: float
+    camera_x: NDArray[np.float64]
+    camera_y: NDArray[np.float64]
+    slm_u: NDArray[np.float64]
+    slm_v: NDArray[np.float64]
+    valid_fraction: float
+    counts: dict[str, int]
+    laser_map: LaserMap
+    residual_rms_px: float
+    """Scatter of the raw measurements about the smooth map, camera px: decoded pixels
+    about the field fit (structured), line centres about their fits (lines)."""
+
+
+def _frames(session: Session, indices: list[int]) -> NDArray[np.float32]:
+    return session.read_frames(indices).astype(np.float32)
+
+
+def _one(session: Session, **tags) -> NDArray[np.float32]:
+    indices = session.plan.select(**tags)
+    if not indices:
+        raise ProcedureError(
+            step_error("spectral analysis", f"no frame tagged {tags}", "re-run the capture")
+        )
+    return _frames(session, indices).mean(axis=0)
+
+
+def measure_response(session: Session, saturation: float) -> GreyResponse:
+    """The SLM's grey-level response from a grey-level session.
+
+    Parameters
+    ----------
+    session
+        A session of :func:`~sassi_bench.workflows.spectral_plans.grey_plan`.
+    saturation
+        Raw value at which the spectral camera saturates.
+
+    Returns
+    -------
+    GreyResponse
+
+    Examples
+    --------
+    >>> response = measure_response(sweeps.grey, saturation=65535)  # doctest: +SKIP
+    """
+    plan = session.plan
+    indices = plan.select(role="grey")
+    levels = [plan.steps[i].tags["level"] for i in indices]
+    dark = _one(session, role="dark")
+    return measure_grey_response(
+        levels, _frames(session, indices), dark, saturation_level=saturation
+    )
+
+
+def _lit(full: NDArray, blank: NDArray) -> NDArray[np.bool_]:
+    """Camera pixels the open SLM lights (the denominator of the valid fraction)."""
+    signal = full - blank
+    return signal > 0.1 * np.percentile(signal, 99.5)
+
+
+def _structured_decode(
+    session: Session, proc, laser: float, slm_shape, saturation: float
+) -> SweepDecode:
+    sweep = proc["sweep"]
+    plan = session.plan
+    dark = _one(session, role="dark", laser=laser)
+    blank = _one(session, role="blank", laser=laser)
+    full = _one(session, role="full", laser=laser)
+    axes = {}
+    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
+        pos = plan.select(role="gray", laser=laser, axis=axis, inverse=False)
+        neg = plan.select(role="gray", laser=laser, axis=axis, inverse=True)
+        phase = plan.select(role="phase", laser=laser, axis=axis)
+        axes[axis] = decode_axis(
+            _frames(session, pos),
+            _frames(session, neg),
+            _frames(session, phase),
+            blank=blank,
+            full=full,
+            length=length,
+            dark=dark,
+            block=int(sweep.get("gray_block_px", 8)),
+            period=int(sweep.get("phase_period_px", 16)),
+            saturation_level=saturation,
+            min_modulation=float(sweep.get("min_modulation", 0.2)),
+        )
+    valid = axes["x"].valid & axes["y"].valid
+    lit = _lit(full, blank)
+    rows, cols = np.nonzero(valid)
+    counts = {f"{axis}_{k}": v for axis, dec in axes.items() for k, v in dec.counts.items()}
+    return SweepDecode(
+        camera_x=cols.astype(np.float64),
+        camera_y=rows.astype(np.float64),
+        slm_u=axes["x"].coord[rows, cols],
+        slm_v=axes["y"].coord[rows, cols],
+        valid_fraction=float((valid & lit).sum() / max(lit.sum(), 1)),
+        counts=counts,
+    )
+
+
+def _line_decode(session: Session, proc, laser: float, slm_shape, saturation: float) -> SweepDecode:
+    sweep = proc["sweep"]
+    plan = session.plan
+    blank = _one(session, role="blank", laser=laser)
+    full = _one(session, role="full", laser=laser)
+    camera_shape = blank.shape
+    fits = {}
+    skipped = 0
+    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
+        indices = plan.select(role="line", laser=laser, axis=axis)
+        offsets = [plan.steps[i].tags["offset"] for i in indices]
+        signals = [session.read_frame(i).astype(np.float32) - blank for i in indices]
+        centres = line_centres(
+            signals, offsets, int(sweep.get("line_spacing_px", 64)), axis, length
+        )
+        skipped += centres.skipped_frames
+        fits[axis] = fit_line_axis(centres, camera_shape, int(proc["fit"].get("field_degree", 5)))
+    lit = _lit(full, blank)
+    rows, cols = np.nonzero(lit)
+    x, y = cols.astype(np.float64), rows.astype(np.float64)
+    u, v = fits["x"](x, y), fits["y"](x, y)
+    inside = (u >= 0) & (u <= slm_shape[1] - 1) & (v >= 0) & (v <= slm_shape[0] - 1)
+    counts = {"skipped_frames": skipped, "outside_slm": int((~inside).sum())}
+    counts.update({f"{a}_line_fit_rms_slm_px": round(f.rms, 4) for a, f in fits.items()})
+    return SweepDecode(x[inside], y[inside], u[inside], v[inside], float(inside.mean()), counts)
+
+
+def excluded_regions(
+    u: NDArray, v: NDArray, regions: Sequence[Sequence[float]]
+) -> NDArray[np.bool_]:
+    """Whether SLM points (u, v) fall in any [row0, col0, row1, col1] rectangle.
+
+    Parameters
+    ----------
+    u, v
+        SLM column and row of the points.
+    regions
+        Rectangles ``[row0, col0, row1, col1]`` (SLM px; end exclusive), as the
+        procedure's ``fit.exclude_regions_slm_px`` lists them.
+
+    Returns
+    -------
+    ndarray
+        Boolean, the shape of ``u``.
+
+    Examples
+    --------
+    >>> excluded_regions(np.array([5.0, 50.0]), np.array([5.0, 5.0]), [[0, 0, 10, 10]]).tolist()
+    [True, False]
+    """
+    out = np.zeros(np.shape(u), dtype=bool)
+    for row0, col0, row1, col1 in regions:
+        out |= (v >= row0) & (v < row1) & (u >= col0) & (u < col1)
+    return out
+
+
+def analyse_sweep(
+    session: Session, proc: Mapping[str, Any], slm_shape: tuple[int, int], saturation: float
+) -> list[LaserDecode]:
+    """Decode every laser of a sweep session and fit its smooth field map.
+
+    Parameters
+    ----------
+    session
+        A session of :func:`~sassi_bench.workflows.spectral_plans.sweep_plan`.
+    proc
+        The spectral-calibration procedure (``sweep.mode``, the fit's degree and
+        excluded regions).
+    slm_shape
+        SLM (height, width).
+    saturation
+        Raw value at which the spectral camera saturates.
+
+    Returns
+    -------
+    list of LaserDecode
+        One per laser of the session, in order of wavelength.
+
+    Raises
+    ------
+    ProcedureError
+        When a laser's sweep decodes fewer than 1000 camera pixels.
+
+    Examples
+    --------
+    >>> decoded = analyse_sweep(sweeps.sweep, proc, rig.slm.shape, 65535)  # doctest: +SKIP
+    >>> [d.wavelength_nm for d in decoded]  # doctest: +SKIP
+    [450.0, 520.0, 532.0, 635.0, 670.0]
+    """
+    degree = int(proc["fit"].get("field_degree", 5))
+    out = []
+    lasers = sorted(
+        {float(s.tags["laser"]) for s in session.plan.steps if s.tags.get("role") == "full"}
+    )
+    for laser in lasers:
+        decode = _structured_decode if proc["sweep"]["mode"] == "structured" else _line_decode
+        pairs = decode(session, proc, laser, slm_shape, saturation)
+        counts = pairs.counts
+        if pairs.camera_x.size < 1000:
+            raise ProcedureError(
+                step_error(
+                    f"sweep decoding at {laser:g} nm",
+                    f"only {pairs.camera_x.size} camera pixels decoded ({counts})",
+                    "check the exposure (saturated or too dark frames) and the laser",
+                )
+            )
+        keep = ~excluded_regions(
+            pairs.slm_u, pairs.slm_v, proc["fit"].get("exclude_regions_slm_px", [])
+        )
+        x, y = pairs.camera_x[keep], pairs.camera_y[keep]
+        u, v = pairs.slm_u[keep], pairs.slm_v[keep]
+        fx = fit_field(u, v, x, slm_shape, degree)
+        fy = fit_field(u, v, y, slm_shape, degree)
+        if "x_line_fit_rms_slm_px" in counts:
+            # Line centres scatter in SLM px; convert with the local magnification.
+            h, w = slm_shape
+            scale = float(np.diff(fx(np.array([w / 2 - 1, w / 2 + 1]), h / 2))[0] / 2)
+            slm_rms = np.hypot(counts["x_line_fit_rms_slm_px"], counts["y_line_fit_rms_slm_px"])
+            residual = float(slm_rms * abs(scale))
+        else:
+            residual = float(np.hypot(fx.rms, fy.rms))
+        laser_map = LaserMap(laser, fx, fy, x.size, counts)
+        out.append(
+            LaserDecode(laser, x, y, u, v, pairs.valid_fraction, counts, laser_map, residual)
+        )
+    return out
+
+
+def blur_from_pinholes(
+    session: Session,
+    proc: Mapping[str, Any],
+    dispersion: DispersionFit,
+    slm_shape: tuple[int, int],
+    saturation: float,
+) -> BlurFit:
+    """Fit the blur model to the spot widths of the sweep session's pinhole frames.
+
+    The dispersion model places every pinhole's streak; the median spot width across
+    the streaks gives one sigma per laser line, and the lines together the blur model.
+
+    Parameters
+    ----------
+    session
+        A session of :func:`~sassi_bench.workflows.spectral_plans.sweep_plan`.
+    proc
+        The spectral-calibration procedure (``blur.pinhole_pitch_px``,
+        ``blur.window_sigmas``).
+    dispersion
+        The fitted dispersion (and each line's fitted wavelength).
+    slm_shape
+        SLM (height, width).
+    saturation
+        Raw value at which the spectral camera saturates; saturated pixels are left out.
+
+    Returns
+    -------
+    BlurFit
+
+    Examples
+    --------
+    >>> blur = blur_from_pinholes(sweep, proc, dispersion, (400, 640), 65535)  # doctest: +SKIP
+    """
+    plan = session.plan
+    pitch = [int(p) for p in proc["blur"].get("pinhole_pitch_px", [40, 40])]
+    lasers = sorted(
+        {float(s.tags["laser"]) for s in plan.steps if s.tags.get("role") == "pinholes"}
+    )
+    sigmas = []
+    for laser in lasers:
+        indices = plan.select(role="pinholes", laser=laser)
+        frames = _frames(session, indices)
+        signal = frames.mean(axis=0) - _one(session, role="blur-blank", laser=laser)
+        pattern_rows, pattern_cols = np.mgrid[
+            pitch[1] // 2 : slm_shape[0] : pitch[1], pitch[0] // 2 : slm_shape[1] : pitch[0]
+        ]
+        wavelength = dispersion.wavelengths_nm.get(laser, laser)
+        x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), wavelength)
+        widths = measure_spot_widths(
+            signal, x, y, 1.5, saturated=(frames >= saturation).any(axis=0)
+        )
+        sigmas.append(widths.median_sigma_y)
+    wavelengths = [dispersion.wavelengths_nm.get(laser, laser) for laser in lasers]
+    return fit_blur(wavelengths, sigmas, float(proc["blur"].get("window_sigmas", 3.0)))

@@ -1,0 +1,134 @@
+"""The publish stage of the spectral calibration: report figures and the bundle.
+
+:func:`render_figures` renders the plots into the result; :func:`publish_spectral`
+writes the models, the quality section (checks named ``spectral.<check>``, residuals,
+laser lines, notes), the procedure, the input sessions and the figures as a new
+calibration bundle.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sassi_bench.bundle import publish
+from sassi_bench.bundle.derive import stage_checks
+from sassi_bench.workflows.spectral_analysis import SpectralCalibration, laser_line_notes
+
+__all__ = ["publish_spectral", "quality_section", "render_figures"]
+
+
+def render_figures(result: SpectralCalibration) -> None:
+    """Render the calibration's plots into ``result.figures`` (PNG bytes by name).
+
+    Parameters
+    ----------
+    result
+        An analysed spectral calibration; its ``figures`` are replaced.
+
+    Examples
+    --------
+    >>> render_figures(result)  # doctest: +SKIP
+    >>> sorted(result.figures)  # doctest: +SKIP
+    ['blur', 'dispersion', 'residual_maps']
+    """
+    from sassi_bench.plots.png import figure_png
+    from sassi_bench.plots.spectral import spectral_figures
+
+    result.figures = {name: figure_png(fig) for name, fig in spectral_figures(result).items()}
+
+
+def quality_section(result: SpectralCalibration) -> dict[str, Any]:
+    """The ``quality`` section of the bundle manifest (checks named ``spectral.<check>``).
+
+    Parameters
+    ----------
+    result
+        An analysed spectral calibration.
+
+    Returns
+    -------
+    dict
+        ``checks``, ``residuals``, ``leave_one_out``, ``laser_lines`` and ``notes``,
+        JSON-compatible.
+
+    Examples
+    --------
+    >>> sorted(quality_section(result))  # doctest: +SKIP
+    ['checks', 'laser_lines', 'leave_one_out', 'notes', 'residuals']
+    """
+    disp = result.dispersion
+    return {
+        "checks": stage_checks("spectral", result.checks),
+        "residuals": {
+            "correspondence_rms_px": {
+                f"{d.wavelength_nm:g}": d.residual_rms_px for d in result.lasers
+            },
+            "valid_fraction": {f"{d.wavelength_nm:g}": d.valid_fraction for d in result.lasers},
+            "decode_counts": {f"{d.wavelength_nm:g}": d.counts for d in result.lasers},
+            "dispersion_residual_px": {f"{k:g}": v for k, v in disp.residual_px.items()},
+            "position_sigma_px": disp.position_sigma_px,
+            "blur_measured_sigma_px": dict(
+                zip(
+                    [f"{x:g}" for x in result.blur.wavelengths_nm],
+                    result.blur.measured_sigma_px.tolist(),
+                    strict=True,
+                )
+            ),
+        },
+        "leave_one_out": {f"{k:g}": v for k, v in disp.leave_one_out.items()},
+        "laser_lines": {
+            f"{label:g}": {
+                "label_nm": line.label_nm,
+                "estimated_nm": line.estimated_nm if np.isfinite(line.estimated_nm) else None,
+                "fitted_nm": disp.wavelengths_nm.get(label, label),
+                "from_lines_nm": list(line.from_lines),
+                "off_label": line.off_label,
+            }
+            for label, line in result.laser_lines.items()
+        },
+        "notes": laser_line_notes(result),
+    }
+
+
+def publish_spectral(
+    result: SpectralCalibration,
+    *,
+    data: str | os.PathLike[str] | None = None,
+    allow_failed: bool = False,
+) -> Path:
+    """Publish the spectral calibration as a bundle (plots go under ``report/``).
+
+    Parameters
+    ----------
+    result
+        An analysed spectral calibration, with its figures rendered
+        (:func:`render_figures`) if the bundle should carry them.
+    data
+        Data root the bundle is written under.
+    allow_failed
+        Publish even when a quality check failed (the bundle records the failure).
+
+    Returns
+    -------
+    Path
+        The new bundle version's folder.
+
+    Examples
+    --------
+    >>> publish_spectral(result, data="calib_data")  # doctest: +SKIP
+    PosixPath('calib_data/sim/v0001')
+    """
+    return publish(
+        result.models(),
+        rig=result.rig_description,
+        quality=quality_section(result),
+        procedure={k: v for k, v in result.procedure.items() if k != "source"},
+        inputs=[{"id": s.id, "sha256": s.sha256(), "kind": "session"} for s in result.sessions],
+        reports={f"{name}.png": png for name, png in result.figures.items()},
+        allow_failed=allow_failed,
+        data=data,
+    )
