@@ -30,7 +30,7 @@ from sassi_bench.errors import ProcedureError, step_error
 if TYPE_CHECKING:
     from sassi_bench.bundle import CalibrationBundle
 
-__all__ = ["describe", "parse_wavelengths", "register"]
+__all__ = ["describe", "parse_quantum", "parse_wavelengths", "register"]
 
 DEFAULT_RIG = "sim"
 
@@ -104,7 +104,22 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--wavelengths",
         metavar="NM",
-        help="sassi-mat bands: 450,532,635 or START:STOP:STEP (default: the bundle's bins)",
+        help="sassi-mat bands: 450,532,635, START:STOP:STEP, 'paper' (every 10 nm inside "
+        "the bundle's range; 30 bands instead of 68 on sim) or 'bins' (default: the "
+        "bundle's bins)",
+    )
+    p.add_argument(
+        "--vsize",
+        type=int,
+        metavar="ROWS",
+        help="sassi-mat row window for cassi.py's get_cassi_cube, odd (default: the one the "
+        "bundle's blur implies; see README.txt of the export)",
+    )
+    p.add_argument(
+        "--position-quantum",
+        metavar="PX",
+        help="sassi-mat: round stored positions to this power of two of a pixel, at most "
+        "half of it off (default 1/64, files about 4x smaller); 0 stores them exactly",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_export)
@@ -292,14 +307,21 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.format == "sassi-mat":
         return _export_sassi_mat(load_bundle_ref(args.path, args.rig, args.data), args)
     source = load_bundle_ref(args.path, args.rig, args.data).path
-    if args.out is not None:
-        raise ProcedureError(
-            step_error(
-                "bundle export",
-                f"--out {args.out} is read only with --format sassi-mat",
-                "add --format sassi-mat, or give --zip OUT.zip for the bundle itself",
+    sassi_only = {
+        "--out": args.out,
+        "--wavelengths": args.wavelengths,
+        "--vsize": args.vsize,
+        "--position-quantum": args.position_quantum,
+    }
+    for option, value in sassi_only.items():
+        if value is not None:
+            raise ProcedureError(
+                step_error(
+                    "bundle export",
+                    f"{option} {value} is read only with --format sassi-mat",
+                    "add --format sassi-mat, or give --zip OUT.zip for the bundle itself",
+                )
             )
-        )
     if not args.zip:
         raise ProcedureError(
             step_error("bundle export", "no --zip OUT.zip given", "add --zip OUT.zip")
@@ -321,16 +343,21 @@ def cmd_import(args: argparse.Namespace) -> int:
     return 0
 
 
-def parse_wavelengths(text: str | None) -> np.ndarray | None:
-    """``"450,532,635"`` or ``"START:STOP:STEP"`` (STOP included when on the grid) in nm.
+def parse_wavelengths(text: str | None) -> np.ndarray | str | None:
+    """``"450,532,635"`` or ``"START:STOP:STEP"`` (STOP included when on the grid) in nm,
+    or the name of a preset (returned as it is; the export resolves it for the bundle).
 
     Examples
     --------
     >>> parse_wavelengths("400:700:100").tolist(), parse_wavelengths("450, 532").tolist()
     ([400.0, 500.0, 600.0, 700.0], [450.0, 532.0])
+    >>> parse_wavelengths("paper")
+    'paper'
     """
     if text is None:
         return None
+    if text.strip() and text.strip()[0].isalpha():
+        return text.strip()
     try:
         if ":" in text:
             start, stop, step = (float(p) for p in text.split(":"))
@@ -343,7 +370,32 @@ def parse_wavelengths(text: str | None) -> np.ndarray | None:
             step_error(
                 "bundle export",
                 f"--wavelengths {text!r} is not a list of nm",
-                "pass e.g. 450,532,635 or 400:700:5",
+                "pass e.g. 450,532,635, 400:700:5 or paper",
+            )
+        ) from None
+
+
+def parse_quantum(text: str | None) -> float:
+    """``"1/64"``, ``"0.015625"`` or ``"0"`` as px (None: the export's default).
+
+    Examples
+    --------
+    >>> parse_quantum("1/64"), parse_quantum("0"), parse_quantum(None)
+    (0.015625, 0.0, 0.015625)
+    """
+    from sassi_bench.export.sassi_mat import DEFAULT_QUANTUM_PX
+
+    if text is None:
+        return DEFAULT_QUANTUM_PX
+    try:
+        number, _, denominator = text.partition("/")
+        return float(number) / (float(denominator) if denominator else 1.0)
+    except (ValueError, ZeroDivisionError):
+        raise ProcedureError(
+            step_error(
+                "bundle export",
+                f"--position-quantum {text!r} is not a number of pixels",
+                "pass e.g. 1/64, 1/256 or 0 (exact)",
             )
         ) from None
 
@@ -357,13 +409,20 @@ def _export_sassi_mat(bundle: CalibrationBundle, args: argparse.Namespace) -> in
             step_error("bundle export", "--format sassi-mat needs --out DIR", "add --out DIR")
         )
     done = export_sassi_mat(
-        bundle, args.out, wavelengths=parse_wavelengths(args.wavelengths), progress=not args.quiet
-    )
+        bundle, args.out, wavelengths=parse_wavelengths(args.wavelengths), vsize=args.vsize,
+        position_quantum_px=parse_quantum(args.position_quantum), progress=not args.quiet,
+    )  # fmt: skip
     lam = done.wavelengths
+    quantum = done.position_quantum_px
     print(
         f"exported {bundle.rig_name}/{bundle.version} for the SASSI reconstruction code: "
         f"{lam.size} bands {lam[0]:.1f}-{lam[-1]:.1f} nm, camera {done.camera_shape}, "
         f"SLM {done.slm_shape}, {done.seconds:.1f} s"
+    )
+    print(
+        f"  row window vsize {done.vsize} (keeps {done.row_window_share.min():.0%}-"
+        f"{done.row_window_share.max():.0%} of a band's light: divide by row_window_share); "
+        + (f"positions rounded to {quantum:g} px" if quantum else "positions exact")
     )
     for name, size in done.sizes.items():
         print(f"  {done.folder / name}  ({size / 1e6:.1f} MB)")

@@ -44,6 +44,19 @@ pixels) to widen the streak mask. ``calibstack.mat`` adds ``blur_sigma_px`` (the
 bundle's blur per band) and ``ksizes`` whose windows reach 3 sigma, for whoever wants
 to replace that line; the code ignores variables it does not read.
 
+Row window: ``__main__`` hard-codes ``vsize = 3``, the rows ``_get_cassi_cube`` sums
+around each streak. ``calibstack.mat`` adds ``vsize`` (int32, odd; the window the
+bundle's blur implies, :func:`~sassi_bench.export.row_window.default_vsize`) and
+``row_window_share`` (per band, the share of the light that window keeps, to divide
+the cube by), and ``nm_per_column`` (what one sample of the cube integrates).
+
+Size: every variable is zlib-compressed (MAT v7 ``miCOMPRESSED``, which scipy and
+MATLAB read transparently). Sub-pixel float32 positions hardly compress (their low
+mantissa bits are noise), so positions are stored rounded to ``position_quantum_px``
+(1/64 px by default: at most 1/128 px off, a quarter of the calibration's own error)
+and compressed at level 6, which makes the files about four times smaller;
+``position_quantum_px=0`` stores them exactly.
+
 Each capture (``adaptive_cassi.mat``) is written by :mod:`sassi_bench.export.adaptive_cassi`.
 
 Examples
@@ -57,7 +70,6 @@ Examples
 from __future__ import annotations
 
 import os
-import textwrap
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -72,14 +84,24 @@ from sassi_bench.bundle.integrity import MANIFEST_NAME, sha256_file
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.export.camera_lookup import CameraLookup, solve_camera_lookup
 from sassi_bench.export.matfile import BandStream, write_mat
+from sassi_bench.export.row_window import (
+    check_vsize,
+    default_vsize,
+    nm_per_column,
+    row_window_share,
+)
+from sassi_bench.export.sassi_readme import readme_text
 
 __all__ = [
     "CALIBSTACK_FILE",
+    "DEFAULT_QUANTUM_PX",
     "README_FILE",
     "REVERSE_LOOKUP_FILE",
+    "WAVELENGTH_PRESETS",
     "SassiMatExport",
     "camera_shape_of",
     "export_sassi_mat",
+    "preset_wavelengths",
     "suggested_ksizes",
 ]
 
@@ -88,6 +110,17 @@ REVERSE_LOOKUP_FILE = "reverse_lookup.mat"
 README_FILE = "README.txt"
 #: SLM rows evaluated per call while building ``Xl``/``Yl`` (bounds the temporaries).
 _ROWS_PER_CHUNK = 32
+#: Default rounding of the stored positions (px): at most 1/128 px off.
+DEFAULT_QUANTUM_PX = 1.0 / 64.0
+#: zlib levels: level 6 pays off only once the noise bits are rounded away.
+_LEVEL_EXACT, _LEVEL_QUANTISED = 1, 6
+#: ``wavelengths`` presets: name -> what it selects.
+WAVELENGTH_PRESETS = {
+    "bins": "the bundle's bin centres (the default)",
+    "paper": "every multiple of 10 nm inside the bundle's range (the SASSI paper's 10 nm "
+    "resolution over the visible)",
+    "10nm": "the same as paper",
+}
 
 
 @dataclass(frozen=True)
@@ -108,6 +141,12 @@ class SassiMatExport:
         Per band, the share of camera pixels no SLM pixel reaches (stored as 0).
     seconds
         Wall time of the export.
+    vsize
+        The row window written for the authors' ``get_cassi_cube``.
+    row_window_share
+        Per band, the share of the light that window keeps.
+    position_quantum_px
+        Rounding of the stored positions (0: exact).
     """
 
     folder: Path
@@ -117,6 +156,9 @@ class SassiMatExport:
     slm_shape: tuple[int, int]
     unreached_fraction: NDArray[np.float64]
     seconds: float
+    vsize: int
+    row_window_share: NDArray[np.float64]
+    position_quantum_px: float
 
     @property
     def sizes(self) -> dict[str, int]:
@@ -160,7 +202,32 @@ def suggested_ksizes(sigma_px: ArrayLike) -> NDArray[np.float64]:
     return np.ceil(3.0 * np.asarray(sigma_px, dtype=np.float64)) + 0.5
 
 
-def _bands(wavelengths: ArrayLike | None, bundle: CalibrationBundle) -> NDArray[np.float64]:
+def preset_wavelengths(name: str, bundle: CalibrationBundle) -> NDArray[np.float64]:
+    """The bands of a :data:`WAVELENGTH_PRESETS` name for ``bundle``.
+
+    Examples
+    --------
+    >>> preset_wavelengths("paper", bundle)[[0, -1]]  # doctest: +SKIP
+    array([410., 700.])
+    """
+    key = name.strip().lower()
+    if key == "bins":
+        return np.asarray(bundle.wavelengths, dtype=np.float64)
+    if key in ("paper", "10nm"):
+        edges = bundle.bin_edges
+        return 10.0 * np.arange(np.ceil(edges[0] / 10.0), np.floor(edges[-1] / 10.0) + 1)
+    raise ProcedureError(
+        step_error(
+            "sassi-mat export",
+            f"no wavelength preset {name!r}",
+            f"use one of {', '.join(WAVELENGTH_PRESETS)}, or a list of nm",
+        )
+    )
+
+
+def _bands(wavelengths: ArrayLike | str | None, bundle: CalibrationBundle) -> NDArray[np.float64]:
+    if isinstance(wavelengths, str):
+        wavelengths = preset_wavelengths(wavelengths, bundle)
     lam = np.asarray(bundle.wavelengths if wavelengths is None else wavelengths, float)
     lam = np.atleast_1d(lam)
     edges = bundle.bin_edges
@@ -175,7 +242,8 @@ def _bands(wavelengths: ArrayLike | None, bundle: CalibrationBundle) -> NDArray[
                 "sassi-mat export",
                 f"bands {outside.tolist()} nm lie outside the bundle's calibrated range "
                 f"{edges[0]:.1f}-{edges[-1]:.1f} nm",
-                "choose bands inside that range (the default is the bundle's bin centres)",
+                "choose bands inside that range (the default is the bundle's bin centres; "
+                "--wavelengths paper takes the 10 nm grid inside it)",
             )
         )
     if np.any(np.diff(lam) <= 0):
@@ -185,11 +253,42 @@ def _bands(wavelengths: ArrayLike | None, bundle: CalibrationBundle) -> NDArray[
     return lam
 
 
+def _check_quantum(quantum: float) -> float:
+    """0 (exact) or a power of two in px (so that float32 holds the rounded values
+    exactly)."""
+    quantum = float(quantum)
+    if quantum == 0.0:
+        return 0.0
+    exponent = np.log2(quantum) if quantum > 0 else np.nan
+    if not (np.isfinite(exponent) and exponent == round(exponent) and -12 <= exponent <= 0):
+        raise ProcedureError(
+            step_error(
+                "sassi-mat export",
+                f"position quantum {quantum} px is not 0 or a power of two from 1/4096 to 1",
+                "pass e.g. 1/64 (the default), 1/256, or 0 for exact positions",
+            )
+        )
+    return quantum
+
+
+def _quantise(values: NDArray[np.float32], quantum: float) -> NDArray[np.float32]:
+    """Round ``values`` in place to multiples of ``quantum`` (0: leave them)."""
+    if quantum:
+        values *= np.float32(1.0 / quantum)
+        np.rint(values, out=values)
+        values *= np.float32(quantum)
+    return values
+
+
 def _calibstack_planes(
-    lookup: CameraLookup, axis: str, bar: tqdm, unreached: NDArray[np.float64] | None = None
+    lookup: CameraLookup,
+    axis: str,
+    bar: tqdm,
+    quantum: float,
+    unreached: NDArray[np.float64] | None = None,
 ) -> Iterator[NDArray[np.float32]]:
-    """1-based SLM row (``axis="v"``) or column (``"u"``) per camera pixel, band by band;
-    0 where unreached."""
+    """1-based SLM row (``axis="v"``) or column (``"u"``) per camera pixel, band by band,
+    rounded to ``quantum``; 0 where unreached."""
     for t in range(lookup.wavelengths.size):
         u, v = lookup.band(t)
         plane = v if axis == "v" else u
@@ -198,15 +297,16 @@ def _calibstack_planes(
             unreached[t] = missing.mean()
         plane += 1.0
         plane[missing] = 0.0
+        _quantise(plane, quantum)
         bar.update()
         yield plane
 
 
 def _reverse_lookup(
-    bundle: CalibrationBundle, lam: NDArray[np.float64], bar: tqdm
+    bundle: CalibrationBundle, lam: NDArray[np.float64], bar: tqdm, quantum: float
 ) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
-    """1-based camera row and column of every SLM pixel per band, band-major ``(T, W, H)``
-    (the column-major order of an ``(H, W, T)`` MATLAB array)."""
+    """1-based camera row and column of every SLM pixel per band, rounded to ``quantum``,
+    band-major ``(T, W, H)`` (the column-major order of an ``(H, W, T)`` MATLAB array)."""
     height, width = bundle.slm_shape
     rows_out = np.empty((lam.size, width, height), dtype=np.float32)
     cols_out = np.empty_like(rows_out)
@@ -218,7 +318,7 @@ def _reverse_lookup(
         rows_out[:, :, top : top + v.size] = np.transpose(y + 1.0, (2, 1, 0))
         cols_out[:, :, top : top + v.size] = np.transpose(x + 1.0, (2, 1, 0))
         bar.update(v.size)
-    return rows_out, cols_out
+    return _quantise(rows_out, quantum), _quantise(cols_out, quantum)
 
 
 def _band_major(buffer: NDArray[np.float32]) -> BandStream:
@@ -231,10 +331,12 @@ def export_sassi_mat(
     bundle: CalibrationBundle,
     out: str | os.PathLike[str],
     *,
-    wavelengths: ArrayLike | None = None,
+    wavelengths: ArrayLike | str | None = None,
     camera_shape: tuple[int, int] | None = None,
+    vsize: int | None = None,
+    position_quantum_px: float = DEFAULT_QUANTUM_PX,
     node_step: int = 8,
-    compression_level: int = 1,
+    compression_level: int | None = None,
     progress: bool = True,
 ) -> SassiMatExport:
     """Write ``calibstack.mat``, ``reverse_lookup.mat`` and ``README.txt`` into ``out``.
@@ -246,14 +348,22 @@ def export_sassi_mat(
     out
         Output folder (created; files already there are never overwritten).
     wavelengths
-        Bands in nm, increasing, inside the bundle's range (default: its bin centres).
+        Bands in nm, increasing, inside the bundle's range, or a
+        :data:`WAVELENGTH_PRESETS` name (default: the bundle's bin centres).
     camera_shape
         Spectral camera ``(H, W)`` (default: from the bundle's rig description).
+    vsize
+        Row window for the authors' ``get_cassi_cube`` (odd; default:
+        :func:`~sassi_bench.export.row_window.default_vsize` of the bundle's blur).
+    position_quantum_px
+        Store positions rounded to this (a power of two, px; at most half of it off);
+        0 stores them exactly.
     node_step
         Spacing (camera px) of the nodes at which the dispersion map is inverted exactly
         before bilinear interpolation (see :mod:`sassi_bench.export.camera_lookup`).
     compression_level
-        zlib level of the large arrays (0-9).
+        zlib level of the large arrays, 0-9 (default: 6 for rounded positions, 1 for
+        exact ones, whose noise bits no level compresses).
     progress
         Show progress bars.
 
@@ -270,6 +380,9 @@ def export_sassi_mat(
     start = time.perf_counter()
     lam = _bands(wavelengths, bundle)
     shape = camera_shape_of(bundle) if camera_shape is None else tuple(int(n) for n in camera_shape)
+    quantum = _check_quantum(position_quantum_px)
+    if compression_level is None:
+        compression_level = _LEVEL_QUANTISED if quantum else _LEVEL_EXACT
     folder = Path(out)
     targets = [folder / name for name in (CALIBSTACK_FILE, REVERSE_LOOKUP_FILE, README_FILE)]
     existing = [str(p) for p in targets if p.exists()]
@@ -286,8 +399,11 @@ def export_sassi_mat(
         "bundle_rig": bundle.rig_name,
         "bundle_version": bundle.version,
         "bundle_manifest_sha256": sha256_file(bundle.path / MANIFEST_NAME),
+        "position_quantum_px": quantum,
     }
     sigma = np.asarray(bundle.blur_width(lam), dtype=np.float64)
+    window = default_vsize(sigma) if vsize is None else check_vsize(vsize)
+    share = row_window_share(bundle, lam, window, shape)
     unreached = np.zeros(lam.size)
     n = lam.size
     with tqdm(total=n, desc="invert dispersion", unit="band", disable=not progress) as bar:
@@ -300,18 +416,23 @@ def export_sassi_mat(
                 "wavelengths": lam,
                 "blur_sigma_px": sigma,
                 "ksizes": suggested_ksizes(sigma),
+                "vsize": np.array([[window]], dtype=np.int32),
+                "row_window_share": share,
+                "nm_per_column": nm_per_column(bundle, lam, shape),
                 **identity,
                 "calibstack_row": BandStream(
-                    (*shape, n), np.float32, lambda: _calibstack_planes(lookup, "v", bar, unreached)
+                    (*shape, n),
+                    np.float32,
+                    lambda: _calibstack_planes(lookup, "v", bar, quantum, unreached),
                 ),
                 "calibstack_col": BandStream(
-                    (*shape, n), np.float32, lambda: _calibstack_planes(lookup, "u", bar)
+                    (*shape, n), np.float32, lambda: _calibstack_planes(lookup, "u", bar, quantum)
                 ),
             },
             compression_level=compression_level,
         )
     with tqdm(total=slm_h, desc=REVERSE_LOOKUP_FILE, unit="SLM row", disable=not progress) as bar:
-        camera_rows, camera_cols = _reverse_lookup(bundle, lam, bar)
+        camera_rows, camera_cols = _reverse_lookup(bundle, lam, bar, quantum)
     write_mat(
         folder / REVERSE_LOOKUP_FILE,
         {
@@ -325,8 +446,12 @@ def export_sassi_mat(
     del camera_rows, camera_cols
     readme = folder / README_FILE
     readme.write_text(
-        readme_text(bundle, lookup, unreached, identity["bundle_manifest_sha256"]), "utf-8"
-    )
+        readme_text(
+            bundle, lookup, unreached, identity["bundle_manifest_sha256"],
+            vsize=window, share=share, quantum=quantum,
+        ),
+        "utf-8",
+    )  # fmt: skip
     return SassiMatExport(
         folder=folder,
         files=tuple(targets),
@@ -335,94 +460,7 @@ def export_sassi_mat(
         slm_shape=(slm_h, slm_w),
         unreached_fraction=unreached,
         seconds=time.perf_counter() - start,
+        vsize=window,
+        row_window_share=share,
+        position_quantum_px=quantum,
     )
-
-
-def readme_text(
-    bundle: CalibrationBundle,
-    lookup: CameraLookup,
-    unreached: NDArray[np.float64],
-    manifest_sha256: str,
-) -> str:
-    """The ``README.txt`` written beside the two files."""
-    wavelengths = lookup.wavelengths
-    hc, wc = lookup.camera_shape
-    hl, wl = bundle.slm_shape
-    t = wavelengths.size
-    status = "passed" if bundle.passed else "FAILED its quality checks (published with override)"
-    body = f"""\
-    Calibration files for the SASSI reconstruction code (Image-Science-Lab-cmu/SASSI,
-    modules/cassi.py), exported by sassi-bench from a calibration bundle.
-
-    Source bundle : {bundle.rig_name}/{bundle.version} ({status})
-    Bundle path   : {bundle.path}
-    manifest.json : sha256 {manifest_sha256}
-                    (manifest.json lists the sha256 of every array of the bundle)
-    Bands         : T = {t}, {wavelengths[0]:.2f} - {wavelengths[-1]:.2f} nm
-    Camera        : Hc x Wc = {hc} x {wc} px (spectral camera)
-    SLM           : Hl x Wl = {hl} x {wl} px
-
-    Use: put both files in <root>/calibration/ (that is where cassi.py's __main__
-    loads them with scipy.io.loadmat). All indices below are MATLAB 1-based: the
-    code subtracts 1. Arrays are indexed [row, column, band] in MATLAB/numpy order
-    (scipy.io.loadmat returns them with exactly these shapes).
-
-    calibstack.mat
-      calibstack_row  single (Hc, Wc, T) = ({hc}, {wc}, {t})
-      calibstack_col  single (Hc, Wc, T)
-          For camera pixel [r, c] and band k: the SLM row / column (1-based,
-          sub-pixel) whose light of band k lands on the centre of that camera
-          pixel; the exact inverse of the bundle's dispersion map (solved by
-          Newton's method on camera nodes every {lookup.step} px, interpolated
-          bilinearly). Where several SLM pixels fall into one camera
-          pixel, this is the position under the pixel's centre; round it to get
-          the SLM pixel whose area contains that point.
-          0 (both arrays) where no SLM pixel reaches the camera pixel: after the
-          code's "- 1" that is -1, which get_cassi_img's grid_sample reads as 0
-          (zero padding), so get_offset treats the pixel as streak-free. Not NaN:
-          grid_sample mishandles NaN grids.
-          Single precision because get_cassi_img feeds them to grid_sample with a
-          float32 cube, and grid_sample refuses a grid of another dtype.
-          Share of camera pixels unreached: {unreached.min():.1%} - {unreached.max():.1%}
-          per band.
-          Note: get_cassi_img normalises a 0-based coordinate c as (2c - H)/H with
-          align_corners=False, which samples the SLM at c - 0.5 (half an SLM pixel
-          up and left). That affects only the streak mask used for the offset
-          estimate; the values stored here are the true positions.
-      wavelengths     double (1, T): band centres in nm (cassi.py ravels it).
-      blur_sigma_px   double (1, T): the bundle's Gaussian blur sigma per band
-                      (camera px). Not read by cassi.py.
-      ksizes          double (1, T): ceil(3 sigma) + 0.5, so that
-                      filtering.gaussdiskwin(ksizes[k]) spans +/- 3 sigma. cassi.py
-                      hard-codes ksizes = linspace(1, 4, T)**2 / 4 instead; to use
-                      the calibrated blur replace that line by
-                      ksizes = calibdata['ksizes'].ravel()
-                      (on the virtual bench the hard-coded windows are narrower
-                      than the blue blur: streak light beside them is taken as
-                      offset and bins below 415 nm keep under 25 % of their
-                      signal; with these ksizes the spectra agree with
-                      sassi-bench's to 3.7 % RMS per pixel, median).
-      bundle_rig, bundle_version, bundle_manifest_sha256: where this came from.
-
-    reverse_lookup.mat
-      Xl  single (Hl, Wl, T) = ({hl}, {wl}, {t}): camera ROW (1-based, sub-pixel)
-          where SLM pixel [r, c] lands in band k.
-      Yl  single (Hl, Wl, T): camera COLUMN (1-based) of the same point.
-          Xl holds rows and Yl columns, whatever the names suggest, because that is
-          what the code does: get_cassi_cube calls _get_cassi_cube(img, mask, Yl, Xl)
-          (swapped), which calls cv2.remap(img, Xl, Yl) whose first map is the
-          column (x) and second the row (y). So cv2.remap samples the camera image
-          at column Yl - 1, row Xl - 1.
-          SLM pixels whose light leaves the camera keep their outside coordinates;
-          cv2.remap's constant border reads them as 0.
-      wavelengths, bundle_rig, bundle_version, bundle_manifest_sha256: as above.
-
-    Per capture (adaptive_cassi.mat, from "sassi-bench snapshot export --format
-    sassi-mat"): lcos_mask uint8 (Hl, Wl) 0/255, cassi_img uint16 (Hc, Wc) raw
-    camera frame, guide_img_rec uint8 RGB (h2-h1, w2-w1, 3), limits int32
-    [h1 h2 w1 w2] (0-based Python slice bounds: cassi.py crops mask[h1:h2, w1:w2]).
-    limits default to the whole SLM: __main__ passes the uncropped cube from
-    get_cassi_cube with the cropped mask and guide to recon_superpixel, which only
-    works when they have one shape; with other limits crop the cube first.
-    """
-    return textwrap.dedent(body)

@@ -173,6 +173,8 @@ def bad_value(words, action, world):
         "out": missing if words == ("scan",) else afile,
         "format": "bogus",
         "wavelengths": "blue",
+        "vsize": "4",
+        "position_quantum": "0.3",
         "step": "99",
         "tag": "novalue",
         "guide_step": "99",

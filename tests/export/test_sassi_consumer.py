@@ -19,6 +19,10 @@ deblur) the bin's whole light: the expected ratio per pixel and bin is the share
 spot's rows inside the 3-row window (bilinear in the bin's row position, from the
 bundle's blur sigma) over the bin's width in camera columns. Our reference extraction
 subtracts the true background (the same exposure with the SLM closed).
+
+The last tests score both against the virtual bench's truth with the row window the
+export writes (``vsize``, ``row_window_share``), the way a lab would run their code on
+our files.
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ from scipy.io import loadmat
 from scipy.special import ndtr
 
 from sassi_bench.export.adaptive_cassi import export_adaptive_cassi
+from sassi_bench.rig.sim import truth
+from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.extract import extract_spectra
 from sassi_bench.spectra.geometry import streak_geometry
 
@@ -63,14 +69,15 @@ def streak_image(mask, calibstack_row, calibstack_col, ksizes) -> np.ndarray:
     return out
 
 
-def authors_spectra(calib, reverse, capture, ksizes):
+def authors_spectra(calib, reverse, capture, ksizes, vsize=3):
     """Steps 1-3: spectra (N, T) of the open pixels, and the pixels' (rows, cols)."""
     mask = capture["lcos_mask"].astype(np.float32) / 255
     image = capture["cassi_img"].astype(np.float32)
     streaks = streak_image(mask, calib["calibstack_row"], calib["calibstack_col"], ksizes)
     _, (iy, ix) = ndimage.distance_transform_edt(streaks != 0, return_indices=True)
     clean = np.clip(image - image[iy, ix], 0, None)
-    summed = ndimage.convolve1d(clean, np.ones(3, np.float32), axis=0, mode="constant")
+    # convolve2d(img, ones((vsize, 1)), 'same') with its zero padding, for odd vsize.
+    summed = ndimage.convolve1d(clean, np.ones(vsize, np.float32), axis=0, mode="constant")
     rows, cols = np.nonzero(mask > 0)
     x_map = np.ascontiguousarray(reverse["Yl"][rows, cols] - 1.0, dtype=np.float32)
     y_map = np.ascontiguousarray(reverse["Xl"][rows, cols] - 1.0, dtype=np.float32)
@@ -185,3 +192,70 @@ def test_hard_coded_blur_loses_the_blue(comparison):
     blue = calib["wavelengths"].ravel() < 415
     assert ratio[blue].max() < 0.6
     assert np.median(errors(theirs, ours, gain, bright)[0]) > 0.08
+
+
+def psnr_one_gain(estimate, reference) -> float:
+    """PSNR (dB) of spectra (N, B) against the truth after one least-squares gain for all
+    pixels and bands (as the scan accuracy tests score): per-band errors count."""
+    gain = (estimate * reference).sum() / (reference * reference).sum()
+    peak = (gain * reference).max()
+    return float(10 * np.log10(peak**2 / np.mean((estimate - gain * reference) ** 2)))
+
+
+@pytest.fixture(scope="module")
+def against_truth(comparison, calibrated_sim, sim_bundle, snapshot_session):
+    """PSNR at the open pixels against the truth: the authors' extraction with the
+    exported window (and with others), ours with and without the spectral deblur."""
+    bundle, _ = sim_bundle
+    calib, reverse, capture, frame, background, ours_plain, _, _ = comparison
+    ksizes = calib["ksizes"].ravel()
+    vsize = int(calib["vsize"].item())  # what a lab's cassi.py line becomes
+    rows, cols, theirs, _ = authors_spectra(calib, reverse, capture, ksizes, vsize=vsize)
+    light = snapshot_session.plan.steps[0].light
+    scene = snapshot_session.plan.parameters["scene"]
+    reference = truth(calibrated_sim[0]).binned_cube(bundle.bin_edges, light, scene)[rows, cols]
+    # Their value is the light of one camera column: per bin it is that times the columns
+    # a bin spans (about 1 on the sim bench, whose bins are one column wide).
+    columns_per_bin = np.diff(bundle.bin_edges) / calib["nm_per_column"].ravel()
+    share = calib["row_window_share"].ravel()
+    geometry = streak_geometry(bundle, rows, cols)
+    deblurred, _ = extract_spectra(
+        frame - background, geometry, deblur=SpectralDeblur.from_bundle(bundle)
+    )
+    wide = 2 * int(np.ceil(calib["blur_sigma_px"].max())) + 1
+    _, _, theirs_wide, _ = authors_spectra(calib, reverse, capture, ksizes, vsize=wide)
+    scores = {
+        "theirs": psnr_one_gain(theirs / share * columns_per_bin, reference),
+        "theirs_undivided": psnr_one_gain(theirs * columns_per_bin, reference),
+        "theirs_wide_undivided": psnr_one_gain(theirs_wide * columns_per_bin, reference),
+        "ours": psnr_one_gain(deblurred, reference),
+        "ours_without_deblur": psnr_one_gain(ours_plain, reference),
+    }
+    print("PSNR (dB) at the open pixels against the truth:", scores)  # shown with -s
+    return vsize, wide, scores
+
+
+def test_authors_extraction_with_the_exported_window_is_as_good_as_ours_without_deblur(
+    against_truth,
+):
+    """With ``vsize`` from calibstack.mat and the cube divided by ``row_window_share``
+    their extraction is within 2 dB of ours without its spectral deblur (measured: 33.5
+    against 32.5 dB), and far better than without the division (24.2 dB: the red bands
+    keep a third of their light in 3 rows) or with the window the widest blur implies
+    and no division (the issue's ask: 30.0 dB at 9 rows; wider windows add their offset
+    estimate's noise)."""
+    vsize, wide, scores = against_truth
+    assert vsize == 3 and wide == 9
+    assert scores["theirs"] >= scores["ours_without_deblur"] - 2.0, scores
+    assert scores["theirs"] >= scores["theirs_undivided"] + 5.0, scores
+    assert scores["theirs"] >= scores["theirs_wide_undivided"] + 2.0, scores
+
+
+def test_the_spectral_deblur_is_what_their_code_misses(against_truth):
+    """ "Within 2 dB of our own extraction" cannot be met by their algorithm: it does not
+    undo the spectral blur, which is worth 6.6 dB here (39.1 against 32.5 dB at the open
+    pixels; 5.5 dB on an adaptive snapshot of the natural scene). Their extraction sits at
+    our no-deblur level."""
+    _, _, scores = against_truth
+    assert scores["ours"] - scores["ours_without_deblur"] >= 4.0, scores
+    assert scores["ours"] - scores["theirs"] >= 4.0, scores
