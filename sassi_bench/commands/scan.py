@@ -18,7 +18,7 @@ __all__ = ["register"]
 
 def _scan(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
-    from sassi_bench.spectra.cube_io import write_envi, write_netcdf
+    from sassi_bench.spectra.cube_io import units_label, write_envi, write_netcdf
     from sassi_bench.workflows.scan import check_scan, run_scan
 
     rig = open_rig(args.rig)
@@ -35,7 +35,7 @@ def _scan(args: argparse.Namespace) -> int:
     )  # fmt: skip
     ds = run.dataset()
     out = write_netcdf(ds, args.out)
-    print(f"cube {ds['radiance'].shape} ({ds['radiance'].attrs['units']}) -> {out}")
+    print(f"cube {ds['radiance'].shape} ({units_label(ds['radiance'])}) -> {out}")
     if args.envi:
         print(f"ENVI -> {write_envi(ds, args.envi)}")
     bad = int((run.scan.quality != 0).sum())

@@ -413,9 +413,12 @@ def snapshot_dataset(
     *,
     units: str,
     method: str,
+    exposure_s: float | None = None,
     attrs: dict[str, Any] | None = None,
 ) -> xr.Dataset:
-    """A reconstructed cube as an xarray Dataset like a scan cube's, with provenance.
+    """A reconstructed cube as an xarray Dataset like a scan cube's, with provenance: the
+    bundle's response when the cube was divided by it (``units`` is
+    :data:`RADIANCE_UNITS`) and the frame's exposure.
 
     Examples
     --------
@@ -438,6 +441,8 @@ def snapshot_dataset(
         bundle.wavelengths,
         bundle.bin_edges,
         units=units,
+        response=bundle.response if units == RADIANCE_UNITS else None,
+        exposure_s=exposure_s,
         title=f"SASSI snapshot ({method})",
         attrs={
             "bundle_version": bundle.version,

@@ -28,6 +28,7 @@ from sassi_bench.snapshot import (
     rank1_cube,
     ssim,
 )
+from sassi_bench.spectra.cube_io import units_label
 
 __all__ = [
     "MaskRun",
@@ -102,7 +103,7 @@ def load_scan_cube(path: str | os.PathLike[str], bundle: CalibrationBundle) -> S
         cube = ds[name].transpose("y", "x", "wavelength").values.astype(np.float32)
         lam = ds["wavelength"].values
         quality = ds["quality"].values if "quality" in ds else np.zeros(cube.shape[:2], np.uint8)
-        units = str(ds[name].attrs.get("units", ds.attrs.get("units", "")))
+        units = units_label(ds[name]) or str(ds.attrs.get("units", ""))
     if cube.shape[:2] != tuple(bundle.slm_shape) or lam.size != bundle.wavelengths.size:
         raise ProcedureError(
             step_error(

@@ -249,7 +249,8 @@ class ScanRun:
             "scene": str(self.session.plan.parameters.get("scene", "")),
             "light": str(self.session.plan.parameters.get("light", "")),
         }
-        return cube_dataset(cube, units=units, attrs=attrs)
+        response = self.bundle.response if self.radiance else None
+        return cube_dataset(cube, units=units, response=response, attrs=attrs)
 
 
 def run_scan(

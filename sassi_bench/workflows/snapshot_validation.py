@@ -27,6 +27,7 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 from sassi_bench.snapshot import random_mask, reconstruct_frame, uniform_mask
+from sassi_bench.spectra.cube_io import units_label
 from sassi_bench.validate.snapshot import (
     MaskRun,
     SnapshotValidation,
@@ -167,7 +168,7 @@ def run_snapshot(
         ds = scan_dataset = run.dataset()
         reference = ds["radiance"].transpose("y", "x", "wavelength").values.astype(np.float32)
         valid = run.scan.quality == 0
-        units = str(ds["radiance"].attrs.get("units", ""))
+        units = units_label(ds["radiance"])
         source = f"pinhole scan, session {run.session.id}"
     border = int(score_cfg["border_px"])
     if border:
