@@ -1,12 +1,16 @@
 """``sassi-bench snapshot take|reconstruct|export``: SASSI snapshots into cubes, or into the
 files of the SASSI authors' reconstruction code.
 
+Every command names a snapshot the way ``take`` prints it: the video's id (``--session
+snap``: every frame) or one frame's (``snap-f000``); see
+:mod:`sassi_bench.workflows.snapshot_ids`. ``export`` also takes any raw session with a
+spectral frame tagged ``role=snapshot`` (or ``--step``/``--tag``).
+
 Examples
 --------
 >>> from sassi_bench.commands import main
->>> main(["snapshot", "take", "--out", "snaps"])  # doctest: +SKIP
->>> main(["snapshot", "export", "--session", "snap-1", "--step", "0", "--guide-step", "1",
-...       "--out", "exp1"])  # doctest: +SKIP
+>>> main(["snapshot", "take", "--session", "snap", "--out", "snaps"])  # doctest: +SKIP
+>>> main(["snapshot", "export", "--session", "snap", "--out", "for_sassi"])  # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -30,26 +34,36 @@ from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["parse_tags", "register"]
 
+#: The tags of a snapshot frame session's spectral step (``acquire.snapshots``).
+SNAPSHOT_TAG = {"role": "snapshot"}
 
-def _write(video, bundle, procedure, out: str, envi: bool, quiet: bool) -> None:
+
+def _write(selection, bundle, procedure, out: str, envi: bool, quiet: bool) -> None:
     from tqdm.auto import tqdm
 
     from sassi_bench.workflows.snapshot import reconstruct_snapshots, write_frame
 
-    frames = reconstruct_snapshots(video, bundle, procedure, progress=not quiet)
-    for session, frame in zip(video.frames, frames, strict=True):
-        paths = write_frame(frame, bundle, out, session.id, session=session.id, envi=envi)
+    video = selection.video
+    frames = reconstruct_snapshots(
+        video, bundle, procedure, frames=selection.frames, progress=not quiet
+    )
+    for session, frame in zip(selection.sessions, frames, strict=True):
+        paths = write_frame(
+            frame, bundle, out, session.id, session=session.id, envi=envi,
+            exposure_s=video.exposures.spectral_s,
+        )  # fmt: skip
         tqdm.write(
             f"  {session.id}: {int(frame.mask.sum())} open pixels, cubes "
             f"{frame.rank1.shape} ({frame.units}) -> {paths[0].parent}"
         )
-    print(f"  quick look: {Path(out) / (video.frames[0].id + '.png')}")
+    print(f"  quick look: {Path(out) / (selection.sessions[0].id + '.png')}")
 
 
 def _take(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot import check_inputs, check_outputs_free, take_snapshots
+    from sassi_bench.workflows.snapshot_ids import SnapshotSelection
 
     if args.frames < 1:
         raise ProcedureError(
@@ -67,24 +81,34 @@ def _take(args: argparse.Namespace) -> int:
         rig, bundle, procedure, scene=args.scene, frames=args.frames, low_light=low_light,
         moving=args.moving, session_id=args.session, data=args.data, progress=not args.quiet,
     )  # fmt: skip
+    snapshot_id, last = args.session, len(video.frames) - 1
     print(f"Snapshots of {args.scene} on rig {rig.description.name} with bundle "
-          f"{bundle.rig_name}/{bundle.version}: sessions {args.session}-*")  # fmt: skip
-    _write(video, bundle, procedure, args.out, not args.no_envi, args.quiet)
+          f"{bundle.rig_name}/{bundle.version}")  # fmt: skip
     print(
-        f"next: score snapshots against a pinhole scan with `sassi-bench validate snapshot "
-        f"--rig {args.rig} --scene {args.scene} --out REPORT`"
+        f"snapshot id: {snapshot_id} (frames {snapshot_id}-f000"
+        + (f"..{snapshot_id}-f{last:03d}" if last else "")
+        + "); every `sassi-bench snapshot` command takes the id or one frame's"
+    )
+    selection = SnapshotSelection(snapshot_id, video, tuple(range(len(video.frames))), False)
+    _write(selection, bundle, procedure, args.out, not args.no_envi, args.quiet)
+    print(
+        f"next: files for the SASSI authors' code: `sassi-bench snapshot export --session "
+        f"{snapshot_id} --out DIR`;\n      score snapshots against a pinhole scan: "
+        f"`sassi-bench validate snapshot --rig {args.rig} --scene {args.scene} --out REPORT`"
     )
     return 0
 
 
 def _reconstruct(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.procedure import load_procedure
-    from sassi_bench.workflows.snapshot import check_outputs_free, open_snapshots
+    from sassi_bench.workflows.snapshot import check_outputs_free
+    from sassi_bench.workflows.snapshot_ids import resolve_snapshot
 
     procedure = load_procedure("snapshot_validation", args.procedure)
     check_output_folder("snapshot reconstruct", args.out)
-    video = open_snapshots(args.session, data=args.data)
-    check_outputs_free(args.out, [session.id for session in video.frames])
+    selection = resolve_snapshot(args.session, data=args.data, step="snapshot reconstruct")
+    video = selection.video
+    check_outputs_free(args.out, [session.id for session in selection.sessions])
     rig_name = args.rig or str(video.preview.rig.get("name", "sim"))
     bundle = load_bundle_ref(args.bundle, rig_name, args.data)
     if bundle.guide_to_slm is None or tuple(bundle.slm_shape) != video.mask(0).shape:
@@ -97,9 +121,9 @@ def _reconstruct(args: argparse.Namespace) -> int:
                 "pass the bundle of the rig that took them, with a guide homography (--bundle)",
             )
         )
-    print(f"Snapshot {args.session} ({len(video.frames)} frames) with bundle "
-          f"{bundle.rig_name}/{bundle.version}")  # fmt: skip
-    _write(video, bundle, procedure, args.out, not args.no_envi, args.quiet)
+    print(f"Snapshot {selection.prefix}: {len(selection.frames)} of {len(video.frames)} frames, "
+          f"with bundle {bundle.rig_name}/{bundle.version}")  # fmt: skip
+    _write(selection, bundle, procedure, args.out, not args.no_envi, args.quiet)
     return 0
 
 
@@ -136,25 +160,29 @@ def parse_tags(pairs: list[str] | None) -> dict[str, Any]:
     return tags
 
 
-def _snapshot_export(args: argparse.Namespace) -> int:
-    from sassi_bench.acquire.session import Session
-    from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
+def _spectral_step(session, args: argparse.Namespace) -> int:
+    """The spectral frame to export: ``--step``/``--tag``, else the one tagged
+    ``role=snapshot`` (a snapshot frame session's spectral step)."""
+    from sassi_bench.export.adaptive_cassi import select_steps
 
-    check_output_folder("snapshot export", args.out)
-    session = Session.open(args.session, data=args.data)
-    guide_session = (
-        session if args.guide_session is None else Session.open(args.guide_session, data=args.data)
-    )
-    spectral = select_steps(session, "spectral", step=args.step, tags=parse_tags(args.tag))
+    tags = parse_tags(args.tag) if args.tag else ({} if args.step is not None else SNAPSHOT_TAG)
+    spectral = select_steps(session, "spectral", step=args.step, tags=tags)
     if len(spectral) > 1:
         raise ProcedureError(
             step_error(
                 "snapshot export",
-                f"the tags {parse_tags(args.tag)} match {len(spectral)} spectral frames "
-                f"({spectral[:8]})",
+                f"the tags {tags} match {len(spectral)} spectral frames of session "
+                f"{session.id!r} ({spectral[:8]})",
                 "pass --step N or tags that match one frame",
             )
         )
+    return spectral[0]
+
+
+def _guide_steps(guide_session, args: argparse.Namespace) -> list[int]:
+    """``--guide-step``/``--guide-tag``, else the session's only guide frame."""
+    from sassi_bench.export.adaptive_cassi import select_steps
+
     if args.guide_step is None and not args.guide_tag:
         captured = [
             i for i in sorted(guide_session.completed)
@@ -169,36 +197,85 @@ def _snapshot_export(args: argparse.Namespace) -> int:
                     "pass --guide-step N (repeatable) or --guide-tag KEY=VALUE",
                 )
             )
-        guides = captured
-    else:
-        guides = []
-        for i in args.guide_step or [None]:
-            guides += select_steps(guide_session, "guide", step=i, tags=parse_tags(args.guide_tag))
-    darks = (
-        select_steps(guide_session, "guide", tags=parse_tags(args.guide_dark_tag))
-        if args.guide_dark_tag
-        else []
-    )
-    bundle = load_bundle_ref(
-        args.bundle, args.rig or str(session.rig.get("name", "sim")), args.data
-    )
-    done = export_adaptive_cassi(
-        bundle, session, spectral[0], args.out, guide_steps=sorted(set(guides)),
-        guide_session=guide_session, guide_dark_steps=darks, limits=args.limits,
-    )  # fmt: skip
-    h1, h2, w1, w2 = done.limits
-    print(
-        f"exported session {session.id!r} step {spectral[0]} ({done.open_pixels} open SLM "
-        f"pixels), guide steps {sorted(set(guides))}"
-        + (f" minus dark {darks}" if darks else "")
-        + f", bundle {bundle.rig_name}/{bundle.version}, limits [{h1} {h2} {w1} {w2}]"
-    )
-    print(f"  {done.path}")
-    for note in done.notes:
-        print(f"  note: {note}")
+        return captured
+    guides: list[int] = []
+    for i in args.guide_step or [None]:
+        guides += select_steps(guide_session, "guide", step=i, tags=parse_tags(args.guide_tag))
+    return sorted(set(guides))
+
+
+def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
+    """(session, output folder) pairs: one per frame of a snapshot video (each into its
+    own ``OUT/<frame id>``, as cassi.py reads one capture per folder), or the one frame
+    or raw session named (into ``OUT``)."""
+    from sassi_bench.acquire.session import Session, SessionError
+    from sassi_bench.workflows.snapshot_ids import resolve_snapshot, unknown_snapshot
+
+    out, step = Path(args.out), "snapshot export"
+    selection = resolve_snapshot(args.session, data=args.data, step=step, required=False)
+    if selection is None:
+        try:
+            return [(Session.open(args.session, data=args.data), out)]
+        except SessionError:
+            raise unknown_snapshot(args.session, data=args.data, step=step) from None
+    if selection.by_frame:
+        return [(selection.sessions[0], out)]
+    return [(session, out / session.id) for session in selection.sessions]
+
+
+def _snapshot_export(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.session import Session, SessionError
+    from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
+
+    check_output_folder("snapshot export", args.out)
+    targets = _sessions_to_export(args)
+    guide_override = None
+    if args.guide_session is not None:
+        try:
+            guide_override = Session.open(args.guide_session, data=args.data)
+        except SessionError:
+            raise ProcedureError(
+                step_error(
+                    "snapshot export",
+                    f"no session {args.guide_session!r} for --guide-session",
+                    "give the id or folder of the raw session holding the guide frames, and "
+                    "the same --data",
+                )
+            ) from None
+    first = targets[0][0]
+    bundle = load_bundle_ref(args.bundle, args.rig or str(first.rig.get("name", "sim")), args.data)
+    # Everything is chosen before anything is written.
+    plans = []
+    for session, folder in targets:
+        guide_session = guide_override or session
+        darks = (
+            select_steps(guide_session, "guide", tags=parse_tags(args.guide_dark_tag))
+            if args.guide_dark_tag
+            else []
+        )
+        plans.append(
+            (session, folder, _spectral_step(session, args), guide_session,
+             _guide_steps(guide_session, args), darks)
+        )  # fmt: skip
+    for session, folder, spectral, guide_session, guides, darks in plans:
+        done = export_adaptive_cassi(
+            bundle, session, spectral, folder, guide_steps=guides, guide_session=guide_session,
+            guide_dark_steps=darks, limits=args.limits,
+        )  # fmt: skip
+        h1, h2, w1, w2 = done.limits
+        print(
+            f"exported session {session.id!r} step {spectral} ({done.open_pixels} open SLM "
+            f"pixels), guide steps {guides}"
+            + (f" minus dark {darks}" if darks else "")
+            + f", bundle {bundle.rig_name}/{bundle.version}, limits [{h1} {h2} {w1} {w2}]"
+        )
+        print(f"  {done.path}")
+        for note in done.notes:
+            print(f"  note: {note}")
     print(
         "next: with the calibration files from 'sassi-bench bundle export --format sassi-mat' "
-        "in <root>/calibration/, run cassi.py with expname set to this folder's name"
+        "in <root>/calibration/, run cassi.py with expname set to "
+        + ("this folder's name" if len(plans) == 1 else "each frame folder's name")
     )
     return 0
 
@@ -213,10 +290,9 @@ def register(subparsers: Any) -> None:
     >>> args = parser.parse_args(["snapshot", "take", "--out", "snaps", "--frames", "3"])
     >>> args.func.__name__, args.frames, args.scene
     ('_take', 3, 'natural')
-    >>> args = parser.parse_args(["snapshot", "export", "--session", "s", "--step", "0",
-    ...                           "--out", "x"])
-    >>> args.func.__name__, args.format, args.limits
-    ('_snapshot_export', 'sassi-mat', None)
+    >>> args = parser.parse_args(["snapshot", "export", "--session", "s", "--out", "x"])
+    >>> args.func.__name__, args.format, args.limits, args.step
+    ('_snapshot_export', 'sassi-mat', None, None)
     """
     parser = subparsers.add_parser(
         "snapshot",
@@ -255,7 +331,10 @@ def register(subparsers: Any) -> None:
             "run's <prefix>-adaptive) and write rank-1 and guided cubes and a quick look."
         ),
     )
-    rec.add_argument("--session", required=True, help="session id prefix of the snapshot")
+    rec.add_argument(
+        "--session", required=True,
+        help="snapshot id as `snapshot take` printed it: the video (every frame) or one frame",
+    )  # fmt: skip
     rec.add_argument(
         "--bundle", default="latest",
         help="bundle version of the session's rig (v0003, 3, latest) or folder (default latest)",
@@ -274,15 +353,22 @@ def register(subparsers: Any) -> None:
         ),
     )
     p.add_argument("--format", choices=["sassi-mat"], default="sassi-mat", help="(sassi-mat)")
-    p.add_argument("--session", required=True, help="session id or folder of the spectral frame")
-    which = p.add_mutually_exclusive_group(required=True)
-    which.add_argument("--step", type=int, help="plan step index of the spectral frame")
+    p.add_argument(
+        "--session", required=True,
+        help="snapshot id as `snapshot take` printed it (the video: one folder per frame in "
+        "--out; or one frame), or any raw session's id or folder",
+    )  # fmt: skip
+    which = p.add_mutually_exclusive_group()
+    which.add_argument(
+        "--step", type=int, help="plan step index of the spectral frame (default: role=snapshot)"
+    )
     which.add_argument(
         "--tag", action="append", metavar="KEY=VALUE", help="tags of the spectral frame"
     )
     p.add_argument(
         "--guide-step", type=int, action="append", metavar="N",
-        help="guide frame(s) to pair, averaged (default: the session's only guide frame)",
+        help="guide frame(s) to pair, averaged (default: the session's only guide frame, "
+        "which a snapshot frame has)",
     )  # fmt: skip
     p.add_argument("--guide-tag", action="append", metavar="KEY=VALUE", help="guide frames by tag")
     p.add_argument(

@@ -12,19 +12,16 @@ bundle's bins, rank-1 and guided, and :func:`write_frame` writes them like scan 
 from __future__ import annotations
 
 import os
-import re
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.acquire.session import Session, SessionError
 from sassi_bench.acquire.snapshots import SnapshotVideo, capture_snapshots
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.paths import data_root
 from sassi_bench.plots.snapshot import snapshot_quick_look
 from sassi_bench.rig.rig import SCENES, Rig
 from sassi_bench.snapshot import (
@@ -45,7 +42,6 @@ __all__ = [
     "check_outputs_free",
     "frame_outputs",
     "frame_samples",
-    "open_snapshots",
     "procedure_spacing",
     "reconstruct_snapshots",
     "take_snapshots",
@@ -197,49 +193,6 @@ def take_snapshots(
     )  # fmt: skip
 
 
-def open_snapshots(prefix: str, *, data: str | os.PathLike[str] | None = None) -> SnapshotVideo:
-    """The sessions of a snapshot video taken before: ``<prefix>-preview`` and its frames.
-
-    Examples
-    --------
-    >>> video = open_snapshots("snap", data="calib_data")  # doctest: +SKIP
-    """
-    step = "snapshot reconstruct"
-    root = data_root(data) / "sessions"
-    try:
-        preview = Session.open(f"{prefix}-preview", data=data)
-    except SessionError as exc:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"no snapshot session {prefix!r} under {root} (no {prefix}-preview session)",
-                "give the --session of `sassi-bench snapshot take` (or of a `validate "
-                "snapshot` run, e.g. <prefix>-adaptive), and the same --data",
-            )
-        ) from exc
-    pattern = re.compile(re.escape(prefix) + r"-f(\d{3})$")
-    numbers = sorted(
-        int(m.group(1)) for p in root.iterdir() if (m := pattern.match(p.name)) and p.is_dir()
-    )
-    frames = []
-    for t in range(len(numbers)):
-        if numbers[t] != t:
-            break  # frames are taken in order: a gap ends the video
-        session = Session.open(f"{prefix}-f{t:03d}", data=data)
-        if not session.is_complete:
-            break
-        frames.append(session)
-    if not frames:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"snapshot {prefix!r} has a preview but no complete frame",
-                f"resume the capture: `sassi-bench snapshot take --session {prefix}`",
-            )
-        )
-    return SnapshotVideo(preview, tuple(frames))
-
-
 def frame_samples(
     video: SnapshotVideo,
     t: int,
@@ -265,9 +218,11 @@ def reconstruct_snapshots(
     bundle: CalibrationBundle,
     procedure: Mapping[str, Any],
     *,
+    frames: Sequence[int] | None = None,
     progress: bool = True,
 ) -> Iterator[FrameReconstruction]:
-    """Reconstruct every frame of a snapshot video, one at a time (cubes are large).
+    """Reconstruct frames of a snapshot video (default: all), one at a time (cubes are
+    large).
 
     Examples
     --------
@@ -280,7 +235,8 @@ def reconstruct_snapshots(
     compactness = float(procedure["snapshot"]["compactness"])
     recon = procedure["reconstruction"]
     deblur = SpectralDeblur.from_bundle(bundle)
-    for t in tqdm(range(len(video.frames)), desc="reconstruct", disable=not progress):
+    chosen = range(len(video.frames)) if frames is None else frames
+    for t in tqdm(chosen, desc="reconstruct", disable=not progress):
         yield reconstruct_frame(
             bundle, video.guide(t), video.spectral(t), video.mask(t),
             exposure_s=video.exposures.spectral_s,
@@ -329,9 +285,11 @@ def write_frame(
     *,
     session: str,
     envi: bool = True,
+    exposure_s: float | None = None,
 ) -> list[Path]:
     """Write a frame's cubes (``<name>-rank1.nc``, ``<name>-guided.nc``, and ENVI) and a
-    quick-look PNG (``<name>.png``) into ``out``; never over an existing file.
+    quick-look PNG (``<name>.png``) into ``out``; never over an existing file. The cubes
+    carry the bundle's response they were divided by and, given, the spectral exposure.
 
     Examples
     --------
@@ -343,7 +301,7 @@ def write_frame(
     written: list[Path] = []
     for method, title in METHODS.items():
         ds = snapshot_dataset(
-            getattr(frame, method), bundle, units=frame.units, method=title,
+            getattr(frame, method), bundle, units=frame.units, method=title, exposure_s=exposure_s,
             attrs={"session": session, "open_pixels": int(frame.mask.sum())},
         )  # fmt: skip
         envi_path = folder / f"{name}-{method}" if envi else None

@@ -1,14 +1,17 @@
-"""`sassi-bench snapshot take` and `snapshot reconstruct` on the sim rig."""
+"""`sassi-bench snapshot take`, `snapshot reconstruct` and `snapshot export` on the sim
+rig, with the snapshot ids `take` prints (the video's, or one frame's)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import xarray as xr
+from scipy.io import loadmat
 
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
 from sassi_bench.commands import main
-from sassi_bench.workflows.snapshot import open_snapshots
+from sassi_bench.workflows.snapshot_ids import open_snapshots
 
 
 @pytest.fixture(scope="module")
@@ -36,6 +39,10 @@ def test_take_writes_both_cubes_envi_and_a_quick_look_per_frame(taken):
                 np.testing.assert_allclose(ds["wavelength"].values, bundle.wavelengths)
                 assert ds.attrs["bundle_version"] == bundle.version
                 assert ds.attrs["session"] == name
+                # What the cube was divided by travels with it.
+                np.testing.assert_array_equal(ds["response"].values, bundle.response)
+                assert float(ds["exposure_time"]) > 0
+                assert ds["radiance"].attrs["units"] == "1"
                 values = cube.values
                 assert np.isfinite(values).all() and float(values.max()) > 0
             assert (out / f"{name}-{method}.hdr").is_file()
@@ -85,3 +92,69 @@ def test_reconstruct_an_unknown_snapshot_names_it(tmp_path, capsys):
     )  # fmt: skip
     err = capsys.readouterr().err
     assert status == 2 and "no snapshot session 'nothing-here'" in err
+
+
+def test_one_frame_id_reconstructs_that_frame_only(taken, tmp_path, capsys):
+    _, bundle, root, out = taken
+    status = main(
+        ["snapshot", "reconstruct", "--session", "mov-f001", "--bundle", str(bundle.path),
+         "--data", str(root), "--out", str(tmp_path), "--no-envi", "--quiet"]
+    )  # fmt: skip
+    assert status == 0 and "1 of 2 frames" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.glob("*.nc")) == [
+        "mov-f001-guided.nc",
+        "mov-f001-rank1.nc",
+    ]
+    with (
+        xr.open_dataset(out / "mov-f001-rank1.nc") as a,
+        xr.open_dataset(tmp_path / "mov-f001-rank1.nc") as b,
+    ):
+        np.testing.assert_array_equal(a["radiance"].values, b["radiance"].values)
+
+
+def test_export_takes_the_id_as_printed_and_finds_the_frames_itself(taken, tmp_path, capsys):
+    """No --step or --guide-step: the spectral step is the one tagged role=snapshot and the
+    guide the frame's guide step. The video's id exports one folder per frame (cassi.py
+    reads one capture per folder); a frame's id exports that frame into --out."""
+    _, bundle, root, _ = taken
+    common = ["--bundle", str(bundle.path), "--data", str(root)]
+    assert main(["snapshot", "export", "--session", "mov", "--out", str(tmp_path / "all"),
+                 *common]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    video = open_snapshots("mov", data=root)
+    for t in range(2):
+        mat = loadmat(tmp_path / "all" / f"mov-f{t:03d}" / "adaptive_cassi.mat")
+        assert str(mat["session_id"][0]) == f"mov-f{t:03d}"
+        assert mat["spectral_step"].item() == SPECTRAL_STEP
+        assert mat["guide_steps"].ravel().tolist() == [GUIDE_STEP]
+        np.testing.assert_array_equal(mat["lcos_mask"] > 0, video.mask(t))
+    assert "each frame folder" in printed
+    assert main(["snapshot", "export", "--session", "mov-f001", "--out", str(tmp_path / "one"),
+                 *common]) == 0  # fmt: skip
+    assert (tmp_path / "one" / "adaptive_cassi.mat").is_file()
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    ("command", "snapshot_id", "message"),
+    [
+        ("reconstruct", "mvo", "no snapshot 'mvo'"),
+        ("export", "mvo", "no snapshot 'mvo'"),
+        ("reconstruct", "mov-f007", "frame 'mov-f007' of snapshot 'mov' is not complete"),
+        ("export", "mov-f007", "frame 'mov-f007' of snapshot 'mov' is not complete"),
+    ],
+)
+def test_an_unknown_snapshot_id_is_one_line_naming_the_snapshots_there(
+    taken, tmp_path, capsys, command, snapshot_id, message
+):
+    _, bundle, root, _ = taken
+    status = main(
+        ["snapshot", command, "--session", snapshot_id, "--bundle", str(bundle.path),
+         "--data", str(root), "--out", str(tmp_path / "x")]
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and message in err and err.count("\n") == 1, err
+    assert "Session.create" not in err
+    if "no snapshot" in message:
+        assert "snapshots there: mov" in err
+    assert not (tmp_path / "x").exists()
