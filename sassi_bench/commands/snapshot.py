@@ -272,10 +272,13 @@ def _snapshot_export(args: argparse.Namespace) -> int:
         print(f"  {done.path}")
         for note in done.notes:
             print(f"  note: {note}")
+    names = ", ".join(folder.name for _, folder, *_ in plans)
+    one = len(plans) == 1
     print(
-        "next: with the calibration files from 'sassi-bench bundle export --format sassi-mat' "
-        "in <root>/calibration/, run cassi.py with expname set to "
-        + ("this folder's name" if len(plans) == 1 else "each frame folder's name")
+        "next: put the calibration files of `sassi-bench bundle export --format sassi-mat` in "
+        f"<root>/calibration/ and {'this capture folder' if one else 'these capture folders'} "
+        f"({names}) in <root>/, and run cassi.py with expname set to "
+        f"{'its' if one else 'each'} name"
     )
     return 0
 

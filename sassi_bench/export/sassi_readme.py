@@ -134,11 +134,13 @@ def readme_text(
           on the virtual bench (sim rig, an adaptive snapshot of 284 open pixels,
           natural scene, white LED; PSNR of the open pixels' spectra against the
           bench's truth, one gain for all bands), the authors' extraction scores
-          26.7 dB at vsize 3, 35.2 dB at vsize 9, and 39.9 dB at vsize 3 with
-          this division (36.7 dB at vsize 9 with it): the wider window brings in
-          more noise than light. sassi-bench's own extraction scores 45.9 dB; the
-          5.5 dB between is its spectral deblur, which cassi.py does not do
-          (40.4 dB without it).
+          26.7 dB at vsize 3, 35.2 dB at vsize 9, and 39.8 dB at vsize 3 with
+          this division (36.6 dB at vsize 9 with it): the wider window brings in
+          more noise than light (on a sparse pinhole mask: 27.0, 37.0 and
+          41.1 dB). The rank-1 cube built from those spectra (the paper's model,
+          affine PSNR over the SLM) goes from 26.8 to 32.1 dB (31.3 dB at vsize
+          9). sassi-bench's own extraction scores 45.9 dB; the 5.5 dB between is
+          its spectral deblur, which cassi.py does not do (40.4 dB without it).
       nm_per_column   double (1, T): the spectral width of one camera column per
           band. A value of the cube is the light of one camera column, so
           cube / row_window_share / nm_per_column is light per nm.

@@ -172,11 +172,13 @@ def resolve_snapshot(
         prefix, number = match["prefix"], int(match["number"])
         video = open_snapshots(prefix, data=data, step=step)
         if number >= len(video.frames):
+            last = len(video.frames) - 1
+            complete = f"{prefix}-f000" + (f"..{prefix}-f{last:03d}" if last else "")
             raise ProcedureError(
                 step_error(
                     step,
-                    f"frame {name!r} of snapshot {prefix!r} is not complete (its complete "
-                    f"frames are {prefix}-f000..{prefix}-f{len(video.frames) - 1:03d})",
+                    f"frame {name!r} of snapshot {prefix!r} was not taken to the end (its "
+                    f"complete frames: {complete})",
                     f"choose one of those, or resume the capture: `sassi-bench snapshot take "
                     f"--session {prefix}`",
                 )
