@@ -404,6 +404,7 @@ def export_sassi_mat(
     sigma = np.asarray(bundle.blur_width(lam), dtype=np.float64)
     window = default_vsize(sigma) if vsize is None else check_vsize(vsize)
     share = row_window_share(bundle, lam, window, shape)
+    columns = nm_per_column(bundle, lam, shape)
     unreached = np.zeros(lam.size)
     n = lam.size
     with tqdm(total=n, desc="invert dispersion", unit="band", disable=not progress) as bar:
@@ -418,7 +419,7 @@ def export_sassi_mat(
                 "ksizes": suggested_ksizes(sigma),
                 "vsize": np.array([[window]], dtype=np.int32),
                 "row_window_share": share,
-                "nm_per_column": nm_per_column(bundle, lam, shape),
+                "nm_per_column": columns,
                 **identity,
                 "calibstack_row": BandStream(
                     (*shape, n),
@@ -448,7 +449,7 @@ def export_sassi_mat(
     readme.write_text(
         readme_text(
             bundle, lookup, unreached, identity["bundle_manifest_sha256"],
-            vsize=window, share=share, quantum=quantum,
+            vsize=window, share=share, columns=columns, quantum=quantum,
         ),
         "utf-8",
     )  # fmt: skip

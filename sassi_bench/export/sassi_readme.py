@@ -28,6 +28,7 @@ def readme_text(
     *,
     vsize: int,
     share: NDArray[np.float64],
+    columns: NDArray[np.float64],
     quantum: float,
 ) -> str:
     """The ``README.txt`` written beside the two files.
@@ -35,7 +36,7 @@ def readme_text(
     Examples
     --------
     >>> text = readme_text(bundle, lookup, unreached, sha, vsize=3, share=share,
-    ...                    quantum=1 / 64)  # doctest: +SKIP
+    ...                    columns=nm_per_column, quantum=1 / 64)  # doctest: +SKIP
     """
     wavelengths = lookup.wavelengths
     hc, wc = lookup.camera_shape
@@ -142,8 +143,11 @@ def readme_text(
           9). sassi-bench's own extraction scores 45.9 dB; the 5.5 dB between is
           its spectral deblur, which cassi.py does not do (40.4 dB without it).
       nm_per_column   double (1, T): the spectral width of one camera column per
-          band. A value of the cube is the light of one camera column, so
-          cube / row_window_share / nm_per_column is light per nm.
+          band ({columns.min():.1f}-{columns.max():.1f} nm). A value of the cube is the light of one
+          camera column, so cube / row_window_share / nm_per_column is light per
+          nm. On a band grid coarser than the columns (--wavelengths paper: every
+          10 nm) each band is still one column's sample, not a 10 nm integral:
+          the light between the samples is not used.
       position_quantum_px: the rounding of the positions (0 = exact).
       bundle_rig, bundle_version, bundle_manifest_sha256: where this came from.
 

@@ -138,7 +138,8 @@ def resolve_snapshot(
     frame's id ``<prefix>-fNNN`` (that frame), as ``sassi-bench snapshot take`` prints them.
 
     A prefix is tried first, so a prefix that itself ends in ``-fNNN`` still names its
-    video. A session folder's path works like its name.
+    video. The folder of one of its sessions (``<data>/sessions/<id>``) works like its
+    id, in the data root that holds it.
 
     Parameters
     ----------
@@ -161,8 +162,13 @@ def resolve_snapshot(
     >>> resolve_snapshot("snap", data="/nonexistent", required=False) is None
     True
     """
+    name = str(snapshot_id)
+    if os.sep in name:  # a session's folder: its name, in the data root that holds it
+        folder = Path(name)
+        name = folder.name
+        if folder.parent.name == "sessions" and folder.parent.is_dir():
+            data = folder.parent.parent
     root = data_root(data) / "sessions"
-    name = Path(snapshot_id).name if os.sep in str(snapshot_id) else str(snapshot_id)
     name = name.removesuffix("-preview")
     if _is_session(root, f"{name}-preview"):
         video = open_snapshots(name, data=data, step=step)

@@ -11,7 +11,7 @@ from scipy.io import loadmat
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
 from sassi_bench.commands import main
-from sassi_bench.workflows.snapshot_ids import open_snapshots
+from sassi_bench.workflows.snapshot_ids import open_snapshots, resolve_snapshot
 
 
 @pytest.fixture(scope="module")
@@ -163,3 +163,12 @@ def test_an_unknown_snapshot_id_is_one_line_naming_the_snapshots_there(
     if "no snapshot" in message:
         assert "snapshots there: mov" in err
     assert not (tmp_path / "x").exists()
+
+
+def test_a_session_folder_names_its_snapshot_in_its_own_data_root(taken, tmp_path):
+    _, _, root, _ = taken
+    frame = resolve_snapshot(str(root / "sessions" / "mov-f001"), data=tmp_path)
+    assert (frame.prefix, frame.frames, frame.by_frame) == ("mov", (1,), True)
+    video = resolve_snapshot(str(root / "sessions" / "mov-preview"), data=tmp_path)
+    assert (video.frames, video.by_frame) == ((0, 1), False)
+    assert resolve_snapshot("mov", data=tmp_path, required=False) is None
