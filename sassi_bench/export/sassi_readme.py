@@ -108,10 +108,11 @@ def readme_text(
                       signal; with these ksizes the spectra agree with
                       sassi-bench's to 3.7 % RMS per pixel, median).
       vsize           int32 (1, 1) = {vsize}: the row window of get_cassi_cube.
-          cassi.py's __main__ sets vsize = 3 and passes it to
-          get_cassi_cube(cassi_img, mask, Xl, Yl, calibstack_row, calibstack_col,
-          vsize, ksizes), whose _get_cassi_cube sums vsize camera rows around every
-          pixel before it samples the streaks:
+          cassi.py's __main__ sets vsize = 3 (line 768 at commit 77d27e3) and
+          passes it to get_cassi_cube(cassi_img, mask, Xl, Yl, calibstack_row,
+          calibstack_col, vsize, ksizes) (line 811), whose _get_cassi_cube sums
+          vsize camera rows around every pixel before it samples the streaks
+          (line 669):
               cassi_img = signal.convolve2d(cassi_img, np.ones((vsize, 1)), 'same')
           It is one integer for all bands (the code cannot take one per band) and
           np.ones needs a Python int, so replace "vsize = 3" by
@@ -127,7 +128,7 @@ def readme_text(
           that the vsize-row window keeps ({share.min():.2f}-{share.max():.2f}; median over
           the field of the bilinear sample cv2.remap takes). Where the blur is
           wide the window keeps little, so divide it out right after the
-          get_cassi_cube call (before "cube /= cube.max()"):
+          get_cassi_cube call (before "cube /= cube.max()", line 813):
               cube /= calibdata['row_window_share']
           The spectra then no longer depend on vsize.
           Why a small window and this division rather than a window wide enough
