@@ -49,13 +49,16 @@ ShapePattern = tuple[int | str, ...]
 #: What a check raises: an exception class (or factory) taking the message.
 ErrorType = Callable[[str], Exception]
 
-_KIND_WORDS = {
-    "b": "boolean",
-    "i": "signed integer",
-    "u": "unsigned integer",
-    "f": "floating-point",
-    "c": "complex",
-}
+#: Words for dtype kinds, the widest group first: "iuf" reads "real numeric".
+_KIND_GROUPS = (
+    ("b", "boolean"),
+    ("iuf", "real numeric"),
+    ("iu", "integer"),
+    ("i", "signed integer"),
+    ("u", "unsigned integer"),
+    ("f", "floating-point"),
+    ("c", "complex"),
+)
 
 
 def check_ndim(
@@ -345,8 +348,9 @@ def _or_list(items: list[str]) -> str:
 
 
 def _kind_text(kinds: str) -> str:
-    words = [_KIND_WORDS[kind] for kind in "biufc" if kind in kinds]
-    if "i" in kinds and "u" in kinds:
-        at = words.index("signed integer")
-        words[at : at + 2] = ["integer"]
+    left, words = set(kinds), []
+    for group, word in _KIND_GROUPS:
+        if set(group) <= left:
+            words.append(word)
+            left -= set(group)
     return _or_list(words)

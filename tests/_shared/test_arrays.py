@@ -72,8 +72,9 @@ def test_check_shape_equality_names_both_shapes():
     [
         ("iu", "integer"),
         ("u", "unsigned integer"),
-        ("uif", "integer or floating-point"),
-        ("biuf", "boolean, integer or floating-point"),
+        ("uf", "unsigned integer or floating-point"),
+        ("uif", "real numeric"),
+        ("biuf", "boolean or real numeric"),
     ],
 )
 def test_check_dtype_kind_names_the_kinds_in_words(kinds, words):
