@@ -39,6 +39,26 @@ def open_snapshots(
 ) -> SnapshotVideo:
     """The sessions of a snapshot video taken before: ``<prefix>-preview`` and its frames.
 
+    Parameters
+    ----------
+    prefix
+        The ``--session`` the snapshots were taken with.
+    data
+        Data root the sessions are under.
+    step
+        The command named in errors.
+
+    Returns
+    -------
+    SnapshotVideo
+        The preview and the complete frames ``<prefix>-f000``, ``-f001``, ... up to the
+        first missing or incomplete one.
+
+    Raises
+    ------
+    ProcedureError
+        If there is no preview session, or no complete frame.
+
     Examples
     --------
     >>> video = open_snapshots("snap", data="calib_data")  # doctest: +SKIP
@@ -112,6 +132,16 @@ def _is_session(root: Path, name: str) -> bool:
 def snapshot_ids(data: str | os.PathLike[str] | None = None) -> list[str]:
     """The snapshot videos under the data root (the prefixes of ``<prefix>-preview``).
 
+    Parameters
+    ----------
+    data
+        Data root.
+
+    Returns
+    -------
+    list of str
+        The videos' ids, sorted; empty when there is no sessions folder.
+
     Examples
     --------
     >>> snapshot_ids("/nonexistent")
@@ -156,6 +186,14 @@ def resolve_snapshot(
     Returns
     -------
     SnapshotSelection or None
+        The video and the chosen frames; None when ``required`` is false and no
+        snapshot has that id.
+
+    Raises
+    ------
+    ProcedureError
+        If no snapshot has that id (and ``required``), or the frame named was not taken
+        to the end.
 
     Examples
     --------
@@ -199,6 +237,20 @@ def unknown_snapshot(
     snapshot_id: str, *, data: str | os.PathLike[str] | None = None, step: str = "snapshot"
 ) -> ProcedureError:
     """The error for an id that names no snapshot: it lists the snapshots there are.
+
+    Parameters
+    ----------
+    snapshot_id
+        The id given.
+    data
+        Data root.
+    step
+        The command named in the error.
+
+    Returns
+    -------
+    ProcedureError
+        The error to raise (up to ten of the snapshots there are are named).
 
     Examples
     --------
