@@ -378,6 +378,21 @@ def parse_wavelengths(text: str | None) -> np.ndarray | str | None:
 def parse_quantum(text: str | None) -> float:
     """``"1/64"``, ``"0.015625"`` or ``"0"`` as px (None: the export's default).
 
+    Parameters
+    ----------
+    text
+        ``--position-quantum`` as typed, or None.
+
+    Returns
+    -------
+    float
+        The quantum in camera/SLM pixels (0: exact positions).
+
+    Raises
+    ------
+    ProcedureError
+        If the text is not a number or a fraction.
+
     Examples
     --------
     >>> parse_quantum("1/64"), parse_quantum("0"), parse_quantum(None)

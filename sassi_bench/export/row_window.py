@@ -45,6 +45,16 @@ _FIELD_POINTS = 33
 def default_vsize(sigma_px: ArrayLike) -> int:
     """The odd row window nearest to 2.8 times the median blur sigma (at least 1).
 
+    Parameters
+    ----------
+    sigma_px
+        The bundle's blur sigma per band, in camera pixels.
+
+    Returns
+    -------
+    int
+        The window ``vsize`` (odd rows).
+
     Examples
     --------
     >>> default_vsize([1.03]), default_vsize([3.0]), default_vsize([0.2])
@@ -59,6 +69,21 @@ def check_vsize(vsize: int) -> int:
 
     An even window is refused: ``convolve2d(..., 'same')`` with an even kernel sums rows
     ``r - vsize/2 .. r + vsize/2 - 1``, half a row off the streak.
+
+    Parameters
+    ----------
+    vsize
+        The window asked for.
+
+    Returns
+    -------
+    int
+        ``vsize`` as a Python int.
+
+    Raises
+    ------
+    ProcedureError
+        If it is not a positive odd whole number.
 
     Examples
     --------
@@ -142,6 +167,20 @@ def nm_per_column(
 ) -> NDArray[np.float64]:
     """Per band, the median over the field of the spectral width (nm) of one camera
     column: what one sample of the authors' cube integrates.
+
+    Parameters
+    ----------
+    bundle
+        The calibration bundle.
+    wavelengths
+        Bands in nm, ``(T,)``.
+    camera_shape
+        Camera ``(H, W)``: only points that land on it count.
+
+    Returns
+    -------
+    ndarray
+        ``(T,)`` nm per camera column.
 
     Examples
     --------

@@ -205,6 +205,24 @@ def suggested_ksizes(sigma_px: ArrayLike) -> NDArray[np.float64]:
 def preset_wavelengths(name: str, bundle: CalibrationBundle) -> NDArray[np.float64]:
     """The bands of a :data:`WAVELENGTH_PRESETS` name for ``bundle``.
 
+    Parameters
+    ----------
+    name
+        ``"bins"`` (the bundle's bin centres) or ``"paper"``/``"10nm"`` (every multiple
+        of 10 nm inside the bundle's bin edges).
+    bundle
+        The calibration bundle.
+
+    Returns
+    -------
+    ndarray
+        The bands in nm, increasing.
+
+    Raises
+    ------
+    ProcedureError
+        If the name is not a preset.
+
     Examples
     --------
     >>> preset_wavelengths("paper", bundle)[[0, -1]]  # doctest: +SKIP

@@ -33,6 +33,30 @@ def readme_text(
 ) -> str:
     """The ``README.txt`` written beside the two files.
 
+    Parameters
+    ----------
+    bundle
+        The bundle exported.
+    lookup
+        The camera lookup written to ``calibstack.mat`` (its bands and camera shape).
+    unreached
+        Per band, the fraction of camera pixels that see no SLM pixel.
+    manifest_sha256
+        The bundle manifest's checksum.
+    vsize
+        The row window written.
+    share
+        Per band, the share of a band's light inside the window.
+    columns
+        Per band, nm per camera column.
+    quantum
+        The rounding of the positions in px (0: exact).
+
+    Returns
+    -------
+    str
+        The text.
+
     Examples
     --------
     >>> text = readme_text(bundle, lookup, unreached, sha, vsize=3, share=share,

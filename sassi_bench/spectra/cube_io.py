@@ -219,6 +219,16 @@ def units_label(variable: xr.DataArray) -> str:
     """What a cube variable's values are, in words: its ``long_name``, or for files
     written before the cubes followed CF, its ``units`` (which held the words).
 
+    Parameters
+    ----------
+    variable
+        A cube variable (``radiance``).
+
+    Returns
+    -------
+    str
+        The words to show beside its values.
+
     Examples
     --------
     >>> units_label(xr.DataArray([1.0], attrs={"units": "1", "long_name": "relative"}))
