@@ -24,10 +24,11 @@ def _module_name(path: Path) -> str:
 
 # --- The bench-only sections of a rig description ------------------------------------
 
-#: Section names only the virtual bench may read (see ``sassi_bench.rig.config``).
-BENCH_ONLY = ("as_built", "nuisance")
+#: Section names only the virtual bench may read, and where the description keeps them
+#: (see ``sassi_bench.rig.sim.sections``).
+BENCH_ONLY = ("as_built", "nuisance", "bench_sections")
 
-#: Modules allowed to read them: the virtual bench, and the loader that parses them.
+#: Modules allowed to read them: the virtual bench, and the loader that sets them apart.
 BENCH_ONLY_READERS = ("sassi_bench.rig.sim", "sassi_bench.rig.config")
 
 
@@ -82,12 +83,13 @@ def test_the_bench_only_guard_sees_attributes_getattr_and_keys(code):
 
 def test_bench_only_sections_stay_out_of_what_procedures_record():
     from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
+    from sassi_bench.rig.sim.sections import as_built_section
 
     described = load_rig_description("sim")
     data = described.to_dict()
     data["as_built"] = {"lasers_nm": {"635": 637.8}, "halogen_k": 2900}
     data["nuisance"] = {"hot_pixels_fraction": 1e-4}
     as_built = rig_description_from_dict(data)
-    assert as_built.as_built.lasers_nm == {635.0: 637.8}
+    assert as_built_section(as_built).lasers_nm == {635.0: 637.8}
     assert "as_built" not in as_built.to_dict() and "nuisance" not in as_built.to_dict()
     assert as_built.sha256() == described.sha256()

@@ -6,14 +6,12 @@ streaks must fit on the spectral camera, the lasers must lie on the spectral gri
 the data sets it names (glass, lamps, guide sensor, QE curve), all when it is loaded.
 Errors name the key as a dotted path, with the closest valid name for a typo.
 
-Two sections describe the virtual bench only, never the procedures' view of it:
-``as_built`` (how the bench as built differs from this description: lasers off their
-label, another glass melt, the lamp's true temperature, ...) and ``nuisance`` (laser
-power jitter, hot pixels, SLM crosstalk, stray light, speckle). They are parsed into
-:class:`AsBuiltConfig` and :class:`NuisanceConfig` on the description for the virtual
-bench, and left out of :meth:`RigDescription.to_dict` and the rig's hash, so no session,
-bundle or report carries them; a guard test checks that nothing outside ``rig/sim``
-and this package reads them.
+Sections the schema accepts beyond the description describe a virtual bench only, never
+the procedures' view of it (how the bench as built differs from its description, and the
+real-bench nuisances it renders). They stay raw in :attr:`RigDescription.bench_sections`,
+left out of :meth:`RigDescription.to_dict` and the rig's hash, so no session, bundle or
+report carries them; :mod:`sassi_bench.rig.sim.sections` parses them, and a guard test
+checks that nothing outside ``rig/sim`` reads them.
 
 Keys whose values are the virtual bench's own parts (its guide sensor, its halogen
 lamp's temperature, ...) default to those values only on a ``backend: sim`` rig
@@ -23,7 +21,7 @@ uses the documented fallback.
 The package's modules, one job each: :mod:`~sassi_bench.rig.config.description` (the
 dataclasses), :mod:`~sassi_bench.rig.config.checks` (the load-time checks) and
 :mod:`~sassi_bench.rig.config.loader` (YAML and mappings in, schema, defaults, the
-bench-only sections parsed). Import the names from this package.
+bench-only sections set apart). Import the names from this package.
 
 Examples
 --------
@@ -33,11 +31,9 @@ Examples
 """
 
 from sassi_bench.rig.config.description import (
-    AsBuiltConfig,
     BlurConfig,
     GuideCameraConfig,
     LightConfig,
-    NuisanceConfig,
     PrismConfig,
     RelayConfig,
     RigDescription,
@@ -45,7 +41,6 @@ from sassi_bench.rig.config.description import (
     SlmConfig,
     SpectralCameraConfig,
     SpectralGridConfig,
-    as_built_path,
     light_names,
 )
 from sassi_bench.rig.config.loader import (
@@ -57,11 +52,9 @@ from sassi_bench.rig.config.loader import (
 
 __all__ = [
     "SIM_DEFAULTS",
-    "AsBuiltConfig",
     "BlurConfig",
     "GuideCameraConfig",
     "LightConfig",
-    "NuisanceConfig",
     "PrismConfig",
     "RelayConfig",
     "RigDescription",
@@ -69,7 +62,6 @@ __all__ = [
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
-    "as_built_path",
     "available_rigs",
     "light_names",
     "load_rig_description",

@@ -2,7 +2,7 @@
 
 Physics (the SLM's image and its spectral streaks must fit on the spectral camera, the
 lasers must lie on the spectral grid), consistency (a hardware section only on a hardware
-rig, the bench-only sections only on a virtual one) and the data sets the description
+rig, the virtual bench's own sections only on a virtual one) and the data sets the description
 names (glass, lamps, guide sensor, QE curve, the virtual bench's chart and photo). Each
 check raises :class:`~sassi_bench.errors.ConfigError` naming the key.
 """
@@ -17,12 +17,7 @@ from sassi_bench.optics.datasets import photo_loader, require_dataset
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.relay import BAND_NM
 from sassi_bench.optics.sensor import qe_curve
-from sassi_bench.rig.config.description import (
-    AsBuiltConfig,
-    NuisanceConfig,
-    RigDescription,
-    as_built_path,
-)
+from sassi_bench.rig.config.description import RigDescription
 
 __all__ = ["check_description"]
 
@@ -51,30 +46,17 @@ def _check_backend(desc: RigDescription) -> None:
         )
 
 
-def _check_bench_only(desc: RigDescription) -> None:
-    """``as_built`` and ``nuisance`` describe a virtual bench, and name lasers it has."""
-    if desc.backend == "sim":
-        unknown = sorted(set(desc.as_built.lasers_nm) - set(desc.lasers_nm))
-        if unknown:
-            raise _error(
-                desc,
-                "as_built.lasers_nm",
-                f"{', '.join(f'{x:g}' for x in unknown)} nm are not lines of lasers_nm "
-                f"({', '.join(f'{x:g}' for x in desc.lasers_nm)})",
-                "key each true centre by the nominal line it belongs to",
-            )
-        return
-    for key, section, default in (
-        ("as_built", desc.as_built, AsBuiltConfig()),
-        ("nuisance", desc.nuisance, NuisanceConfig()),
-    ):
-        if section != default:
-            raise _error(
-                desc,
-                key,
-                f"only read by the virtual bench (this rig's backend is {desc.backend!r})",
-                "remove the section: a real bench is as built already",
-            )
+def _check_bench_sections(desc: RigDescription) -> None:
+    """Sections beyond the description are read by the virtual bench alone (their content
+    is checked there, by :mod:`sassi_bench.rig.sim.sections`)."""
+    given = sorted(key for key, section in desc.bench_sections.items() if section)
+    if desc.backend != "sim" and given:
+        raise _error(
+            desc,
+            given[0],
+            f"only read by the virtual bench (this rig's backend is {desc.backend!r})",
+            "remove the section: a real bench is as built already",
+        )
 
 
 def _check_ranges(desc: RigDescription) -> None:
@@ -132,22 +114,6 @@ def _check_named_data(desc: RigDescription) -> None:
         name = getattr(desc.light, key)
         if name is not None:
             require_dataset("illuminant", name, f"light.{key}")
-    if desc.as_built.led is not None:
-        require_dataset("illuminant", desc.as_built.led, "as_built.led")
-    curves = desc.as_built.guide_sensitivities
-    if curves is not None:
-        if curves.lower().endswith(".csv"):
-            path = as_built_path(desc, curves)
-            if not path.is_file():
-                raise _error(
-                    desc,
-                    "as_built.guide_sensitivities",
-                    f"no such file {str(path)!r}",
-                    "give a CSV of wavelength_nm,r,g,b (relative to the rig YAML) or a "
-                    "colour-science camera name",
-                )
-        else:
-            require_dataset("camera", curves, "as_built.guide_sensitivities")
     if desc.backend == "sim":  # the scenes are the virtual bench's
         require_dataset("colourchecker", desc.scenes.colorchecker_data, "scenes.colorchecker_data")
         photo_loader(desc.scenes.natural_image)
@@ -177,7 +143,13 @@ def _check_streaks_fit(desc: RigDescription) -> None:
 
 
 #: The checks a description passes after its schema, in order.
-_CHECKS = (_check_backend, _check_bench_only, _check_ranges, _check_named_data, _check_streaks_fit)
+_CHECKS = (
+    _check_backend,
+    _check_bench_sections,
+    _check_ranges,
+    _check_named_data,
+    _check_streaks_fit,
+)
 
 
 def check_description(desc: RigDescription) -> None:

@@ -1,7 +1,7 @@
 """What a rig description holds: one frozen dataclass per section, and the whole description.
 
-Built and checked by :func:`~sassi_bench.rig.config.load_rig_description`; see
-:mod:`sassi_bench.rig.config` for the bench-only sections ``as_built`` and ``nuisance``.
+Built and checked by :func:`~sassi_bench.rig.config.load_rig_description`; the sections
+only a virtual bench reads stay raw in :attr:`RigDescription.bench_sections`.
 
 Examples
 --------
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any
 
 from sassi_bench._shared.canonical_json import canonical_sha256
@@ -21,11 +20,9 @@ from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.relay import SpectralRelay
 
 __all__ = [
-    "AsBuiltConfig",
     "BlurConfig",
     "GuideCameraConfig",
     "LightConfig",
-    "NuisanceConfig",
     "PrismConfig",
     "RelayConfig",
     "RigDescription",
@@ -33,7 +30,6 @@ __all__ = [
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
-    "as_built_path",
     "light_names",
 ]
 
@@ -136,42 +132,6 @@ class ScenesConfig:
 
 
 @dataclass(frozen=True)
-class AsBuiltConfig:
-    """How the virtual bench as built differs from its description (bench-only).
-
-    Each key left out means "as described".
-    """
-
-    #: Nominal laser line (nm, as in ``lasers_nm``) -> the line's true centre (nm).
-    lasers_nm: dict[float, float] = field(default_factory=dict)
-    #: Added to the catalogue glass's refractive index at every wavelength.
-    glass_index_offset: float = 0.0
-    apex_deg: float | None = None
-    halogen_k: float | None = None
-    #: The LED's true spectrum: a colour-science illuminant name.
-    led: str | None = None
-    #: The guide camera's true curves: a colour-science camera name or a CSV path.
-    guide_sensitivities: str | None = None
-    slm_gamma: float | None = None
-
-
-@dataclass(frozen=True)
-class NuisanceConfig:
-    """Real-bench nuisances the virtual bench renders (bench-only); zero is none."""
-
-    #: Relative RMS of the laser's power from frame to frame.
-    laser_power_jitter: float = 0.0
-    #: Fraction of the spectral camera's pixels that are hot.
-    hot_pixels_fraction: float = 0.0
-    #: Fraction of an open SLM pixel's light that leaks into each 4-neighbour.
-    slm_crosstalk: float = 0.0
-    #: Fraction of the scene's light spread evenly over the sensor.
-    stray_light: float = 0.0
-    #: Contrast of static multiplicative speckle under laser light.
-    speckle_contrast: float = 0.0
-
-
-@dataclass(frozen=True)
 class RigDescription:
     """A validated rig description (all defaults filled in).
 
@@ -195,10 +155,10 @@ class RigDescription:
     scenes: ScenesConfig = field(default_factory=ScenesConfig)
     hardware: dict[str, Any] | None = None
     source: str | None = None
-    # Bench-only sections: not part of the description procedures rely on, its
-    # dictionary form or its hash (see sassi_bench.rig.config).
-    as_built: AsBuiltConfig = field(default_factory=AsBuiltConfig, repr=False, compare=False)
-    nuisance: NuisanceConfig = field(default_factory=NuisanceConfig, repr=False, compare=False)
+    #: Sections the schema accepts beyond the description, kept raw for the virtual bench
+    #: (parsed by :mod:`sassi_bench.rig.sim.sections`): not part of what procedures rely
+    #: on, the dictionary form or the hash.
+    bench_sections: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def light_names(self) -> tuple[str, ...]:
@@ -215,9 +175,9 @@ class RigDescription:
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical JSON-compatible form (the ``source`` path and the bench-only
-        ``as_built`` and ``nuisance`` sections are left out)."""
+        sections are left out)."""
         data = asdict(self)
-        for key in ("source", "as_built", "nuisance"):
+        for key in ("source", "bench_sections"):
             data.pop(key)
         if data["hardware"] is None:
             data.pop("hardware")
@@ -270,11 +230,3 @@ def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
         device: {k: v for k, v in spec.items() if k not in _CONNECTION_KEYS}
         for device, spec in hardware.items()
     }
-
-
-def as_built_path(desc: RigDescription, name: str) -> Path:
-    """A file an ``as_built`` key names, relative to the rig YAML's folder."""
-    path = Path(name)
-    if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
-        path = Path(desc.source).parent / path
-    return path

@@ -3,14 +3,15 @@
 The JSON Schema shipped beside the rig package (``rig.schema.json``) checks types, ranges
 and unknown keys; :func:`~sassi_bench.rig.config.checks.check_description` then checks
 physics and the named data sets. A ``backend: sim`` rig gets :data:`SIM_DEFAULTS` for the
-keys it leaves out. The bench-only sections ``as_built`` and ``nuisance`` are parsed here
-into their own dataclasses.
+keys it leaves out. Top-level sections the schema accepts but the description does not
+hold are the virtual bench's own; they are set apart raw in ``bench_sections``.
 """
 
 from __future__ import annotations
 
 import json
 import os
+from dataclasses import fields
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -19,11 +20,9 @@ from sassi_bench._shared.yaml_io import load_yaml_mapping
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.rig.config.checks import check_description
 from sassi_bench.rig.config.description import (
-    AsBuiltConfig,
     BlurConfig,
     GuideCameraConfig,
     LightConfig,
-    NuisanceConfig,
     PrismConfig,
     RelayConfig,
     RigDescription,
@@ -37,7 +36,7 @@ from sassi_bench.schema_validation import validate_against_schema
 __all__ = ["SIM_DEFAULTS", "available_rigs", "load_rig_description", "rig_description_from_dict"]
 
 
-#: Sections built into their own dataclass; ``as_built`` and ``nuisance`` are built apart.
+#: Sections built into their own dataclass.
 _SECTIONS: dict[str, type] = {
     "slm": SlmConfig,
     "spectral_camera": SpectralCameraConfig,
@@ -72,10 +71,11 @@ SIM_DEFAULTS: dict[str, dict[str, Any]] = {
 
 
 def _build(data: dict[str, Any], source: str | None) -> RigDescription:
-    bench_only = ("as_built", "nuisance")
+    described = {f.name for f in fields(RigDescription)}
     kwargs: dict[str, Any] = {
-        k: v for k, v in data.items() if k not in _SECTIONS and k not in bench_only
+        k: v for k, v in data.items() if k in described and k not in _SECTIONS
     }
+    kwargs["bench_sections"] = {k: v for k, v in data.items() if k not in described}
     for key, cls in _SECTIONS.items():
         section = {k: v for k, v in data.get(key, {}).items() if v is not None}
         if data["backend"] == "sim":
@@ -87,10 +87,6 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
             section["sigma_px"] = {float(k): float(v) for k, v in section["sigma_px"].items()}
         kwargs[key] = cls(**section)
     kwargs["lasers_nm"] = tuple(float(x) for x in data["lasers_nm"])
-    as_built = dict(data.get("as_built", {}))
-    as_built["lasers_nm"] = {float(k): float(v) for k, v in as_built.get("lasers_nm", {}).items()}
-    kwargs["as_built"] = AsBuiltConfig(**as_built)
-    kwargs["nuisance"] = NuisanceConfig(**data.get("nuisance", {}))
     return RigDescription(source=source, **kwargs)
 
 

@@ -25,7 +25,8 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.datasets import camera_sensitivities
 from sassi_bench.optics.glass import Glass, get_glass
-from sassi_bench.rig.config import RigDescription, as_built_path
+from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.sim.sections import as_built_section, bench_file
 
 __all__ = [
     "OffsetGlass",
@@ -67,7 +68,7 @@ def laser_centre_nm(desc: RigDescription, nominal_nm: float) -> float:
     >>> laser_centre_nm(load_rig_description("sim"), 532.0)
     532.0
     """
-    return float(desc.as_built.lasers_nm.get(float(nominal_nm), nominal_nm))
+    return float(as_built_section(desc).lasers_nm.get(float(nominal_nm), nominal_nm))
 
 
 def prism_glass(desc: RigDescription) -> Glass:
@@ -80,7 +81,7 @@ def prism_glass(desc: RigDescription) -> Glass:
     'N-BK7'
     """
     catalogue = get_glass(desc.prism.glass)
-    offset = desc.as_built.glass_index_offset
+    offset = as_built_section(desc).glass_index_offset
     if offset == 0.0:
         return catalogue
     return OffsetGlass(catalogue.name, catalogue.b, catalogue.c, catalogue.nd, catalogue.vd, offset)
@@ -95,7 +96,7 @@ def prism_apex_deg(desc: RigDescription) -> float:
     >>> prism_apex_deg(load_rig_description("sim"))
     30.0
     """
-    true = desc.as_built.apex_deg
+    true = as_built_section(desc).apex_deg
     return float(true if true is not None else desc.prism.apex_deg)
 
 
@@ -108,7 +109,7 @@ def halogen_k(desc: RigDescription) -> float:
     >>> halogen_k(load_rig_description("sim"))
     3000.0
     """
-    true = desc.as_built.halogen_k
+    true = as_built_section(desc).halogen_k
     return float(true if true is not None else desc.light.halogen_k)
 
 
@@ -121,7 +122,8 @@ def led(desc: RigDescription) -> str:
     >>> led(load_rig_description("sim"))
     'LED-B3'
     """
-    return desc.as_built.led if desc.as_built.led is not None else desc.light.led
+    true = as_built_section(desc).led
+    return true if true is not None else desc.light.led
 
 
 def slm_gamma(desc: RigDescription) -> float:
@@ -133,7 +135,7 @@ def slm_gamma(desc: RigDescription) -> float:
     >>> slm_gamma(load_rig_description("sim"))
     2.2
     """
-    true = desc.as_built.slm_gamma
+    true = as_built_section(desc).slm_gamma
     return float(true if true is not None else desc.slm.gamma)
 
 
@@ -149,12 +151,12 @@ def guide_sensitivities(desc: RigDescription, wavelengths_nm: ArrayLike) -> NDAr
     >>> guide_sensitivities(load_rig_description("sim"), [450.0, 550.0, 650.0]).shape
     (3, 3)
     """
-    name = desc.as_built.guide_sensitivities
+    name = as_built_section(desc).guide_sensitivities
     if name is None:
         return camera_sensitivities(desc.guide_camera.sensitivities, wavelengths_nm)
     if not name.lower().endswith(".csv"):
         return camera_sensitivities(name, wavelengths_nm, "as_built.guide_sensitivities")
-    return _csv_sensitivities(as_built_path(desc, name), wavelengths_nm)
+    return _csv_sensitivities(bench_file(desc, name), wavelengths_nm)
 
 
 def _csv_sensitivities(path, wavelengths_nm: ArrayLike) -> NDArray[np.float64]:

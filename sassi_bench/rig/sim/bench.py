@@ -25,6 +25,7 @@ from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.nuisance import BenchNuisances
 from sassi_bench.rig.sim.render import SpectralRenderer
 from sassi_bench.rig.sim.scenes import Scene, ScenePose, make_scene, posed_scene
+from sassi_bench.rig.sim.sections import check_bench_sections, nuisance_section
 
 __all__ = ["VirtualBench"]
 
@@ -47,6 +48,7 @@ class VirtualBench:
     """
 
     def __init__(self, desc: RigDescription, sparse_limit: int | None = None) -> None:
+        check_bench_sections(desc)
         self.description = desc
         self.slm_shape = (desc.slm.height, desc.slm.width)
         self.camera_shape = (desc.spectral_camera.height, desc.spectral_camera.width)
@@ -78,7 +80,9 @@ class VirtualBench:
         self.guide = GuideOptics(
             gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)
         )
-        self.nuisance = BenchNuisances(desc.nuisance, self.camera_shape, desc.seed, cam.full_well_e)
+        self.nuisance = BenchNuisances(
+            nuisance_section(desc), self.camera_shape, desc.seed, cam.full_well_e
+        )
         self.scene_seed = int(np.random.SeedSequence([desc.seed, 2]).generate_state(1)[0])
         self._exposures_seen: dict[tuple[str, bytes], int] = {}
         self.sparse_limit = (
@@ -194,7 +198,7 @@ class VirtualBench:
     def slm_transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:
         """The transmission the SLM really shows for ``pattern`` (with pixel crosstalk)."""
         transmission = self.transmission(pattern)
-        if self.description.nuisance.slm_crosstalk <= 0:
+        if self.nuisance.config.slm_crosstalk <= 0:
             return transmission
         eps = np.float32(self.eps)
         return eps + self.nuisance.slm_excess(transmission - eps)
@@ -220,7 +224,7 @@ class VirtualBench:
                 self.slm_transmission(self.pattern), self.scene, samples
             )
         excess = self.transmission(self.pattern[open_rows, open_cols]) - np.float32(self.eps)
-        if self.description.nuisance.slm_crosstalk > 0:
+        if self.nuisance.config.slm_crosstalk > 0:
             # Crosstalk lights the open pixels' neighbours: splat those too.
             image = np.zeros(self.slm_shape, dtype=np.float32)
             image[open_rows, open_cols] = excess

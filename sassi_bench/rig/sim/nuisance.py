@@ -23,7 +23,7 @@ of a rig without the section. Everything is deterministic from the rig's seed.
 
 Examples
 --------
->>> from sassi_bench.rig.config import NuisanceConfig
+>>> from sassi_bench.rig.sim.sections import NuisanceConfig
 >>> nuisances = BenchNuisances(NuisanceConfig(hot_pixels_fraction=0.001), (100, 200), 7, 3e4)
 >>> int(np.count_nonzero(nuisances.hot_pixel_rate))
 20
@@ -39,7 +39,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.rig.config import NuisanceConfig
+from sassi_bench.rig.sim.sections import NuisanceConfig
 
 __all__ = ["BenchNuisances", "crosstalk", "speckle_field"]
 

@@ -15,6 +15,7 @@ import pytest
 from sassi_bench import open_rig
 from sassi_bench.rig.config import load_rig_description
 from sassi_bench.rig.sim import truth
+from sassi_bench.rig.sim.sections import nuisance_section
 
 RIGS = Path(__file__).parents[2] / "rigs"
 NUISANCES = {
@@ -52,7 +53,7 @@ def test_nuisance_rigs_are_the_default_rig_plus_their_nuisance(name):
     assert {k: v for k, v in desc.to_dict().items() if k not in ignore} == {
         k: v for k, v in sim.to_dict().items() if k not in ignore
     }
-    switched_on = {k for k, v in vars(desc.nuisance).items() if v > 0}
+    switched_on = {k for k, v in vars(nuisance_section(desc)).items() if v > 0}
     assert switched_on == (set(NUISANCES.values()) if name == "all" else {NUISANCES[name]})
 
 
@@ -66,7 +67,7 @@ def test_laser_frames_jitter_by_the_rigs_rms_and_lamp_frames_do_not(rigs):
         level = (data[:, lit] - 100.0).mean(axis=1)
         return level / level.mean()
 
-    jitter = rigs["jitter"].description.nuisance.laser_power_jitter
+    jitter = nuisance_section(rigs["jitter"].description).laser_power_jitter
     spread = float(np.std(frame_levels(rigs["jitter"], "laser:532"), ddof=1))
     assert 0.5 * jitter < spread < 1.6 * jitter  # 24 frames: the RMS within about +-30 %
     assert np.std(frame_levels(rigs["sim"], "laser:532"), ddof=1) < 0.1 * jitter
@@ -82,7 +83,7 @@ def test_hot_pixels_are_fixed_and_bright_in_the_dark(rigs):
     # 90 times the read noise.
     threshold = 100.0 + 40 * 5.0 * 65435 / 30000
     hot = first > threshold
-    fraction = rig.description.nuisance.hot_pixels_fraction
+    fraction = nuisance_section(rig.description).hot_pixels_fraction
     assert hot.sum() == round(fraction * first.size)
     assert np.array_equal(hot, second > threshold)
     assert np.array_equal(hot, truth(rig).bench.nuisance.hot_pixel_rate > 0)
@@ -93,7 +94,7 @@ def test_hot_pixels_are_fixed_and_bright_in_the_dark(rigs):
 
 
 def test_crosstalk_lights_the_four_neighbours_of_an_open_pixel(rigs):
-    c = rigs["crosstalk"].description.nuisance.slm_crosstalk
+    c = nuisance_section(rigs["crosstalk"].description).slm_crosstalk
     leaky, clean = truth(rigs["crosstalk"]).bench, truth(rigs["sim"]).bench
 
     def rate(bench, pixels) -> np.ndarray:
@@ -121,7 +122,7 @@ def test_crosstalk_lights_the_four_neighbours_of_an_open_pixel(rigs):
 
 def test_stray_light_spreads_a_fraction_of_the_frame_over_the_sensor(rigs):
     rig = rigs["stray-light"]
-    f = rig.description.nuisance.stray_light
+    f = nuisance_section(rig.description).stray_light
     nuisance = truth(rig).bench.nuisance
     rate = np.zeros(truth(rig).bench.camera_shape, np.float32)
     rate[100:110, 200:300] = 1e5
@@ -146,7 +147,7 @@ def test_stray_light_spreads_a_fraction_of_the_frame_over_the_sensor(rigs):
 
 def test_speckle_is_a_static_grain_of_the_asked_contrast_under_lasers_only(rigs):
     rig = rigs["speckle"]
-    contrast = rig.description.nuisance.speckle_contrast
+    contrast = nuisance_section(rig.description).speckle_contrast
     nuisance = truth(rig).bench.nuisance
     field = nuisance.speckle("laser:532")
     assert float(field.mean()) == pytest.approx(1.0, abs=0.01)

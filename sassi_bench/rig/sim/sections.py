@@ -1,0 +1,200 @@
+"""The rig YAML's bench-only sections, read by the virtual bench alone.
+
+A rig description says what a bench is made of, as a lab knows it. A virtual bench can
+also be told how it really differs from that description (section ``as_built``: lasers
+off their label, another glass melt, the lamp's true temperature, ...) and which
+real-bench nuisances to render (section ``nuisance``: laser power jitter, hot pixels, SLM
+crosstalk, stray light, speckle). The description loader checks their shape against the
+rig's JSON Schema and keeps them raw in ``RigDescription.bench_sections``, out of the
+description's dictionary form and hash; they are parsed and checked here, inside
+``rig/sim``, so no procedure, session, bundle or report can depend on them.
+
+Examples
+--------
+>>> from sassi_bench.rig.config import rig_description_from_dict, load_rig_description
+>>> data = load_rig_description("sim").to_dict()
+>>> data["as_built"] = {"lasers_nm": {"635": 637.8}}
+>>> desc = rig_description_from_dict(data)
+>>> as_built_section(desc).lasers_nm, nuisance_section(desc).stray_light
+({635.0: 637.8}, 0.0)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.optics.datasets import require_dataset
+from sassi_bench.rig.config import RigDescription
+
+__all__ = [
+    "AsBuiltConfig",
+    "NuisanceConfig",
+    "as_built_section",
+    "bench_file",
+    "check_bench_sections",
+    "nuisance_section",
+]
+
+
+@dataclass(frozen=True)
+class AsBuiltConfig:
+    """How the virtual bench as built differs from its description.
+
+    Each key left out means "as described".
+    """
+
+    #: Nominal laser line (nm, as in ``lasers_nm``) -> the line's true centre (nm).
+    lasers_nm: dict[float, float] = field(default_factory=dict)
+    #: Added to the catalogue glass's refractive index at every wavelength.
+    glass_index_offset: float = 0.0
+    apex_deg: float | None = None
+    halogen_k: float | None = None
+    #: The LED's true spectrum: a colour-science illuminant name.
+    led: str | None = None
+    #: The guide camera's true curves: a colour-science camera name or a CSV path.
+    guide_sensitivities: str | None = None
+    slm_gamma: float | None = None
+
+
+@dataclass(frozen=True)
+class NuisanceConfig:
+    """Real-bench nuisances the virtual bench renders; zero is none."""
+
+    #: Relative RMS of the laser's power from frame to frame.
+    laser_power_jitter: float = 0.0
+    #: Fraction of the spectral camera's pixels that are hot.
+    hot_pixels_fraction: float = 0.0
+    #: Fraction of an open SLM pixel's light that leaks into each 4-neighbour.
+    slm_crosstalk: float = 0.0
+    #: Fraction of the scene's light spread evenly over the sensor.
+    stray_light: float = 0.0
+    #: Contrast of static multiplicative speckle under laser light.
+    speckle_contrast: float = 0.0
+
+
+def as_built_section(desc: RigDescription) -> AsBuiltConfig:
+    """The rig's ``as_built`` section (every key as described where it is left out).
+
+    Parameters
+    ----------
+    desc
+        A loaded rig description.
+
+    Returns
+    -------
+    AsBuiltConfig
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> as_built_section(load_rig_description("sim")) == AsBuiltConfig()
+    True
+    """
+    section = dict(desc.bench_sections.get("as_built", {}))
+    section["lasers_nm"] = {float(k): float(v) for k, v in section.get("lasers_nm", {}).items()}
+    return AsBuiltConfig(**section)
+
+
+def nuisance_section(desc: RigDescription) -> NuisanceConfig:
+    """The rig's ``nuisance`` section (every nuisance zero where it is left out).
+
+    Parameters
+    ----------
+    desc
+        A loaded rig description.
+
+    Returns
+    -------
+    NuisanceConfig
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> nuisance_section(load_rig_description("sim")).laser_power_jitter
+    0.0
+    """
+    return NuisanceConfig(**desc.bench_sections.get("nuisance", {}))
+
+
+def bench_file(desc: RigDescription, name: str) -> Path:
+    """A file a bench-only key names, relative to the rig YAML's folder.
+
+    Parameters
+    ----------
+    desc
+        A loaded rig description.
+    name
+        The path as written in the YAML.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> bench_file(load_rig_description("sim"), "/abs/guide.csv").as_posix()
+    '/abs/guide.csv'
+    """
+    path = Path(name)
+    if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
+        path = Path(desc.source).parent / path
+    return path
+
+
+def check_bench_sections(desc: RigDescription) -> None:
+    """Check what the schema cannot: the lasers and data sets the sections name exist.
+
+    Parameters
+    ----------
+    desc
+        A loaded ``backend: sim`` rig description.
+
+    Raises
+    ------
+    ConfigError
+        Naming the description and the key.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import rig_description_from_dict, load_rig_description
+    >>> data = load_rig_description("sim").to_dict()
+    >>> data["as_built"] = {"lasers_nm": {"640": 641.0}}
+    >>> check_bench_sections(rig_description_from_dict(data))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ConfigError: rig description sim: as_built.lasers_nm: 640 nm are not ...
+    """
+    as_built = as_built_section(desc)
+    unknown = sorted(set(as_built.lasers_nm) - set(desc.lasers_nm))
+    if unknown:
+        raise _error(
+            desc,
+            "as_built.lasers_nm",
+            f"{', '.join(f'{x:g}' for x in unknown)} nm are not lines of lasers_nm "
+            f"({', '.join(f'{x:g}' for x in desc.lasers_nm)})",
+            "key each true centre by the nominal line it belongs to",
+        )
+    if as_built.led is not None:
+        require_dataset("illuminant", as_built.led, "as_built.led")
+    curves = as_built.guide_sensitivities
+    if curves is None:
+        return
+    if not curves.lower().endswith(".csv"):
+        require_dataset("camera", curves, "as_built.guide_sensitivities")
+    elif not bench_file(desc, curves).is_file():
+        raise _error(
+            desc,
+            "as_built.guide_sensitivities",
+            f"no such file {str(bench_file(desc, curves))!r}",
+            "give a CSV of wavelength_nm,r,g,b (relative to the rig YAML) or a "
+            "colour-science camera name",
+        )
+
+
+def _error(desc: RigDescription, key: str, cause: str, fix: str) -> ConfigError:
+    return ConfigError(
+        step_error(f"rig description {desc.source or desc.name}", f"{key}: {cause}", fix)
+    )
