@@ -164,9 +164,11 @@ def readme_text(
           this division (36.6 dB at vsize 9 with it): the wider window brings in
           more noise than light (on a sparse pinhole mask: 27.0, 37.0 and
           41.1 dB). The rank-1 cube built from those spectra (the paper's model,
-          affine PSNR over the SLM) goes from 26.8 to 32.1 dB (31.3 dB at vsize
-          9). sassi-bench's own extraction scores 45.9 dB; the 5.5 dB between is
-          its spectral deblur, which cassi.py does not do (40.4 dB without it).
+          affine PSNR over the SLM) goes from 26.8 to 32.1 dB (31.2 dB at vsize
+          9; 32.3 dB from sassi-bench's own spectra, for the rank-1 model's error
+          dominates there). sassi-bench's own extraction scores 45.9 dB; the
+          5.5 dB between is its spectral deblur, which cassi.py does not do
+          (40.4 dB without it).
       nm_per_column   double (1, T): the spectral width of one camera column per
           band ({columns.min():.1f}-{columns.max():.1f} nm). A value of the cube is the light of one
           camera column, so cube / row_window_share / nm_per_column is light per
