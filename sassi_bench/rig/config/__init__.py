@@ -33,6 +33,7 @@ Examples
 """
 
 from sassi_bench.rig.config.description import (
+    DEFAULT_LASER_TOLERANCE_NM,
     AsBuiltConfig,
     BlurConfig,
     GuideCameraConfig,
@@ -45,8 +46,8 @@ from sassi_bench.rig.config.description import (
     SlmConfig,
     SpectralCameraConfig,
     SpectralGridConfig,
-    as_built_path,
     light_names,
+    rig_relative_path,
 )
 from sassi_bench.rig.config.loader import (
     SIM_DEFAULTS,
@@ -56,6 +57,7 @@ from sassi_bench.rig.config.loader import (
 )
 
 __all__ = [
+    "DEFAULT_LASER_TOLERANCE_NM",
     "SIM_DEFAULTS",
     "AsBuiltConfig",
     "BlurConfig",
@@ -69,9 +71,9 @@ __all__ = [
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
-    "as_built_path",
     "available_rigs",
     "light_names",
     "load_rig_description",
     "rig_description_from_dict",
+    "rig_relative_path",
 ]

@@ -7,6 +7,8 @@ Examples
 --------
 >>> light_names((450.0,))
 ('off', 'laser:450', 'led', 'halogen', 'fluorescent')
+>>> light_names((450.0,), ("HgAr",))[-1]
+'lamp:HgAr'
 """
 
 from __future__ import annotations
@@ -18,9 +20,11 @@ from typing import Any
 
 from sassi_bench._shared.canonical_json import canonical_sha256
 from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.lamps import LineList, lamp_name, load_line_list
 from sassi_bench.optics.relay import SpectralRelay
 
 __all__ = [
+    "DEFAULT_LASER_TOLERANCE_NM",
     "AsBuiltConfig",
     "BlurConfig",
     "GuideCameraConfig",
@@ -33,20 +37,40 @@ __all__ = [
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
-    "as_built_path",
     "light_names",
+    "rig_relative_path",
 ]
 
+#: How far a laser's true line may be from its label, nm: a catalogue diode module's
+#: data sheet tolerance (a rig's ``laser_tolerance_nm`` overrides it).
+DEFAULT_LASER_TOLERANCE_NM = 5.0
 
-def light_names(lasers_nm: tuple[float, ...]) -> tuple[str, ...]:
-    """The light names of a rig with these laser lines.
+
+def light_names(lasers_nm: tuple[float, ...], lamps: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The light names of a rig with these laser lines and wavelength lamps.
+
+    Parameters
+    ----------
+    lasers_nm
+        The laser labels, nm.
+    lamps
+        ``wavelength_lamps`` entries (shipped lamp names or CSV paths).
 
     Examples
     --------
     >>> light_names((450.0, 532.5))
     ('off', 'laser:450', 'laser:532.5', 'led', 'halogen', 'fluorescent')
+    >>> light_names((450.0,), ("hgar", "lab/Kr.csv"))[-2:]
+    ('lamp:HgAr', 'lamp:Kr')
     """
-    return ("off", *(f"laser:{x:g}" for x in lasers_nm), "led", "halogen", "fluorescent")
+    return (
+        "off",
+        *(f"laser:{x:g}" for x in lasers_nm),
+        "led",
+        "halogen",
+        "fluorescent",
+        *(f"lamp:{lamp_name(entry)}" for entry in lamps),
+    )
 
 
 @dataclass(frozen=True)
@@ -153,6 +177,8 @@ class AsBuiltConfig:
     #: The guide camera's true curves: a colour-science camera name or a CSV path.
     guide_sensitivities: str | None = None
     slm_gamma: float | None = None
+    #: Log-normal sigma of each lamp line's true intensity against its table.
+    lamp_intensity_spread: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -194,6 +220,12 @@ class RigDescription:
     spectral_grid: SpectralGridConfig = field(default_factory=SpectralGridConfig)
     scenes: ScenesConfig = field(default_factory=ScenesConfig)
     hardware: dict[str, Any] | None = None
+    #: Gas-discharge lamps whose lines anchor the wavelength axis: shipped lamp names
+    #: (``HgAr``, ``Ne``) or paths of CSV line tables (relative to the rig YAML).
+    wavelength_lamps: tuple[str, ...] = ()
+    #: How far each laser's true line may be from its label (nm): one number for every
+    #: line, or per label (a DPSS 532 nm line is exact); None: 5 nm for every line.
+    laser_tolerance_nm: float | dict[float, float] | None = None
     source: str | None = None
     # Bench-only sections: not part of the description procedures rely on, its
     # dictionary form or its hash (see sassi_bench.rig.config).
@@ -211,16 +243,47 @@ class RigDescription:
         >>> load_rig_description("sim").light_names[:3]
         ('off', 'laser:450', 'laser:520')
         """
-        return light_names(self.lasers_nm)
+        return light_names(self.lasers_nm, self.wavelength_lamps)
+
+    def lamp_lines(self) -> dict[str, LineList]:
+        """The line list of every wavelength lamp, by lamp name.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> sorted(load_rig_description("sim").lamp_lines())
+        ['HgAr', 'Ne']
+        """
+        base = rig_relative_path(self, ".")
+        lists = [load_line_list(entry, base=base) for entry in self.wavelength_lamps]
+        return {lines.name: lines for lines in lists}
+
+    def laser_tolerance(self, label_nm: float) -> float:
+        """How far the true line of the laser labelled ``label_nm`` may be off its label (nm).
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> load_rig_description("sim").laser_tolerance(532.0)
+        5.0
+        """
+        given = self.laser_tolerance_nm
+        if isinstance(given, dict):
+            return float(given.get(float(label_nm), DEFAULT_LASER_TOLERANCE_NM))
+        return float(given) if given is not None else DEFAULT_LASER_TOLERANCE_NM
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical JSON-compatible form (the ``source`` path and the bench-only
-        ``as_built`` and ``nuisance`` sections are left out)."""
+        ``as_built`` and ``nuisance`` sections are left out; so are unset optional keys,
+        so a rig without lamps keeps the hash it had before lamps existed)."""
         data = asdict(self)
         for key in ("source", "as_built", "nuisance"):
             data.pop(key)
-        if data["hardware"] is None:
-            data.pop("hardware")
+        for key in ("hardware", "laser_tolerance_nm"):
+            if data[key] is None:
+                data.pop(key)
+        if not data["wavelength_lamps"]:
+            data.pop("wavelength_lamps")
         return json.loads(json.dumps(data, sort_keys=True))
 
     def sha256(self) -> str:
@@ -272,8 +335,9 @@ def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def as_built_path(desc: RigDescription, name: str) -> Path:
-    """A file an ``as_built`` key names, relative to the rig YAML's folder."""
+def rig_relative_path(desc: RigDescription, name: str) -> Path:
+    """A file a rig key names (a lamp's lines, an ``as_built`` curve), relative to the
+    rig YAML's folder."""
     path = Path(name)
     if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
         path = Path(desc.source).parent / path

@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.blur import PsfSigmaCurve
+from sassi_bench.optics.lamps import lamp_samples
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
     SpectralSamples,
@@ -146,6 +147,10 @@ class VirtualBench:
             elif light == "fluorescent":
                 power = colour_illuminant_power(cfg.fluorescent, self.grid, "light.fluorescent")
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
+            elif light.startswith("lamp:"):
+                # Lamps render at the lasers' flux: pen-ray lines through the diffuser.
+                lines = as_built.lamp_lines(self.description, light[5:])
+                samples = lamp_samples(lines, cfg.laser_flux)
             elif light == "halogen":
                 power = blackbody_power(self.grid, as_built.halogen_k(self.description))
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)

@@ -157,6 +157,10 @@ class BenchTruth:
         """The true centre (nm) of the laser line labelled ``nominal_nm``."""
         return as_built.laser_centre_nm(self._bench.description, nominal_nm)
 
+    def lamp_lines(self, name: str):
+        """The true lines of wavelength lamp ``name`` (its intensities as built)."""
+        return as_built.lamp_lines(self._bench.description, name)
+
     @property
     def halogen_k(self) -> float:
         """The halogen lamp's true colour temperature (K)."""
