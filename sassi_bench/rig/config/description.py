@@ -27,6 +27,7 @@ __all__ = [
     "DEFAULT_LASER_TOLERANCE_NM",
     "AsBuiltConfig",
     "BlurConfig",
+    "DriftConfig",
     "GuideCameraConfig",
     "LightConfig",
     "NuisanceConfig",
@@ -182,6 +183,26 @@ class AsBuiltConfig:
 
 
 @dataclass(frozen=True)
+class DriftConfig:
+    """How the virtual bench's optics drift with time (bench-only): a rate per hour and a
+    random walk, on a bench clock that starts at ``start_h`` when the rig is opened and
+    advances with every spectral frame's exposure plus ``frame_overhead_s``."""
+
+    #: Bench clock (hours) when the rig is opened: 6.0 is "15:00" for a 09:00 calibration.
+    start_h: float = 0.0
+    #: Drift of the relay's image of the SLM centre on the camera (x, y), px per hour.
+    relay_offset_px_per_h: tuple[float, float] = (0.0, 0.0)
+    #: Drift of the relay's rotation, degrees per hour.
+    relay_rotation_deg_per_h: float = 0.0
+    #: Drift of the prism's tilt (its incidence angle), degrees per hour.
+    prism_tilt_deg_per_h: float = 0.0
+    #: Random walk of the relay offset (each axis), px per square-root hour.
+    random_walk_px_per_sqrt_h: float = 0.0
+    #: Bench time per spectral frame on top of its exposure, s.
+    frame_overhead_s: float = 0.05
+
+
+@dataclass(frozen=True)
 class NuisanceConfig:
     """Real-bench nuisances the virtual bench renders (bench-only); zero is none."""
 
@@ -195,6 +216,8 @@ class NuisanceConfig:
     stray_light: float = 0.0
     #: Contrast of static multiplicative speckle under laser light.
     speckle_contrast: float = 0.0
+    #: How the optics drift with time; None is a bench that holds still.
+    drift: DriftConfig | None = None
 
 
 @dataclass(frozen=True)

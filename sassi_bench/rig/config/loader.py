@@ -21,6 +21,7 @@ from sassi_bench.rig.config.checks import check_description
 from sassi_bench.rig.config.description import (
     AsBuiltConfig,
     BlurConfig,
+    DriftConfig,
     GuideCameraConfig,
     LightConfig,
     NuisanceConfig,
@@ -94,7 +95,13 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
     as_built = dict(data.get("as_built", {}))
     as_built["lasers_nm"] = {float(k): float(v) for k, v in as_built.get("lasers_nm", {}).items()}
     kwargs["as_built"] = AsBuiltConfig(**as_built)
-    kwargs["nuisance"] = NuisanceConfig(**data.get("nuisance", {}))
+    nuisance = dict(data.get("nuisance", {}))
+    if "drift" in nuisance:
+        drift = dict(nuisance["drift"])
+        if "relay_offset_px_per_h" in drift:
+            drift["relay_offset_px_per_h"] = tuple(float(x) for x in drift["relay_offset_px_per_h"])
+        nuisance["drift"] = DriftConfig(**drift)
+    kwargs["nuisance"] = NuisanceConfig(**nuisance)
     return RigDescription(source=source, **kwargs)
 
 

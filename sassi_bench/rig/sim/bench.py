@@ -21,6 +21,7 @@ from sassi_bench.optics.sources import (
 )
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim import as_built
+from sassi_bench.rig.sim.drift import DriftModel, DriftState, drifted_relay
 from sassi_bench.rig.sim.geometry import bench_relay
 from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.nuisance import BenchNuisances
@@ -72,6 +73,11 @@ class VirtualBench:
             qe="flat",  # the colour sensitivities already include the sensor's QE
         )
         self.relay = bench_relay(desc)
+        self._still_relay = self.relay
+        drift = desc.nuisance.drift
+        self.drift = DriftModel(drift, desc.seed) if drift is not None else None
+        self.clock_h = drift.start_h if drift is not None else 0.0
+        self._drift_state = DriftState()
         self.blur = PsfSigmaCurve(desc.blur.sigma_px)
         self.renderer = SpectralRenderer(
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
@@ -214,8 +220,34 @@ class VirtualBench:
             )
         return self._background[key]
 
+    def advance_clock(self, seconds: float) -> None:
+        """Move the bench clock on by a spectral frame (its exposure plus the overhead) and
+        the optics with it (``nuisance.drift``; a bench without drift holds still)."""
+        if self.drift is None:
+            return
+        self.clock_h += (seconds + self.drift.config.frame_overhead_s) / 3600.0
+        self._apply_drift()
+
+    def set_clock(self, hours: float) -> None:
+        """Set the bench clock (hours) and move the optics to their drift at that time."""
+        self.clock_h = float(hours)
+        self._apply_drift()
+
+    def _apply_drift(self) -> None:
+        if self.drift is None:
+            return
+        state = self.drift.state_at(self.clock_h)
+        if state == self._drift_state:
+            return
+        self._drift_state = state
+        self.relay = drifted_relay(self._still_relay, state)
+        self.renderer.relay = self.relay
+        self.renderer._inverse_cache.clear()
+        self._background.clear()
+
     def spectral_rate(self) -> NDArray[np.float32]:
         """Photo-electron rate on the spectral camera for the current state (e-/s)."""
+        self._apply_drift()
         samples = self.samples(self.light)
         if self.light == "off" or not np.any(samples.weights):
             return np.zeros(self.camera_shape, dtype=np.float32)
