@@ -101,6 +101,7 @@ class VirtualBench:
         self._background: dict[tuple[str, ScenePose, str], NDArray[np.float32]] = {}
         self.pose = ScenePose()
         self.scene = self.scene_named("white")
+        self._apply_drift()  # a bench opened later in the day starts drifted
 
     # -- scene and light ----------------------------------------------------------------
     def scene_named(self, name: str) -> Scene:
