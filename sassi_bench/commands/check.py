@@ -21,13 +21,14 @@ def _run(args: argparse.Namespace) -> int:
     from sassi_bench.provenance import package_version
     from sassi_bench.rig import load_rig_description, open_rig
     from sassi_bench.storage.health_history import HealthHistory, history_path
-    from sassi_bench.workflows.health_check import run_health_check
+    from sassi_bench.workflows.health_check import check_light, run_health_check
     from sassi_bench.workflows.procedure import load_procedure
 
     procedure = load_procedure("health_check", args.procedure)
     if args.light:
         procedure["light"] = args.light
     desc = load_rig_description(args.rig)
+    check_light(desc, procedure)  # before any bundle is read or frame taken
     bundle = bundle_from_args(args, desc.name)
     rig = open_rig(desc)
     check = run_health_check(rig, bundle, procedure, data=args.data, progress=False)
@@ -66,6 +67,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _history(args: argparse.Namespace) -> int:
+    from datetime import datetime
     from pathlib import Path
 
     from sassi_bench.commands.options import check_output_file
@@ -74,6 +76,17 @@ def _history(args: argparse.Namespace) -> int:
     from sassi_bench.rig import load_rig_description
     from sassi_bench.storage.health_history import HealthHistory, history_path
 
+    if args.since is not None:
+        try:
+            datetime.fromisoformat(args.since)
+        except ValueError:
+            raise ConfigError(
+                step_error(
+                    "check history",
+                    f"--since {args.since!r} is not a date or time",
+                    "give an ISO 8601 date or time, e.g. 2026-11-01 or 2026-11-01T09:00",
+                )
+            ) from None
     name = load_rig_description(args.rig).name
     path = history_path(args.data)
     rows = HealthHistory(path).rows(rig=name, since=args.since)

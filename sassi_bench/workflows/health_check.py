@@ -34,6 +34,7 @@ from sassi_bench.calibrate.streak_shift import (
     shift_field_map,
 )
 from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_lamps import camera_noise, lamp_streaks
 from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
@@ -148,7 +149,7 @@ def _map_rows(field_map: ShiftMap) -> list[str]:
     return out
 
 
-def check_light(rig: Rig, procedure: Mapping[str, Any]) -> str:
+def check_light(desc: RigDescription, procedure: Mapping[str, Any]) -> str:
     """The lamp the check uses: the procedure's, or the rig's first wavelength lamp.
 
     Raises
@@ -158,16 +159,16 @@ def check_light(rig: Rig, procedure: Mapping[str, Any]) -> str:
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> check_light(open_rig("sim"), {"light": "auto"})
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> check_light(load_rig_description("sim"), {"light": "auto"})
     'lamp:HgAr'
     """
-    lamps = {lines.light.lower(): lines.light for lines in rig.description.lamp_lines().values()}
+    lamps = {lines.light.lower(): lines.light for lines in desc.lamp_lines().values()}
     if not lamps:
         raise ConfigError(
             step_error(
                 "health check",
-                f"rig {rig.description.name!r} has no wavelength_lamps",
+                f"rig {desc.name!r} has no wavelength_lamps",
                 "add a pen-ray lamp to the rig (wavelength_lamps: [HgAr]) and calibrate with it",
             )
         )
@@ -260,7 +261,7 @@ def run_health_check(
     'holds'
     """
     _check_same_rig(rig, bundle)
-    light = check_light(rig, procedure)
+    light = check_light(rig.description, procedure)
     desc = rig.description
     lamp_proc = {
         "lamps": {

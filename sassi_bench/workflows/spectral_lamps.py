@@ -51,6 +51,7 @@ __all__ = [
     "camera_noise",
     "capture_lamp_frames",
     "check_lamp_pitch",
+    "check_lamp_signal",
     "lamp_streaks",
     "psf_sigma_px",
 ]
@@ -72,7 +73,7 @@ def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.nda
     >>> desc = load_rig_description("sim")
     >>> total = BlurModel((1.0, 0.0, 0.0), 550.0, 150.0, 3.0)
     >>> round(float(psf_sigma_px(total, desc, 550.0)), 3)
-    0.91
+    0.912
     """
     spot = np.asarray(blur.sigma(wavelength_nm), dtype=np.float64)
     pixels = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor)
@@ -322,7 +323,7 @@ def lamp_streaks(
             variance=variance,
             invalid=(pinhole_frames >= saturation).any(axis=0),
         )
-        _check_signal(profiles)
+        check_lamp_signal(profiles)
         modelled = (lines.wavelengths_nm >= band[0]) & (lines.wavelengths_nm <= band[1])
         lam = lines.wavelengths_nm[modelled]
         out.append(
@@ -338,8 +339,24 @@ def lamp_streaks(
     return out
 
 
-def _check_signal(profiles: StreakProfiles) -> None:
-    """Refuse lamp frames without lamp light (the lamp off, or not on the diffuser)."""
+def check_lamp_signal(profiles: StreakProfiles) -> None:
+    """Refuse lamp frames without lamp light (the lamp off, or not on the diffuser): the
+    brightest sample of most streaks must stand 10 noise sigmas above the closed frames.
+
+    Raises
+    ------
+    ProcedureError
+        Naming the lamp, the peak and the noise.
+
+    Examples
+    --------
+    >>> z = np.zeros((3, 5))
+    >>> off = StreakProfiles("lamp:HgAr", z[:, 0], z[:, 0], z, z, z + 25.0, np.zeros((3, 2), int))
+    >>> check_lamp_signal(off)
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: lamp frames lamp:HgAr: the pinhole frames show no lamp ...
+    """
     finite = np.isfinite(profiles.variance)
     noise = float(np.sqrt(np.median(profiles.variance[finite])))
     peak = float(np.percentile(profiles.profile.max(axis=1), 90))
