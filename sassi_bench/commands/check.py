@@ -18,7 +18,6 @@ __all__ = ["register"]
 
 def _run(args: argparse.Namespace) -> int:
     from sassi_bench.commands.options import bundle_from_args
-    from sassi_bench.provenance import package_version
     from sassi_bench.rig import load_rig_description, open_rig
     from sassi_bench.storage.health_history import HealthHistory, history_path
     from sassi_bench.workflows.health_check import check_light, run_health_check
@@ -33,32 +32,8 @@ def _run(args: argparse.Namespace) -> int:
     rig = open_rig(desc)
     check = run_health_check(rig, bundle, procedure, data=args.data, progress=False)
     print(check.summary())
-    record = {
-        "checked_utc": check.checked_utc,
-        "rig": check.rig,
-        "rig_sha256": check.rig_sha256,
-        "bundle_version": check.bundle_version,
-        "bundle_sha256": check.bundle_sha256,
-        "light": check.light,
-        "frames": check.frames,
-        "pinholes": check.pinholes,
-        "capture_s": check.capture_s,
-        "processing_s": check.processing_s,
-        **check.figures(),
-        "tolerance_px": check.tolerances["shift_max_px"],
-        "tolerance_nm": check.tolerances["wavelength_max_nm"],
-        "verdict": check.verdict,
-        "parts_json": check.parts,
-        "map_json": {
-            "u": check.field.u.tolist(),
-            "v": check.field.v.tolist(),
-            "dx_px": check.field.dx.tolist(),
-        },
-        "software": package_version(),
-        "session_id": check.session_id,
-    }
     path = history_path(args.data)
-    HealthHistory(path).append(record)
+    HealthHistory(path).append(check.record())
     print(f"recorded in {path}")
     print(f"trend: sassi-bench check history --rig {args.rig}")
     if not check.holds:

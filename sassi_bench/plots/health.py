@@ -15,11 +15,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from sassi_bench._shared.atomic import atomic_write_text
 from sassi_bench._shared.tables import html_table
 from sassi_bench.plots.html import figure_base64, page
 
-__all__ = ["trend_figure", "write_trend_html"]
+__all__ = ["shift_map_figure", "trend_figure", "write_trend_html"]
 
 _VERDICT_COLOURS = {"holds": "#2e7d32", "recalibrate": "#c62828"}
 
@@ -32,6 +34,45 @@ def _figure(*args, **kwargs):
 
 def _times(rows: Sequence[Mapping[str, Any]]) -> list[datetime]:
     return [datetime.fromisoformat(str(r["checked_utc"])) for r in rows]
+
+
+def shift_map_figure(check):
+    """One health check's streak shifts over the SLM: each pinhole (colour) and the
+    fitted map's contours.
+
+    Parameters
+    ----------
+    check
+        A :class:`~sassi_bench.workflows.health_check.HealthCheck`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> fig = shift_map_figure(check)  # doctest: +SKIP
+    """
+    fig = _figure(figsize=(7.5, 4.8), layout="constrained")
+    ax = fig.subplots()
+    shifts, field_map = check.shifts, check.field
+    limit = max(float(np.nanmax(np.abs(shifts.dx))), check.tolerances["shift_max_px"])
+    dots = ax.scatter(shifts.u, shifts.v, c=shifts.dx, cmap="RdBu_r", vmin=-limit, vmax=limit,
+                      s=30, edgecolors="0.3", linewidths=0.3)  # fmt: skip
+    u_levels, v_levels = np.unique(field_map.u), np.unique(field_map.v)
+    grid = field_map.dx.reshape(v_levels.size, u_levels.size)
+    lines = ax.contour(u_levels, v_levels, grid, colors="k", linewidths=0.6)
+    ax.clabel(lines, fontsize=7, fmt="%.3f")
+    fig.colorbar(dots, ax=ax, label="shift along the dispersion (camera px)")
+    ax.set_xlabel("SLM column")
+    ax.set_ylabel("SLM row")
+    ax.invert_yaxis()
+    ax.set_title(
+        f"{check.rig} {check.bundle_version} under {check.light}: mean "
+        f"{field_map.mean_px:+.3f} px, max {field_map.max_px:.3f} px ({check.verdict})",
+        fontsize=10,
+    )
+    return fig
 
 
 def trend_figure(rows: Sequence[Mapping[str, Any]]):
@@ -82,8 +123,13 @@ def trend_figure(rows: Sequence[Mapping[str, Any]]):
     ax_px.set_ylabel("streak shift (camera px)")
     ax_nm.set_ylabel("wavelength error (nm)")
     ax_nm.set_xlabel("check time (UTC); green holds, red recalibrate")
-    ax_px.legend(fontsize=8, loc="upper left")
-    ax_nm.legend(fontsize=8, loc="upper left")
+    from matplotlib.dates import AutoDateLocator, ConciseDateFormatter
+
+    locator = AutoDateLocator()
+    ax_nm.xaxis.set_major_locator(locator)
+    ax_nm.xaxis.set_major_formatter(ConciseDateFormatter(locator))
+    ax_px.legend(fontsize=8, loc="best")
+    ax_nm.legend(fontsize=8, loc="best")
     ax_px.set_title("Calibration health checks", fontsize=11)
     return fig
 

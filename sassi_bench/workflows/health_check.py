@@ -34,6 +34,7 @@ from sassi_bench.calibrate.streak_shift import (
     shift_field_map,
 )
 from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.provenance import package_version
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_lamps import camera_noise, lamp_streaks
@@ -111,6 +112,34 @@ class HealthCheck:
             "shift_y_max_px": self.row_max_px,
             "wavelength_rms_nm": self.field.wavelength_rms_nm,
             "wavelength_max_nm": self.field.wavelength_max_nm,
+        }
+
+    def record(self) -> dict[str, Any]:
+        """The check as a history row
+        (:class:`~sassi_bench.storage.health_history.HealthHistory`)."""
+        return {
+            "checked_utc": self.checked_utc,
+            "rig": self.rig,
+            "rig_sha256": self.rig_sha256,
+            "bundle_version": self.bundle_version,
+            "bundle_sha256": self.bundle_sha256,
+            "light": self.light,
+            "frames": self.frames,
+            "pinholes": self.pinholes,
+            "capture_s": self.capture_s,
+            "processing_s": self.processing_s,
+            **self.figures(),
+            "tolerance_px": self.tolerances["shift_max_px"],
+            "tolerance_nm": self.tolerances["wavelength_max_nm"],
+            "verdict": self.verdict,
+            "parts_json": dict(self.parts),
+            "map_json": {
+                "u": self.field.u.tolist(),
+                "v": self.field.v.tolist(),
+                "dx_px": self.field.dx.tolist(),
+            },
+            "software": package_version(),
+            "session_id": self.session_id,
         }
 
     def summary(self) -> str:
