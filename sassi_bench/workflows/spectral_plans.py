@@ -309,9 +309,9 @@ def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> P
     >>> from sassi_bench.workflows.procedure import load_procedure
     >>> plan = lamp_plan(load_procedure("spectral_calibration"), {"lamp:HgAr": 0.05})
     >>> len(plan), len(plan.select(role="lamp-pinholes", lamp="lamp:HgAr"))
-    (4, 2)
+    (8, 4)
     """
-    frames = int((procedure.get("lamps") or {}).get("frames", 2))
+    frames = int((procedure.get("lamps") or {}).get("frames", 4))
     pattern = lamp_pinholes(procedure)
     steps = []
     for light, exposure in exposures.items():
