@@ -170,6 +170,11 @@ def lamp_spectrum_figure(anchoring, model):
     model
         The calibration's dispersion model (it puts the streaks on a wavelength axis).
 
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels per lamp.
+
     Examples
     --------
     >>> fig = lamp_spectrum_figure(result.anchoring, result.dispersion.model)  # doctest: +SKIP
