@@ -195,7 +195,7 @@ def _anchoring_checks(
             "lamp_line_max_nm", worst, tolerances.get("lamp_line_max_nm", 0.3), "nm"
         ),
     ]
-    fit = anchoring.fit
+    fit = anchoring.measured or anchoring.fit  # each line as the lamps measure it
     for label, measured, sigma in zip(fit.labels_nm, fit.wavelengths_nm, fit.sigma_nm, strict=True):
         checks.append(
             QualityCheck.at_most(
@@ -323,11 +323,13 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
     ['laser 635 nm: the other lines put it at 637.78 nm (+2.78 nm); ...']
     """
     if result.anchoring is not None:
-        fit = result.anchoring.fit
+        anchoring = result.anchoring
+        fit = anchoring.measured or anchoring.fit
         anchors = ", ".join(sorted(fit.lamps))
         return [
             f"laser {label:g} nm: measured {measured:.2f} +- {sigma:.2f} nm against the "
-            f"{anchors} lamp lines ({measured - label:+.2f} nm from its label)"
+            f"{anchors} lamp lines ({measured - label:+.2f} nm from its label"
+            + ("; label confirmed, fitted at it)" if float(label) in anchoring.confirmed else ")")
             for label, measured, sigma in zip(
                 fit.labels_nm, fit.wavelengths_nm, fit.sigma_nm, strict=True
             )

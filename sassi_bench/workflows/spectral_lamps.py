@@ -46,6 +46,7 @@ from sassi_bench.workflows.spectral_decode import blur_from_pinholes
 from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
 
 __all__ = [
+    "HELD_LABEL_NM",
     "LampAnchoring",
     "anchor_wavelengths",
     "camera_noise",
@@ -56,6 +57,8 @@ __all__ = [
     "psf_sigma_px",
 ]
 
+#: The prior width (nm) that holds a confirmed laser line at its label.
+HELD_LABEL_NM = 1e-3
 #: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last.
 _REACH_SIGMAS = 4.0
 
@@ -388,6 +391,10 @@ class LampAnchoring:
         Exposure of each lamp's frames, by light name.
     frames
         Pinhole frames per lamp.
+    measured
+        The first fit, every laser's wavelength free: each line as the lamps measure it.
+    confirmed
+        Labels the lamps confirm (held at the label in ``fit``).
     """
 
     fit: AnchoredWavelengths
@@ -395,6 +402,8 @@ class LampAnchoring:
     tables: dict[str, LineList]
     exposures_s: dict[str, float]
     frames: int
+    measured: AnchoredWavelengths | None = None
+    confirmed: tuple[float, ...] = ()
 
     def line_residuals_nm(self) -> dict[str, dict[float, tuple[float, float]]]:
         """Per lamp, per line bright enough to tell: its residual and its 1-sigma (nm)."""
@@ -426,7 +435,10 @@ def anchor_wavelengths(
     The lasers' labels place the lamp streaks to within a few pixels (a dispersion fit
     at the labels, and its blur from the sweep's pinhole frames); the anchored fit then
     measures every laser's line with the lamp lines as absolute anchors, each laser's
-    label a prior of the rig's ``laser_tolerance_nm``.
+    label a prior of the rig's ``laser_tolerance_nm``. A line the lamps cannot tell from
+    its label (within ``fit.confirm_sigmas`` of the measurement's uncertainty and
+    ``fit.confirm_max_nm``) is confirmed and held at its label, and the others are
+    measured again: a label that holds is exact, a measurement is not.
 
     Parameters
     ----------
@@ -458,9 +470,16 @@ def anchor_wavelengths(
     blur = blur_from_pinholes(sweep, procedure, start, slm_shape, saturation)
     streaks = lamp_streaks(lamps, procedure, desc, start.model, blur.model)
     tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
-    fit = fit_anchored_wavelengths(
-        maps, streaks, get_glass(desc.prism.glass), slm_shape, tolerance, **shape
-    )
+    glass = get_glass(desc.prism.glass)
+    measured = fit_anchored_wavelengths(maps, streaks, glass, slm_shape, tolerance, **shape)
+    confirmed = _confirmed_labels(measured, procedure)
+    fit = measured
+    if confirmed:
+        # A label the lamps cannot tell from the measurement is exact to better than the
+        # measurement: those lines are held at their labels, the others measured again.
+        held = [HELD_LABEL_NM if m.wavelength_nm in confirmed else t
+                for m, t in zip(maps, tolerance, strict=True)]  # fmt: skip
+        fit = fit_anchored_wavelengths(maps, streaks, glass, slm_shape, held, **shape)
     exposures = {k: float(v) for k, v in lamps.plan.parameters.get("exposures_s", {}).items()}
     return LampAnchoring(
         fit=fit,
@@ -468,4 +487,17 @@ def anchor_wavelengths(
         tables=desc.lamp_lines(),
         exposures_s=exposures,
         frames=len(lamps.plan.select(role="lamp-pinholes")) // max(len(exposures), 1),
+        measured=measured,
+        confirmed=tuple(sorted(confirmed)),
     )
+
+
+def _confirmed_labels(measured: AnchoredWavelengths, procedure: Mapping[str, Any]) -> set[float]:
+    """Labels the lamps confirm: the freely measured line within ``fit.confirm_sigmas``
+    of its 1-sigma uncertainty and within ``fit.confirm_max_nm`` of its label."""
+    fit = procedure.get("fit") or {}
+    sigmas = float(fit.get("confirm_sigmas", 3.0))
+    largest = float(fit.get("confirm_max_nm", 0.3))
+    off = np.abs(measured.wavelengths_nm - measured.labels_nm)
+    keep = (off <= sigmas * measured.sigma_nm) & (off <= largest)
+    return {float(label) for label in measured.labels_nm[keep]}

@@ -121,17 +121,20 @@ def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
     ['lamps', 'laser_lines']
     """
     fit = anchoring.fit
+    free = anchoring.measured or fit
     lines = {
         f"{label:g}": {
             "label_nm": float(label),
             "measured_nm": float(measured),
             "sigma_nm": float(sigma),
             "fitted_nm": dispersion.wavelengths_nm.get(float(label), float(measured)),
-            "method": "lamp-anchored",
+            "method": (
+                "lamp-confirmed label" if float(label) in anchoring.confirmed else "lamp-anchored"
+            ),
             "anchors": sorted(fit.lamps),
         }
         for label, measured, sigma in zip(
-            fit.labels_nm, fit.wavelengths_nm, fit.sigma_nm, strict=True
+            free.labels_nm, free.wavelengths_nm, free.sigma_nm, strict=True
         )
     }
     residuals = anchoring.line_residuals_nm()
