@@ -43,7 +43,7 @@ def test_the_bundle_passes_and_records_every_laser_s_measured_line(anchored):
         assert line["method"] == ("lamp-confirmed label" if exact else "lamp-anchored"), label
         assert line["fitted_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.3), label
         if exact:
-            assert line["fitted_nm"] == 532.0
+            assert line["fitted_nm"] == pytest.approx(532.0, abs=0.001)  # held at its label
         # Issue goal: each laser within 0.3 nm of its true line (measured <= 0.11 nm).
         assert line["measured_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.3), label
         assert 0 < line["sigma_nm"] < 0.5
