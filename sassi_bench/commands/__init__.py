@@ -1,6 +1,6 @@
 """The ``sassi-bench`` command line: the application tier, one module per command group.
 
-Each module (``rig``, ``calibrate``, ``scan``, ``bundle``, ``snapshot``, ``validate``,
+Each module (``rig``, ``calibrate``, ``check``, ``scan``, ``bundle``, ``snapshot``, ``validate``,
 ``data``, ``batch``) adds its group through ``register(subparsers)`` and holds only argument
 handling and printing; the work is done by the library (``workflows`` for procedures that
 drive a rig, ``validate`` for scoring, ``bundle``, ``export``, ``storage``, ``batch``).
@@ -19,7 +19,17 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from sassi_bench.commands import batch, bundle, calibrate, data, rig, scan, snapshot, validate
+from sassi_bench.commands import (
+    batch,
+    bundle,
+    calibrate,
+    check,
+    data,
+    rig,
+    scan,
+    snapshot,
+    validate,
+)
 from sassi_bench.commands.options import PROG, resume_command
 from sassi_bench.errors import SassiBenchError
 from sassi_bench.provenance import package_version
@@ -27,7 +37,7 @@ from sassi_bench.provenance import package_version
 __all__ = ["PROG", "build_parser", "main"]
 
 #: The command groups in the order ``--help`` lists them.
-GROUPS = (rig, calibrate, scan, bundle, snapshot, validate, data, batch)
+GROUPS = (rig, calibrate, check, scan, bundle, snapshot, validate, data, batch)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,4 +1,5 @@
-"""Figures of the spectral calibration: residual maps, dispersion curve, blur curve."""
+"""Figures of the spectral calibration: residual maps, dispersion curve, blur curve, and
+on a rig with wavelength lamps the lamp spectra against their line lists."""
 
 from __future__ import annotations
 
@@ -7,7 +8,13 @@ from typing import Any
 import numpy as np
 from scipy.stats import binned_statistic_2d
 
-__all__ = ["blur_figure", "dispersion_figure", "residual_maps_figure", "spectral_figures"]
+__all__ = [
+    "blur_figure",
+    "dispersion_figure",
+    "lamp_spectrum_figure",
+    "residual_maps_figure",
+    "spectral_figures",
+]
 
 
 def _figure(*args, **kwargs):
@@ -142,8 +149,81 @@ def blur_figure(blur):
     return fig
 
 
+def _streak_wavelengths(model, profiles) -> np.ndarray:
+    """The wavelength of every profile sample under ``model`` (P, W)."""
+    lam = np.linspace(370.0, 740.0, 741)
+    x, _ = model.evaluate(profiles.u[:, None], profiles.v[:, None], lam[None, :])
+    # Columns increase with wavelength: interpolate each pinhole's inverse (a plot, P ~ 100).
+    return np.stack(
+        [np.interp(cols, xs, lam) for cols, xs in zip(profiles.columns, x, strict=True)]
+    )
+
+
+def lamp_spectrum_figure(anchoring, model):
+    """Per lamp: every pinhole's streak on the fitted wavelength axis against the lamp's
+    line list, and the fitted line amplitudes against the table's intensities.
+
+    Parameters
+    ----------
+    anchoring
+        A :class:`~sassi_bench.workflows.spectral_lamps.LampAnchoring`.
+    model
+        The calibration's dispersion model (it puts the streaks on a wavelength axis).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels per lamp.
+
+    Examples
+    --------
+    >>> fig = lamp_spectrum_figure(result.anchoring, result.dispersion.model)  # doctest: +SKIP
+    """
+    streaks = anchoring.streaks
+    fig = _figure(figsize=(9.5, 3.9 * len(streaks)), layout="constrained")
+    axes = fig.subplots(2 * len(streaks), 1, squeeze=False, height_ratios=[2, 1] * len(streaks))
+    for i, data in enumerate(streaks):
+        ax, ax_lines = axes[2 * i, 0], axes[2 * i + 1, 0]
+        lamp = anchoring.fit.lamps[data.name]
+        table = anchoring.tables[data.name]
+        prof = data.profiles
+        wl = _streak_wavelengths(model, prof)
+        gain = np.where(lamp.gains > 0, lamp.gains, np.nan)[:, None]
+        signal = (prof.profile - lamp.backgrounds[:, None]) / gain
+        top = float(np.nanpercentile(signal, 99.9))
+        ax.plot(wl.ravel(), signal.ravel() / top, ",", color="C0", alpha=0.4)
+        ax.plot([], [], ".", color="C0", label=f"{prof.count} pinholes, each over its gain")
+        for lam in table.wavelengths_nm:
+            ax.axvline(lam, color="0.6", lw=0.6, zorder=0)
+        ax.axvline(np.nan, color="0.6", lw=0.6, label=f"{data.name} lines (table)")
+        ax.set_xlim(395, 712)
+        ax.set_ylim(-0.05, 1.1)
+        ax.set_ylabel("signal / gain (rel.)")
+        residuals = np.abs(lamp.line_residual_nm[np.isfinite(lamp.line_residual_nm)])
+        worst = f"; worst line residual {residuals.max():.3f} nm" if residuals.size else ""
+        ax.set_title(
+            f"{data.name} lamp on the calibrated wavelength axis (reduced chi-square "
+            f"{lamp.chi2:.1f}{worst})",
+            fontsize=10,
+        )
+        ax.legend(fontsize=7, loc="upper left")
+        fitted = lamp.amplitudes / lamp.amplitudes.max()
+        seen = "fitted amplitude (as the camera sees it)"
+        ax_lines.vlines(data.lines_nm, 0, fitted, color="C1", lw=1.5, label=seen)
+        listed = data.start_intensity / data.start_intensity.max()
+        ax_lines.vlines(data.lines_nm, 0, -listed, color="0.4", lw=1.5, label="table intensity")
+        ax_lines.axhline(0, color="k", lw=0.5)
+        ax_lines.set_xlim(395, 712)
+        ax_lines.set_ylim(-1.1, 1.1)
+        ax_lines.set_xlabel("wavelength (nm)")
+        ax_lines.set_ylabel("relative")
+        ax_lines.legend(fontsize=7, loc="upper left", ncols=2)
+    return fig
+
+
 def spectral_figures(result: Any) -> dict[str, Any]:
-    """The report figures of a spectral calibration.
+    """The report figures of a spectral calibration (with the lamp spectra when lamps
+    anchored it).
 
     Parameters
     ----------
@@ -153,15 +233,19 @@ def spectral_figures(result: Any) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``"residual_maps"``, ``"dispersion"`` and ``"blur"`` -> figure.
+        ``"residual_maps"``, ``"dispersion"``, ``"blur"`` and, with lamp anchoring,
+        ``"lamp_spectrum"`` -> figure.
 
     Examples
     --------
     >>> figures = spectral_figures(result)  # doctest: +SKIP
     """
     shape = result.lasers[0].laser_map.x.slm_shape
-    return {
+    figures = {
         "residual_maps": residual_maps_figure(result.lasers, shape),
         "dispersion": dispersion_figure(result.dispersion, result.lasers, shape),
         "blur": blur_figure(result.blur),
     }
+    if getattr(result, "anchoring", None) is not None:
+        figures["lamp_spectrum"] = lamp_spectrum_figure(result.anchoring, result.dispersion.model)
+    return figures

@@ -39,13 +39,16 @@ def check_scene(name: str, step: str = "set scene") -> None:
 
 def check_light(name: str, available: tuple[str, ...], step: str = "light select") -> str:
     """The normalised name of light ``name`` if the rig has it (``"laser:532.0"`` ->
-    ``"laser:532"``); otherwise an error naming the rig's lights and the closest one.
+    ``"laser:532"``, ``"lamp:hgar"`` -> ``"lamp:HgAr"``: names match regardless of case);
+    otherwise an error naming the rig's lights and the closest one.
 
     Examples
     --------
-    >>> lights = ("off", "laser:532", "led")
+    >>> lights = ("off", "laser:532", "led", "lamp:HgAr")
     >>> check_light("Laser:532.0", lights)
     'laser:532'
+    >>> check_light("lamp:hgar", lights)
+    'lamp:HgAr'
     >>> check_light("lazer:532", lights)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
@@ -55,7 +58,8 @@ def check_light(name: str, available: tuple[str, ...], step: str = "light select
     if key.startswith("laser:"):
         with contextlib.suppress(ValueError):
             key = f"laser:{float(key[6:]):g}"
-    if key not in available:
+    canonical = {light.lower(): light for light in available}
+    if key not in canonical:
         raise ProcedureError(
             step_error(
                 step,
@@ -63,7 +67,7 @@ def check_light(name: str, available: tuple[str, ...], step: str = "light select
                 f"use one of {', '.join(available)}",
             )
         )
-    return key
+    return canonical[key]
 
 
 @dataclass

@@ -3,8 +3,11 @@
 :func:`analyse_spectral_sweeps` decodes the captured sweeps
 (:mod:`sassi_bench.workflows.spectral_decode`), checks the laser lines against each
 other, fits the joint dispersion model and the blur, and grades the result against the
-procedure's tolerances (:func:`grade`). Fit settings and tolerances may differ from
-those the sweeps were captured with (a region excluded in the notebook).
+procedure's tolerances (:func:`grade`). With lamp frames (a rig with wavelength lamps)
+the lamp lines anchor the wavelength axis and every laser's line is measured
+(:mod:`sassi_bench.workflows.spectral_lamps`) instead of checked against the others.
+Fit settings and tolerances may differ from those the sweeps were captured with (a
+region excluded in the notebook).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from sassi_bench.workflows.spectral_decode import (
     blur_from_pinholes,
     measure_response,
 )
+from sassi_bench.workflows.spectral_lamps import LampAnchoring, anchor_wavelengths
 
 __all__ = ["SpectralCalibration", "analyse_spectral_sweeps", "grade", "laser_line_notes"]
 
@@ -52,6 +56,7 @@ class SpectralCalibration:
     bundle_path: Path | None = None
     figures: dict[str, bytes] = field(default_factory=dict)
     laser_lines: dict[float, LaserLine] = field(default_factory=dict)
+    anchoring: LampAnchoring | None = None
 
     @property
     def passed(self) -> bool:
@@ -82,6 +87,8 @@ def grade(
     blur: BlurFit,
     tolerances: Mapping[str, float],
     laser_lines: Mapping[float, LaserLine] | None = None,
+    anchoring: LampAnchoring | None = None,
+    laser_tolerance_nm: Mapping[float, float] | None = None,
 ) -> list[QualityCheck]:
     """Quality checks of a spectral calibration against the procedure's tolerances.
 
@@ -100,6 +107,14 @@ def grade(
         per line fitted at its label, ``laser_line_<label>nm``, how far the other lines
         put it from its label. A line fitted at its estimate has no such check (it
         agrees with the others by construction); the bundle records its estimate.
+    anchoring
+        The lamp anchoring, if any: adds ``lamp_line_rms_nm`` and ``lamp_line_max_nm``
+        (the lamp lines' residuals at the fitted model), and per laser
+        ``laser_wavelength_sigma_<label>nm`` (its measured line's uncertainty) and
+        ``laser_label_<label>nm`` (how far it is from its label, against
+        ``laser_tolerance_nm`` plus three times that uncertainty).
+    laser_tolerance_nm
+        Per label, how far the rig allows a line to be off its label.
 
     Returns
     -------
@@ -161,6 +176,44 @@ def grade(
     checks.append(
         QualityCheck.at_most("blur_fit_rms_px", blur.rms_px, tolerances["blur_fit_rms_px"], "px")
     )
+    if anchoring is not None:
+        checks += _anchoring_checks(anchoring, tolerances, laser_tolerance_nm or {})
+    return checks
+
+
+def _anchoring_checks(
+    anchoring: LampAnchoring, tolerances: Mapping[str, float], laser_tolerance: Mapping
+) -> list[QualityCheck]:
+    residuals = [r for lines in anchoring.line_residuals_nm().values() for r, _ in lines.values()]
+    rms = float(np.sqrt(np.mean(np.square(residuals)))) if residuals else float("nan")
+    worst = float(np.max(np.abs(residuals))) if residuals else float("nan")
+    checks = [
+        QualityCheck.at_most(
+            "lamp_line_rms_nm", rms, tolerances.get("lamp_line_rms_nm", 0.1), "nm"
+        ),
+        QualityCheck.at_most(
+            "lamp_line_max_nm", worst, tolerances.get("lamp_line_max_nm", 0.3), "nm"
+        ),
+    ]
+    fit = anchoring.measured or anchoring.fit  # each line as the lamps measure it
+    for label, measured, sigma in zip(fit.labels_nm, fit.wavelengths_nm, fit.sigma_nm, strict=True):
+        checks.append(
+            QualityCheck.at_most(
+                f"laser_wavelength_sigma_{label:g}nm",
+                float(sigma),
+                tolerances.get("laser_wavelength_sigma_nm", 0.5),
+                "nm",
+            )
+        )
+        # Off its label by more than the rig allows, beyond the measurement's own 3 sigma.
+        checks.append(
+            QualityCheck.at_most(
+                f"laser_label_{label:g}nm",
+                abs(float(measured - label)),
+                float(laser_tolerance.get(float(label), 5.0)) + 3.0 * float(sigma),
+                "nm",
+            )
+        )
     return checks
 
 
@@ -199,6 +252,23 @@ def analyse_spectral_sweeps(
         "field_degree": int(proc["fit"].get("field_degree", 5)),
         "order": int(proc["fit"].get("dispersion_order", 2)),
     }
+    if sweeps.lamps is not None:
+        anchoring = anchor_wavelengths(sweeps.sweep, sweeps.lamps, proc, desc, maps, **shape)
+        dispersion = fit_dispersion(
+            maps,
+            desc.prism.glass,
+            slm_shape,
+            wavelengths_nm=anchoring.fit.by_label,
+            x_information=anchoring.fit.information,
+            **shape,
+        )
+        blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation)
+        tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
+        checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
+        return SpectralCalibration(
+            proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions,
+            anchoring=anchoring,
+        )  # fmt: skip
     lines = check_laser_lines(
         maps,
         desc.prism.glass,
@@ -244,13 +314,26 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
     -------
     list of str
         A note for every line fitted at its estimate or off its label by more than
-        the tolerance; empty when the labels agree.
+        the tolerance; empty when the labels agree. With lamp anchoring, every laser's
+        measured line.
 
     Examples
     --------
     >>> laser_line_notes(result)  # doctest: +SKIP
     ['laser 635 nm: the other lines put it at 637.78 nm (+2.78 nm); ...']
     """
+    if result.anchoring is not None:
+        anchoring = result.anchoring
+        fit = anchoring.measured or anchoring.fit
+        anchors = ", ".join(sorted(fit.lamps))
+        return [
+            f"laser {label:g} nm: measured {measured:.2f} +- {sigma:.2f} nm against the "
+            f"{anchors} lamp lines ({measured - label:+.2f} nm from its label"
+            + ("; label confirmed, fitted at it)" if float(label) in anchoring.confirmed else ")")
+            for label, measured, sigma in zip(
+                fit.labels_nm, fit.wavelengths_nm, fit.sigma_nm, strict=True
+            )
+        ]
     notes = []
     estimated = set(result.dispersion.estimated_lines)
     tolerance = float(result.procedure["tolerances"].get("laser_line_nm", 0.5))

@@ -2,7 +2,8 @@
 
 :func:`capture_spectral_sweeps` finds each laser's exposure, measures the SLM's
 grey-level response (structured sweeps), then records the sweep plan of
-:mod:`sassi_bench.workflows.spectral_plans`. Named sessions resume where they stopped;
+:mod:`sassi_bench.workflows.spectral_plans` and, on a rig with wavelength lamps, the
+lamp frames (:mod:`sassi_bench.workflows.spectral_lamps`). Named sessions resume where they stopped;
 a resumed session must have been captured with the same capture settings.
 """
 
@@ -24,6 +25,7 @@ from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_decode import measure_response
+from sassi_bench.workflows.spectral_lamps import capture_lamp_frames, check_lamp_pitch
 from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
 
 __all__ = ["SpectralSweeps", "capture_spectral_sweeps", "procedure_lasers"]
@@ -116,15 +118,16 @@ def _check_same_procedure(
 @dataclass(frozen=True)
 class SpectralSweeps:
     """The raw sessions of a spectral calibration: the grey-level response (structured
-    sweeps only) and the laser sweep itself."""
+    sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only)."""
 
     grey: Session | None
     sweep: Session
+    lamps: Session | None = None
 
     @property
     def sessions(self) -> list[Session]:
         """The sessions, in capture order."""
-        return [s for s in (self.grey, self.sweep) if s is not None]
+        return [s for s in (self.grey, self.sweep, self.lamps) if s is not None]
 
 
 def capture_spectral_sweeps(
@@ -145,8 +148,9 @@ def capture_spectral_sweeps(
         A validated spectral-calibration procedure
         (:func:`~sassi_bench.workflows.procedure.load_procedure`).
     session_id
-        Base id of the raw sessions (``<id>-grey``, ``<id>-sweep``); an existing id
-        resumes its capture (the stored plans are reused, not rebuilt).
+        Base id of the raw sessions (``<id>-grey``, ``<id>-sweep`` and, on a rig with
+        wavelength lamps, ``<id>-lamps``); an existing id resumes its capture (the stored
+        plans are reused, not rebuilt).
     data
         Data root for sessions.
     progress
@@ -164,6 +168,7 @@ def capture_spectral_sweeps(
     lasers = procedure_lasers(proc, rig.description.lasers_nm)
     extra = [float(x) for x in proc["blur"].get("extra_lasers_nm", [])]
     _check_lasers(rig, lasers + extra)
+    check_lamp_pitch(rig.description, proc)
     base = _session_id(session_id)
     slm_shape = rig.slm.shape
     saturation = 2**rig.spectral_camera.bit_depth - 1
@@ -207,4 +212,5 @@ def capture_spectral_sweeps(
         plan = sweep_plan(proc, slm_shape, exposures, profile, blur_exposures)
         sweep = Session.create(rig.description, plan, session_id=f"{base}-sweep", data=data)
     run_plan(rig, sweep.plan, sweep, progress=progress)
-    return SpectralSweeps(grey, sweep)
+    lamps = capture_lamp_frames(rig, proc, f"{base}-lamps", data=data, progress=progress)
+    return SpectralSweeps(grey, sweep, lamps)

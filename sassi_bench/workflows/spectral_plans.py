@@ -5,6 +5,8 @@ under one laser (uniform patterns), so the sinusoids of the phase-shifting sweep
 precompensated. The *sweep* plan then captures, laser by laser: a dark frame (light
 off), closed (``blank``) and open (``full``) SLM frames, the sweep proper (Gray code and
 phase shifting on both axes, or the paper's line sweep) and pinhole frames for the blur.
+On a rig with wavelength lamps a third, short plan (:func:`lamp_plan`) captures a sparse
+pinhole array under each lamp, whose atomic lines anchor the wavelength axis.
 """
 
 from __future__ import annotations
@@ -18,7 +20,19 @@ from sassi_bench.acquire.patterns import gray_bit_count
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["grey_levels", "grey_plan", "laser_light", "sweep_plan"]
+__all__ = [
+    "LAMP_PINHOLE_PITCH_PX",
+    "grey_levels",
+    "grey_plan",
+    "lamp_pinholes",
+    "lamp_plan",
+    "laser_light",
+    "sweep_plan",
+]
+
+#: Pinhole pitch (SLM px, [x, y]) of the lamp frames when the procedure leaves it out: a
+#: lamp streak's 400-710 nm lines and their blur must not reach the next pinhole's.
+LAMP_PINHOLE_PITCH_PX = (100, 24)
 
 
 def laser_light(wavelength_nm: float) -> str:
@@ -258,3 +272,57 @@ def sweep_plan(
         "profile": profile,
     }
     return Plan("spectral-sweep", tuple(steps), parameters)
+
+
+def lamp_pinholes(procedure: Mapping[str, Any]) -> dict[str, Any]:
+    """The pinhole pattern of the lamp frames (``lamps.pinhole_pitch_px``).
+
+    Examples
+    --------
+    >>> lamp_pinholes({"lamps": {"pinhole_pitch_px": [100, 24]}})
+    {'kind': 'pinholes', 'pitch': [100, 24], 'offset': [50, 12]}
+    """
+    lamps = procedure.get("lamps") or {}
+    pitch = [int(p) for p in lamps.get("pinhole_pitch_px", LAMP_PINHOLE_PITCH_PX)]
+    return {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
+
+
+def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> Plan:
+    """Pinhole frames under each wavelength lamp, with as many closed-SLM frames.
+
+    Parameters
+    ----------
+    procedure
+        The validated spectral-calibration procedure (``lamps.pinhole_pitch_px``,
+        ``lamps.frames``).
+    exposures
+        Exposure (s) per lamp light (``"lamp:HgAr"``).
+
+    Returns
+    -------
+    Plan
+        Steps tagged ``role: lamp-blank`` and ``role: lamp-pinholes`` with their ``lamp``
+        (light name) and ``frame``.
+
+    Examples
+    --------
+    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> plan = lamp_plan(load_procedure("spectral_calibration"), {"lamp:HgAr": 0.05})
+    >>> len(plan), len(plan.select(role="lamp-pinholes", lamp="lamp:HgAr"))
+    (8, 4)
+    """
+    frames = int((procedure.get("lamps") or {}).get("frames", 4))
+    pattern = lamp_pinholes(procedure)
+    steps = []
+    for light, exposure in exposures.items():
+        for role, shown in (("lamp-blank", {"kind": "blank"}), ("lamp-pinholes", pattern)):
+            for frame in range(frames):
+                tags = {"lamp": light, "role": role, "frame": frame}
+                steps.append(_frame(light, exposure, shown, tags))
+    parameters = {
+        "scene": "white",
+        "procedure": {k: v for k, v in procedure.items() if k != "source"},
+        "exposures_s": {light: float(t) for light, t in exposures.items()},
+        "pinholes": pattern,
+    }
+    return Plan("spectral-lamps", tuple(steps), parameters)

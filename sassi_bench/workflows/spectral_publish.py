@@ -17,8 +17,9 @@ import numpy as np
 from sassi_bench.bundle import publish
 from sassi_bench.bundle.derive import stage_checks
 from sassi_bench.workflows.spectral_analysis import SpectralCalibration, laser_line_notes
+from sassi_bench.workflows.spectral_lamps import LampAnchoring
 
-__all__ = ["publish_spectral", "quality_section", "render_figures"]
+__all__ = ["anchoring_section", "publish_spectral", "quality_section", "render_figures"]
 
 
 def render_figures(result: SpectralCalibration) -> None:
@@ -53,7 +54,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
     -------
     dict
         ``checks``, ``residuals``, ``leave_one_out``, ``laser_lines`` and ``notes``,
-        JSON-compatible.
+        JSON-compatible; with lamp anchoring, ``laser_lines`` holds each laser's
+        measured line and ``lamps`` each lamp's fit.
 
     Examples
     --------
@@ -61,7 +63,7 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
     ['checks', 'laser_lines', 'leave_one_out', 'notes', 'residuals']
     """
     disp = result.dispersion
-    return {
+    section = {
         "checks": stage_checks("spectral", result.checks),
         "residuals": {
             "correspondence_rms_px": {
@@ -92,6 +94,74 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
         },
         "notes": laser_line_notes(result),
     }
+    if result.anchoring is not None:
+        section.update(anchoring_section(result.anchoring, disp))
+    return section
+
+
+def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
+    """The lamp-anchored parts of the quality section: every laser's measured line
+    (``laser_lines``) and every lamp's fit (``lamps``).
+
+    Parameters
+    ----------
+    anchoring
+        The calibration's lamp anchoring.
+    dispersion
+        The final dispersion fit (the wavelengths it used).
+
+    Returns
+    -------
+    dict
+        ``laser_lines`` and ``lamps``, JSON-compatible.
+
+    Examples
+    --------
+    >>> sorted(anchoring_section(result.anchoring, result.dispersion))  # doctest: +SKIP
+    ['lamps', 'laser_lines']
+    """
+    fit = anchoring.fit
+    free = anchoring.measured or fit
+    lines = {
+        f"{label:g}": {
+            "label_nm": float(label),
+            "measured_nm": float(measured),
+            "sigma_nm": float(sigma),
+            "fitted_nm": dispersion.wavelengths_nm.get(float(label), float(measured)),
+            "method": (
+                "lamp-confirmed label" if float(label) in anchoring.confirmed else "lamp-anchored"
+            ),
+            "anchors": sorted(fit.lamps),
+        }
+        for label, measured, sigma in zip(
+            free.labels_nm, free.wavelengths_nm, free.sigma_nm, strict=True
+        )
+    }
+    residuals = anchoring.line_residuals_nm()
+    lamps = {}
+    for data in anchoring.streaks:
+        table = anchoring.tables[data.name]
+        lamp = fit.lamps[data.name]
+        light = table.light
+        lamps[data.name] = {
+            "light": light,
+            "table_sha256": table.sha256,
+            "source": table.source,
+            "exposure_s": anchoring.exposures_s.get(light),
+            "frames": anchoring.frames,
+            "pinholes": data.profiles.count,
+            "chi2": lamp.chi2,
+            "lines": [
+                {
+                    "wavelength_nm": float(lam),
+                    "amplitude": float(amplitude),
+                    "residual_nm": residuals[data.name].get(float(lam), (None, None))[0],
+                    "sigma_nm": residuals[data.name].get(float(lam), (None, None))[1],
+                }
+                for lam, amplitude in zip(data.lines_nm, lamp.amplitudes, strict=True)
+            ],
+        }
+    return {"laser_lines": lines, "lamps": lamps}
 
 
 def publish_spectral(

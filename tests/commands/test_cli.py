@@ -190,6 +190,7 @@ def bad_value(words, action, world):
         "scheduler": "not-an-address",
         "workers": "0",
         "frames": "0",
+        "since": "yesterday",
     }
     if words == ("snapshot", "export") and action.dest == "session":
         return "no-such-session"
@@ -305,7 +306,7 @@ def test_the_console_script_prints_one_line(world):
 # -- Ctrl-C -------------------------------------------------------------------------------
 
 #: Commands that capture but keep nothing a later run could resume.
-NOTHING_TO_RESUME = {("rig", "snapshot")}
+NOTHING_TO_RESUME = {("rig", "snapshot"), ("check",)}
 
 
 class _CtrlC:

@@ -170,3 +170,12 @@ def test_07_snapshot_scores_an_adaptive_snapshot_against_a_scan(lab):
     report = lab / "snapshot-report" / "snapshot_report.json"
     doc = json.loads(report.read_text())
     assert doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"] > 25.0
+
+
+def test_08_health_check_holds_on_the_latest_bundle(lab):
+    from sassi_bench.storage.health_history import HealthHistory, history_path
+
+    book = _run("08_health_check.ipynb", lab)
+    assert _images(book) >= 2  # the shift map and the trend
+    (row,) = HealthHistory(history_path(lab)).rows(rig="sim")
+    assert row["verdict"] == "holds" and row["shift_x_max_px"] < 0.1

@@ -228,3 +228,49 @@ def test_a_real_rig_refuses_bench_only_sections(sim_dict):
     hardware["nuisance"] = {"stray_light": 0.01}
     with pytest.raises(ConfigError, match=r"nuisance: only read by the virtual bench"):
         rig_description_from_dict(hardware)
+
+
+def test_wavelength_lamps_name_lights_and_drop_out_of_a_lamp_less_rig(sim_dict):
+    sim = load_rig_description("sim")
+    assert sim.wavelength_lamps == ("HgAr", "Ne")
+    assert sim.light_names[-2:] == ("lamp:HgAr", "lamp:Ne")
+    sim_dict.pop("wavelength_lamps")
+    plain = rig_description_from_dict(sim_dict)
+    assert "wavelength_lamps" not in plain.to_dict()
+    assert "laser_tolerance_nm" not in plain.to_dict()
+    assert plain.sha256() != sim.sha256()
+
+
+@pytest.mark.parametrize(
+    ("lamps", "pattern"),
+    [
+        (["HgAr", "Hg-Ar"], r"wavelength_lamps: unknown lamp 'Hg-Ar' \(did you mean 'HgAr'\?\)"),
+        (["HgAr", "hgar"], r"wavelength_lamps: 'HgAr' and 'hgar' are both lamp 'HgAr'"),
+        (["missing.csv"], r"wavelength_lamps: no such file"),
+    ],
+)
+def test_bad_wavelength_lamps_are_refused_naming_the_key(sim_dict, lamps, pattern):
+    sim_dict["wavelength_lamps"] = lamps
+    with pytest.raises(ConfigError, match=pattern) as error:
+        rig_description_from_dict(sim_dict)
+    assert str(error.value).startswith("rig description sim: wavelength_lamps: ")
+
+
+def test_a_lamp_csv_is_found_beside_the_rig_yaml(tmp_path, sim_dict):
+    (tmp_path / "argon.csv").write_text("wavelength_nm,relative_intensity\n696.5431,1\n420.07,1\n")
+    sim_dict["wavelength_lamps"] = ["argon.csv"]
+    path = tmp_path / "rig.yaml"
+    path.write_text(yaml.safe_dump(sim_dict))
+    desc = load_rig_description(path)
+    assert desc.light_names[-1] == "lamp:argon"
+    assert list(desc.lamp_lines()) == ["argon"]
+
+
+def test_laser_tolerance_per_label(sim_dict):
+    sim_dict["laser_tolerance_nm"] = {"532": 0.05}
+    desc = rig_description_from_dict(sim_dict)
+    assert desc.laser_tolerance(532.0) == 0.05 and desc.laser_tolerance(450.0) == 5.0
+    assert rig_description_from_dict(desc.to_dict()).sha256() == desc.sha256()
+    sim_dict["laser_tolerance_nm"] = {"533": 0.05}
+    with pytest.raises(ConfigError, match=r"laser_tolerance_nm: 533 nm is not a line.*'532'"):
+        rig_description_from_dict(sim_dict)

@@ -58,7 +58,8 @@ def test_every_quality_check_passes_and_a_bundle_is_published(calibrated):
     assert {"residual_maps.png", "dispersion.png", "blur.png"} <= set(
         p.name for p in (bundle.path / "report").iterdir()
     )
-    assert [i["id"] for i in bundle.manifest["inputs"]] == ["acc-grey", "acc-sweep"]
+    # Every shipped-sim-based rig has wavelength lamps: their frames are a third input.
+    assert [i["id"] for i in bundle.manifest["inputs"]] == ["acc-grey", "acc-sweep", "acc-lamps"]
     assert [d.wavelength_nm for d in result.lasers] == list(rig.description.lasers_nm)
     assert set(result.dispersion.leave_one_out) == set(rig.description.lasers_nm)
 
@@ -117,6 +118,6 @@ def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):
         assert np.sqrt(np.mean(error**2)) <= 0.1
         assert 0.01 < laser.residual_rms_px < 0.15  # line centres scatter about their fit
     assert result.dispersion.leave_one_out_rms_nm <= 0.5
-    frames = len(result.sessions[-1].plan)
+    frames = len(result.sessions[0].plan)  # the sweep (the lamp frames follow it)
     # Multi-line shift: 2 x 64 / 8 = 16 line frames per laser, plus 3 references and 3 blur.
     assert frames == 5 * (16 + 3 + 3)

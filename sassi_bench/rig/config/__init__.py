@@ -31,6 +31,7 @@ Examples
 """
 
 from sassi_bench.rig.config.description import (
+    DEFAULT_LASER_TOLERANCE_NM,
     BlurConfig,
     GuideCameraConfig,
     LightConfig,
@@ -42,6 +43,7 @@ from sassi_bench.rig.config.description import (
     SpectralCameraConfig,
     SpectralGridConfig,
     light_names,
+    rig_relative_path,
 )
 from sassi_bench.rig.config.loader import (
     SIM_DEFAULTS,
@@ -51,6 +53,7 @@ from sassi_bench.rig.config.loader import (
 )
 
 __all__ = [
+    "DEFAULT_LASER_TOLERANCE_NM",
     "SIM_DEFAULTS",
     "BlurConfig",
     "GuideCameraConfig",
@@ -66,4 +69,5 @@ __all__ = [
     "light_names",
     "load_rig_description",
     "rig_description_from_dict",
+    "rig_relative_path",
 ]

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.datasets import photo_loader, require_dataset
 from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.lamps import lamp_name, load_line_list
 from sassi_bench.optics.relay import BAND_NM
 from sassi_bench.optics.sensor import qe_curve
-from sassi_bench.rig.config.description import RigDescription
+from sassi_bench.rig.config.description import RigDescription, rig_relative_path
 
 __all__ = ["check_description"]
 
@@ -119,6 +120,36 @@ def _check_named_data(desc: RigDescription) -> None:
         photo_loader(desc.scenes.natural_image)
 
 
+def _check_lasers_and_lamps(desc: RigDescription) -> None:
+    """Every wavelength lamp's table loads and has anchor lines in the band, lamp names are
+    distinct, and ``laser_tolerance_nm`` names lasers of the rig."""
+    step = f"rig description {desc.source or desc.name}"
+    base = rig_relative_path(desc, ".")
+    names: dict[str, str] = {}
+    for entry in desc.wavelength_lamps:
+        name = lamp_name(entry, f"{step}: wavelength_lamps")
+        if name in names:
+            raise _error(
+                desc,
+                "wavelength_lamps",
+                f"{names[name]!r} and {entry!r} are both lamp {name!r}",
+                "list each lamp once (a CSV's lamp is named by its file name)",
+            )
+        names[name] = entry
+        load_line_list(entry, base=base, step=f"{step}: wavelength_lamps")
+    if isinstance(desc.laser_tolerance_nm, dict):
+        unknown = sorted(set(desc.laser_tolerance_nm) - set(desc.lasers_nm))
+        if unknown:
+            labels = [f"{x:g}" for x in desc.lasers_nm]
+            raise _error(
+                desc,
+                "laser_tolerance_nm",
+                f"{unknown[0]:g} nm is not a line of lasers_nm "
+                f"({', '.join(labels)}){did_you_mean(f'{unknown[0]:g}', labels)}",
+                "key each tolerance by the laser's label",
+            )
+
+
 def _check_streaks_fit(desc: RigDescription) -> None:
     """The SLM's image with its 400-700 nm streaks (and 3 sigma of blur) must lie on the
     spectral camera, by the description's nominal optics (a ray trace through the prism)."""
@@ -148,6 +179,7 @@ _CHECKS = (
     _check_bench_sections,
     _check_ranges,
     _check_named_data,
+    _check_lasers_and_lamps,
     _check_streaks_fit,
 )
 

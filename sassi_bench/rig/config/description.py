@@ -7,19 +7,24 @@ Examples
 --------
 >>> light_names((450.0,))
 ('off', 'laser:450', 'led', 'halogen', 'fluorescent')
+>>> light_names((450.0,), ("HgAr",))[-1]
+'lamp:HgAr'
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 from sassi_bench._shared.canonical_json import canonical_sha256
 from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.lamps import LineList, lamp_name, load_line_list
 from sassi_bench.optics.relay import SpectralRelay
 
 __all__ = [
+    "DEFAULT_LASER_TOLERANCE_NM",
     "BlurConfig",
     "GuideCameraConfig",
     "LightConfig",
@@ -31,18 +36,39 @@ __all__ = [
     "SpectralCameraConfig",
     "SpectralGridConfig",
     "light_names",
+    "rig_relative_path",
 ]
 
+#: How far a laser's true line may be from its label, nm: a catalogue diode module's
+#: data sheet tolerance (a rig's ``laser_tolerance_nm`` overrides it).
+DEFAULT_LASER_TOLERANCE_NM = 5.0
 
-def light_names(lasers_nm: tuple[float, ...]) -> tuple[str, ...]:
-    """The light names of a rig with these laser lines.
+
+def light_names(lasers_nm: tuple[float, ...], lamps: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The light names of a rig with these laser lines and wavelength lamps.
+
+    Parameters
+    ----------
+    lasers_nm
+        The laser labels, nm.
+    lamps
+        ``wavelength_lamps`` entries (shipped lamp names or CSV paths).
 
     Examples
     --------
     >>> light_names((450.0, 532.5))
     ('off', 'laser:450', 'laser:532.5', 'led', 'halogen', 'fluorescent')
+    >>> light_names((450.0,), ("hgar", "lab/Kr.csv"))[-2:]
+    ('lamp:HgAr', 'lamp:Kr')
     """
-    return ("off", *(f"laser:{x:g}" for x in lasers_nm), "led", "halogen", "fluorescent")
+    return (
+        "off",
+        *(f"laser:{x:g}" for x in lasers_nm),
+        "led",
+        "halogen",
+        "fluorescent",
+        *(f"lamp:{lamp_name(entry)}" for entry in lamps),
+    )
 
 
 @dataclass(frozen=True)
@@ -154,6 +180,12 @@ class RigDescription:
     spectral_grid: SpectralGridConfig = field(default_factory=SpectralGridConfig)
     scenes: ScenesConfig = field(default_factory=ScenesConfig)
     hardware: dict[str, Any] | None = None
+    #: Gas-discharge lamps whose lines anchor the wavelength axis: shipped lamp names
+    #: (``HgAr``, ``Ne``) or paths of CSV line tables (relative to the rig YAML).
+    wavelength_lamps: tuple[str, ...] = ()
+    #: How far each laser's true line may be from its label (nm): one number for every
+    #: line, or per label (a DPSS 532 nm line is exact); None: 5 nm for every line.
+    laser_tolerance_nm: float | dict[float, float] | None = None
     source: str | None = None
     #: Sections the schema accepts beyond the description, kept raw for the virtual bench
     #: (parsed by :mod:`sassi_bench.rig.sim.sections`): not part of what procedures rely
@@ -171,16 +203,47 @@ class RigDescription:
         >>> load_rig_description("sim").light_names[:3]
         ('off', 'laser:450', 'laser:520')
         """
-        return light_names(self.lasers_nm)
+        return light_names(self.lasers_nm, self.wavelength_lamps)
+
+    def lamp_lines(self) -> dict[str, LineList]:
+        """The line list of every wavelength lamp, by lamp name.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> sorted(load_rig_description("sim").lamp_lines())
+        ['HgAr', 'Ne']
+        """
+        base = rig_relative_path(self, ".")
+        lists = [load_line_list(entry, base=base) for entry in self.wavelength_lamps]
+        return {lines.name: lines for lines in lists}
+
+    def laser_tolerance(self, label_nm: float) -> float:
+        """How far the true line of the laser labelled ``label_nm`` may be off its label (nm).
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> load_rig_description("sim").laser_tolerance(532.0)
+        5.0
+        """
+        given = self.laser_tolerance_nm
+        if isinstance(given, dict):
+            return float(given.get(float(label_nm), DEFAULT_LASER_TOLERANCE_NM))
+        return float(given) if given is not None else DEFAULT_LASER_TOLERANCE_NM
 
     def to_dict(self) -> dict[str, Any]:
         """Canonical JSON-compatible form (the ``source`` path and the bench-only
-        sections are left out)."""
+        sections are left out; so are unset optional keys, so a rig without lamps keeps
+        the hash it had before lamps existed)."""
         data = asdict(self)
         for key in ("source", "bench_sections"):
             data.pop(key)
-        if data["hardware"] is None:
-            data.pop("hardware")
+        for key in ("hardware", "laser_tolerance_nm"):
+            if data[key] is None:
+                data.pop(key)
+        if not data["wavelength_lamps"]:
+            data.pop("wavelength_lamps")
         return json.loads(json.dumps(data, sort_keys=True))
 
     def sha256(self) -> str:
@@ -230,3 +293,19 @@ def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
         device: {k: v for k, v in spec.items() if k not in _CONNECTION_KEYS}
         for device, spec in hardware.items()
     }
+
+
+def rig_relative_path(desc: RigDescription, name: str) -> Path:
+    """A file a rig key names (a lamp's lines, the virtual bench's guide curves), relative
+    to the rig YAML's folder.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> rig_relative_path(load_rig_description("sim"), "/abs/lines.csv").as_posix()
+    '/abs/lines.csv'
+    """
+    path = Path(name)
+    if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
+        path = Path(desc.source).parent / path
+    return path

@@ -87,6 +87,10 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
             section["sigma_px"] = {float(k): float(v) for k, v in section["sigma_px"].items()}
         kwargs[key] = cls(**section)
     kwargs["lasers_nm"] = tuple(float(x) for x in data["lasers_nm"])
+    kwargs["wavelength_lamps"] = tuple(data.get("wavelength_lamps", ()))
+    tolerance = data.get("laser_tolerance_nm")
+    if isinstance(tolerance, dict):
+        kwargs["laser_tolerance_nm"] = {float(k): float(v) for k, v in tolerance.items()}
     return RigDescription(source=source, **kwargs)
 
 

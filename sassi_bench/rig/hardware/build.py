@@ -64,7 +64,7 @@ def build_hardware_rig(desc: RigDescription, prompt: Callable[[str], None] | Non
         options = {k: v for k, v in hw["trigger"].items() if k not in ("kind", "port")}
         trigger = ArduinoTrigger(hw["trigger"]["port"], **options)
         opened.append(trigger)
-        light = ManualLight(desc.lasers_nm, prompt=ask)
+        light = ManualLight(desc.lasers_nm, desc.wavelength_lamps, prompt=ask)
         slm = DisplaySlm((desc.slm.height, desc.slm.width), monitor=hw["slm"].get("monitor", 1))
         opened.append(slm)
 

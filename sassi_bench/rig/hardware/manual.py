@@ -39,22 +39,29 @@ class ManualLight(LightSourceBase):
     lasers_nm
         The rig's laser lines; the names are those of the virtual bench
         (``"off"``, ``"laser:532"``, ``"led"``, ``"halogen"``, ``"fluorescent"``).
+    lamps
+        The rig's ``wavelength_lamps`` (lights ``"lamp:<name>"``).
     prompt
         Called with the instruction; defaults to :func:`ask_operator`.
 
     Examples
     --------
     >>> said = []
-    >>> light = ManualLight((450, 532), prompt=said.append)
+    >>> light = ManualLight((450, 532), ("HgAr",), prompt=said.append)
     >>> light.select("laser:532")
-    >>> said
-    ['Switch on the 532 nm laser only']
+    >>> light.select("lamp:hgar")
+    >>> said  # doctest: +NORMALIZE_WHITESPACE
+    ['Switch on the 532 nm laser only',
+     'Switch on the HgAr lamp only (let it warm up for 2 minutes)']
     """
 
     def __init__(
-        self, lasers_nm: tuple[float, ...], prompt: Callable[[str], None] | None = None
+        self,
+        lasers_nm: tuple[float, ...],
+        lamps: tuple[str, ...] = (),
+        prompt: Callable[[str], None] | None = None,
     ) -> None:
-        super().__init__(light_names(lasers_nm))
+        super().__init__(light_names(lasers_nm, lamps))
         self._prompt = prompt or ask_operator
 
     def _switch(self, name: str) -> None:
@@ -64,5 +71,8 @@ class ManualLight(LightSourceBase):
             self._prompt("Switch every light off")
         elif name.startswith("laser:"):
             self._prompt(f"Switch on the {name[6:]} nm laser only")
+        elif name.startswith("lamp:"):
+            # A pen-ray lamp's spectrum settles over its first minutes (argon first).
+            self._prompt(f"Switch on the {name[5:]} lamp only (let it warm up for 2 minutes)")
         else:
             self._prompt(f"Switch on the {name} only")

@@ -17,6 +17,8 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,13 +27,15 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.datasets import camera_sensitivities
 from sassi_bench.optics.glass import Glass, get_glass
-from sassi_bench.rig.config import RigDescription
-from sassi_bench.rig.sim.sections import as_built_section, bench_file
+from sassi_bench.optics.lamps import LineList
+from sassi_bench.rig.config import RigDescription, rig_relative_path
+from sassi_bench.rig.sim.sections import as_built_section
 
 __all__ = [
     "OffsetGlass",
     "guide_sensitivities",
     "halogen_k",
+    "lamp_lines",
     "laser_centre_nm",
     "led",
     "prism_apex_deg",
@@ -69,6 +73,27 @@ def laser_centre_nm(desc: RigDescription, nominal_nm: float) -> float:
     532.0
     """
     return float(as_built_section(desc).lasers_nm.get(float(nominal_nm), nominal_nm))
+
+
+def lamp_lines(desc: RigDescription, name: str) -> LineList:
+    """The true lines of wavelength lamp ``name``: its table's wavelengths, with each line's
+    intensity off the table by a log-normal factor of ``as_built.lamp_intensity_spread``
+    (drawn once per rig seed and lamp; the table's own intensities without it).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> lines = lamp_lines(load_rig_description("sim"), "HgAr")
+    >>> float(lines.relative_intensity.max())
+    1.0
+    """
+    lines = desc.lamp_lines()[name]
+    spread = as_built_section(desc).lamp_intensity_spread
+    if spread == 0.0:
+        return lines
+    seed = np.random.SeedSequence([desc.seed, 14, zlib.crc32(name.encode())])
+    factor = np.exp(spread * np.random.default_rng(seed).standard_normal(lines.wavelengths_nm.size))
+    return dataclasses.replace(lines, relative_intensity=lines.relative_intensity * factor)
 
 
 def prism_glass(desc: RigDescription) -> Glass:
@@ -156,7 +181,7 @@ def guide_sensitivities(desc: RigDescription, wavelengths_nm: ArrayLike) -> NDAr
         return camera_sensitivities(desc.guide_camera.sensitivities, wavelengths_nm)
     if not name.lower().endswith(".csv"):
         return camera_sensitivities(name, wavelengths_nm, "as_built.guide_sensitivities")
-    return _csv_sensitivities(bench_file(desc, name), wavelengths_nm)
+    return _csv_sensitivities(rig_relative_path(desc, name), wavelengths_nm)
 
 
 def _csv_sensitivities(path, wavelengths_nm: ArrayLike) -> NDArray[np.float64]:

@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.blur import PsfSigmaCurve
+from sassi_bench.optics.lamps import lamp_samples
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
     SpectralSamples,
@@ -20,6 +21,7 @@ from sassi_bench.optics.sources import (
 )
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim import as_built
+from sassi_bench.rig.sim.drift import DriftModel, DriftState, drifted_relay
 from sassi_bench.rig.sim.geometry import bench_relay
 from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.nuisance import BenchNuisances
@@ -73,6 +75,12 @@ class VirtualBench:
             qe="flat",  # the colour sensitivities already include the sensor's QE
         )
         self.relay = bench_relay(desc)
+        self._still_relay = self.relay
+        nuisance = nuisance_section(desc)
+        drift = nuisance.drift
+        self.drift = DriftModel(drift, desc.seed) if drift is not None else None
+        self.clock_h = drift.start_h if drift is not None else 0.0
+        self._drift_state = DriftState()
         self.blur = PsfSigmaCurve(desc.blur.sigma_px)
         self.renderer = SpectralRenderer(
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
@@ -80,9 +88,7 @@ class VirtualBench:
         self.guide = GuideOptics(
             gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)
         )
-        self.nuisance = BenchNuisances(
-            nuisance_section(desc), self.camera_shape, desc.seed, cam.full_well_e
-        )
+        self.nuisance = BenchNuisances(nuisance, self.camera_shape, desc.seed, cam.full_well_e)
         self.scene_seed = int(np.random.SeedSequence([desc.seed, 2]).generate_state(1)[0])
         self._exposures_seen: dict[tuple[str, bytes], int] = {}
         self.sparse_limit = (
@@ -98,6 +104,7 @@ class VirtualBench:
         self._background: dict[tuple[str, ScenePose, str], NDArray[np.float32]] = {}
         self.pose = ScenePose()
         self.scene = self.scene_named("white")
+        self._apply_drift()  # a bench opened later in the day starts drifted
 
     # -- scene and light ----------------------------------------------------------------
     def scene_named(self, name: str) -> Scene:
@@ -150,6 +157,10 @@ class VirtualBench:
             elif light == "fluorescent":
                 power = colour_illuminant_power(cfg.fluorescent, self.grid, "light.fluorescent")
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
+            elif light.startswith("lamp:"):
+                # Lamps render at the lasers' flux: pen-ray lines through the diffuser.
+                lines = as_built.lamp_lines(self.description, light[5:])
+                samples = lamp_samples(lines, cfg.laser_flux)
             elif light == "halogen":
                 power = blackbody_power(self.grid, as_built.halogen_k(self.description))
                 samples = broadband_samples(power, self.grid, cfg.broadband_flux)
@@ -213,8 +224,34 @@ class VirtualBench:
             )
         return self._background[key]
 
+    def advance_clock(self, seconds: float) -> None:
+        """Move the bench clock on by a spectral frame (its exposure plus the overhead) and
+        the optics with it (``nuisance.drift``; a bench without drift holds still)."""
+        if self.drift is None:
+            return
+        self.clock_h += (seconds + self.drift.config.frame_overhead_s) / 3600.0
+        self._apply_drift()
+
+    def set_clock(self, hours: float) -> None:
+        """Set the bench clock (hours) and move the optics to their drift at that time."""
+        self.clock_h = float(hours)
+        self._apply_drift()
+
+    def _apply_drift(self) -> None:
+        if self.drift is None:
+            return
+        state = self.drift.state_at(self.clock_h)
+        if state == self._drift_state:
+            return
+        self._drift_state = state
+        self.relay = drifted_relay(self._still_relay, state)
+        self.renderer.relay = self.relay
+        self.renderer._inverse_cache.clear()
+        self._background.clear()
+
     def spectral_rate(self) -> NDArray[np.float32]:
         """Photo-electron rate on the spectral camera for the current state (e-/s)."""
+        self._apply_drift()
         samples = self.samples(self.light)
         if self.light == "off" or not np.any(samples.weights):
             return np.zeros(self.camera_shape, dtype=np.float32)

@@ -74,6 +74,7 @@ class SimSpectralCamera(CameraBase):
         rng = self._bench.noise_rng("spectral", self.exposure_s)
         rate = self._bench.nuisance.spectral_rate(rate, self._bench.light, rng)
         data = self._bench.sensor.expose(rate, self.exposure_s, rng)
+        self._bench.advance_clock(self.exposure_s)
         return Exposure(
             data, self._slm.pattern_id, self._light.current, {"scene": self._bench.scene.name}
         )

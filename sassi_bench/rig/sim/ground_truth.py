@@ -17,6 +17,7 @@ from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.sim import as_built
 from sassi_bench.rig.sim.bench import VirtualBench
+from sassi_bench.rig.sim.drift import DriftState
 from sassi_bench.rig.sim.scenes import ScenePose, posed_scene
 
 __all__ = ["BenchTruth", "register_bench", "truth"]
@@ -52,6 +53,21 @@ class BenchTruth:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Camera (x, y) of SLM pixel (u, v) at a wavelength (vectorised)."""
         return self._bench.relay.forward(u, v, wavelength_nm)
+
+    @property
+    def clock_h(self) -> float:
+        """The bench clock (hours; ``nuisance.drift``): the optics are drifted to it."""
+        return self._bench.clock_h
+
+    def set_clock(self, hours: float) -> None:
+        """Move the bench clock, and its drifted optics, to ``hours`` (tests only)."""
+        self._bench.set_clock(hours)
+
+    def drift_at(self, hours: float):
+        """The optics' drift (:class:`~sassi_bench.rig.sim.drift.DriftState`) at ``hours``."""
+        if self._bench.drift is None:
+            return DriftState()
+        return self._bench.drift.state_at(hours)
 
     @property
     def guide_to_slm(self) -> NDArray[np.float64]:
@@ -156,6 +172,10 @@ class BenchTruth:
     def laser_centre_nm(self, nominal_nm: float) -> float:
         """The true centre (nm) of the laser line labelled ``nominal_nm``."""
         return as_built.laser_centre_nm(self._bench.description, nominal_nm)
+
+    def lamp_lines(self, name: str):
+        """The true lines of wavelength lamp ``name`` (its intensities as built)."""
+        return as_built.lamp_lines(self._bench.description, name)
 
     @property
     def halogen_k(self) -> float:

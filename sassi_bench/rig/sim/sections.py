@@ -22,17 +22,16 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.datasets import require_dataset
-from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.config import RigDescription, rig_relative_path
 
 __all__ = [
     "AsBuiltConfig",
+    "DriftConfig",
     "NuisanceConfig",
     "as_built_section",
-    "bench_file",
     "check_bench_sections",
     "nuisance_section",
 ]
@@ -56,6 +55,28 @@ class AsBuiltConfig:
     #: The guide camera's true curves: a colour-science camera name or a CSV path.
     guide_sensitivities: str | None = None
     slm_gamma: float | None = None
+    #: Log-normal sigma of each lamp line's true intensity against its table.
+    lamp_intensity_spread: float = 0.0
+
+
+@dataclass(frozen=True)
+class DriftConfig:
+    """How the virtual bench's optics drift with time: a rate per hour and a random walk,
+    on a bench clock that starts at ``start_h`` when the rig is opened and advances with
+    every spectral frame's exposure plus ``frame_overhead_s``."""
+
+    #: Bench clock (hours) when the rig is opened: 6.0 is "15:00" for a 09:00 calibration.
+    start_h: float = 0.0
+    #: Drift of the relay's image of the SLM centre on the camera (x, y), px per hour.
+    relay_offset_px_per_h: tuple[float, float] = (0.0, 0.0)
+    #: Drift of the relay's rotation, degrees per hour.
+    relay_rotation_deg_per_h: float = 0.0
+    #: Drift of the prism's tilt (its incidence angle), degrees per hour.
+    prism_tilt_deg_per_h: float = 0.0
+    #: Random walk of the relay offset (each axis), px per square-root hour.
+    random_walk_px_per_sqrt_h: float = 0.0
+    #: Bench time per spectral frame on top of its exposure, s.
+    frame_overhead_s: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -72,6 +93,8 @@ class NuisanceConfig:
     stray_light: float = 0.0
     #: Contrast of static multiplicative speckle under laser light.
     speckle_contrast: float = 0.0
+    #: How the optics drift with time; None is a bench that holds still.
+    drift: DriftConfig | None = None
 
 
 def as_built_section(desc: RigDescription) -> AsBuiltConfig:
@@ -115,33 +138,13 @@ def nuisance_section(desc: RigDescription) -> NuisanceConfig:
     >>> nuisance_section(load_rig_description("sim")).laser_power_jitter
     0.0
     """
-    return NuisanceConfig(**desc.bench_sections.get("nuisance", {}))
-
-
-def bench_file(desc: RigDescription, name: str) -> Path:
-    """A file a bench-only key names, relative to the rig YAML's folder.
-
-    Parameters
-    ----------
-    desc
-        A loaded rig description.
-    name
-        The path as written in the YAML.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Examples
-    --------
-    >>> from sassi_bench.rig.config import load_rig_description
-    >>> bench_file(load_rig_description("sim"), "/abs/guide.csv").as_posix()
-    '/abs/guide.csv'
-    """
-    path = Path(name)
-    if not path.is_absolute() and desc.source is not None and Path(desc.source).is_file():
-        path = Path(desc.source).parent / path
-    return path
+    section = dict(desc.bench_sections.get("nuisance", {}))
+    if "drift" in section:
+        drift = dict(section["drift"])
+        if "relay_offset_px_per_h" in drift:
+            drift["relay_offset_px_per_h"] = tuple(float(x) for x in drift["relay_offset_px_per_h"])
+        section["drift"] = DriftConfig(**drift)
+    return NuisanceConfig(**section)
 
 
 def check_bench_sections(desc: RigDescription) -> None:
@@ -184,11 +187,11 @@ def check_bench_sections(desc: RigDescription) -> None:
         return
     if not curves.lower().endswith(".csv"):
         require_dataset("camera", curves, "as_built.guide_sensitivities")
-    elif not bench_file(desc, curves).is_file():
+    elif not rig_relative_path(desc, curves).is_file():
         raise _error(
             desc,
             "as_built.guide_sensitivities",
-            f"no such file {str(bench_file(desc, curves))!r}",
+            f"no such file {str(rig_relative_path(desc, curves))!r}",
             "give a CSV of wavelength_nm,r,g,b (relative to the rig YAML) or a "
             "colour-science camera name",
         )

@@ -1,0 +1,323 @@
+"""Lamp streaks: where a pinhole's atomic lines fall along its streak, as a forward model.
+
+Under a gas-discharge lamp every open SLM pixel draws a streak of separate spots, one per
+atomic line, at the columns the dispersion puts the lines' wavelengths. Close lines blend
+where the prism's dispersion is coarse (the mercury doublet at 577/579 nm, the dense neon
+lines beyond 585 nm), so the lines are not picked as peaks: each pinhole's streak, summed
+over its rows, is modelled as the sum of every listed line's spot,
+
+    m_j = gain · Σ_k a_k h(x_j − X_k; σ_k) + background,
+
+with the spot ``h`` of one SLM pixel integrated by a camera pixel (a box of the SLM
+pixel's image ⊗ a box of one camera pixel ⊗ the optics' Gaussian PSF,
+:func:`pixel_spot_profile`), the line amplitudes ``a_k`` shared by every pinhole of a
+lamp's frames and a gain and background per pinhole (:mod:`sassi_bench.calibrate.anchored`
+fits them with the line positions ``X_k``).
+
+:func:`extract_streak_profiles` cuts each pinhole's streak out of a background-free frame
+(vectorised gathers; no loop over pinholes).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.special import ndtr
+
+from sassi_bench.bundle import DispersionModel
+from sassi_bench.errors import ProcedureError, step_error
+
+__all__ = [
+    "StreakProfiles",
+    "extract_streak_profiles",
+    "pixel_spot",
+    "pixel_spot_profile",
+    "signal_and_variance",
+]
+
+_SQRT_2PI = np.sqrt(2.0 * np.pi)
+
+
+def pixel_spot(
+    offset: ArrayLike, aperture_px: float, psf_sigma_px: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """One SLM pixel's spot as a camera pixel records it, and its two derivatives.
+
+    The spot is a box of side ``aperture_px`` (the SLM pixel's image), convolved with a
+    box of one camera pixel and a Gaussian PSF of ``psf_sigma_px``, at ``offset`` px from
+    its centre, in closed form: with ``R(t) = t Φ(t/σ) + σ φ(t/σ)`` (the smoothed ramp),
+    ``h(d) = [R(d + a⁺) − R(d + a⁻) − R(d − a⁻) + R(d − a⁺)] / aperture``,
+    ``a± = (aperture ± 1) / 2``; ``dR/dt = Φ`` and ``dR/dσ = φ``.
+
+    Returns
+    -------
+    value, slope, width_slope : ndarray
+        The spot (it sums to one over whole-pixel steps), its derivative with respect to
+        ``offset`` and with respect to ``psf_sigma_px``.
+
+    Examples
+    --------
+    >>> x = np.arange(-12, 13)
+    >>> value, slope, width = pixel_spot(x + 0.3, 1.0, 1.5)
+    >>> round(float(value.sum()), 6), bool(abs(slope.sum()) < 1e-9), bool(abs(width.sum()) < 1e-9)
+    (1.0, True, True)
+    >>> h = 1e-6
+    >>> up, down = pixel_spot(0.4 + h, 1.0, 0.8)[0], pixel_spot(0.4 - h, 1.0, 0.8)[0]
+    >>> bool(abs((up - down) / (2 * h) - pixel_spot(0.4, 1.0, 0.8)[1]) < 1e-6)
+    True
+    """
+    d = np.asarray(offset, dtype=np.float64)
+    sigma = np.maximum(np.asarray(psf_sigma_px, dtype=np.float64), 1e-3)
+    half_sum, half_diff = (aperture_px + 1.0) / 2.0, (aperture_px - 1.0) / 2.0
+    value = slope = width = 0.0
+    for shift, sign in ((half_sum, 1.0), (half_diff, -1.0), (-half_diff, -1.0), (-half_sum, 1.0)):
+        t = d + shift
+        z = t / sigma
+        cdf = ndtr(z)
+        density = np.exp(-0.5 * z * z) / _SQRT_2PI
+        value = value + sign * (t * cdf + sigma * density)
+        slope = slope + sign * cdf
+        width = width + sign * density
+    return value / aperture_px, slope / aperture_px, width / aperture_px
+
+
+def pixel_spot_profile(
+    offset: ArrayLike, aperture_px: float, psf_sigma_px: ArrayLike
+) -> NDArray[np.float64]:
+    """The spot of :func:`pixel_spot` alone.
+
+    Examples
+    --------
+    >>> x = np.arange(-12, 13)
+    >>> round(float(pixel_spot_profile(x + 0.3, 1.0, 1.5).sum()), 6)
+    1.0
+    """
+    return pixel_spot(offset, aperture_px, psf_sigma_px)[0]
+
+
+def signal_and_variance(
+    lit: NDArray[np.number],
+    closed: NDArray[np.number],
+    *,
+    gain_e_per_adu: float,
+    read_noise_e: float,
+    dark_adu: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The background-free signal of pinhole frames and its noise variance, per pixel.
+
+    The signal is the mean of the ``lit`` frames minus the mean of the ``closed`` ones
+    (the SLM closed under the same light: its leak, stray light and dark signal). A
+    pixel's variance grows with its level, ``a + b (level − dark)`` per frame; with two
+    or more frames of each kind the line is measured (the variance of frame differences
+    against the level, a photon-transfer curve), otherwise it is the camera as described.
+
+    Parameters
+    ----------
+    lit, closed
+        Frames (F, H, W) and (F', H, W), ADU.
+    gain_e_per_adu, read_noise_e, dark_adu
+        The described camera: electrons per ADU, read noise, dark level.
+
+    Returns
+    -------
+    signal, variance : ndarray
+        (H, W) each, ADU and ADU².
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> level = np.full((2, 64, 64), 400.0)
+    >>> lit = rng.poisson(level * 2.0) / 2.0 + 100.0  # 2 e-/ADU, no read noise
+    >>> closed = rng.poisson(np.full((2, 64, 64), 200.0)) / 2.0 + 100.0
+    >>> signal, variance = signal_and_variance(lit, closed, gain_e_per_adu=2.0, read_noise_e=0.0,
+    ...                                        dark_adu=100.0)
+    >>> round(float(signal.mean())), bool(abs(variance.mean() - 125.0) < 10)  # (400/2 + 100/2) / 2
+    (300, True)
+    """
+    lit = np.asarray(lit, dtype=np.float64)
+    closed = np.asarray(closed, dtype=np.float64)
+    lit_mean, closed_mean = lit.mean(0), closed.mean(0)
+    offset, slope = (gain_e_per_adu**-1 * read_noise_e) ** 2, 1.0 / gain_e_per_adu
+    if lit.shape[0] >= 2 and closed.shape[0] >= 2:
+        levels = np.concatenate([lit_mean.ravel(), closed_mean.ravel()]) - dark_adu
+        spread = np.concatenate([lit.var(0, ddof=1).ravel(), closed.var(0, ddof=1).ravel()])
+        offset, slope = _photon_transfer(levels, spread, offset, slope)
+
+    def per_frame(level):
+        return offset + slope * np.clip(level - dark_adu, 0.0, None)
+
+    variance = per_frame(lit_mean) / lit.shape[0] + per_frame(closed_mean) / closed.shape[0]
+    return lit_mean - closed_mean, variance
+
+
+def _photon_transfer(levels, spread, offset, slope) -> tuple[float, float]:
+    """A line ``variance = offset + slope · level`` through binned pixel variances (the
+    described camera's line when the data cannot tell)."""
+    edges = np.unique(np.quantile(levels, np.linspace(0.0, 1.0, 41)))
+    which = np.clip(np.searchsorted(edges, levels, side="right") - 1, 0, edges.size - 2)
+    counts = np.bincount(which, minlength=edges.size - 1)
+    # Hot pixels and cosmic hits: drop the top 0.1 % of the spreads.
+    keep = spread <= np.quantile(spread, 0.999)
+    sums = np.bincount(which[keep], weights=spread[keep], minlength=edges.size - 1)
+    x_sums = np.bincount(which[keep], weights=levels[keep], minlength=edges.size - 1)
+    used = np.bincount(which[keep], minlength=edges.size - 1)
+    ok = (used > 20) & (counts > 20)
+    if ok.sum() < 3:
+        return offset, slope
+    x, y, w = x_sums[ok] / used[ok], sums[ok] / used[ok], used[ok]
+    design = np.column_stack([np.ones_like(x), x]) * np.sqrt(w)[:, None]
+    fitted, *_ = np.linalg.lstsq(design, y * np.sqrt(w), rcond=None)
+    if fitted[1] <= 0 or fitted[0] <= 0:
+        return offset, slope
+    return float(fitted[0]), float(fitted[1])
+
+
+@dataclass(frozen=True, eq=False)
+class StreakProfiles:
+    """Every pinhole's streak under one lamp, summed over its rows.
+
+    Attributes
+    ----------
+    light
+        The lamp's light name.
+    u, v
+        SLM column and row of each pinhole (P,).
+    columns
+        Camera column of every profile sample (P, W).
+    profile
+        Background-free signal summed over the streak's rows, ADU (P, W).
+    variance
+        Its noise variance, ADU² (P, W).
+    rows
+        First and last camera row summed, per pinhole (P, 2).
+    """
+
+    light: str
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    columns: NDArray[np.float64]
+    profile: NDArray[np.float64]
+    variance: NDArray[np.float64]
+    rows: NDArray[np.intp]
+
+    @property
+    def count(self) -> int:
+        """Number of pinholes."""
+        return int(self.u.size)
+
+    def select(self, keep: NDArray[np.bool_]) -> StreakProfiles:
+        """The profiles of the pinholes ``keep`` marks."""
+        return StreakProfiles(
+            self.light,
+            self.u[keep],
+            self.v[keep],
+            self.columns[keep],
+            self.profile[keep],
+            self.variance[keep],
+            self.rows[keep],
+        )
+
+
+def extract_streak_profiles(
+    signal: NDArray[np.floating],
+    model: DispersionModel,
+    u: ArrayLike,
+    v: ArrayLike,
+    band_nm: tuple[float, float],
+    reach_px: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    *,
+    light: str,
+    half_rows: int,
+    variance: NDArray[np.floating],
+    invalid: NDArray[np.bool_] | None = None,
+    margin_px: float = 4.0,
+) -> StreakProfiles:
+    """Cut every pinhole's streak out of a background-free frame.
+
+    Parameters
+    ----------
+    signal
+        Pinhole frame minus closed-SLM frame, ADU (H, W).
+    model
+        A dispersion model that places the streaks within ``margin_px`` (the lasers'
+        labels are good enough).
+    u, v
+        The open pixels, SLM column and row.
+    band_nm
+        The first and last lamp line modelled.
+    reach_px
+        How far (camera px) a spot reaches beyond its centre, at a wavelength (4 sigma).
+    light
+        The lamp's light name (recorded).
+    half_rows
+        Rows summed on each side of the streak's row at 550 nm.
+    variance
+        The noise variance of ``signal``, ADU² (H, W) (:func:`signal_and_variance`).
+    invalid
+        Pixels not to trust (saturated); a profile sample summing one gets no weight
+        (infinite variance).
+    margin_px
+        Extra columns on each side for the model's error.
+
+    Returns
+    -------
+    StreakProfiles
+        Pinholes whose window lies inside the camera.
+
+    Raises
+    ------
+    ProcedureError
+        If no pinhole's streak lies inside the camera.
+
+    Examples
+    --------
+    >>> profiles = extract_streak_profiles(signal, model, u, v, (404.0, 707.0), reach,
+    ...     light="lamp:HgAr", half_rows=10, variance=var)  # doctest: +SKIP
+    """
+    u = np.asarray(u, dtype=np.float64).ravel()
+    v = np.asarray(v, dtype=np.float64).ravel()
+    band = np.asarray(band_nm, dtype=np.float64)
+    x_ends, _ = model.evaluate(u[:, None], v[:, None], band[None, :])
+    _, y_mid = model.evaluate(u, v, 550.0)
+    reach = reach_px(band)
+    first = np.floor(x_ends[:, 0] - reach[0] - margin_px).astype(np.intp)
+    width = int(np.ceil(np.max(x_ends[:, 1] + reach[1] + margin_px - first))) + 1
+    centre = np.rint(y_mid).astype(np.intp)
+    height, camera_width = signal.shape
+    inside = (first >= 0) & (first + width <= camera_width)
+    inside &= (centre - half_rows >= 0) & (centre + half_rows < height)
+    if not inside.any():
+        raise ProcedureError(
+            step_error(
+                "lamp streaks",
+                "no pinhole's streak lies inside the camera",
+                "check the lamp pinhole pitch and the dispersion model",
+            )
+        )
+    first, centre, u, v = first[inside], centre[inside], u[inside], v[inside]
+    columns = first[:, None] + np.arange(width)[None, :]
+    top, bottom = centre - half_rows, centre + half_rows + 1
+
+    def row_sums(image):
+        # Column sums over each pinhole's rows, from a cumulative sum down the columns.
+        cumulative = np.vstack(
+            [np.zeros((1, camera_width)), np.cumsum(image, axis=0, dtype=np.float64)]
+        )
+        return cumulative[bottom[:, None], columns] - cumulative[top[:, None], columns]
+
+    profile = row_sums(signal)
+    profile_variance = row_sums(variance)
+    if invalid is not None:
+        profile_variance = np.where(row_sums(invalid) > 0, np.inf, profile_variance)
+    return StreakProfiles(
+        light=light,
+        u=u,
+        v=v,
+        columns=columns.astype(np.float64),
+        profile=profile,
+        variance=profile_variance,
+        rows=np.stack([top, bottom - 1], axis=1),
+    )

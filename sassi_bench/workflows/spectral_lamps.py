@@ -1,0 +1,503 @@
+"""Lamp frames of the spectral calibration: capture, and the wavelength anchoring they give.
+
+On a rig with ``wavelength_lamps`` the spectral calibration adds a short session
+(``<id>-lamps``, :func:`capture_lamp_frames`): per lamp, closed-SLM frames and frames of a
+sparse pinhole array (``lamps`` section of the procedure), exposed for the lamp. The
+analysis (:func:`anchor_wavelengths`) cuts every pinhole's streak out of those frames
+and fits the dispersion's column model and every laser's true wavelength to the laser
+maps and the lamp lines together (:mod:`sassi_bench.calibrate.anchored`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.patterns import open_pixels
+from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.session import Session
+from sassi_bench.bundle import BlurModel, DispersionModel
+from sassi_bench.bundle.jsonio import thaw
+from sassi_bench.calibrate.anchored import (
+    AnchoredWavelengths,
+    LampStreaks,
+    fit_anchored_wavelengths,
+)
+from sassi_bench.calibrate.dispersion import LaserMap, fit_dispersion
+from sassi_bench.calibrate.lamp_streaks import (
+    StreakProfiles,
+    extract_streak_profiles,
+    signal_and_variance,
+)
+from sassi_bench.errors import ConfigError, DeviceError, ProcedureError, step_error
+from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.lamps import LineList
+from sassi_bench.paths import data_root
+from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.spectral_decode import blur_from_pinholes
+from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
+
+__all__ = [
+    "HELD_LABEL_NM",
+    "LampAnchoring",
+    "anchor_wavelengths",
+    "camera_noise",
+    "capture_lamp_frames",
+    "check_lamp_pitch",
+    "check_lamp_signal",
+    "lamp_streaks",
+    "psf_sigma_px",
+]
+
+#: The prior width (nm) that holds a confirmed laser line at its label.
+HELD_LABEL_NM = 1e-3
+#: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last.
+_REACH_SIGMAS = 4.0
+
+
+def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.ndarray:
+    """The optics' PSF sigma (camera px) behind a measured spot width.
+
+    A bundle's blur is the second moment of one SLM pixel's spot across the dispersion:
+    the PSF plus the SLM pixel's image (``fill_factor`` of the relay's scale) and the
+    camera pixel, in quadrature (:func:`~sassi_bench.optics.blur.line_spread_sigma`).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> desc = load_rig_description("sim")
+    >>> total = BlurModel((1.0, 0.0, 0.0), 550.0, 150.0, 3.0)
+    >>> round(float(psf_sigma_px(total, desc, 550.0)), 3)
+    0.912
+    """
+    spot = np.asarray(blur.sigma(wavelength_nm), dtype=np.float64)
+    pixels = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor)
+    return np.sqrt(np.clip(spot**2 - pixels**2, 0.04, None))
+
+
+def _lamp_band(lines: LineList, desc: RigDescription) -> tuple[float, float]:
+    """The lamp lines the streaks are cut for: those on the rig's spectral grid."""
+    grid = desc.spectral_grid
+    inside = (lines.wavelengths_nm >= grid.start_nm) & (lines.wavelengths_nm <= grid.stop_nm)
+    lam = lines.wavelengths_nm[inside]
+    return float(lam.min()), float(lam.max())
+
+
+def check_lamp_pitch(desc: RigDescription, procedure: Mapping[str, Any]) -> None:
+    """Refuse a lamp pinhole pitch at which one pinhole's lines reach the next pinhole's.
+
+    Judged by the description's nominal optics (a ray trace) and described blur: from 4
+    spot sigmas before the first lamp line to 4 after the last, at the four SLM corners.
+
+    Raises
+    ------
+    ConfigError
+        Naming the smallest pitch that keeps the streaks apart.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> check_lamp_pitch(load_rig_description("sim"), {"lamps": {"pinhole_pitch_px": [100, 24]}})
+    >>> check_lamp_pitch(load_rig_description("sim"), {"lamps": {"pinhole_pitch_px": [60, 24]}})
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ConfigError: lamp frames: ... Fix: set lamps.pinhole_pitch_px to at ...
+    """
+    lines = desc.lamp_lines()
+    if not lines:
+        return
+    low = min(_lamp_band(x, desc)[0] for x in lines.values())
+    high = max(_lamp_band(x, desc)[1] for x in lines.values())
+    relay = desc.nominal_relay()
+    h, w = desc.slm.height, desc.slm.width
+    u = np.array([0.0, w - 1, 0.0, w - 1])[:, None]
+    v = np.array([0.0, 0.0, h - 1, h - 1])[:, None]
+    x, _ = relay.forward(u, v, np.array([low, high])[None, :])
+    spot = line_spread_sigma(
+        PsfSigmaCurve(desc.blur.sigma_px)([low, high]), desc.relay.scale, desc.slm.fill_factor
+    )
+    extent = float(np.max(x[:, 1] - x[:, 0]) + _REACH_SIGMAS * (spot[0] + spot[1]))
+    pitch = [int(p) for p in lamp_pinholes(procedure)["pitch"]]
+    needed = int(np.ceil(extent / desc.relay.scale)) + 2
+    if pitch[0] < needed:
+        raise ConfigError(
+            step_error(
+                "lamp frames",
+                f"a {pitch[0]} SLM px pinhole pitch puts the lamp streaks into each other (each "
+                f"spans {extent:.0f} camera px from {low:.1f} to {high:.1f} nm with 4 sigma of "
+                "blur)",
+                f"set lamps.pinhole_pitch_px to at least [{needed}, {pitch[1]}]",
+            )
+        )
+
+
+def _lamp_settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
+    return json.loads(json.dumps(thaw(procedure.get("lamps") or {})))
+
+
+def capture_lamp_frames(
+    rig: Rig,
+    procedure: Mapping[str, Any],
+    session_id: str,
+    *,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> Session | None:
+    """Capture (or resume) the lamp frames of a spectral calibration.
+
+    Parameters
+    ----------
+    rig
+        Device handles; a rig without ``wavelength_lamps`` captures nothing.
+    procedure
+        The spectral-calibration procedure (its ``lamps`` section).
+    session_id
+        The session's id (an existing one resumes).
+    data
+        Data root.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    Session or None
+        None when the rig has no lamps.
+
+    Raises
+    ------
+    ConfigError
+        When an existing session was captured with other lamp settings, or the pitch
+        lets streaks overlap.
+    DeviceError
+        When a lamp gives no light at the longest exposure allowed.
+
+    Examples
+    --------
+    >>> session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")  # doctest: +SKIP
+    """
+    desc = rig.description
+    if not desc.wavelength_lamps:
+        return None
+    session: Session | None = None
+    if (data_root(data) / "sessions" / session_id).exists():
+        session = Session.open(session_id, data=data)
+        stored = session.plan.parameters.get("procedure") or {}
+        if _lamp_settings(stored) != _lamp_settings(procedure):
+            raise ConfigError(
+                step_error(
+                    f"resume session {session.id}",
+                    "its lamp frames were captured with other lamps settings than the "
+                    "procedure given now",
+                    "resume with the same procedure file, or start a new --session",
+                )
+            )
+    if session is None:
+        check_lamp_pitch(desc, procedure)
+        settings = procedure.get("lamps") or {}
+        pattern = lamp_pinholes(procedure)
+        exposures = {}
+        for lines in desc.lamp_lines().values():
+            rig.set_scene("white")
+            try:
+                exposures[lines.light] = auto_exposure(
+                    rig,
+                    lines.light,
+                    pattern,
+                    target_fraction=float(settings.get("target_fraction", 0.6)),
+                    start_s=float(settings.get("start_s", 0.05)),
+                    max_s=float(settings.get("max_s", 10.0)),
+                )
+            except DeviceError as exc:
+                raise DeviceError(
+                    step_error(
+                        f"lamp frames {lines.light}",
+                        "the lamp's pinholes give no light at the longest exposure allowed "
+                        f"({settings.get('max_s', 10.0):g} s)",
+                        "switch the lamp on, let it warm up and check that it lights the "
+                        "diffuser, or raise lamps.max_s",
+                    )
+                ) from exc
+        plan = lamp_plan(procedure, exposures)
+        session = Session.create(desc, plan, session_id=session_id, data=data)
+    run_plan(rig, session.plan, session, progress=progress)
+    return session
+
+
+def camera_noise(desc: RigDescription) -> dict[str, float]:
+    """The spectral camera's described noise: gain (e- per ADU), read noise, dark level.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> camera_noise(load_rig_description("sim"))["dark_adu"]
+    100.0
+    """
+    cam = desc.spectral_camera
+    return {
+        "gain_e_per_adu": cam.full_well_e / (2**cam.bit_depth - 1 - cam.dark_offset_adu),
+        "read_noise_e": cam.read_noise_e,
+        "dark_adu": float(cam.dark_offset_adu),
+    }
+
+
+def lamp_streaks(
+    session: Session,
+    procedure: Mapping[str, Any],
+    desc: RigDescription,
+    model: DispersionModel,
+    blur: BlurModel,
+) -> list[LampStreaks]:
+    """Every lamp's pinhole streaks from a lamp session, ready for the anchored fit.
+
+    Parameters
+    ----------
+    session
+        A session of :func:`~sassi_bench.workflows.spectral_plans.lamp_plan`.
+    procedure
+        The spectral-calibration procedure.
+    desc
+        The rig's description (its lamps' line tables, relay scale, camera noise).
+    model
+        A dispersion model placing the streaks within a few pixels (lasers at labels).
+    blur
+        The measured spot width, for the lines' spot model.
+
+    Returns
+    -------
+    list of LampStreaks
+
+    Raises
+    ------
+    ProcedureError
+        When a lamp's pinhole frames show no light above its closed-SLM frames (the lamp
+        was off), naming the lamp and the levels.
+
+    Examples
+    --------
+    >>> lamps = lamp_streaks(sweeps.lamps, proc, desc, start.model, blur.model)  # doctest: +SKIP
+    """
+    plan = session.plan
+    tables = {lines.light: lines for lines in desc.lamp_lines().values()}
+    pattern = plan.parameters.get("pinholes") or lamp_pinholes(procedure)
+    slm_shape = (desc.slm.height, desc.slm.width)
+    rows, cols = open_pixels(pattern, slm_shape)
+    saturation = 2**desc.spectral_camera.bit_depth - 1
+    aperture = desc.slm.fill_factor * desc.relay.scale
+    row_pitch = int(pattern["pitch"][1]) * desc.relay.scale
+    camera = camera_noise(desc)
+    out = []
+    for light in dict.fromkeys(step.tags["lamp"] for step in plan.steps):
+        lines = tables.get(light)
+        if lines is None:
+            raise ProcedureError(
+                step_error(
+                    f"lamp frames {light}",
+                    "the session's lamp is not one of the rig's wavelength_lamps "
+                    f"({', '.join(tables) or 'none'})",
+                    "analyse the session with the rig it was captured on",
+                )
+            )
+        pinhole_frames = session.read_frames(plan.select(role="lamp-pinholes", lamp=light))
+        blank = session.read_frames(plan.select(role="lamp-blank", lamp=light))
+        signal, variance = signal_and_variance(pinhole_frames, blank, **camera)
+        band = _lamp_band(lines, desc)
+        half_rows = int(max(2, min(10, np.floor(row_pitch / 2.0) - 2)))
+
+        def reach(lam, blur=blur):
+            return _REACH_SIGMAS * blur.sigma(lam)
+
+        profiles = extract_streak_profiles(
+            signal,
+            model,
+            cols,
+            rows,
+            band,
+            reach,
+            light=light,
+            half_rows=half_rows,
+            variance=variance,
+            invalid=(pinhole_frames >= saturation).any(axis=0),
+        )
+        check_lamp_signal(profiles)
+        modelled = (lines.wavelengths_nm >= band[0]) & (lines.wavelengths_nm <= band[1])
+        lam = lines.wavelengths_nm[modelled]
+        out.append(
+            LampStreaks(
+                name=lines.name,
+                lines_nm=lam,
+                start_intensity=lines.relative_intensity[modelled],
+                psf_sigma_px=psf_sigma_px(blur, desc, lam),
+                aperture_px=aperture,
+                profiles=profiles,
+            )
+        )
+    return out
+
+
+def check_lamp_signal(profiles: StreakProfiles) -> None:
+    """Refuse lamp frames without lamp light (the lamp off, or not on the diffuser): the
+    brightest sample of most streaks must stand 10 noise sigmas above the closed frames.
+
+    Raises
+    ------
+    ProcedureError
+        Naming the lamp, the peak and the noise.
+
+    Examples
+    --------
+    >>> z = np.zeros((3, 5))
+    >>> off = StreakProfiles("lamp:HgAr", z[:, 0], z[:, 0], z, z, z + 25.0, np.zeros((3, 2), int))
+    >>> check_lamp_signal(off)
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: lamp frames lamp:HgAr: the pinhole frames show no lamp ...
+    """
+    finite = np.isfinite(profiles.variance)
+    noise = float(np.sqrt(np.median(profiles.variance[finite])))
+    peak = float(np.percentile(profiles.profile.max(axis=1), 90))
+    if peak < 10.0 * noise:
+        raise ProcedureError(
+            step_error(
+                f"lamp frames {profiles.light}",
+                f"the pinhole frames show no lamp light above the closed-SLM frames (peak "
+                f"{peak:.0f} ADU, noise {noise:.0f} ADU in a streak's row sum)",
+                "switch the lamp on, let it warm up and check that it lights the diffuser, "
+                "then capture the calibration again under a new --session",
+            )
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class LampAnchoring:
+    """What the lamp frames gave the spectral calibration.
+
+    Attributes
+    ----------
+    fit
+        The anchored fit: every laser's measured wavelength, the lamp lines' residuals.
+    streaks
+        The lamps' pinhole streaks it was fitted to.
+    tables
+        The lamps' line lists, by lamp name.
+    exposures_s
+        Exposure of each lamp's frames, by light name.
+    frames
+        Pinhole frames per lamp.
+    measured
+        The first fit, every laser's wavelength free: each line as the lamps measure it.
+    confirmed
+        Labels the lamps confirm (held at the label in ``fit``).
+    """
+
+    fit: AnchoredWavelengths
+    streaks: list[LampStreaks]
+    tables: dict[str, LineList]
+    exposures_s: dict[str, float]
+    frames: int
+    measured: AnchoredWavelengths | None = None
+    confirmed: tuple[float, ...] = ()
+
+    def line_residuals_nm(self) -> dict[str, dict[float, tuple[float, float]]]:
+        """Per lamp, per line bright enough to tell: its residual and its 1-sigma (nm)."""
+        out = {}
+        for data in self.streaks:
+            lamp = self.fit.lamps[data.name]
+            residual = lamp.line_residual_nm
+            sigma = lamp.line_sigma_px / np.abs(lamp.dispersion_px_per_nm)
+            told = np.isfinite(residual)
+            out[data.name] = {
+                float(lam): (float(r), float(s))
+                for lam, r, s in zip(data.lines_nm[told], residual[told], sigma[told], strict=True)
+            }
+        return out
+
+
+def anchor_wavelengths(
+    sweep: Session,
+    lamps: Session,
+    procedure: Mapping[str, Any],
+    desc: RigDescription,
+    maps: Sequence[LaserMap],
+    *,
+    field_degree: int = 5,
+    order: int = 2,
+) -> LampAnchoring:
+    """Fit every laser's wavelength and the column model to the laser maps and lamp lines.
+
+    The lasers' labels place the lamp streaks to within a few pixels (a dispersion fit
+    at the labels, and its blur from the sweep's pinhole frames); the anchored fit then
+    measures every laser's line with the lamp lines as absolute anchors, each laser's
+    label a prior of the rig's ``laser_tolerance_nm``. A line the lamps cannot tell from
+    its label (within ``fit.confirm_sigmas`` of the measurement's uncertainty and
+    ``fit.confirm_max_nm``) is confirmed and held at its label, and the others are
+    measured again: a label that holds is exact, a measurement is not.
+
+    Parameters
+    ----------
+    sweep, lamps
+        The sweep session (its pinhole frames give the start's blur) and the lamp session.
+    procedure
+        The spectral-calibration procedure.
+    desc
+        The rig's description.
+    maps
+        Every laser's decoded map, labelled with its label.
+    field_degree, order
+        The dispersion model's shape.
+
+    Returns
+    -------
+    LampAnchoring
+
+    Examples
+    --------
+    >>> anchoring = anchor_wavelengths(sweep, lamps, proc, desc, maps)  # doctest: +SKIP
+    >>> anchoring.fit.by_label  # doctest: +SKIP
+    {450.0: 454.97, 520.0: 516.17, 532.0: 531.98, 635.0: 639.2, 670.0: 665.14}
+    """
+    slm_shape = (desc.slm.height, desc.slm.width)
+    saturation = 2**desc.spectral_camera.bit_depth - 1
+    shape = {"field_degree": field_degree, "order": order}
+    start = fit_dispersion(maps, desc.prism.glass, slm_shape, **shape)
+    blur = blur_from_pinholes(sweep, procedure, start, slm_shape, saturation)
+    streaks = lamp_streaks(lamps, procedure, desc, start.model, blur.model)
+    tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
+    glass = get_glass(desc.prism.glass)
+    measured = fit_anchored_wavelengths(maps, streaks, glass, slm_shape, tolerance, **shape)
+    confirmed = _confirmed_labels(measured, procedure)
+    fit = measured
+    if confirmed:
+        # A label the lamps cannot tell from the measurement is exact to better than the
+        # measurement: those lines are held at their labels, the others measured again.
+        held = [HELD_LABEL_NM if m.wavelength_nm in confirmed else t
+                for m, t in zip(maps, tolerance, strict=True)]  # fmt: skip
+        fit = fit_anchored_wavelengths(maps, streaks, glass, slm_shape, held, **shape)
+    exposures = {k: float(v) for k, v in lamps.plan.parameters.get("exposures_s", {}).items()}
+    return LampAnchoring(
+        fit=fit,
+        streaks=streaks,
+        tables=desc.lamp_lines(),
+        exposures_s=exposures,
+        frames=len(lamps.plan.select(role="lamp-pinholes")) // max(len(exposures), 1),
+        measured=measured,
+        confirmed=tuple(sorted(confirmed)),
+    )
+
+
+def _confirmed_labels(measured: AnchoredWavelengths, procedure: Mapping[str, Any]) -> set[float]:
+    """Labels the lamps confirm: the freely measured line within ``fit.confirm_sigmas``
+    of its 1-sigma uncertainty and within ``fit.confirm_max_nm`` of its label."""
+    fit = procedure.get("fit") or {}
+    sigmas = float(fit.get("confirm_sigmas", 3.0))
+    largest = float(fit.get("confirm_max_nm", 0.3))
+    off = np.abs(measured.wavelengths_nm - measured.labels_nm)
+    keep = (off <= sigmas * measured.sigma_nm) & (off <= largest)
+    return {float(label) for label in measured.labels_nm[keep]}

@@ -1,0 +1,72 @@
+"""Lamp-anchored wavelengths on a bench whose diode lasers are off their labels.
+
+``tests/rigs/lamps-diodes-off.yaml``: the 450, 520, 635 and 670 nm diodes sit 3.8-5 nm
+off their labels (532 nm exact), the HgAr and Ne lamps' lines are 30 % (log-normal) off
+their tables' intensities. One calibration, scored against the bench's truth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sassi_bench import open_rig
+from sassi_bench.bundle import load
+from sassi_bench.rig.sim import truth
+from sassi_bench.workflows.procedure import load_procedure
+from sassi_bench.workflows.spectral import run_spectral_calibration
+
+RIG = "tests/rigs/lamps-diodes-off.yaml"
+
+
+@pytest.fixture(scope="module")
+def anchored(tmp_path_factory):
+    rig = open_rig(RIG)
+    data = tmp_path_factory.mktemp("lamps-diodes-off")
+    result = run_spectral_calibration(
+        rig, load_procedure("spectral_calibration"), data=data, progress=False, session_id="acc"
+    )
+    return rig, result, load(rig=rig.description.name, data=data)
+
+
+def test_the_bundle_passes_and_records_every_laser_s_measured_line(anchored):
+    rig, result, bundle = anchored
+    assert result.passed, [c.describe() for c in result.checks if not c.passed]
+    assert bundle.passed
+    quality = bundle.manifest["quality"]
+    spectral = quality.get("spectral", quality)
+    t = truth(rig)
+    for label in rig.description.lasers_nm:
+        line = spectral["laser_lines"][f"{label:g}"]
+        # The diodes are measured; the exact DPSS line is confirmed and held at its label.
+        exact = label == 532
+        assert line["method"] == ("lamp-confirmed label" if exact else "lamp-anchored"), label
+        assert line["fitted_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.3), label
+        if exact:
+            assert line["fitted_nm"] == pytest.approx(532.0, abs=0.001)  # held at its label
+        # Issue goal: each laser within 0.3 nm of its true line (measured <= 0.11 nm).
+        assert line["measured_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.3), label
+        assert 0 < line["sigma_nm"] < 0.5
+    assert set(spectral["lamps"]) == {"HgAr", "Ne"}
+    checks = {c["name"] for c in spectral["checks"]}
+    assert {"spectral.lamp_line_rms_nm", "spectral.lamp_line_max_nm"} <= checks
+    assert "lamp_spectrum.png" in {p.name for p in (bundle.path / "report").iterdir()}
+    assert [i["id"] for i in bundle.manifest["inputs"]][-1] == "acc-lamps"
+
+
+def test_the_wavelength_map_meets_the_goals_against_the_truth(anchored):
+    rig, result, bundle = anchored
+    t = truth(rig)
+    model = bundle.models.dispersion
+    error_nm = t.wavelength_map_error_nm(model)
+    # Issue goals: <= 0.3 nm RMS and <= 0.1 camera px RMS (measured 0.052 nm, 0.007 px;
+    # the same sweeps with the lasers at their labels: 3.9 nm, 1.6 px).
+    assert np.sqrt(np.mean(error_nm**2)) <= 0.3
+    h, w = rig.slm.shape
+    u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
+    lam = np.linspace(400, 700, 61)
+    xm, _ = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    xt, _ = t.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    assert np.sqrt(np.mean((xm - xt) ** 2)) <= 0.1
+    assert result.dispersion.anchored
+    assert result.dispersion.leave_one_out_max_px <= 0.5
