@@ -53,7 +53,7 @@ def test_nuisance_rigs_are_the_default_rig_plus_their_nuisance(name):
     assert {k: v for k, v in desc.to_dict().items() if k not in ignore} == {
         k: v for k, v in sim.to_dict().items() if k not in ignore
     }
-    switched_on = {k for k, v in vars(nuisance_section(desc)).items() if v > 0}
+    switched_on = {k for k, v in vars(nuisance_section(desc)).items() if v}
     assert switched_on == (set(NUISANCES.values()) if name == "all" else {NUISANCES[name]})
 
 
