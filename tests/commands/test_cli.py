@@ -284,6 +284,9 @@ def test_scene_and_light_typos_are_refused_before_any_session(world, capsys):
         argv = ["scan", option, value, "--out", str(world["root"] / "c.nc"), "--data", str(data)]
         status, _, err = run(argv, capsys)
         assert status == 2 and hint in err and err.count("\n") == 1
+    argv = ["validate", "snapshot", "--scene", "natral", "--out", str(world["root"] / "vs")]
+    status, _, err = run([*argv, "--data", str(data)], capsys)
+    assert status == 2 and "did you mean 'natural'?" in err and err.count("\n") == 1
     assert not (data / "sessions").exists()
 
 
