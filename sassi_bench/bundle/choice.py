@@ -14,8 +14,10 @@ response turns counts into radiance) are noted when missing.
 Examples
 --------
 >>> choice = choose_bundle("latest", rig="sim", needs=("guide_homography",))  # doctest: +SKIP
->>> print(choice)  # doctest: +SKIP
-sim/v0001 (the newest with a guide -> SLM homography; the latest, sim/v0002, has none)
+>>> print(choice.name)  # doctest: +SKIP
+sim/v0001
+>>> print(choice.reason)  # doctest: +SKIP
+the newest with a guide -> SLM homography; the latest, sim/v0002, has no guide -> SLM ...
 """
 
 from __future__ import annotations
@@ -99,6 +101,11 @@ def _what(models: Sequence[str]) -> str:
     return " and ".join(OPTIONAL_MODELS[m][0] for m in models)
 
 
+def _none_of(models: Sequence[str]) -> str:
+    """``no guide -> SLM homography`` (the article dropped)."""
+    return "no " + " and ".join(OPTIONAL_MODELS[m][0].removeprefix("a ") for m in models)
+
+
 def _name(path: Path, manifest: Mapping[str, Any] | None) -> str:
     if manifest and isinstance(manifest.get("rig_name"), str) and manifest.get("version"):
         return f"{manifest['rig_name']}/{manifest['version']}"
@@ -167,7 +174,6 @@ def choose_bundle(
         name = _name(path, manifest)
         lacking = missing_models(manifest or {}, needs)
         if lacking:
-            what = _what(lacking)
             other = _newest_with(path.parent, needs) if manifest else None
             use = (
                 f"use {_name(*other)}, which has {'them' if len(lacking) > 1 else 'one'} "
@@ -179,7 +185,7 @@ def choose_bundle(
             raise BundleError(
                 step_error(
                     step,
-                    f"bundle {name} has no {what}",
+                    f"bundle {name} has {_none_of(lacking)}",
                     f"{use}add {'them' if len(lacking) > 1 else 'it'} with {adds} "
                     f"--bundle {path.name} (or run the whole `sassi-bench calibrate`)",
                 )
@@ -192,7 +198,6 @@ def choose_bundle(
     if not missing_models(latest, needs):
         return BundleChoice(latest_path, latest_name, "latest" + _notes(folder, latest, wants))
     found = _newest_with(folder, needs)
-    what = _what(missing_models(latest, needs))
     if found is None:
         adds = " and ".join(f"`{OPTIONAL_MODELS[m][1]}`" for m in missing_models(latest, needs))
         raise BundleError(
@@ -204,9 +209,9 @@ def choose_bundle(
             )
         )
     path, manifest = found
-    reason = f"the newest with {_what(needs)}; the latest, {latest_name}, has no {what}" + _notes(
-        folder, manifest, wants
-    )
+    lacks = _none_of(missing_models(latest, needs))
+    reason = f"the newest with {_what(needs)}; the latest, {latest_name}, has {lacks}"
+    reason += _notes(folder, manifest, wants)
     return BundleChoice(path, _name(path, manifest), reason)
 
 
@@ -218,5 +223,5 @@ def _notes(folder: Path, manifest: Mapping[str, Any], wants: Sequence[str]) -> s
     for model in missing_models(manifest, wants):
         other = _newest_with(folder, [model])
         where = f": {_name(*other)} has one" if other else ""
-        notes.append(f"it has no {OPTIONAL_MODELS[model][0]}{where}")
+        notes.append(f"it has {_none_of([model])}{where}")
     return "".join(f"; {note}" for note in notes)
