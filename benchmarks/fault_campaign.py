@@ -10,8 +10,8 @@ a final name, the resume printed or recorded; then the run is resumed (the resum
 command, or the same command again) to its end and checked again. Prints one line per
 kill point and a table per command; exit status 1 if anything was found.
 
-The unit suite (``tests/faults/test_kill_points.py``) runs a few fixed kill points per
-command; this is the long version, run on demand.
+The unit suite (``tests/faults/test_kill_points.py``) runs fixed kill points on the
+quicker commands; this is the long version, over every command, run on demand.
 
 Run: ``python benchmarks/fault_campaign.py [--rounds 5] [--seed 0] [--bundle DIR]
 [--case NAME ...]`` (``--bundle``: a published sim bundle with a guide homography, e.g.

@@ -1,7 +1,7 @@
 """Interrupt commands that write, and check what they leave.
 
-Shared by the unit suite (``tests/faults/test_kill_points.py``: a few kill points per
-command) and the long randomized campaign (``benchmarks/fault_campaign.py``). A *kill
+Shared by the unit suite (``tests/faults/test_kill_points.py``: fixed kill points on the
+quicker commands) and the long randomized campaign (``benchmarks/fault_campaign.py``). A *kill
 point* is one run of a command, in a fresh process, stopped by SIGINT, SIGTERM or SIGKILL
 at a trigger (after N stored frames, once a file appears, or after a delay). After it:
 
