@@ -7,7 +7,8 @@ calibration product and its model contract), ``calibrate`` and ``spectra`` (pure
 extraction on arrays), ``snapshot`` (the reference bundle consumer), ``validate`` (scoring),
 ``workflows`` (procedures end to end) and ``commands`` (the ``sassi-bench`` command line).
 
-``open_rig`` is loaded on first use, so importing one layer loads only what it needs.
+``open_rig`` and ``__version__`` are loaded on first use, so importing one layer loads
+only what it needs.
 
 Examples
 --------
@@ -21,10 +22,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from sassi_bench.provenance import package_version
-
-__version__ = package_version()
-
 __all__ = ["__version__", "open_rig"]
 
 
@@ -33,4 +30,8 @@ def __getattr__(name: str) -> Any:
         from sassi_bench.rig import open_rig
 
         return open_rig
+    if name == "__version__":
+        from sassi_bench.provenance import package_version
+
+        return package_version()
     raise AttributeError(f"module 'sassi_bench' has no attribute {name!r}")

@@ -7,15 +7,14 @@ commit, uncommitted changes) into the wheel with :func:`write_build_info`, calle
 ``setup.py``, and it is read at run time instead. The file is generated, never committed.
 
 This module uses the standard library only, so ``setup.py`` can load it by path before
-any dependency is installed.
+any dependency is installed; it imports nothing slow until asked (``sassi-bench --help``
+loads it).
 """
 
 from __future__ import annotations
 
 import json
 import re
-import subprocess
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +40,8 @@ def package_version() -> str:
     >>> isinstance(package_version(), str)
     True
     """
+    from importlib.metadata import PackageNotFoundError, version
+
     try:
         return version("sassi-bench")
     except PackageNotFoundError:
@@ -58,6 +59,8 @@ def git_state(root: str | Path) -> tuple[str | None, bool | None]:
     >>> git_state("/")
     (None, None)
     """
+    import subprocess
+
     root = Path(root)
     if not (root / ".git").exists():  # a folder, or a file in a linked worktree
         return None, None

@@ -7,12 +7,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.atomic import atomic_path, atomic_write_bytes
 from sassi_bench.acquire.patterns import pinhole_pattern
 from sassi_bench.errors import ProcedureError, SassiBenchError, step_error
 from sassi_bench.rig.frame import Frame
 from sassi_bench.rig.rig import Rig
 
-__all__ = ["save_frame", "take_snapshot"]
+__all__ = ["VIEWS", "save_frame", "take_snapshot"]
 
 
 def _display_8bit(data: NDArray) -> NDArray[np.uint8]:
@@ -21,21 +22,42 @@ def _display_8bit(data: NDArray) -> NDArray[np.uint8]:
     return (np.clip(scaled, 0, 1) ** (1 / 2.2) * 255).round().astype(np.uint8)
 
 
+#: The views :func:`take_snapshot` saves, each as ``<name>.tiff`` and ``<name>.png``.
+VIEWS = ("guide", "spectral_all_open", "spectral_pinholes")
+
+
+def _outputs(stem: Path) -> list[Path]:
+    return [stem.with_suffix(".tiff"), stem.with_suffix(".png")]
+
+
+def _check_free(paths: list[Path]) -> None:
+    taken = [p for p in paths if p.exists()]
+    if taken:
+        raise SassiBenchError(
+            step_error(
+                "rig snapshot",
+                f"{taken[0]} already exists",
+                "choose another --out folder (images are never replaced)",
+            )
+        )
+
+
 def save_frame(frame: Frame, stem: Path) -> list[Path]:
-    """Save a frame as ``stem.tiff`` (raw values) and ``stem.png`` (display stretch)."""
+    """Save a frame as ``stem.tiff`` (raw values) and ``stem.png`` (display stretch), each
+    written under a temporary name and renamed when complete, never over a file."""
+    import cv2
     import tifffile
-    from skimage.io import imsave
 
     stem.parent.mkdir(parents=True, exist_ok=True)
-    tiff = stem.with_suffix(".tiff")
-    png = stem.with_suffix(".png")
-    for path in (tiff, png):
-        if path.exists():
-            raise SassiBenchError(
-                step_error("snapshot", f"{path} already exists", "choose another --out folder")
-            )
-    tifffile.imwrite(tiff, frame.data, metadata={"meta": frame.meta.to_dict()})
-    imsave(png, _display_8bit(frame.data), check_contrast=False)
+    tiff, png = _outputs(stem)
+    _check_free([tiff, png])
+    with atomic_path(tiff, overwrite=False) as temporary:
+        tifffile.imwrite(temporary, frame.data, metadata={"meta": frame.meta.to_dict()})
+    image = _display_8bit(frame.data)
+    if image.ndim == 3:
+        image = image[..., ::-1]  # OpenCV writes BGR
+    _, encoded = cv2.imencode(".png", np.ascontiguousarray(image))
+    atomic_write_bytes(png, encoded.tobytes(), overwrite=False)
     return [tiff, png]
 
 
@@ -59,6 +81,7 @@ def take_snapshot(
         raise ProcedureError(
             step_error("rig snapshot", f"{out} is a file, not a folder", "give --out a folder")
         )
+    _check_free([path for name in VIEWS for path in _outputs(out / name)])  # before capturing
     written = []
     for name, frame in capture_views(rig, scene, light).items():
         written += save_frame(frame, out / name)

@@ -5,7 +5,9 @@ The zip holds the bundle's files at its top level (``manifest.json``, ``manifest
 checked before anything is written (no absolute paths, no ``..``, no symlinks, no unexpected
 names, a size limit), the bundle is extracted into a temporary folder beside its destination,
 verified completely like any loaded bundle, and only then renamed into place. An existing
-version is never overwritten.
+version is never overwritten with other content; when the same bundle is already there,
+that copy is verified too, and each of its files that does not verify (a flipped bit, a
+truncated or missing file) is replaced by the zip's verified one.
 """
 
 from __future__ import annotations
@@ -20,8 +22,13 @@ import zipfile
 from pathlib import Path
 from typing import NamedTuple
 
-from sassi_bench._shared.atomic import atomic_path, fsync_dir
-from sassi_bench.bundle.errors import BundleError, BundleIntegrityError, UnsafeArchiveError
+from sassi_bench._shared.atomic import atomic_path, fsync_dir, fsync_file
+from sassi_bench.bundle.errors import (
+    BundleError,
+    BundleIntegrityError,
+    BundleSchemaError,
+    UnsafeArchiveError,
+)
 from sassi_bench.bundle.integrity import MANIFEST_CHECKSUM_NAME, MANIFEST_NAME, sha256_file
 from sassi_bench.bundle.jsonio import load_json_strict
 from sassi_bench.bundle.layout import (
@@ -47,8 +54,10 @@ class ImportedBundle(NamedTuple):
     """Result of :func:`import_zip`."""
 
     path: Path
-    #: False when an identical bundle was already there (nothing was written).
+    #: False when the same bundle was already there.
     created: bool
+    #: Files of a copy already there that did not verify, replaced from the zip.
+    repaired: tuple[str, ...] = ()
 
 
 def export_zip(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> Path:
@@ -236,8 +245,8 @@ def import_zip(
     Returns
     -------
     ImportedBundle
-        The bundle folder, and whether it was created (False if an identical bundle was
-        already there).
+        The bundle folder, whether it was created (False if the same bundle was already
+        there), and the files of that copy that were damaged and replaced from the zip.
 
     Raises
     ------
@@ -286,7 +295,7 @@ def import_zip(
         try:
             _extract(source, archive, members, staging, max_bytes)
             verified = read_bundle(staging, step="bundle import")
-            return _place(source, staging, folder, verified.manifest["version"])
+            return _place(source, staging, folder, verified.manifest["version"], verified.files)
         finally:
             if staging.exists():
                 shutil.rmtree(staging, ignore_errors=True)
@@ -330,14 +339,50 @@ def _extract(
                 dst.write(chunk)
 
 
-def _place(source: Path, staging: Path, folder: Path, version: str) -> ImportedBundle:
+def _same_bundle(staging: Path, target: Path) -> bool:
+    """Whether ``target`` holds the bundle staged from the zip: the same manifest, or (a
+    damaged manifest) the same manifest checksum file naming the zip's manifest."""
+    present, staged = target / MANIFEST_NAME, staging / MANIFEST_NAME
+    if present.is_file() and sha256_file(present) == sha256_file(staged):
+        return True
+    checksum = target / MANIFEST_CHECKSUM_NAME
+    return (
+        checksum.is_file()
+        and checksum.read_bytes() == (staging / MANIFEST_CHECKSUM_NAME).read_bytes()
+    )
+
+
+def _repair(staging: Path, target: Path, files: tuple[str, ...]) -> tuple[str, ...]:
+    """Verify the copy already at ``target``; replace each of its files that differs
+    from the verified ``staging`` copy (one atomic rename each). The damaged files."""
+    try:
+        read_bundle(target, step="bundle import")
+        return ()
+    except (BundleIntegrityError, BundleSchemaError):
+        pass
+    damaged = tuple(
+        file
+        for file in files
+        if (target / file).is_symlink()
+        or not (target / file).is_file()
+        or sha256_file(target / file) != sha256_file(staging / file)
+    )
+    for file in damaged:
+        (target / file).parent.mkdir(exist_ok=True)
+        fsync_file(staging / file)
+        os.replace(staging / file, target / file)
+        fsync_dir((target / file).parent)
+    read_bundle(target, step="bundle import")  # what is still wrong (an extra file) raises
+    return damaged
+
+
+def _place(
+    source: Path, staging: Path, folder: Path, version: str, files: tuple[str, ...]
+) -> ImportedBundle:
     target = folder / version
     if target.exists():
-        same = (target / MANIFEST_NAME).is_file() and sha256_file(
-            target / MANIFEST_NAME
-        ) == sha256_file(staging / MANIFEST_NAME)
-        if same:
-            return ImportedBundle(target, created=False)
+        if _same_bundle(staging, target):
+            return ImportedBundle(target, created=False, repaired=_repair(staging, target, files))
         raise BundleError(
             step_error(
                 "bundle import",

@@ -131,8 +131,8 @@ def check_parent(parent: CalibrationBundle, stage: str, *, allow_failed: bool = 
             f"the parent bundle {parent.rig_name}/{parent.version} failed its quality checks "
             f"({listed}) and was published with an override; a bundle derived from it "
             "would carry those failures",
-            "calibrate again to get a passing parent, or pass allow_failed=True "
-            "(--allow-failed) again to publish this bundle marked as failed",
+            "calibrate again to get a passing parent, or run again with --allow-failed "
+            "(from Python: allow_failed=True) to publish this bundle marked as failed",
         )
     )
 

@@ -4,6 +4,7 @@
 
     <data_root>/<rig>/
         LATEST                 one line: the newest published version, e.g. "v0003"
+        .LATEST.lock           held while LATEST is compared and replaced
         v0001/ v0002/ v0003/   published bundles (never modified)
         .publish-*/            temporary folders of publications in progress
 """
@@ -15,6 +16,7 @@ import re
 from pathlib import Path
 
 from sassi_bench._shared.atomic import atomic_write_text
+from sassi_bench._shared.lock import LockHeldError, WriteLock
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.errors import step_error
 from sassi_bench.paths import data_root
@@ -35,6 +37,10 @@ __all__ = [
 ]
 
 LATEST_NAME = "LATEST"
+#: Held while ``LATEST`` is compared and replaced (:func:`update_latest`).
+LATEST_LOCK_NAME = ".LATEST.lock"
+#: How long a publisher waits for another one to finish updating ``LATEST``.
+LATEST_WAIT_S = 60.0
 _VERSION = re.compile(r"^v([0-9]{4,9})$")
 _RIG_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
@@ -169,20 +175,45 @@ def latest_version(folder: Path) -> str | None:
     return found[-1] if found else None
 
 
-def update_latest(folder: Path, version: str) -> None:
+def update_latest(folder: Path, version: str, wait_s: float = LATEST_WAIT_S) -> None:
     """Point ``LATEST`` at ``version`` unless it already names a newer one.
 
-    The file is replaced atomically (:func:`~sassi_bench._shared.atomic.atomic_write_text`),
-    so a reader sees either the old or the new content, never a partial one. Two concurrent
-    publishers may both replace it; either way it names one of their intact versions.
+    The comparison and the write happen under a lock (``.LATEST.lock``, waited for up to
+    ``wait_s`` seconds), so of two publishers finishing together the one with the older
+    version never moves ``LATEST`` back. The file is replaced atomically
+    (:func:`~sassi_bench._shared.atomic.atomic_write_text`), so a reader sees either the
+    old or the new content, never a partial one.
+
+    Raises
+    ------
+    OSError
+        When the lock is still held after ``wait_s`` seconds (``LATEST`` is unchanged).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> for version in ("v0002", "v0003"):
+    ...     (folder / version).mkdir()
+    >>> update_latest(folder, "v0003"); update_latest(folder, "v0002")
+    >>> (folder / LATEST_NAME).read_text()
+    'v0003\\n'
     """
-    current = latest_version(folder)
-    new_number = version_number(version)
-    if current is not None and new_number is not None:
-        current_number = version_number(current) or 0
-        if current_number > new_number:
-            return
-    atomic_write_text(folder / LATEST_NAME, version + "\n", overwrite=True)
+    lock = WriteLock(folder / LATEST_LOCK_NAME)
+    try:
+        lock.acquire(wait_s=wait_s)
+    except LockHeldError as exc:
+        raise OSError(f"{folder / LATEST_NAME} is being updated by {exc.holder}") from None
+    try:
+        current = latest_version(folder)
+        new_number = version_number(version)
+        if current is not None and new_number is not None:
+            current_number = version_number(current) or 0
+            if current_number > new_number:
+                return
+        atomic_write_text(folder / LATEST_NAME, version + "\n", overwrite=True)
+    finally:
+        lock.release()
 
 
 def resolve_bundle_dir(

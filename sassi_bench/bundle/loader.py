@@ -46,7 +46,10 @@ __all__ = ["VerifiedBundle", "load", "read_bundle", "verify"]
 
 ARRAYS_DIR = "arrays"
 REPORT_DIR = "report"
-_RESTORE = "restore the bundle from a backup or from its exported zip, or publish a new version"
+_RESTORE = (
+    "repair it from its exported zip (sassi-bench bundle import ZIP checks the copy present and "
+    "replaces damaged files), or restore it from a backup, or publish a new version"
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,7 +75,7 @@ def _schema(step: str, path: Path, cause: str) -> BundleSchemaError:
         step_error(
             f"{step} {path}",
             cause,
-            "publish the bundle again with sassi_bench.bundle.publish "
+            "calibrate again, or import the bundle's exported zip "
             "(manifests must not be edited by hand)",
         )
     )

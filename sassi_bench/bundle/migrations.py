@@ -123,8 +123,8 @@ class MigrationRegistry:
                     step_error(
                         step,
                         f"no migration from schema version {self.major}.{minor} to {self.current}",
-                        "re-publish the calibration with this sassi-bench, or add the "
-                        "migration to sassi_bench.bundle.migrations",
+                        "calibrate again with this sassi-bench (or read the bundle with the "
+                        "sassi-bench version that published it)",
                     )
                 )
             minor, func = self._steps[minor]

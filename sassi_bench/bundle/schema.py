@@ -127,7 +127,7 @@ def validate_manifest(
             step_error(
                 step,
                 f"{name} does not follow the {SCHEMA_NAME} schema {SCHEMA_VERSION}: {shown}{more}",
-                "publish the bundle again with sassi_bench.bundle.publish "
+                "calibrate again, or import the bundle's exported zip "
                 "(manifests must not be edited by hand)",
             )
         )

@@ -274,7 +274,7 @@ def publish(
                 STEP,
                 f"{len(failed)} quality check(s) failed: {listed}",
                 "improve the calibration and run it again, or publish anyway with "
-                "allow_failed=True (--allow-failed), which marks the bundle as failed",
+                "--allow-failed (from Python: allow_failed=True), which marks the bundle as failed",
             )
         )
     if not isinstance(procedure, Mapping):

@@ -16,6 +16,8 @@ Examples
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -30,14 +32,34 @@ from sassi_bench.commands import (
     snapshot,
     validate,
 )
+from sassi_bench.commands.interrupts import (
+    Stopped,
+    incomplete_sessions,
+    record_end,
+    record_start,
+    signal_name,
+    stop_signals,
+)
 from sassi_bench.commands.options import PROG, resume_command
 from sassi_bench.errors import SassiBenchError
-from sassi_bench.provenance import package_version
 
 __all__ = ["PROG", "build_parser", "main"]
 
 #: The command groups in the order ``--help`` lists them.
 GROUPS = (rig, calibrate, check, scan, bundle, snapshot, validate, data, batch)
+
+
+class _Version(argparse.Action):
+    """``--version``: the version is looked up only when asked (it is slow to find)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, help: str) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, *args: object) -> None:
+        from sassi_bench.provenance import package_version
+
+        print(f"{PROG} {package_version()}")  # on stdout, as argparse's own action
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,7 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
             "Calibrate a SASSI hyperspectral camera, on real hardware or the virtual bench."
         ),
     )
-    parser.add_argument("--version", action="version", version=f"{PROG} {package_version()}")
+    parser.add_argument("--version", action=_Version, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for group in GROUPS:
         group.register(sub)
@@ -64,28 +86,54 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit status.
 
-    A workbench error is printed as one line (exit status 2). Ctrl-C ends a run with
-    exit status 130 and, for a command that captures, the command that resumes it (every
-    frame already stored is kept).
+    A workbench error is printed as one line (exit status 2). Ctrl-C, SIGTERM and SIGHUP
+    end a run alike (exit status 128 + the signal's number: 130, 143, 129) and, for a
+    command that captures, print the command that resumes it (every frame already stored
+    is kept); that command is also recorded under the data root from the moment the
+    run's session ids are fixed (:mod:`sassi_bench.commands.interrupts`).
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv, args.on_session = argv, record_start
     try:
-        return int(args.func(args) or 0)
+        with stop_signals():
+            status = int(args.func(args) or 0)
     except SassiBenchError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        _say(f"error: {exc}")
+        _ended_on_error(args)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
+        signum = exc.signum if isinstance(exc, Stopped) else signal.SIGINT
+        how = "Ctrl-C" if signum == signal.SIGINT else signal_name(signum)
+        record_end(args, interrupted=how)
         resume = resume_command(argv, args)
         if resume is None:
-            print("interrupted", file=sys.stderr)
+            _say("interrupted" if signum == signal.SIGINT else f"stopped by {how}")
         else:
-            print(
-                "interrupted; the frames captured so far are kept. Resume with:\n  " + resume,
-                file=sys.stderr,
-            )
-        return 130
+            stopped = "interrupted" if signum == signal.SIGINT else f"stopped by {how}"
+            _say(f"{stopped}; the frames captured so far are kept. Resume with:\n  {resume}")
+        return 128 + int(signum)
+    record_end(args)
+    return status
+
+
+def _ended_on_error(args) -> None:
+    """After an error: a run that left a session incomplete keeps its record and says how
+    to resume; any other run's record goes."""
+    left = incomplete_sessions(args) if getattr(args, "resume_options", ()) else []
+    if not left:
+        record_end(args)
+        return
+    record_end(args, interrupted="an error")
+    resume = resume_command(args.argv, args)
+    _say(f"the frames captured so far are kept ({', '.join(left)}). Resume with:\n  {resume}")
+
+
+def _say(text: str) -> None:
+    """Print to stderr; a terminal that is gone (SIGHUP) is no reason to fail."""
+    with contextlib.suppress(OSError):
+        print(text, file=sys.stderr, flush=True)
 
 
 if __name__ == "__main__":  # pragma: no cover

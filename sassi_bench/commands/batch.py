@@ -17,7 +17,7 @@ __all__ = ["register"]
 def _batch(args: argparse.Namespace) -> int:
     from sassi_bench.batch.engine import check_scheduler
     from sassi_bench.batch.run import check_out, run_batch
-    from sassi_bench.batch.select import select_sessions
+    from sassi_bench.batch.select import scan_scenes, select_sessions
     from sassi_bench.rig.config import load_rig_description
     from sassi_bench.spectra.scan import check_roi
 
@@ -29,7 +29,8 @@ def _batch(args: argparse.Namespace) -> int:
         raise ProcedureError(
             step_error("batch workers", f"--workers {args.workers}", "give 1 or more")
         )
-    bundle = bundle_from_args(args, rig_name)
+    wants = ("response",) if args.kind == "assemble" else ()
+    bundle = bundle_from_args(args, rig_name, step=f"batch {args.kind}", wants=wants)
     roi = check_roi(args.roi, tuple(bundle.slm_shape), "batch") if args.roi else None
     procedure = corners = None
     if args.kind == "validate":
@@ -41,7 +42,18 @@ def _batch(args: argparse.Namespace) -> int:
             corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
             grid_from_corners(corners)
     out = check_out(args.out)
-    sessions = select_sessions(None if args.all else args.sessions, data=args.data)
+    scene = "colorchecker" if args.kind == "validate" else None
+    sessions = select_sessions(None if args.all else args.sessions, data=args.data, scene=scene)
+    if args.all and scene is not None:
+        others = sorted(
+            f"{s} ({seen or 'scene unknown'})"
+            for s, seen in scan_scenes(args.data).items()
+            if s not in sessions
+        )
+        if others:
+            print(
+                f"{len(sessions)} ColorChecker scan(s); not charts, left out: {', '.join(others)}"
+            )
     batch = run_batch(
         args.kind, sessions, bundle, out, data=args.data, scheduler=args.scheduler,
         workers=args.workers, roi=roi, procedure=procedure, corners=corners,
@@ -56,8 +68,9 @@ def _batch(args: argparse.Namespace) -> int:
         print(f"  FAILED {result.session}: {result.error}")
     print(f"summary: {batch.summary_csv}\n         {batch.summary_html}")
     if batch.failed:
-        print("fix or remove the failed sessions, then run the same command again: finished")
-        print("outputs are skipped")
+        print("each failed session's error says what went wrong; no session was changed. Fix the")
+        print("cause (or leave those sessions out with --sessions), then run the same command")
+        print("again: finished outputs are skipped")
     return 1 if batch.failed else 0
 
 
@@ -73,7 +86,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         p = kinds.add_parser(kind, help=text)
         which = p.add_mutually_exclusive_group(required=True)
         which.add_argument("--sessions", metavar="PATTERN", help="session ids, e.g. 'scan-*'")
-        which.add_argument("--all", action="store_true", help="every pinhole-scan session")
+        every = "every ColorChecker scan" if kind == "validate" else "every pinhole-scan session"
+        which.add_argument("--all", action="store_true", help=every)
         add_rig_option(p)
         add_bundle_options(p)
         p.add_argument("--data", help="data root, shared by every worker")

@@ -19,18 +19,19 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-
-import numpy as np
 
 from sassi_bench.commands.options import DATA_HELP, load_bundle_ref
 from sassi_bench.errors import ProcedureError, step_error
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from sassi_bench.bundle import CalibrationBundle
 
-__all__ = ["describe", "parse_quantum", "parse_wavelengths", "register"]
+__all__ = ["describe", "offset_text", "parse_quantum", "parse_wavelengths", "register"]
 
 DEFAULT_RIG = "sim"
 
@@ -181,6 +182,31 @@ def _range(values: np.ndarray, fmt: str = ".1f") -> str:
     return f"{values.min():{fmt}}-{values.max():{fmt}}"
 
 
+def offset_text(offset: Mapping[str, Any] | None) -> str:
+    """The offset model in words: its method, then its other settings.
+
+    Examples
+    --------
+    >>> offset_text({"fallback": "block-median spline", "method": "per-pixel mean"})
+    'per-pixel mean (fallback: block-median spline)'
+    >>> offset_text(None), offset_text({"method": "cubic", "blocks": [8, 12]})
+    ('none', 'cubic (blocks: 8, 12)')
+    """
+    if not offset:
+        return "none"
+
+    def value(item: Any) -> str:
+        if isinstance(item, Mapping):
+            return ", ".join(f"{k} {value(v)}" for k, v in item.items())
+        if isinstance(item, (list, tuple)):
+            return ", ".join(value(v) for v in item)
+        return str(item)
+
+    rest = ", ".join(f"{k}: {value(v)}" for k, v in offset.items() if k != "method")
+    method = str(offset.get("method", "offset model"))
+    return f"{method} ({rest})" if rest else method
+
+
 def describe(bundle: CalibrationBundle) -> str:
     """Multi-line human summary of a bundle (what ``bundle show`` prints).
 
@@ -188,7 +214,8 @@ def describe(bundle: CalibrationBundle) -> str:
     --------
     >>> print(describe(load(rig="sim")))  # doctest: +SKIP
     """
-    from sassi_bench.bundle.jsonio import thaw
+    import numpy as np
+
     from sassi_bench.bundle.quality import unit_suffix
 
     m = bundle.manifest
@@ -233,8 +260,7 @@ def describe(bundle: CalibrationBundle) -> str:
             "  guide       guide -> SLM homography calibrated"
             + (f" (rms {rms:.3g} px)" if rms is not None else "")
         )
-    offset = models.offset
-    lines.append(f"  offset      {'none' if offset is None else thaw(offset)}")
+    lines.append(f"  offset      {offset_text(models.offset)}")
     response = bundle.response
     lines.append(
         "  response    none"
@@ -338,8 +364,11 @@ def cmd_import(args: argparse.Namespace) -> int:
     result = import_zip(args.zip, rig=args.rig, data=args.data)
     if result.created:
         print(f"imported {args.zip} -> {result.path}")
+    elif result.repaired:
+        print(f"repaired {result.path} from {args.zip}: replaced {len(result.repaired)} damaged "
+              f"file(s): {', '.join(result.repaired)}; it verifies now")  # fmt: skip
     else:
-        print(f"already present (identical): {result.path}")
+        print(f"already present and verified: {result.path}")
     return 0
 
 
@@ -354,6 +383,8 @@ def parse_wavelengths(text: str | None) -> np.ndarray | str | None:
     >>> parse_wavelengths("paper")
     'paper'
     """
+    import numpy as np
+
     if text is None:
         return None
     if text.strip() and text.strip()[0].isalpha():

@@ -11,12 +11,16 @@ from sassi_bench.commands.options import (
     add_data_option,
     add_rig_option,
     bundle_from_args,
+    check_new_files,
     check_output_folder,
     new_session,
     print_checks,
 )
 
 __all__ = ["register"]
+
+#: The report the whole chain leaves in its --out folder.
+MACBETH_REPORT = ("macbeth_report.html", "macbeth_report.json")
 
 
 def _print_notes(notes: list[str]) -> None:
@@ -25,6 +29,7 @@ def _print_notes(notes: list[str]) -> None:
 
 
 def _full(args: argparse.Namespace) -> int:
+    from sassi_bench.paths import data_root
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.full import run_full_calibration
     from sassi_bench.workflows.procedure import load_procedure
@@ -34,6 +39,10 @@ def _full(args: argparse.Namespace) -> int:
     rig = open_rig(args.rig)
     check_output_folder("calibrate", args.out, "give a folder for the report")
     new_session(args, "session", "full")
+    report_dir = Path(args.out) if args.out else data_root(args.data) / "reports" / args.session
+    check_new_files(
+        "calibrate", [report_dir / name for name in MACBETH_REPORT], "--out folder or --session"
+    )
     result = run_full_calibration(
         rig,
         procedure,
@@ -110,7 +119,7 @@ def _response(args: argparse.Namespace) -> int:
     rig = open_rig(args.rig)
     check_scan(rig, "white", args.light, (100, 5))
     response_source(rig, args.temperature, args.reference)
-    bundle = bundle_from_args(args, rig.description.name)
+    bundle = bundle_from_args(args, rig.description.name, step="calibrate response")
     new_session(args, "session", "response")
     path = run_response(
         rig, bundle, light=args.light, temperature_k=args.temperature, reference_csv=args.reference,
@@ -130,7 +139,9 @@ def _guide(args: argparse.Namespace) -> int:
     if args.full:
         procedure["scan"]["stride_px"] = [1, 1]
     rig = open_rig(args.rig)
-    bundle = bundle_from_args(args, rig.description.name)
+    bundle = bundle_from_args(
+        args, rig.description.name, step="calibrate guide", wants=("response",)
+    )
     new_session(args, "session", "guide")
     result = run_guide_registration(
         rig,

@@ -30,6 +30,7 @@ __all__ = [
     "add_data_option",
     "add_rig_option",
     "bundle_from_args",
+    "check_new_files",
     "check_output_file",
     "check_output_folder",
     "load_bundle_ref",
@@ -101,15 +102,36 @@ def load_bundle_ref(ref: str | None, rig: str, data: str | None) -> CalibrationB
     return load(resolve_bundle_ref(ref, rig=rig, data=data))
 
 
-def bundle_from_args(args: argparse.Namespace, rig_name: str) -> CalibrationBundle:
-    """Load the bundle ``--bundle``/``--bundle-rig``/``--data`` name for rig ``rig_name``.
+def bundle_from_args(
+    args: argparse.Namespace,
+    rig_name: str,
+    *,
+    step: str,
+    needs: Sequence[str] = (),
+    wants: Sequence[str] = (),
+) -> CalibrationBundle:
+    """Load the bundle ``--bundle``/``--bundle-rig``/``--data`` name for rig ``rig_name``,
+    and print which one and why (see :func:`~sassi_bench.bundle.choice.choose_bundle`:
+    ``latest`` is the newest bundle with the models the command ``needs``).
 
     Examples
     --------
-    >>> bundle_from_args(args, rig.description.name)  # doctest: +SKIP
+    >>> bundle_from_args(args, rig.description.name, step="scan")  # doctest: +SKIP
+    bundle: sim/v0003 (latest)
     """
-    rig = getattr(args, "bundle_rig", None) or rig_name
-    return load_bundle_ref(args.bundle, rig, getattr(args, "data", None))
+    from sassi_bench.bundle.choice import choose_bundle
+    from sassi_bench.bundle.loader import load
+
+    choice = choose_bundle(
+        args.bundle,
+        rig=getattr(args, "bundle_rig", None) or rig_name,
+        data=getattr(args, "data", None),
+        needs=needs,
+        wants=wants,
+        step=step,
+    )
+    print(f"bundle: {choice}", flush=True)
+    return load(choice.path)
 
 
 def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
@@ -118,7 +140,8 @@ def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
     ``args`` so an interrupted run can be resumed with it.
 
     A command that captures registers its session options as ``resume_options`` (see
-    :func:`resume_command`).
+    :func:`resume_command`); ``args.on_session``, when set (by
+    :func:`sassi_bench.commands.main`), is called once the id is fixed.
 
     Examples
     --------
@@ -133,6 +156,9 @@ def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
         value = f"{prefix}-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
         setattr(args, dest, value)
     check_session_id(value)
+    on_session = getattr(args, "on_session", None)
+    if on_session is not None:  # main() records the run, so an interrupted one is found
+        on_session(args)
     return value
 
 
@@ -147,8 +173,9 @@ def check_output_folder(step: str, out: str | None, what: str = "give a folder")
         raise ProcedureError(step_error(step, f"--out {out} is a file", what))
 
 
-def check_output_file(step: str, path: str, option: str) -> None:
-    """Refuse an output file whose folder does not exist, before anything is captured.
+def check_output_file(step: str, path: str, option: str, suffixes: Sequence[str] = ()) -> None:
+    """Refuse an output file that exists or whose folder does not, before anything is
+    captured (``suffixes``: the file is written as several, e.g. ENVI's .hdr and .img).
 
     Examples
     --------
@@ -162,6 +189,28 @@ def check_output_file(step: str, path: str, option: str) -> None:
     if not folder.is_dir():
         raise ProcedureError(
             step_error(step, f"{option} {path}: the folder {folder} does not exist", "create it")
+        )
+    files = [Path(path).with_suffix(s) for s in suffixes] or [Path(path)]
+    check_new_files(step, files, f"{option} name")
+
+
+def check_new_files(step: str, files: Iterable[str | Path], where: str = "--out folder") -> None:
+    """Refuse to write where a result already is: results are never replaced.
+
+    Examples
+    --------
+    >>> check_new_files("validate macbeth", ["a-new-folder/macbeth_report.html"])
+    """
+    taken = [str(f) for f in files if Path(f).exists()]
+    if taken:
+        more = f" (and {len(taken) - 1} more)" if len(taken) > 1 else ""
+        raise ProcedureError(
+            step_error(
+                step,
+                f"{taken[0]}{more} already exists",
+                f"give another {where}, or move the earlier result away: results are never "
+                "replaced",
+            )
         )
 
 

@@ -26,8 +26,8 @@ def _scan(args: argparse.Namespace) -> int:
     check_scan(rig, args.scene, args.light, tuple(args.pitch), roi)
     check_output_file("scan", args.out, "--out")
     if args.envi:
-        check_output_file("scan", args.envi, "--envi")
-    bundle = bundle_from_args(args, rig.description.name)
+        check_output_file("scan", args.envi, "--envi", suffixes=(".hdr", ".img"))
+    bundle = bundle_from_args(args, rig.description.name, step="scan", wants=("response",))
     new_session(args, "session", f"scan-{args.scene}")
     run = run_scan(
         rig, bundle, scene=args.scene, light=args.light, pitch=tuple(args.pitch), roi=roi,

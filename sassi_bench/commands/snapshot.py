@@ -27,7 +27,6 @@ from sassi_bench.commands.options import (
     add_rig_option,
     bundle_from_args,
     check_output_folder,
-    load_bundle_ref,
     new_session,
 )
 from sassi_bench.errors import ProcedureError, step_error
@@ -72,7 +71,13 @@ def _take(args: argparse.Namespace) -> int:
     procedure = load_procedure("snapshot_validation", args.procedure)
     check_output_folder("snapshot take", args.out)
     rig = open_rig(args.rig)
-    bundle = bundle_from_args(args, rig.description.name)
+    bundle = bundle_from_args(
+        args,
+        rig.description.name,
+        step="snapshot take",
+        needs=("guide_homography",),
+        wants=("response",),
+    )
     check_inputs(rig, bundle, args.scene, step="snapshot take")
     new_session(args, "session", f"snapshot-{args.scene}")
     check_outputs_free(args.out, [f"{args.session}-f{t:03d}" for t in range(args.frames)])
@@ -110,7 +115,13 @@ def _reconstruct(args: argparse.Namespace) -> int:
     video = selection.video
     check_outputs_free(args.out, [session.id for session in selection.sessions])
     rig_name = args.rig or str(video.preview.rig.get("name", "sim"))
-    bundle = load_bundle_ref(args.bundle, rig_name, args.data)
+    bundle = bundle_from_args(
+        args,
+        rig_name,
+        step="snapshot reconstruct",
+        needs=("guide_homography",),
+        wants=("response",),
+    )
     if bundle.guide_to_slm is None or tuple(bundle.slm_shape) != video.mask(0).shape:
         raise ProcedureError(
             step_error(
@@ -243,7 +254,12 @@ def _snapshot_export(args: argparse.Namespace) -> int:
                 )
             ) from None
     first = targets[0][0]
-    bundle = load_bundle_ref(args.bundle, args.rig or str(first.rig.get("name", "sim")), args.data)
+    bundle = bundle_from_args(
+        args,
+        args.rig or str(first.rig.get("name", "sim")),
+        step="snapshot export",
+        needs=("guide_homography",),
+    )
     # Everything is chosen before anything is written.
     plans = []
     for session, folder in targets:

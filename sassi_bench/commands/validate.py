@@ -10,12 +10,17 @@ from sassi_bench.commands.options import (
     add_data_option,
     add_rig_option,
     bundle_from_args,
+    check_new_files,
     check_output_folder,
     new_session,
     print_checks,
 )
 
 __all__ = ["register"]
+
+#: What each validation writes into its --out folder.
+MACBETH_REPORT = ("macbeth_report.html", "macbeth_report.json")
+SNAPSHOT_REPORT = ("snapshot_report.html", "snapshot_report.json", "scan.nc")
 
 
 def _procedure(args) -> dict:
@@ -50,7 +55,8 @@ def _macbeth(args: argparse.Namespace) -> int:
         corners = [args.corners[i : i + 2] for i in range(0, 8, 2)]
         grid_from_corners(corners)
     check_output_folder("validate macbeth", args.out)
-    bundle = bundle_from_args(args, rig.description.name)
+    check_new_files("validate macbeth", [Path(args.out) / name for name in MACBETH_REPORT])
+    bundle = bundle_from_args(args, rig.description.name, step="validate macbeth")
     new_session(args, "session", f"scan-{scan_cfg['scene']}")
     if procedure["white_reference"]["source"] == "diffuser":
         scene = procedure["white_reference"]["diffuser_scene"]
@@ -70,15 +76,24 @@ def _macbeth(args: argparse.Namespace) -> int:
 
 def _snapshot(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
+    from sassi_bench.rig.rig import check_scene
     from sassi_bench.validate.snapshot_report import write_snapshot_report
     from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot import check_inputs
     from sassi_bench.workflows.snapshot_validation import run_snapshot
 
     procedure = load_procedure("snapshot_validation", args.procedure)
+    check_scene(args.scene, step="validate snapshot")
     check_output_folder("validate snapshot", args.out)
+    check_new_files("validate snapshot", [Path(args.out) / name for name in SNAPSHOT_REPORT])
     rig = open_rig(args.rig)
-    bundle = bundle_from_args(args, rig.description.name)
+    bundle = bundle_from_args(
+        args,
+        rig.description.name,
+        step="validate snapshot",
+        needs=("guide_homography",),
+        wants=("response",),
+    )
     check_inputs(rig, bundle, args.scene)  # before any session is created
     new_session(args, "session", f"snapshot-{args.scene}")
     result = run_snapshot(
@@ -90,7 +105,7 @@ def _snapshot(args: argparse.Namespace) -> int:
     if result.scan_dataset is not None:
         from sassi_bench.spectra.cube_io import write_netcdf
 
-        scan_path = write_netcdf(result.scan_dataset, Path(args.out) / "scan.nc", overwrite=True)
+        scan_path = write_netcdf(result.scan_dataset, Path(args.out) / "scan.nc")
         print(f"  scan cube: {scan_path} (reuse it with --scan)")
     print(f"\nSnapshot validation of bundle {bundle.rig_name}/{bundle.version} on rig "
           f"{result.rig_name}, scene {result.scene}")  # fmt: skip

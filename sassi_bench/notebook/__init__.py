@@ -1,9 +1,11 @@
 """Notebook helpers: the widgets where a person decides, each with a default that a
 notebook run without a person (CI, ``jupyter nbconvert --execute``) keeps."""
 
+from sassi_bench.notebook.bundles import bundle_for
 from sassi_bench.notebook.display import show
 from sassi_bench.notebook.widgets import (
     accept_checks,
+    accepted,
     chart_corners,
     checks_table,
     excluded_region,
@@ -12,10 +14,13 @@ from sassi_bench.notebook.widgets import (
     pick_exposure,
     pick_lasers,
     show_png,
+    static_html,
 )
 
 __all__ = [
     "accept_checks",
+    "accepted",
+    "bundle_for",
     "chart_corners",
     "checks_table",
     "excluded_region",
@@ -25,4 +30,5 @@ __all__ = [
     "pick_lasers",
     "show",
     "show_png",
+    "static_html",
 ]

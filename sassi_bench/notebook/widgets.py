@@ -3,17 +3,26 @@
 Every function returns an ipywidgets control whose initial value is the sensible default
 (the procedure's choice, or "accept" exactly when every tolerance passed). A notebook
 reads ``.value`` in a later cell, so a run without a person goes on with the defaults
-and a person can change them before running the rest.
+and a person can change them before running the rest; :func:`accepted` reads an
+accept/reject choice, and a notebook publishes or saves only what was accepted.
+
+Each control also carries a static HTML rendering of itself (:func:`static_html`) in its
+display output, so an executed notebook opened later without a kernel (or untrusted, or
+in a viewer that does not run widgets) shows the table, the choice and the values as
+they were, instead of the widget's Python repr.
 """
 
 from __future__ import annotations
 
+import base64
+import functools
 import html
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 __all__ = [
     "accept_checks",
+    "accepted",
     "chart_corners",
     "checks_table",
     "excluded_region",
@@ -22,7 +31,87 @@ __all__ = [
     "pick_exposure",
     "pick_lasers",
     "show_png",
+    "static_html",
 ]
+
+
+def static_html(widget: Any) -> str:
+    """A static HTML rendering of a widget (and its children) with its current values.
+
+    Examples
+    --------
+    >>> import ipywidgets as widgets
+    >>> static_html(widgets.ToggleButtons(options=["accept", "reject"], value="reject"))
+    '<div>accept <b>[reject]</b></div>'
+    """
+    import ipywidgets as widgets
+
+    def label(text: str) -> str:
+        return f"{html.escape(text)}: " if text else ""
+
+    if isinstance(widget, widgets.Box):
+        return "<div>" + "".join(static_html(child) for child in widget.children) + "</div>"
+    if isinstance(widget, widgets.HTML):
+        return f"<div>{widget.value}</div>"
+    if isinstance(widget, widgets.Image):
+        data = base64.b64encode(bytes(widget.value)).decode("ascii")
+        width = f' width="{html.escape(str(widget.width))}"' if widget.width else ""
+        return f'<img src="data:image/{widget.format};base64,{data}"{width}>'
+    if isinstance(widget, (widgets.ToggleButtons, widgets.Dropdown, widgets.RadioButtons)):
+        marks = [
+            f"<b>[{html.escape(str(name))}]</b>" if value == widget.value else html.escape(name)
+            for name, value in zip(widget._options_labels, widget._options_values, strict=True)
+        ]
+        return f"<div>{label(widget.description)}{' '.join(marks)}</div>"
+    if isinstance(widget, widgets.SelectMultiple):
+        marks = [
+            f"<b>[{html.escape(str(name))}]</b>" if value in widget.value else html.escape(name)
+            for name, value in zip(widget._options_labels, widget._options_values, strict=True)
+        ]
+        return f"<div>{label(widget.description)}{' '.join(marks)}</div>"
+    if isinstance(widget, widgets.Checkbox):
+        mark = "&#9745;" if widget.value else "&#9744;"
+        return f"<div>{mark} {html.escape(widget.description)}</div>"
+    value = getattr(widget, "value", "")
+    if isinstance(value, tuple):
+        value = " - ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
+    elif isinstance(value, float):
+        value = f"{value:g}"
+    return f"<div>{label(getattr(widget, 'description', ''))}{html.escape(str(value))}</div>"
+
+
+class _StaticCopy:
+    """Adds :func:`static_html` to a widget's display output (a viewer without the
+    widget's live state shows it instead of the widget's repr)."""
+
+    def _repr_mimebundle_(self, **kwargs: Any) -> dict[str, Any]:
+        bundle = super()._repr_mimebundle_(**kwargs)  # type: ignore[misc]
+        note = '<div style="color:#666;font-size:smaller">(as shown when the cell ran)</div>'
+        return {**(bundle or {}), "text/html": static_html(self) + note}
+
+
+@functools.cache
+def _with_static_copy(cls: type) -> type:
+    return type(cls.__name__, (_StaticCopy, cls), {"__module__": cls.__module__})
+
+
+def _widget(name: str, *args: Any, **kwargs: Any) -> Any:
+    """An ipywidgets control of class ``name`` that also displays as static HTML."""
+    import ipywidgets as widgets
+
+    return _with_static_copy(getattr(widgets, name))(*args, **kwargs)
+
+
+def accepted(decision: Any) -> bool:
+    """Whether an :func:`accept_checks` choice says "accept".
+
+    Examples
+    --------
+    >>> from sassi_bench.bundle import QualityCheck
+    >>> accepted(accept_checks([QualityCheck.at_most("rms", 0.05, 0.1, "px")]))
+    True
+    """
+    return decision.children[-1].value == "accept"
 
 
 def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
@@ -47,8 +136,6 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
     >>> picker.value
     (450.0, 520.0, 532.0, 635.0, 670.0)
     """
-    import ipywidgets as widgets
-
     options = [(f"{float(nm):g} nm", float(nm)) for nm in available_nm]
     pinned = procedure.get("lasers_nm")
     chosen = tuple(
@@ -56,7 +143,8 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
         for nm in (available_nm if pinned is None else pinned)
         if float(nm) in dict(options).values()
     )
-    return widgets.SelectMultiple(
+    return _widget(
+        "SelectMultiple",
         options=options,
         value=chosen,
         rows=min(len(options), 8),
@@ -77,9 +165,8 @@ def pick_exposure(procedure: Mapping[str, Any]):
     >>> pick_exposure(load_procedure("spectral_calibration")).value
     0.6
     """
-    import ipywidgets as widgets
-
-    return widgets.FloatSlider(
+    return _widget(
+        "FloatSlider",
         value=float(procedure["exposure"]["target_fraction"]),
         min=0.1,
         max=0.95,
@@ -140,7 +227,7 @@ def accept_checks(checks: Sequence[Any]):
     choice = widgets.ToggleButtons(
         options=["accept", "reject"], value="accept" if passed else "reject", description="Fit"
     )
-    return widgets.VBox([widgets.HTML(checks_table(checks)), choice])
+    return _widget("VBox", [widgets.HTML(checks_table(checks)), choice])
 
 
 def show_png(png: bytes, width: int | None = None):
@@ -151,10 +238,8 @@ def show_png(png: bytes, width: int | None = None):
     >>> show_png(b"\\x89PNG").format
     'png'
     """
-    import ipywidgets as widgets
-
     kwargs = {} if width is None else {"width": width}
-    return widgets.Image(value=png, format="png", **kwargs)
+    return _widget("Image", value=png, format="png", **kwargs)
 
 
 def pick_excluded_region(slm_shape: tuple[int, int]):
@@ -173,12 +258,13 @@ def pick_excluded_region(slm_shape: tuple[int, int]):
     import ipywidgets as widgets
 
     h, w = slm_shape
-    return widgets.VBox(
+    return _widget(
+        "VBox",
         [
             widgets.Checkbox(value=False, description="exclude a region"),
             widgets.IntRangeSlider(value=(0, h // 4), min=0, max=h, description="rows"),
             widgets.IntRangeSlider(value=(0, w // 4), min=0, max=w, description="columns"),
-        ]
+        ],
     )
 
 
@@ -226,7 +312,8 @@ def pick_chart_corners(start, slm_shape: tuple[int, int]):
         sliders.append(
             widgets.FloatSlider(value=float(v), min=0, max=h - 1, step=0.5, description=f"v {name}")
         )
-    return widgets.GridBox(sliders, layout=widgets.Layout(grid_template_columns="repeat(2, 1fr)"))
+    layout = widgets.Layout(grid_template_columns="repeat(2, 1fr)")
+    return _widget("GridBox", sliders, layout=layout)
 
 
 def chart_corners(picker):

@@ -20,6 +20,9 @@ from sassi_bench.errors import ConfigError, did_you_mean, step_error
 
 __all__ = ["GLASSES", "Glass", "get_glass", "refractive_index", "sellmeier_index"]
 
+#: Fraunhofer lines of the catalogue's nd and vd (helium d, hydrogen F and C), nm.
+D_LINE_NM, F_LINE_NM, C_LINE_NM = 587.5618, 486.1327, 656.2725
+
 
 def sellmeier_index(wavelength_nm: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
     """Refractive index ``sqrt(1 + sum_i B_i lam^2 / (lam^2 - C_i))``, lam in µm.
@@ -66,6 +69,23 @@ class Glass:
     def index(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """Refractive index at ``wavelength_nm`` (vectorised, float64)."""
         return sellmeier_index(wavelength_nm, self.b, self.c)
+
+    @classmethod
+    def from_sellmeier(cls, name: str, b: ArrayLike, c: ArrayLike) -> Glass:
+        """A glass the catalogue does not hold, from its maker's Sellmeier coefficients
+        (``nd`` and ``vd`` computed from them).
+
+        Examples
+        --------
+        >>> bk7 = get_glass("N-BK7")
+        >>> own = Glass.from_sellmeier("my melt", bk7.b, bk7.c)
+        >>> round(own.nd, 5), round(own.vd, 2)
+        (1.5168, 64.17)
+        """
+        b3 = tuple(float(x) for x in np.asarray(b, dtype=np.float64).ravel())
+        c3 = tuple(float(x) for x in np.asarray(c, dtype=np.float64).ravel())
+        nd, nf, nc = sellmeier_index([D_LINE_NM, F_LINE_NM, C_LINE_NM], b3, c3)
+        return cls(str(name), b3, c3, float(nd), float((nd - 1) / (nf - nc)))  # type: ignore[arg-type]
 
 
 GLASSES: dict[str, Glass] = {
@@ -123,8 +143,9 @@ def get_glass(name: str) -> Glass:
         step_error(
             "prism.glass",
             f"unknown glass {name!r}{did_you_mean(name, GLASSES)}",
-            f"use one of {known}, or add its Sellmeier coefficients to "
-            "sassi_bench.optics.glass.GLASSES",
+            f"use one of {known}, or give the glass's Sellmeier coefficients from its maker's "
+            "data sheet in the rig description: prism.sellmeier: {b: [B1, B2, B3], c: [C1, C2, "
+            "C3]} (C in square micrometres)",
         )
     )
 

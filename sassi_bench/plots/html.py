@@ -1,5 +1,6 @@
 """The pieces every self-contained HTML report of the workbench shares: its style sheet,
-figures embedded as base64 PNGs, the JSON form of report data, and tables of quality checks.
+figures embedded as base64 PNGs, the JSON form of report data, tables of quality checks, and
+writing a report's files without ever replacing an earlier report.
 
 Examples
 --------
@@ -12,14 +13,26 @@ from __future__ import annotations
 
 import base64
 import html
+import os
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from sassi_bench._shared.atomic import atomic_write_text
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.plots.png import figure_png
 
-__all__ = ["REPORT_CSS", "check_rows", "figure_base64", "image_tags", "jsonable", "page"]
+__all__ = [
+    "REPORT_CSS",
+    "check_rows",
+    "figure_base64",
+    "image_tags",
+    "jsonable",
+    "page",
+    "write_report_files",
+]
 
 #: The style sheet every HTML report of the workbench shares.
 REPORT_CSS = """
@@ -190,3 +203,43 @@ def page(title: str, body: str) -> str:
 {body}
 </body></html>
 """
+
+
+def write_report_files(
+    folder: str | os.PathLike[str], files: Mapping[str, str], step: str
+) -> list[Path]:
+    """Write a report's files (name -> text) into ``folder``, each atomically, never over
+    an earlier report: if any of them exists, nothing is written.
+
+    Raises
+    ------
+    ProcedureError
+        When one of the files is already there.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = tempfile.mkdtemp()
+    >>> [p.name for p in write_report_files(folder, {"r.html": "<p>1</p>"}, "demo")]
+    ['r.html']
+    >>> write_report_files(folder, {"r.html": "<p>2</p>"}, "demo")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ProcedureError: demo: .../r.html already exists. Fix: ...
+    """
+    target = Path(folder)
+    paths = [target / name for name in files]
+    taken = [p for p in paths if p.exists()]
+    if taken:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"{taken[0]} already exists",
+                "write the report into another folder, or move the earlier one away: "
+                "reports are never replaced",
+            )
+        )
+    target.mkdir(parents=True, exist_ok=True)
+    for path, text in zip(paths, files.values(), strict=True):
+        atomic_write_text(path, text, overwrite=False)
+    return paths

@@ -164,14 +164,21 @@ def reconstruction_figure(result) -> tuple[Any, dict[str, Any]]:
     axes[1, 0].imshow(result.detail, cmap="gray")
     axes[1, 0].set_title(f"detail pixels ({result.detail.mean():.0%} of the SLM)")
     axes[1, 0].set_axis_off()
-    for ax, (title, cube) in zip(axes[1, 1:], panels[1:], strict=True):
+    errors = {}
+    for title, cube in panels[1:]:
         rms = np.sqrt(np.mean((cube - ref) ** 2, axis=2)) / peak
         rms[~result.valid] = np.nan
-        im = ax.imshow(rms, cmap="magma", vmin=0, vmax=max(float(np.nanpercentile(rms, 99)), 1e-6))
+        errors[title] = rms
+        data[f"{title}_mean_relative_rms"] = float(np.nanmean(rms))
+    # One scale for both maps, so their colours compare.
+    top_error = max(max(float(np.nanpercentile(rms, 99)) for rms in errors.values()), 1e-6)
+    data["error_scale_max"] = top_error
+    for ax, (title, rms) in zip(axes[1, 1:], errors.items(), strict=True):
+        image = ax.imshow(rms, cmap="magma", vmin=0, vmax=top_error)
         ax.set_title(f"{title}: RMS error over bands / scan peak")
         ax.set_axis_off()
-        fig.colorbar(im, ax=ax, shrink=0.8)
-        data[f"{title}_mean_relative_rms"] = float(np.nanmean(rms))
+    bar = fig.colorbar(image, ax=list(axes[1, 1:]), shrink=0.8)
+    bar.set_label("RMS error / scan peak (one scale for both maps)")
     return fig, data
 
 

@@ -23,9 +23,14 @@ def _figure(*args, **kwargs):
     return Figure(*args, **kwargs)
 
 
+#: Residual maps per row: a notebook shows a figure at about 10 inches wide, so more
+#: maps side by side would shrink their labels below reading size.
+MAPS_PER_ROW = 3
+
+
 def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
     """Per laser: RMS distance (camera px) of the decoded correspondences from the smooth
-    map, binned over the SLM field.
+    map, binned over the SLM field (three maps per row, so the labels stay readable).
 
     Parameters
     ----------
@@ -37,15 +42,21 @@ def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
     Returns
     -------
     matplotlib.figure.Figure
-        One map per laser on a 16 x 24 grid over the SLM, all on one colour scale.
+        One map per laser on a 16 x 24 grid over the SLM, all on one colour scale,
+        :data:`MAPS_PER_ROW` per row.
 
     Examples
     --------
     >>> fig = residual_maps_figure(result.lasers, bundle.slm_shape)  # doctest: +SKIP
     """
     n = len(lasers)
-    fig = _figure(figsize=(3.2 * n, 2.9), layout="constrained")
-    axes = fig.subplots(1, n, squeeze=False)[0]
+    columns = min(n, MAPS_PER_ROW)
+    rows = -(-n // columns)
+    fig = _figure(figsize=(3.4 * columns + 0.8, 2.8 * rows + 0.5), layout="constrained")
+    grid = fig.subplots(rows, columns, squeeze=False)
+    axes = grid.ravel()[:n]
+    for spare in grid.ravel()[n:]:
+        spare.set_visible(False)
     h, w = slm_shape
     distances = [
         np.hypot(
@@ -60,11 +71,14 @@ def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
             d.slm_v, d.slm_u, dist**2, "mean", bins=[16, 24], range=[[0, h], [0, w]]
         )
         image = ax.imshow(np.sqrt(stat), extent=(0, w, h, 0), vmin=0, vmax=vmax, cmap="magma")
-        ax.set_title(f"{d.wavelength_nm:g} nm: {d.residual_rms_px:.3f} px rms", fontsize=9)
-        ax.set_xlabel("SLM u (px)")
-        ax.set_ylabel("SLM v (px)")
-    fig.colorbar(image, ax=axes, shrink=0.8, label="residual RMS (camera px)")
-    fig.suptitle("Correspondence residuals about each laser's smooth map", fontsize=10)
+        ax.set_title(f"{d.wavelength_nm:g} nm: {d.residual_rms_px:.3f} px rms", fontsize=11)
+        ax.set_xlabel("SLM u (px)", fontsize=10)
+        ax.set_ylabel("SLM v (px)", fontsize=10)
+        ax.tick_params(labelsize=9)
+    bar = fig.colorbar(image, ax=grid.ravel().tolist(), shrink=0.8)
+    bar.set_label("residual RMS (camera px)", fontsize=10)
+    bar.ax.tick_params(labelsize=9)
+    fig.suptitle("Correspondence residuals about each laser's smooth map", fontsize=12)
     return fig
 
 

@@ -21,6 +21,7 @@ import numpy as np
 import xarray as xr
 from numpy.typing import NDArray
 
+from sassi_bench._shared.atomic import atomic_path
 from sassi_bench.errors import SassiBenchError, step_error
 from sassi_bench.spectra.scan import QUALITY_FLAGS, ScanCube
 
@@ -240,12 +241,14 @@ def units_label(variable: xr.DataArray) -> str:
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike[str], overwrite: bool = False) -> Path:
-    """Write a cube Dataset to NetCDF (never over an existing file unless asked)."""
+    """Write a cube Dataset to NetCDF (never over an existing file unless asked).
+
+    The file is written under a temporary name and renamed when complete, so an
+    interrupted write never leaves part of a cube under ``path``.
+    """
     path = Path(path)
     if path.exists() and not overwrite:
-        raise SassiBenchError(
-            step_error("cube output", f"{path} exists", "choose another --out or remove the file")
-        )
+        raise _exists("cube output", path, "choose another --out or remove the file")
     path.parent.mkdir(parents=True, exist_ok=True)
     encoding: dict[str, dict[str, Any]] = {
         "radiance": {"zlib": True, "complevel": 4},
@@ -255,22 +258,28 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike[str], overwrite: bool =
     for name in [*ds.coords, "wavelength_bnds"]:
         if name in ds and ds[name].dtype.kind == "f":
             encoding[name] = {"_FillValue": None}
-    ds.to_netcdf(path, engine="netcdf4", encoding=encoding)
+    try:
+        with atomic_path(path, overwrite=overwrite) as temporary:
+            ds.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
+    except FileExistsError:  # appeared while it was written
+        raise _exists("cube output", path, "choose another --out or remove the file") from None
     return path
 
 
 def write_envi(ds: xr.Dataset, path: str | os.PathLike[str], overwrite: bool = False) -> Path:
     """Export the radiance as an ENVI image (.hdr/.img) with wavelength, fwhm and default bands.
 
-    Uses Spectral Python, which remote-sensing tools read; returns the header path.
+    Uses Spectral Python, which remote-sensing tools read; returns the header path. Both
+    files are written under temporary names and renamed when complete, the header last:
+    the header is what makes the pair, so an image without its header (what an export
+    interrupted between the two renames leaves) is replaced.
     """
     import spectral.io.envi as envi
 
     header = Path(path).with_suffix(".hdr")
+    image = header.with_suffix(".img")
     if header.exists() and not overwrite:
-        raise SassiBenchError(
-            step_error("ENVI export", f"{header} exists", "choose another path or remove it")
-        )
+        raise _exists("ENVI export", header, "choose another path or remove it")
     lam = ds["wavelength"].values
     fwhm = (ds["wavelength_upper"] - ds["wavelength_lower"]).values
     bands = [int(np.argmin(np.abs(lam - target))) for target in (640.0, 550.0, 460.0)]
@@ -281,11 +290,25 @@ def write_envi(ds: xr.Dataset, path: str | os.PathLike[str], overwrite: bool = F
         "default bands": [b + 1 for b in bands],  # ENVI counts bands from 1
         "description": ds.attrs.get("title", "SASSI cube"),
     }
-    envi.save_image(
-        str(header),
-        ds["radiance"].values.astype(np.float32),
-        metadata=metadata,
-        force=overwrite,
-        ext=".img",
-    )
+    with (
+        atomic_path(header, overwrite=overwrite) as header_tmp,
+        atomic_path(image, overwrite=True) as image_tmp,  # in place first
+    ):
+        written = [header_tmp.with_name(f"{header_tmp.name}-envi{ext}") for ext in (".hdr", ".img")]
+        try:
+            envi.save_image(
+                str(written[0]),
+                ds["radiance"].values.astype(np.float32),
+                metadata=metadata,
+                ext=".img",
+            )
+            os.replace(written[0], header_tmp)
+            os.replace(written[1], image_tmp)
+        finally:
+            for leftover in written:
+                leftover.unlink(missing_ok=True)
     return header
+
+
+def _exists(step: str, path: Path, fix: str) -> SassiBenchError:
+    return SassiBenchError(step_error(step, f"{path} exists", fix))

@@ -8,7 +8,9 @@
     <data>/<rig>/vNNNN/                      published bundles (never cleaned)
     <data>/reports/<run>/                    copies of the chain's reports
 
-A session is *used* by every published bundle that lists its id among its ``inputs``.
+A session is *used* by every published bundle that lists its id among its ``inputs``. Its
+plan name and how many of its planned frames are stored are read from ``session.json``
+and ``events.jsonl`` (an incomplete session is an interrupted capture that resumes).
 """
 
 from __future__ import annotations
@@ -23,7 +25,19 @@ from sassi_bench.bundle.integrity import MANIFEST_NAME
 from sassi_bench.bundle.layout import rig_dir, rig_names, version_number, versions
 from sassi_bench.paths import data_root
 
-__all__ = ["DataEntry", "folder_size", "format_size", "inventory", "session_users"]
+__all__ = [
+    "MEASUREMENT_PLANS",
+    "DataEntry",
+    "folder_size",
+    "format_size",
+    "inventory",
+    "session_progress",
+    "session_users",
+]
+
+#: Plans that measure a scene for its own sake (ground-truth scans, snapshots), as
+#: opposed to calibration captures; a plan name is matched up to its first ``-f``.
+MEASUREMENT_PLANS = ("pinhole-scan", "snapshot-preview", "snapshot-f")
 
 
 @dataclass(frozen=True)
@@ -33,7 +47,8 @@ class DataEntry:
     Attributes
     ----------
     kind
-        ``"session"``, ``"staged-bundles"``, ``"bundle"`` or ``"report"``.
+        ``"session"``, ``"staged-bundles"``, ``"bundle"``, ``"report"`` or ``"leftover"``
+        (a hidden temporary folder an interrupted write or removal left behind).
     name
         Its name relative to the data root (``sessions/scan-x``, ``sim/v0002``...).
     path
@@ -44,6 +59,10 @@ class DataEntry:
         Newest modification time below it (UTC).
     used_by
         Published bundles (``rig/version``) that list this session as an input.
+    plan
+        A session's plan name (None: not a session, or unreadable).
+    frames
+        A session's stored and planned frames (None: not a session, or unreadable).
     """
 
     kind: str
@@ -52,6 +71,29 @@ class DataEntry:
     size_bytes: int
     modified: datetime
     used_by: tuple[str, ...] = ()
+    plan: str | None = None
+    frames: tuple[int, int] | None = None
+
+    @property
+    def staged(self) -> bool:
+        """Whether it lies in a calibration chain's staging folder."""
+        return self.name.startswith("staging/")
+
+    @property
+    def incomplete(self) -> bool:
+        """A session with fewer frames stored than planned: an interrupted capture."""
+        return self.frames is not None and self.frames[0] < self.frames[1]
+
+    @property
+    def measurement(self) -> bool:
+        """A session that measured a scene for its own sake (a scan or a snapshot taken by
+        a command, not inside a calibration chain)."""
+        return (
+            self.kind == "session"
+            and not self.staged
+            and self.plan is not None
+            and self.plan.startswith(MEASUREMENT_PLANS)
+        )
 
 
 def folder_size(path: Path) -> tuple[int, float]:
@@ -90,10 +132,40 @@ def format_size(size: int) -> str:
     raise AssertionError("unreachable")
 
 
+def session_progress(folder: Path) -> tuple[str, tuple[int, int]] | None:
+    """A session folder's plan name and (stored, planned) frames, read without verifying
+    the frames; None when its ``session.json`` cannot be read.
+
+    Examples
+    --------
+    >>> session_progress(Path("/nonexistent")) is None
+    True
+    """
+    try:
+        plan = json.loads((folder / "session.json").read_bytes())["plan"]
+        name, planned = str(plan["name"]), len(plan["steps"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    stored: set[int] = set()
+    try:
+        with open(folder / "events.jsonl", "rb") as log:
+            for line in log:
+                try:
+                    stored.add(int(json.loads(line)["step"]))
+                except (ValueError, KeyError, TypeError):
+                    continue  # a torn last line: that frame is captured again on resume
+    except OSError:
+        pass
+    return name, (len(stored), planned)
+
+
 def _entry(kind: str, root: Path, path: Path, used_by=()) -> DataEntry:
     size, newest = folder_size(path)
     modified = datetime.fromtimestamp(newest or path.stat().st_mtime, UTC)
-    return DataEntry(kind, path.relative_to(root).as_posix(), path, size, modified, used_by)
+    name = path.relative_to(root).as_posix()
+    if kind != "session" or (progress := session_progress(path)) is None:
+        return DataEntry(kind, name, path, size, modified, used_by)
+    return DataEntry(kind, name, path, size, modified, used_by, *progress)
 
 
 def session_users(data: str | os.PathLike[str] | None = None) -> dict[str, tuple[str, ...]]:
@@ -120,8 +192,34 @@ def session_users(data: str | os.PathLike[str] | None = None) -> dict[str, tuple
     return {key: tuple(value) for key, value in users.items()}
 
 
+#: A leftover temporary folder is only listed once it is this old (a running writer
+#: renames its own into place within moments).
+LEFTOVER_AGE_S = 3600.0
+
+
 def _folders(path: Path) -> list[Path]:
-    return sorted(p for p in path.iterdir() if p.is_dir() and not p.is_symlink())
+    return sorted(
+        p
+        for p in path.iterdir()
+        if p.is_dir() and not p.is_symlink() and not p.name.startswith(".")
+    )
+
+
+def _leftovers(path: Path, now: float) -> list[Path]:
+    """Hidden temporary folders (``.<name>.<hex>.tmp``, ``.publish-*``, ``.import-*``)
+    an interrupted write or removal left in ``path``."""
+    if not path.is_dir():
+        return []
+    found = []
+    for p in path.iterdir():
+        hidden = p.name.startswith(".") and (
+            p.name.endswith(".tmp") or p.name.startswith((".publish-", ".import-"))
+        )
+        if not hidden or not p.is_dir() or p.is_symlink():
+            continue
+        if now - max(folder_size(p)[1], p.stat().st_mtime) > LEFTOVER_AGE_S:
+            found.append(p)
+    return sorted(found)
 
 
 def inventory(data: str | os.PathLike[str] | None = None) -> list[DataEntry]:
@@ -156,4 +254,10 @@ def inventory(data: str | os.PathLike[str] | None = None) -> list[DataEntry]:
                 entries.append(_entry("bundle", root, rig_dir(rig, root) / version))
     if (root / "reports").is_dir():
         entries.extend(_entry("report", root, path) for path in _folders(root / "reports"))
+    now = datetime.now(UTC).timestamp()
+    places = [root / "sessions", root / "staging", *(rig_dir(r, root) for r in rig_names(root))]
+    if (root / "staging").is_dir():
+        places += [run / "sessions" for run in _folders(root / "staging")]
+    for place in places:
+        entries.extend(_entry("leftover", root, path) for path in _leftovers(place, now))
     return entries

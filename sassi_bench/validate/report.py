@@ -27,7 +27,14 @@ import numpy as np
 
 from sassi_bench._shared.tables import html_table
 from sassi_bench.bundle import CalibrationBundle
-from sassi_bench.plots.html import check_rows, figure_base64, image_tags, jsonable, page
+from sassi_bench.plots.html import (
+    check_rows,
+    figure_base64,
+    image_tags,
+    jsonable,
+    page,
+    write_report_files,
+)
 from sassi_bench.plots.macbeth import macbeth_figures
 from sassi_bench.provenance import package_version
 from sassi_bench.validate.macbeth import MacbethResult
@@ -74,7 +81,11 @@ def _array_hashes(manifest: Mapping[str, Any]) -> dict[str, str]:
     return {name: str(entry["sha256"]) for name, entry in manifest.get("arrays", {}).items()}
 
 
-def bundle_identity(manifest: Mapping[str, Any], scanned_with: Mapping[str, Any]) -> dict[str, Any]:
+def bundle_identity(
+    manifest: Mapping[str, Any],
+    scanned_with: Mapping[str, Any],
+    scanned_from: str | None = None,
+) -> dict[str, Any]:
     """What a report says about the bundle it describes (the ``bundle`` of its JSON).
 
     Parameters
@@ -84,6 +95,9 @@ def bundle_identity(manifest: Mapping[str, Any], scanned_with: Mapping[str, Any]
         ``version`` of None: not published, e.g. a chain that failed a tolerance).
     scanned_with
         The manifest of the bundle the scans were assembled with.
+    scanned_from
+        Where that bundle is, when not under the data root as ``rig/version`` (a
+        calibration chain's staged bundle: ``staging/<run>/sim/v0003``).
 
     Examples
     --------
@@ -102,7 +116,7 @@ def bundle_identity(manifest: Mapping[str, Any], scanned_with: Mapping[str, Any]
         "passed": bool(manifest["passed"]),
         "override": bool(manifest.get("override", False)),
         "checks": [dict(c) for c in manifest["quality"]["checks"]],
-        "scanned_with": f"{scanned_with['rig_name']}/{scanned_with['version']}",
+        "scanned_with": scanned_from or f"{scanned_with['rig_name']}/{scanned_with['version']}",
         "models_identical": _array_hashes(manifest) == _array_hashes(scanned_with),
         "findings": bundle_findings(manifest["quality"]),
     }
@@ -147,14 +161,14 @@ def _bundle_paragraph(ident: Mapping[str, Any]) -> str:
         return (
             f"Not published: {len(checks) - passed} of {len(checks)} quality checks of the "
             f"calibration failed (see below). The scans were assembled with "
-            f"{esc(ident['scanned_with'])} (a staging version)."
+            f"{esc(ident['scanned_with'])}."
         )
     if ident["scanned_with"] == name:
         scan = "The scans were assembled with this bundle."
     elif ident["models_identical"]:
         scan = (
-            f"The scans were assembled with {esc(ident['scanned_with'])} (a staging version), "
-            "whose model arrays are identical to this bundle's."
+            f"The scans were assembled with {esc(ident['scanned_with'])}, whose model "
+            "arrays are identical to this bundle's."
         )
     else:
         scan = (
@@ -245,11 +259,14 @@ class MacbethReport:
         Base64 PNG of every figure, by name.
     scanned_with
         Manifest of the bundle the scans were assembled with.
+    scanned_from
+        Where that bundle is, when not under the data root as ``rig/version``.
     """
 
     doc: Mapping[str, Any]
     images: Mapping[str, str]
     scanned_with: Mapping[str, Any]
+    scanned_from: str | None = None
 
     @property
     def passed(self) -> bool:
@@ -258,7 +275,7 @@ class MacbethReport:
 
     def document(self, manifest: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The JSON document for the bundle of ``manifest`` (default: the scanned one)."""
-        ident = bundle_identity(manifest or self.scanned_with, self.scanned_with)
+        ident = bundle_identity(manifest or self.scanned_with, self.scanned_with, self.scanned_from)
         return jsonable({**self.doc, "bundle": ident})
 
     def html(self, manifest: Mapping[str, Any] | None = None) -> str:
@@ -272,20 +289,27 @@ class MacbethReport:
     def write(
         self, out: str | os.PathLike[str], manifest: Mapping[str, Any] | None = None
     ) -> tuple[Path, Path]:
-        """Write ``macbeth_report.html`` and ``macbeth_report.json`` into folder ``out``."""
-        folder = Path(out)
-        folder.mkdir(parents=True, exist_ok=True)
-        html_path = folder / "macbeth_report.html"
-        json_path = folder / "macbeth_report.json"
-        html_path.write_text(self.html(manifest), encoding="utf-8")
-        json_path.write_text(self.json(manifest), encoding="utf-8")
+        """Write ``macbeth_report.html`` and ``macbeth_report.json`` into folder ``out``
+        (never over an earlier report: :func:`~sassi_bench.plots.html.write_report_files`)."""
+        files = {
+            "macbeth_report.html": self.html(manifest),
+            "macbeth_report.json": self.json(manifest),
+        }
+        html_path, json_path = write_report_files(out, files, "Macbeth report")
         return html_path, json_path
 
 
 def render_report(
-    result: MacbethResult, bundle: CalibrationBundle, procedure: Mapping[str, Any]
+    result: MacbethResult,
+    bundle: CalibrationBundle,
+    procedure: Mapping[str, Any],
+    scanned_from: str | None = None,
 ) -> MacbethReport:
     """Make the report's figures once; write it for any bundle with the same models.
+
+    ``scanned_from`` says where ``bundle`` is when it is not a published version (a
+    calibration chain's staged bundle), so the report never names a version of the data
+    root that is another bundle.
 
     Examples
     --------
@@ -294,7 +318,7 @@ def render_report(
     """
     doc, figures = report_data(result, bundle, procedure)
     images = {name: figure_base64(fig) for name, fig in figures.items()}
-    return MacbethReport(doc, images, bundle.manifest)
+    return MacbethReport(doc, images, bundle.manifest, scanned_from)
 
 
 def write_report(

@@ -13,7 +13,14 @@ from pathlib import Path
 from typing import Any
 
 from sassi_bench._shared.tables import html_table
-from sassi_bench.plots.html import check_rows, figure_base64, image_tags, jsonable, page
+from sassi_bench.plots.html import (
+    check_rows,
+    figure_base64,
+    image_tags,
+    jsonable,
+    page,
+    write_report_files,
+)
 from sassi_bench.plots.snapshot import snapshot_figures
 from sassi_bench.provenance import package_version
 from sassi_bench.validate.snapshot import SnapshotValidation
@@ -165,19 +172,19 @@ after the affine fit), guided filter {first["guided"]["psnr_db"]:.1f} dB
 def write_snapshot_report(
     result: SnapshotValidation, out: str | os.PathLike[str], points: int = 4
 ) -> tuple[Path, Path]:
-    """Write ``snapshot_report.html`` and ``snapshot_report.json`` into folder ``out``.
+    """Write ``snapshot_report.html`` and ``snapshot_report.json`` into folder ``out``
+    (never over an earlier report).
 
     Examples
     --------
     >>> write_snapshot_report(result, "report/")  # doctest: +SKIP
     (PosixPath('report/snapshot_report.html'), PosixPath('report/snapshot_report.json'))
     """
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
     doc, figures = snapshot_report_data(result, points)
     images = {name: figure_base64(fig) for name, fig in figures.items()}
-    html_path = folder / "snapshot_report.html"
-    json_path = folder / "snapshot_report.json"
-    html_path.write_text(_html(doc, images), encoding="utf-8")
-    json_path.write_text(json.dumps(doc, indent=1, allow_nan=False), encoding="utf-8")
+    files = {
+        "snapshot_report.html": _html(doc, images),
+        "snapshot_report.json": json.dumps(doc, indent=1, allow_nan=False),
+    }
+    html_path, json_path = write_report_files(out, files, "snapshot report")
     return html_path, json_path

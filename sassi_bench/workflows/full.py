@@ -11,13 +11,13 @@ checks, procedures, input sessions and figures, and the Macbeth report in ``repo
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from sassi_bench._shared.atomic import atomic_write_bytes
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import QualityCheck, load, publish_derived
 from sassi_bench.bundle.derive import derived_checks
@@ -28,6 +28,7 @@ from sassi_bench.validate.report import render_report
 from sassi_bench.workflows.guide import run_guide_registration
 from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.procedure import load_procedure, with_changes
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import check_scan, response_source, run_response
 from sassi_bench.workflows.spectral import run_spectral_calibration
 
@@ -53,6 +54,7 @@ def _stage_procedure(kind: str, name_or_path: str) -> dict[str, Any]:
     return load_procedure(kind, None if name_or_path == kind else name_or_path)
 
 
+@drives_rig("calibrate")
 def run_full_calibration(
     rig: Rig,
     procedure: Mapping[str, Any],
@@ -132,7 +134,8 @@ def run_full_calibration(
         rig, staged, macbeth_proc, session_id=f"{base}-macbeth", data=staging,
         progress=progress,
     )  # fmt: skip
-    report = render_report(macbeth, staged, macbeth_proc)
+    staged_at = f"the staged bundle {staged.path.relative_to(root).as_posix()} of this run"
+    report = render_report(macbeth, staged, macbeth_proc, scanned_from=staged_at)
 
     # The staged bundle carries the spectral, response and guide checks.
     checks = derived_checks(staged, "macbeth", macbeth.checks)
@@ -161,7 +164,8 @@ def run_full_calibration(
         )
         report_dir.mkdir(parents=True, exist_ok=True)
         for name in ("macbeth_report.html", "macbeth_report.json"):
-            shutil.copyfile(bundle_path / "report" / name, report_dir / name)
+            raw = (bundle_path / "report" / name).read_bytes()
+            atomic_write_bytes(report_dir / name, raw, overwrite=False)
         html = report_dir / "macbeth_report.html"
     else:
         unpublished = {

@@ -39,6 +39,7 @@ from sassi_bench.calibrate.guide_render import (
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import assemble_scan, scan_plan
+from sassi_bench.workflows.rig_lock import drives_rig
 
 __all__ = [
     "GuideRegistration",
@@ -197,6 +198,7 @@ def coarse_scan_plan(
     return Plan("guide-scan", keep, {**plan.parameters, "stride": [sx, sy]})
 
 
+@drives_rig("guide registration")
 def scan_reference(
     rig: Rig,
     bundle: CalibrationBundle,
@@ -270,6 +272,7 @@ def scan_reference(
     return SlmReference(np.clip(image, 0.0, 1.0), image_valid, label, scene, session, stride)
 
 
+@drives_rig("guide registration")
 def capture_guide(
     rig: Rig,
     procedure: Mapping[str, Any],
@@ -345,6 +348,7 @@ def _checks(reg: Registration, tol: Mapping[str, Any]) -> list[QualityCheck]:
     ]
 
 
+@drives_rig("guide registration")
 def run_guide_registration(
     rig: Rig,
     bundle: CalibrationBundle,

@@ -19,6 +19,7 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
 from sassi_bench.validate.chart import validate_scans
 from sassi_bench.validate.macbeth import MacbethResult
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import run_scan
 
 __all__ = ["guide_picture", "run_macbeth"]
@@ -65,6 +66,7 @@ def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np
     return (np.clip(warped, 0, 1) ** (1 / 2.2)).astype(np.float32)
 
 
+@drives_rig("validate macbeth")
 def run_macbeth(
     rig: Rig,
     bundle: CalibrationBundle,

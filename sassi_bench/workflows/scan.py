@@ -32,6 +32,7 @@ from sassi_bench.calibrate.radiometry import (
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig, check_light, check_scene
 from sassi_bench.spectra.scan import ScanCube, assemble_scan, check_pitch, check_roi, scan_plan
+from sassi_bench.workflows.rig_lock import drives_rig
 
 __all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
 
@@ -223,6 +224,7 @@ def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) ->
     return plan
 
 
+@drives_rig("radiometric response")
 def run_response(
     rig: Rig,
     bundle: CalibrationBundle,
@@ -377,6 +379,7 @@ class ScanRun:
         return cube_dataset(cube, units=units, response=response, attrs=attrs)
 
 
+@drives_rig("scan")
 def run_scan(
     rig: Rig,
     bundle: CalibrationBundle,

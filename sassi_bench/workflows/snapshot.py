@@ -23,7 +23,7 @@ from sassi_bench.acquire.snapshots import SnapshotVideo, capture_snapshots
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.plots.snapshot import snapshot_quick_look
-from sassi_bench.rig.rig import SCENES, Rig
+from sassi_bench.rig.rig import Rig, check_scene
 from sassi_bench.snapshot import (
     FrameReconstruction,
     adaptive_mask,
@@ -33,7 +33,9 @@ from sassi_bench.snapshot import (
     snapshot_dataset,
     write_cube,
 )
+from sassi_bench.spectra.cube_io import write_envi
 from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.workflows.rig_lock import drives_rig
 
 __all__ = [
     "METHODS",
@@ -73,12 +75,9 @@ def check_inputs(
     --------
     >>> check_inputs(open_rig("sim"), load(rig="sim"), "natral")  # doctest: +SKIP
     Traceback (most recent call last):
-    ProcedureError: validate snapshot: unknown scene 'natral'. Fix: use one of ...
+    ProcedureError: validate snapshot: unknown scene 'natral' (did you mean 'natural'?). Fix: ...
     """
-    if scene not in SCENES:
-        raise ProcedureError(
-            step_error(step, f"unknown scene {scene!r}", f"use one of {', '.join(SCENES)}")
-        )
+    check_scene(scene, step=step)
     if bundle.guide_to_slm is None:
         raise ProcedureError(
             step_error(
@@ -153,6 +152,7 @@ def adaptive_planner(
     return next_mask
 
 
+@drives_rig("snapshot take")
 def take_snapshots(
     rig: Rig,
     bundle: CalibrationBundle,
@@ -334,9 +334,31 @@ def frame_outputs(out: str | os.PathLike[str], name: str) -> list[Path]:
     return [folder / f"{name}-{m}.nc" for m in METHODS] + [folder / f"{name}.png"]
 
 
-def check_outputs_free(out: str | os.PathLike[str], names: list[str]) -> None:
+def _ours(path: Path, name: str, bundle: CalibrationBundle | None) -> bool:
+    """Whether an existing output of frame ``name`` was written from that frame's session
+    with ``bundle`` (an interrupted run's, which its resumption keeps): a cube says so in
+    its attributes; a quick look or ENVI file belongs with its frame's rank-1 cube."""
+    import xarray as xr
+
+    if bundle is None:
+        return False
+    cube = path if path.suffix == ".nc" else path.parent / f"{name}-rank1.nc"
+    try:
+        with xr.open_dataset(cube) as ds:
+            attrs = dict(ds.attrs)
+    except (OSError, ValueError):
+        return False
+    wanted = {"session": name, "bundle_rig": bundle.rig_name, "bundle_version": bundle.version}
+    return all(attrs.get(key) == value for key, value in wanted.items())
+
+
+def check_outputs_free(
+    out: str | os.PathLike[str], names: list[str], bundle: CalibrationBundle | None = None
+) -> None:
     """Refuse to write frames whose cubes already exist in ``out`` (checked before any
-    capture, so nothing is captured for nothing and nothing is overwritten).
+    capture, so nothing is captured for nothing and nothing is overwritten). With
+    ``bundle``, files an interrupted run wrote for the same frames with that bundle are
+    not in the way: resuming keeps them and writes the rest.
 
     Parameters
     ----------
@@ -354,7 +376,12 @@ def check_outputs_free(out: str | os.PathLike[str], names: list[str]) -> None:
     --------
     >>> check_outputs_free("a-new-folder", ["snap-f000"])
     """
-    taken = [str(p) for name in names for p in frame_outputs(out, name) if p.exists()]
+    taken = [
+        str(p)
+        for name in names
+        for p in frame_outputs(out, name)
+        if p.exists() and not _ours(p, name, bundle)
+    ]
     if taken:
         raise ProcedureError(
             step_error(
@@ -376,7 +403,9 @@ def write_frame(
     exposure_s: float | None = None,
 ) -> list[Path]:
     """Write a frame's cubes (``<name>-rank1.nc``, ``<name>-guided.nc``, and ENVI) and a
-    quick-look PNG (``<name>.png``) into ``out``; never over an existing file. The cubes
+    quick-look PNG (``<name>.png``) into ``out``, each file atomically; never over an
+    existing file. Files an interrupted run already wrote for this frame's session with
+    this bundle are kept (and returned), so a resumed run completes the frame. The cubes
     carry the bundle's response they were divided by and, given, the spectral exposure.
 
     Parameters
@@ -410,17 +439,33 @@ def write_frame(
     --------
     >>> write_frame(frame, bundle, "snapshots", "snap-f000", session="snap-f000")  # doctest: +SKIP
     """
-    check_outputs_free(out, [name])
+    from sassi_bench._shared.atomic import atomic_write_bytes
+    from sassi_bench.plots.png import figure_png
+
+    kept = bundle if session == name else None
+    check_outputs_free(out, [name], kept)
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     for method, title in METHODS.items():
-        ds = snapshot_dataset(
-            getattr(frame, method), bundle, units=frame.units, method=title, exposure_s=exposure_s,
-            attrs={"session": session, "open_pixels": int(frame.mask.sum())},
-        )  # fmt: skip
-        envi_path = folder / f"{name}-{method}" if envi else None
-        written += write_cube(ds, folder / f"{name}-{method}.nc", envi=envi_path)
-    snapshot_quick_look(frame, bundle.wavelengths).savefig(folder / f"{name}.png", dpi=100)
-    written.append(folder / f"{name}.png")
+        cube = folder / f"{name}-{method}.nc"
+        header = None if not envi else folder / f"{name}-{method}.hdr"
+        # What exists is ours (checked above): an interrupted run wrote it whole.
+        missing = [p for p in (cube, header) if p is not None and not p.exists()]
+        if missing:
+            ds = snapshot_dataset(
+                getattr(frame, method), bundle, units=frame.units, method=title,
+                exposure_s=exposure_s,
+                attrs={"session": session, "open_pixels": int(frame.mask.sum())},
+            )  # fmt: skip
+            if cube in missing:
+                write_cube(ds, cube)
+            if header in missing:
+                write_envi(ds, header)
+        written += [p for p in (cube, header) if p is not None]
+    quick_look = folder / f"{name}.png"
+    if not quick_look.exists():
+        figure = snapshot_quick_look(frame, bundle.wavelengths)
+        atomic_write_bytes(quick_look, figure_png(figure, dpi=100), overwrite=False)
+    written.append(quick_look)
     return written

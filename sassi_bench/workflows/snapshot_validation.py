@@ -37,6 +37,7 @@ from sassi_bench.validate.snapshot import (
     load_scan_cube,
     warp_cube,
 )
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import run_scan
 from sassi_bench.workflows.snapshot import (
     adaptive_planner,
@@ -99,6 +100,7 @@ def _moved(cube: NDArray[np.float32], pose: ScenePose | None) -> NDArray[np.floa
     return warp_cube(cube, pose.canvas_matrix(cube.shape[:2], 0))
 
 
+@drives_rig("validate snapshot")
 def run_snapshot(
     rig: Rig,
     bundle: CalibrationBundle,

@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_analysis import SpectralCalibration, analyse_spectral_sweeps
 from sassi_bench.workflows.spectral_capture import capture_spectral_sweeps
 from sassi_bench.workflows.spectral_publish import publish_spectral, render_figures
@@ -24,6 +25,7 @@ from sassi_bench.workflows.spectral_publish import publish_spectral, render_figu
 __all__ = ["run_spectral_calibration"]
 
 
+@drives_rig("spectral calibration")
 def run_spectral_calibration(
     rig: Rig,
     procedure: Mapping[str, Any],

@@ -271,7 +271,7 @@ def analyse_spectral_sweeps(
         )  # fmt: skip
     lines = check_laser_lines(
         maps,
-        desc.prism.glass,
+        desc.prism.glass_model(),
         slm_shape,
         float(proc["tolerances"].get("laser_line_nm", 0.5)),
         **shape,
@@ -279,7 +279,7 @@ def analyse_spectral_sweeps(
     estimate = bool(proc["fit"].get("estimate_laser_wavelengths", False))
     dispersion = fit_dispersion(
         maps,
-        desc.prism.glass,
+        desc.prism.glass_model(),
         slm_shape,
         wavelengths_nm={k: v.estimated_nm for k, v in lines.items() if v.off_label}
         if estimate

@@ -24,6 +24,7 @@ from sassi_bench.calibrate.grey_response import sinusoid_profile
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_decode import measure_response
 from sassi_bench.workflows.spectral_lamps import capture_lamp_frames, check_lamp_pitch
 from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
@@ -130,6 +131,7 @@ class SpectralSweeps:
         return [s for s in (self.grey, self.sweep, self.lamps) if s is not None]
 
 
+@drives_rig("spectral calibration")
 def capture_spectral_sweeps(
     rig: Rig,
     procedure: Mapping[str, Any],

@@ -76,7 +76,7 @@ def test_default_id_is_utc_time_and_plan_name(rig_description, data, pinhole_ste
 def test_create_refuses_an_existing_session(rig_description, mixed_plan, data):
     session = new_session(rig_description, mixed_plan, data)
     before = snapshot_files(session.path)
-    with pytest.raises(SessionError, match=r"already exists.*Session\.open.*another session_id"):
+    with pytest.raises(SessionError, match=r"already exists.*resume it.*another session id"):
         new_session(rig_description, mixed_plan, data)
     assert snapshot_files(session.path) == before
 
@@ -125,7 +125,7 @@ def test_open_or_create_refuses_another_plan(
     fill(session, make_frame, [0])
     before = snapshot_files(session.path)
     other = Plan("other", [pinhole_step(7)])
-    with pytest.raises(SessionError, match=r"created for plan 'mixed'.*pick another session_id"):
+    with pytest.raises(SessionError, match=r"created for plan 'mixed'.*another session id"):
         Session.open_or_create(rig_description, other, session_id="run", data=data)
     assert snapshot_files(session.path) == before
 

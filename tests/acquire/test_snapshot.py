@@ -21,3 +21,30 @@ def test_snapshot_writes_frames_and_never_overwrites(tmp_path):
     with pytest.raises(SassiBenchError, match="already exists"):
         take_snapshot(rig, tmp_path, scene="white", light="laser:532")
     assert (tmp_path / "guide.tiff").read_bytes() == before
+
+
+def test_snapshot_refuses_an_existing_image_before_capturing(tmp_path):
+    import dataclasses
+
+    rig = open_rig("sim")
+    captured = []
+
+    class Spy:
+        def __init__(self, camera):
+            self._camera = camera
+
+        def __getattr__(self, name):
+            return getattr(self._camera, name)
+
+        def capture(self):
+            captured.append(self._camera.name)
+            return self._camera.capture()
+
+    spied = dataclasses.replace(
+        rig, spectral_camera=Spy(rig.spectral_camera), guide_camera=Spy(rig.guide_camera)
+    )
+    (tmp_path / "spectral_pinholes.png").write_bytes(b"an earlier image")
+    with pytest.raises(SassiBenchError, match=r"spectral_pinholes\.png already exists"):
+        take_snapshot(spied, tmp_path, scene="white", light="led")
+    assert captured == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["spectral_pinholes.png"]

@@ -31,14 +31,33 @@ def test_batch_assemble_runs_every_session_and_says_where_the_summary_is(
 def test_a_failed_session_is_listed_with_its_error_and_exit_status_1(
     scans, client, tmp_path, capsys
 ):
-    """The synthetic bundle's wavelength map is not the sim rig's: the chart is not found."""
+    """The synthetic bundle's wavelength map is not the sim rig's: the chart is not found.
+    The advice never suggests deleting a measurement."""
     out = tmp_path / "macbeth"
-    status = main(_batch("validate", scans, client, out, "--sessions", "scan-white"))
+    status = main(_batch("validate", scans, client, out, "--sessions", "scan-colorchecker"))
     printed = capsys.readouterr().out
     assert status == 1
     assert "dashboard: http" in printed
-    assert "FAILED scan-white: LocateError: Macbeth patch detection" in printed
+    assert "FAILED scan-colorchecker: LocateError: Macbeth patch detection" in printed
+    assert "remove" not in printed.lower() and "delete" not in printed.lower()
+    assert "no session was changed" in printed
     with open(out / "batch-validate.csv") as stream:
         (row,) = csv.DictReader(stream)
     assert row["status"] == "failed" and row["frames"] == "20"
     assert row["error"].startswith("LocateError: Macbeth patch detection")
+
+
+def test_validate_scores_colorchecker_scans_only(scans, client, tmp_path, capsys):
+    """A white reference or a natural scene is no chart: ``--all`` leaves them out (and
+    says so), a pattern that names them is refused before a cluster starts."""
+    status = main(_batch("validate", scans, client, tmp_path / "all", "--all"))
+    printed = capsys.readouterr().out
+    left_out = "1 ColorChecker scan(s); not charts, left out: scan-pcb (pcb), scan-white (white)"
+    assert left_out in printed
+    assert "1 sessions in" in printed and "FAILED scan-white" not in printed
+    assert status == 1  # the synthetic bundle does not find the chart (see above)
+    status = main(_batch("validate", scans, client, tmp_path / "some", "--sessions", "scan-*"))
+    err = capsys.readouterr().err
+    refused = "scan-pcb (pcb), scan-white (white) are not a pinhole scan of the colorchecker"
+    assert status == 2 and refused in err
+    assert not (tmp_path / "some").exists()

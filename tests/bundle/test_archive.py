@@ -18,6 +18,7 @@ from sassi_bench.bundle import (
     load,
     verify_zip,
 )
+from sassi_bench.bundle.layout import LATEST_LOCK_NAME
 
 
 def test_round_trip(published: Path, tmp_path: Path):
@@ -59,7 +60,11 @@ def test_import_never_overwrites_a_different_version(tmp_path: Path, synthetic):
     with pytest.raises(BundleError, match="already exists with different content"):
         import_zip(out, data=tmp_path / "lab_b")
     assert (tmp_path / "lab_b" / "sim" / "v0001" / "manifest.json").read_bytes() == before
-    assert not [p for p in (tmp_path / "lab_b" / "sim").iterdir() if p.name.startswith(".")]
+    assert not [
+        p
+        for p in (tmp_path / "lab_b" / "sim").iterdir()
+        if p.name.startswith(".") and p.name != LATEST_LOCK_NAME
+    ]
 
 
 def test_import_refuses_another_rig(published: Path, tmp_path: Path):
@@ -149,7 +154,11 @@ def test_corrupted_content_in_zip_is_detected(published: Path, tmp_path: Path):
     with pytest.raises(BundleIntegrityError, match=r"arrays/bin_edges_nm\.npy"):
         import_zip(bad, data=target)
     assert not (target / "sim" / "v0001").exists()
-    assert not [p for p in (target / "sim").iterdir() if p.name.startswith(".")]
+    assert not [
+        p
+        for p in (target / "sim").iterdir()
+        if p.name.startswith(".") and p.name != LATEST_LOCK_NAME
+    ]
 
 
 def test_not_a_zip(tmp_path: Path):
@@ -159,3 +168,45 @@ def test_not_a_zip(tmp_path: Path):
         import_zip(junk, data=tmp_path / "victim")
     with pytest.raises(BundleError, match="does not exist"):
         import_zip(tmp_path / "missing.zip", data=tmp_path / "victim")
+
+
+def _flip(path: Path, offset: int = -1) -> bytes:
+    """Flip one bit of one byte of a file (a real flipped byte); the original bytes."""
+    raw = path.read_bytes()
+    damaged = bytearray(raw)
+    damaged[offset] ^= 0x01
+    path.write_bytes(bytes(damaged))
+    return raw
+
+
+@pytest.mark.parametrize("damaged", ["arrays/dispersion_x_coeffs.npy", "manifest.json"])
+def test_import_repairs_a_damaged_copy_from_its_verified_zip(
+    damaged: str, published: Path, tmp_path: Path, data_root: Path
+):
+    from sassi_bench.bundle import verify
+
+    out = export_zip(published, tmp_path / "b.zip")
+    original = _flip(published / damaged, offset=-3)
+    with pytest.raises(BundleIntegrityError) as failure:
+        verify(published)
+    assert damaged in str(failure.value) and "bundle import" in str(failure.value)
+    result = import_zip(out, data=data_root)
+    assert (result.created, result.repaired, result.path) == (False, (damaged,), published)
+    assert (published / damaged).read_bytes() == original
+    verify(published)
+    assert import_zip(out, data=data_root).repaired == ()  # intact now: nothing to do
+
+
+def test_the_command_line_repairs_a_flipped_byte(published: Path, tmp_path: Path, capsys):
+    from sassi_bench.commands import main
+
+    out = tmp_path / "b.zip"
+    assert main(["bundle", "export", str(published), "--zip", str(out)]) == 0
+    _flip(published / "arrays" / "dispersion_x_coeffs.npy")
+    assert main(["bundle", "verify", str(published)]) == 1
+    assert "arrays/dispersion_x_coeffs.npy" in capsys.readouterr().out
+    assert main(["bundle", "import", str(out), "--data", str(published.parents[1])]) == 0
+    printed = capsys.readouterr().out
+    assert "repaired" in printed and "arrays/dispersion_x_coeffs.npy" in printed
+    assert main(["bundle", "verify", str(published)]) == 0
+    assert capsys.readouterr().out.startswith("OK")

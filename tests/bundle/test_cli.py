@@ -84,7 +84,7 @@ def test_export_import_and_verify_zip(capsys, published: Path, tmp_path: Path):
     assert code == 0 and "imported" in out
     assert (other / "sim" / "v0001" / "manifest.json").is_file()
     code, out, _ = run(capsys, "bundle", "import", str(out_zip), "--data", str(other))
-    assert code == 0 and "already present (identical)" in out
+    assert code == 0 and "already present and verified" in out
     code, _, err = run(capsys, "bundle", "export", str(published), "--zip", str(out_zip))
     assert code == 2 and "already exists" in err
 
@@ -136,9 +136,9 @@ def test_bundle_options_of_other_commands_use_the_same_rule(data_root: Path, syn
     parser.add_argument("--data")
     for ref in (["--bundle", "1"], ["--bundle", "v0001"], [], ["--bundle", "latest"]):
         args = parser.parse_args([*ref, "--data", str(data_root)])
-        assert bundle_from_args(args, "sim").version == "v0001"
+        assert bundle_from_args(args, "sim", step="scan").version == "v0001"
     args = parser.parse_args(["--bundle", str(data_root / "sim" / "v0001"), "--bundle-rig", "x"])
-    assert bundle_from_args(args, "sim").version == "v0001"
+    assert bundle_from_args(args, "sim", step="scan").version == "v0001"
     # Every command with a bundle option accepts --bundle and --bundle-rig.
     for command in (["scan", "--out", "c.nc"], ["calibrate", "response"],
                     ["calibrate", "guide"], ["validate", "macbeth", "--out", "r"]):  # fmt: skip

@@ -12,6 +12,7 @@ import pytest
 from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench.bundle import BundleError, CalibrationBundle, load
 from sassi_bench.bundle.integrity import sha256_bytes
+from sassi_bench.bundle.layout import LATEST_LOCK_NAME
 
 
 def test_layout_on_disk(published: Path, data_root: Path):
@@ -31,7 +32,11 @@ def test_layout_on_disk(published: Path, data_root: Path):
         "manifest.sha256",
         "report/summary.txt",
     ]
-    assert not [p for p in (data_root / "sim").iterdir() if p.name.startswith(".")]
+    assert not [
+        p
+        for p in (data_root / "sim").iterdir()
+        if p.name.startswith(".") and p.name != LATEST_LOCK_NAME
+    ]
 
 
 def test_manifest_content(published: Path, synthetic):

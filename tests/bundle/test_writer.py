@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import multiprocessing
 import os
+import time
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +13,7 @@ import pytest
 
 from sassi_bench.bundle import BundleError, BundleQualityError, load, publish, writer
 from sassi_bench.bundle.jsonio import thaw
+from sassi_bench.bundle.layout import LATEST_LOCK_NAME
 
 
 def test_failed_quality_is_refused_without_override(data_root: Path, synthetic):
@@ -132,9 +134,13 @@ def test_concurrent_publishers_get_distinct_intact_versions(tmp_path: Path, synt
         bundle = load(data / "sim" / name)  # verifies every checksum
         pids.add(bundle.manifest["procedure"]["worker"])
     assert len(pids) == n
-    latest = (data / "sim" / "LATEST").read_text().strip()
-    assert latest in names
-    leftovers = [p.name for p in (data / "sim").iterdir() if p.name.startswith(".")]
+    # LATEST is compared and replaced under a lock: never a version older than the newest.
+    assert (data / "sim" / "LATEST").read_text().strip() == names[-1]
+    leftovers = [
+        p.name
+        for p in (data / "sim").iterdir()
+        if p.name.startswith(".") and p.name != LATEST_LOCK_NAME
+    ]
     assert leftovers == []
 
 
@@ -199,3 +205,43 @@ def test_reports_are_checksummed(data_root: Path, synthetic, tmp_path: Path):
     manifest = json.loads((path / "manifest.json").read_text())
     assert set(manifest["reports"]) == {"plot.png", "notes.md", "raw.bin"}
     load(path)
+
+
+def _slow_latest_writer(folder: str, version: str, marker: str) -> None:
+    """Child process: update LATEST to ``version`` as a publisher that is slow between
+    reading LATEST and replacing it (its file write waits until the parent has moved)."""
+    from sassi_bench.bundle import layout
+
+    real = layout.atomic_write_text
+
+    def slow(path, text, **kwargs):
+        Path(marker).touch()
+        time.sleep(2.0)
+        return real(path, text, **kwargs)
+
+    layout.atomic_write_text = slow
+    layout.update_latest(Path(folder), version)
+
+
+def test_latest_never_goes_back_to_an_older_version_across_processes(tmp_path: Path):
+    from sassi_bench.bundle.layout import update_latest
+
+    folder = tmp_path / "sim"
+    for version in ("v0001", "v0002", "v0003"):
+        (folder / version).mkdir(parents=True)
+    (folder / "LATEST").write_text("v0001\n")
+    marker = tmp_path / "reading"
+    methods = multiprocessing.get_all_start_methods()
+    ctx = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    older = ctx.Process(target=_slow_latest_writer, args=(str(folder), "v0002", str(marker)))
+    older.start()
+    try:
+        deadline = time.monotonic() + 60
+        while not marker.exists():  # the older publisher has read LATEST and is writing
+            assert time.monotonic() < deadline and older.is_alive()
+            time.sleep(0.02)
+        update_latest(folder, "v0003")  # the newer one finishes meanwhile
+    finally:
+        older.join(timeout=60)
+    assert older.exitcode == 0
+    assert (folder / "LATEST").read_text() == "v0003\n"

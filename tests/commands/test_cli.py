@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib.util
+import re
 import shlex
 import subprocess
 import sys
@@ -242,6 +243,12 @@ def run(argv, capsys):
     return status, out, err
 
 
+#: What a command-line user cannot act on: Python calls and module paths.
+API_HINT = re.compile(
+    r"\b(Session|CalibrationBundle)\.[a-z_]+|sassi_bench\.[a-z_]+\.[A-Za-z_]|=True\b"
+)
+
+
 def bad_cases():
     for words, parser in COMMANDS:
         for action in options(parser):
@@ -259,6 +266,7 @@ def test_a_bad_argument_gives_one_clean_line(words, dest, world, capsys):
     status, _, err = run(argv, capsys)
     assert "Traceback" not in err
     assert status == 2, (argv, err)
+    assert not API_HINT.search(err), f"a Python API hint for a command-line user: {err}"
     lines = err.strip().splitlines()
     if err.startswith("usage:"):  # argparse refused it: usage, then one error line
         assert lines[-1].startswith(f"{PROG} ") and ": error: " in lines[-1]
@@ -279,6 +287,9 @@ def test_scene_and_light_typos_are_refused_before_any_session(world, capsys):
         argv = ["scan", option, value, "--out", str(world["root"] / "c.nc"), "--data", str(data)]
         status, _, err = run(argv, capsys)
         assert status == 2 and hint in err and err.count("\n") == 1
+    argv = ["validate", "snapshot", "--scene", "natral", "--out", str(world["root"] / "vs")]
+    status, _, err = run([*argv, "--data", str(data)], capsys)
+    assert status == 2 and "did you mean 'natural'?" in err and err.count("\n") == 1
     assert not (data / "sessions").exists()
 
 

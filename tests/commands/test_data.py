@@ -1,11 +1,16 @@
-"""``sassi-bench data list|clean`` on a data root shaped like a lab's."""
+"""``sassi-bench data list|clean`` on a data root shaped like a lab's: what a lab measured
+(bundle inputs, scans, snapshots, interrupted runs) is never cleaned unless asked."""
 
 import json
+import os
+import re
+import time
 from pathlib import Path
 
 import pytest
 
 from sassi_bench.commands import main
+from sassi_bench.storage.runs import record_run
 
 
 def _folder(path: Path, size: int) -> Path:
@@ -14,21 +19,38 @@ def _folder(path: Path, size: int) -> Path:
     return path
 
 
+def _session(path: Path, size: int, plan: str, steps: int, stored: int) -> Path:
+    """A session folder as the workbench writes it: its plan in session.json and one event
+    per stored frame."""
+    _folder(path, size)
+    header = {"plan": {"name": plan, "steps": [{}] * steps, "parameters": {}}}
+    (path / "session.json").write_text(json.dumps(header))
+    (path / "events.jsonl").write_text("".join(f'{{"step": {i}}}\n' for i in range(stored)))
+    return path
+
+
 @pytest.fixture
 def root(tmp_path: Path) -> Path:
-    """A published bundle using one session, an orphan session, a chain's staging
-    folder (a session the bundle uses, one it does not, intermediate bundles) and a report."""
+    """A published bundle using one session, an orphan calibration session, a chain's
+    staging folder (a session the bundle uses, one it does not, intermediate bundles), a
+    report, a ground-truth scan, a snapshot, and an interrupted scan with its run record."""
     root = tmp_path / "data"
     bundle = _folder(root / "sim" / "v0001", 100)
     manifest = {"inputs": [{"id": "used"}, {"id": "run-sweep"}]}
     (bundle / "manifest.json").write_text(json.dumps(manifest))
     (root / "sim" / "LATEST").write_text("v0001\n")
-    _folder(root / "sessions" / "used", 5000)
-    _folder(root / "sessions" / "orphan", 3000)
+    _session(root / "sessions" / "used", 5000, "spectral-sweep", 3, 3)
+    _session(root / "sessions" / "orphan", 3000, "spectral-sweep", 3, 3)
     _folder(root / "staging" / "run" / "sessions" / "run-sweep", 7000)
     _folder(root / "staging" / "run" / "sessions" / "run-unused", 2000)
     _folder(root / "staging" / "run" / "sim" / "v0001", 400)
     _folder(root / "reports" / "run", 50)
+    _session(root / "sessions" / "scan-white-1", 9000, "pinhole-scan", 501, 501)
+    _session(root / "sessions" / "snap-f000", 1000, "snapshot-f000", 2, 2)
+    _session(root / "sessions" / "scan-cc-2", 4000, "pinhole-scan", 501, 120)
+    record = record_run(root, "scan-cc-2", "sassi-bench scan --session scan-cc-2", ["scan-cc-2"])
+    raw = json.loads(record.read_text())
+    record.write_text(json.dumps({**raw, "pid": 2**22 + 17}))  # its process is gone
     return root
 
 
@@ -37,38 +59,73 @@ def _run(capsys, *argv) -> str:
     return capsys.readouterr().out
 
 
-def test_list_shows_every_folder_its_size_and_users(root, capsys):
+def test_list_shows_every_folder_its_size_users_and_interrupted_runs(root, capsys):
     out = _run(capsys, "data", "list", "--data", str(root))
-    lines = {line.split()[1]: line for line in out.splitlines()[2:-1]}
-    assert set(lines) == {
+    lines = {line.split()[1]: line for line in out.splitlines()[2:] if line.split()[:1] != ["run"]}
+    assert {
         "sessions/used", "sessions/orphan", "staging/run/sessions/run-sweep",
         "staging/run/sessions/run-unused", "staging/run/sim", "sim/v0001", "reports/run",
-    }  # fmt: skip
+        "sessions/scan-white-1", "sessions/snap-f000", "sessions/scan-cc-2",
+    } <= set(lines)  # fmt: skip
     assert lines["sessions/used"].rstrip().endswith("sim/v0001")
     assert lines["staging/run/sessions/run-sweep"].rstrip().endswith("sim/v0001")
     assert lines["sessions/orphan"].rstrip().endswith("-")
     assert "6.8 kB" in lines["staging/run/sessions/run-sweep"]
-    assert "total 17.2 kB" in out  # the frames and the manifest
+    assert "INCOMPLETE 120/501 (resumes)" in lines["sessions/scan-cc-2"]
+    assert "501 frames" in lines["sessions/scan-white-1"]
+    assert "run scan-cc-2: interrupted (its process is gone)" in out
+    assert "  sassi-bench scan --session scan-cc-2" in out
 
 
-def test_clean_is_a_dry_run_and_spares_bundles_and_their_inputs(root, capsys):
+def test_clean_keeps_measurements_inputs_and_interrupted_runs_unless_asked(root, capsys):
     before = sorted(p for p in root.rglob("*"))
     out = _run(capsys, "data", "clean", "--data", str(root))
     assert "dry run: 3 folder(s)" in out and "add --yes" in out
-    assert "keeping 2 session(s)" in out
+    kept = r"keeping {} folder\(s\) \([0-9.]+ kB\): {}"
+    assert re.search(kept.format(2, "sessions that published bundles use"), out)
+    assert re.search(kept.format(2, "scans and snapshots taken by commands"), out)
+    assert "(--include-measurements removes them too)" in out
+    assert re.search(kept.format(1, "sessions of interrupted runs"), out)
     assert sorted(p for p in root.rglob("*")) == before
     _run(capsys, "data", "clean", "--data", str(root), "--yes")
-    assert not (root / "sessions" / "orphan").exists()
-    assert not (root / "staging" / "run" / "sim").exists()
-    assert not (root / "staging" / "run" / "sessions" / "run-unused").exists()
-    for kept in ("sessions/used", "staging/run/sessions/run-sweep", "sim/v0001", "reports/run"):
-        assert (root / kept).is_dir(), kept
+    for gone in ("sessions/orphan", "staging/run/sim", "staging/run/sessions/run-unused"):
+        assert not (root / gone).exists(), gone
+    kept = ("sessions/used", "staging/run/sessions/run-sweep", "sim/v0001", "reports/run",
+            "sessions/scan-white-1", "sessions/snap-f000", "sessions/scan-cc-2")  # fmt: skip
+    for folder in kept:
+        assert (root / folder).is_dir(), folder
+    assert not [p for p in root.rglob(".*") if p.is_dir()], "no hidden leftovers"
+    out = _run(capsys, "data", "clean", "--data", str(root), "--include-measurements", "--yes")
+    assert "removed 2 folder(s)" in out and not (root / "sessions" / "scan-white-1").exists()
+    assert (root / "sessions" / "scan-cc-2").is_dir()  # interrupted: still kept
+    out = _run(capsys, "data", "clean", "--data", str(root), "--include-interrupted",
+               "--include-measurements", "--yes")  # fmt: skip
+    assert not (root / "sessions" / "scan-cc-2").exists()
     out = _run(capsys, "data", "clean", "--data", str(root), "--include-referenced", "--yes")
     assert "removed 2 folder(s)" in out
-    assert not (root / "staging").exists() or not any((root / "staging").iterdir())
     assert (root / "sim" / "v0001" / "manifest.json").is_file()
     _run(capsys, "data", "clean", "--data", str(root), "--reports", "--yes")
     assert not (root / "reports" / "run").exists() and (root / "sim" / "v0001").is_dir()
+
+
+def test_a_running_run_s_sessions_are_never_cleaned(root, capsys):
+    record_run(root, "scan-cc-2", "sassi-bench scan --session scan-cc-2", ["scan-cc-2"])
+    out = _run(capsys, "data", "list", "--data", str(root))
+    assert "capturing 120/501" in out and "run scan-cc-2: running (pid" in out
+    _run(capsys, "data", "clean", "--data", str(root), "--include-interrupted",
+         "--include-measurements", "--yes")  # fmt: skip
+    assert (root / "sessions" / "scan-cc-2").is_dir()
+
+
+def test_leftovers_of_interrupted_writes_are_listed_and_cleaned(root, capsys):
+    leftover = _folder(root / "sessions" / ".scan-x.0123456789ab.tmp", 10)
+    old = time.time() - 2 * 3600
+    for path in (leftover / "frames.bin", leftover):
+        os.utime(path, (old, old))
+    out = _run(capsys, "data", "list", "--data", str(root))
+    assert "leftover of an interrupted write" in out
+    _run(capsys, "data", "clean", "--data", str(root), "--yes")
+    assert not leftover.exists()
 
 
 def test_calibrate_says_where_its_data_went(tmp_path, capsys):

@@ -1,3 +1,4 @@
+import numpy as np
 import pytest
 import yaml
 
@@ -68,9 +69,40 @@ def test_blur_needs_three_points(sim_dict):
         rig_description_from_dict(sim_dict)
 
 
-def test_unknown_glass_is_rejected(sim_dict):
+def test_unknown_glass_is_rejected_with_the_rig_key_that_adds_it(sim_dict):
     sim_dict["prism"]["glass"] = "BK-7000"
-    with pytest.raises(ConfigError, match=r"prism\.glass"):
+    with pytest.raises(ConfigError, match=r"prism\.glass") as refused:
+        rig_description_from_dict(sim_dict)
+    assert "prism.sellmeier: {b: [B1, B2, B3], c: [C1, C2, C3]}" in str(refused.value)
+    assert "sassi_bench." not in str(refused.value)  # nothing to edit in the package
+
+
+#: SCHOTT N-K5 (a glass the catalogue does not hold), from its data sheet.
+N_K5 = {"b": [1.08511833, 0.199562005, 0.930511663], "c": [0.00661099503, 0.024110866, 111.982777]}
+
+
+def test_a_rig_gives_the_sellmeier_coefficients_of_its_own_glass(sim_dict, make_rig):
+    from sassi_bench.optics.glass import sellmeier_index
+
+    sim_dict["prism"].update(glass="N-K5", sellmeier=N_K5)
+    sim_dict["relay"]["offset_px"] = [18.0, 3.0]  # N-K5 spreads the blue a little further
+    desc = rig_description_from_dict(sim_dict)
+    glass = desc.prism.glass_model()
+    assert glass.name == "N-K5" and round(glass.nd, 4) == 1.5225 and round(glass.vd, 1) == 59.5
+    lam = [450.0, 550.0, 650.0]
+    np.testing.assert_allclose(
+        desc.nominal_relay().glass.index(lam), sellmeier_index(lam, N_K5["b"], N_K5["c"])
+    )
+    assert rig_description_from_dict(desc.to_dict()).sha256() == desc.sha256()
+    rig = make_rig(sim_dict)  # the virtual bench traces its rays through that glass
+    assert rig.description.prism.sellmeier.b == tuple(N_K5["b"])
+    # A catalogue glass keeps the description (and its hash) as it was.
+    assert "sellmeier" not in load_rig_description("sim").to_dict()["prism"]
+
+
+def test_coefficients_that_are_no_glass_are_refused(sim_dict):
+    sim_dict["prism"].update(glass="N-K5", sellmeier={"b": [-1.0, 0.0, 0.0], "c": [0, 0, 0]})
+    with pytest.raises(ConfigError, match=r"prism\.sellmeier: .* not that of an optical glass"):
         rig_description_from_dict(sim_dict)
 
 

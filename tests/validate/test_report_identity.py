@@ -70,13 +70,18 @@ def test_a_chain_bundles_report_names_its_published_version(
     assert bundle.version == "v0001"  # the staging versions went up to v0003
     doc = json.loads((bundle.path / "report" / "macbeth_report.json").read_text())
     assert doc["bundle"]["version"] == "v0001" and doc["bundle"]["created"] == bundle.created
-    assert doc["bundle"]["scanned_with"] == "sim/v0003" and doc["bundle"]["models_identical"]
+    # The scans' bundle is named where it is (the run's staging folder), never as a version
+    # of the lab's data root, which would be another bundle.
+    staged = "the staged bundle staging/chain/sim/v0003 of this run"
+    assert doc["bundle"]["scanned_with"] == staged and doc["bundle"]["models_identical"]
     names = [c["name"] for c in doc["bundle"]["checks"]]
     assert names == [c["name"] for c in bundle.manifest["quality"]["checks"]]
     stages = {name.split(".")[0] for name in names}
     assert stages == {"spectral", "response", "guide", "macbeth"}
     html = (bundle.path / "report" / "macbeth_report.html").read_text()
     assert "validation: sim / v0001</h1>" in html and "v0003</h1>" not in html
+    assert "staging version" not in html
+    assert not re.search(r"(?<!staging/chain/)sim/v0003", html)
     assert bundle.created in html
     # The copy beside the data is the bundle's own report, byte for byte.
     copy = root / "reports" / "chain" / "macbeth_report.html"

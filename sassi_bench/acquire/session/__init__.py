@@ -13,7 +13,7 @@ Layout of ``<data_root>/sessions/<session_id>/``, one module per part:
                      chunk, so an event exists only for a fully written frame (events)
     events.torn      (only after a crash) bytes of a torn last event line, kept aside
     write.lock       advisory lock of the session's writer (``fcntl.flock``), holding
-                     its pid, host, command and start time                (lock)
+                     its pid, host, command and start time (_shared.lock)
 
 :mod:`~sassi_bench.acquire.session.folder` makes and finds session folders;
 :class:`Session` (in :mod:`~sassi_bench.acquire.session.session`) puts the parts together.

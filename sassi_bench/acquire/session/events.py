@@ -204,7 +204,7 @@ class EventLog:
                 raise session_error(
                     f"{self._owner} write",
                     f"{EVENTS_FILE} changed since the session was opened (another writer?)",
-                    "write a session from one process only; reopen it with Session.open",
+                    "write a session from one process only; open it again to see what is stored",
                 )
             # Nothing is ever thrown away: the torn bytes go to events.torn first.
             _append_synced(self._torn_file, torn + b"\n")

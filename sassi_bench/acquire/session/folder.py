@@ -31,7 +31,7 @@ from sassi_bench.rig.config import RigDescription
 
 __all__ = ["LOCK_FILE", "create_session_folder", "find_session", "read_header", "session_folder"]
 
-#: The session writer's lock file (see :mod:`sassi_bench.acquire.session.lock`).
+#: The session writer's lock file (see :mod:`sassi_bench._shared.lock`).
 LOCK_FILE = "write.lock"
 
 
@@ -77,8 +77,8 @@ def find_session(
         raise session_error(
             "session open",
             f"no session at {path} ({SESSION_FILE} not found)",
-            "check the id and the data root (--data / SASSI_BENCH_DATA), "
-            "or create it with Session.create",
+            "check the id and the data root (--data / SASSI_BENCH_DATA); "
+            "`sassi-bench data list` shows the sessions there",
         )
     return path
 
@@ -122,7 +122,7 @@ def create_session_folder(
         raise session_error(
             "session create",
             f"session {session_id!r} already exists at {target}",
-            "resume it with Session.open (or Session.open_or_create), or pick another session_id",
+            "resume it (run the same capture with this session id), or pick another session id",
         )
     header, raw = new_header(session_id, rig_description, plan, now)
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -138,7 +138,7 @@ def create_session_folder(
             raise session_error(
                 "session create",
                 f"session {session_id!r} appeared at {target} while creating it ({exc})",
-                "resume it with Session.open, or pick another session_id",
+                "resume it (run the same capture with this session id), or pick another session id",
             ) from exc
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)

@@ -185,8 +185,8 @@ def check_resumable(header: dict[str, Any], rig_description: RigDescription, pla
             f"session {session_id!r} was created for plan {header['plan'].get('name')!r} "
             f"(sha256 {plan_sha256[:12]}), not for plan {plan.name!r} "
             f"(sha256 {plan.sha256()[:12]})",
-            "pick another session_id for the new plan, or resume the stored plan "
-            "(Session.open(id).plan)",
+            "give the new plan another session id, or resume with the settings the session "
+            "was captured with (its session.json holds them)",
         )
     if rig_sha256 != rig_description.sha256():
         raise session_error(

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.lock import LockHeldError, WriteLock
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session.errors import (
     SessionError,
@@ -37,7 +38,6 @@ from sassi_bench.acquire.session.folder import (
 )
 from sassi_bench.acquire.session.frames import FRAMES_DIR, FrameStore, check_frame
 from sassi_bench.acquire.session.header import check_resumable
-from sassi_bench.acquire.session.lock import LockHeldError, WriteLock
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.frame import Frame
 
@@ -370,7 +370,7 @@ class Session:
             raise session_error(
                 where,
                 "this step is already stored (completed steps are never overwritten)",
-                "capture into a new session (Session.create with another id) to retake it",
+                "capture into a new session (another session id) to retake it",
             )
         if not isinstance(frame, Frame):
             raise session_error(

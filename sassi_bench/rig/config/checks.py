@@ -14,7 +14,7 @@ import numpy as np
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.datasets import photo_loader, require_dataset
-from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.glass import Glass
 from sassi_bench.optics.lamps import lamp_name, load_line_list
 from sassi_bench.optics.relay import BAND_NM
 from sassi_bench.optics.sensor import qe_curve
@@ -104,9 +104,33 @@ def _check_ranges(desc: RigDescription) -> None:
         )
 
 
+def _check_sellmeier(desc: RigDescription, glass: Glass) -> None:
+    """A rig's own glass: a real optical glass's index over 400-700 nm (finite, 1.3-2.5,
+    falling with wavelength)."""
+    index = glass.index(np.linspace(400.0, 700.0, 31))
+    if not np.all(np.isfinite(index)):
+        cause = "the coefficients give no real index at some wavelengths of 400-700 nm"
+    elif np.any((index <= 1.3) | (index >= 2.5)) or np.any(np.diff(index) >= 0):
+        cause = (
+            f"the coefficients give an index of {index.min():.3g}-{index.max():.3g} over "
+            "400-700 nm, not that of an optical glass (1.3-2.5, falling with wavelength)"
+        )
+    else:
+        return
+    raise _error(
+        desc,
+        "prism.sellmeier",
+        cause,
+        "copy B1-B3 and C1-C3 (C in square micrometres) from the glass maker's data sheet",
+    )
+
+
 def _check_named_data(desc: RigDescription) -> None:
-    """Every glass, lamp, sensor and curve the description names must exist."""
-    get_glass(desc.prism.glass)
+    """Every glass, lamp, sensor and curve the description names must exist (a glass the
+    catalogue lacks needs its Sellmeier coefficients, which must give a plausible index)."""
+    glass = desc.prism.glass_model()  # an unknown catalogue name raises here
+    if desc.prism.sellmeier is not None:
+        _check_sellmeier(desc, glass)
     if desc.spectral_camera.qe is not None:
         qe_curve(desc.spectral_camera.qe, key="spectral_camera.qe")
     if desc.guide_camera.sensitivities is not None:

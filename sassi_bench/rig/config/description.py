@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from sassi_bench._shared.canonical_json import canonical_sha256
-from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.glass import Glass, get_glass
 from sassi_bench.optics.lamps import LineList, lamp_name, load_line_list
 from sassi_bench.optics.relay import SpectralRelay
 
@@ -32,6 +32,7 @@ __all__ = [
     "RelayConfig",
     "RigDescription",
     "ScenesConfig",
+    "SellmeierConfig",
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
@@ -102,6 +103,14 @@ class RelayConfig:
 
 
 @dataclass(frozen=True)
+class SellmeierConfig:
+    """A glass's three-term Sellmeier coefficients (``C`` in µm²), from its data sheet."""
+
+    b: tuple[float, float, float]
+    c: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
 class PrismConfig:
     glass: str
     apex_deg: float
@@ -109,6 +118,22 @@ class PrismConfig:
     smile_px: float
     incidence_deg: float | None = None
     reference_nm: float = 550.0
+    #: The glass's own coefficients; None: the catalogue glass named ``glass``.
+    sellmeier: SellmeierConfig | None = None
+
+    def glass_model(self) -> Glass:
+        """The prism glass: the rig's own Sellmeier coefficients when given, else the
+        catalogue glass of that name.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> load_rig_description("sim").prism.glass_model().name
+        'N-BK7'
+        """
+        if self.sellmeier is None:
+            return get_glass(self.glass)
+        return Glass.from_sellmeier(self.glass, self.sellmeier.b, self.sellmeier.c)
 
 
 @dataclass(frozen=True)
@@ -244,6 +269,8 @@ class RigDescription:
                 data.pop(key)
         if not data["wavelength_lamps"]:
             data.pop("wavelength_lamps")
+        if data["prism"]["sellmeier"] is None:  # a catalogue glass: as before the key existed
+            data["prism"].pop("sellmeier")
         return json.loads(json.dumps(data, sort_keys=True))
 
     def sha256(self) -> str:
@@ -276,7 +303,7 @@ class RigDescription:
             rotation_deg=relay.rotation_deg,
             offset_px=relay.offset_px,
             distortion_k1=relay.distortion_k1,
-            glass=get_glass(prism.glass),
+            glass=prism.glass_model(),
             apex_deg=prism.apex_deg,
             spread_px=prism.spread_px,
             smile_px=prism.smile_px,

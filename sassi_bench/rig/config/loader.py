@@ -27,6 +27,7 @@ from sassi_bench.rig.config.description import (
     RelayConfig,
     RigDescription,
     ScenesConfig,
+    SellmeierConfig,
     SlmConfig,
     SpectralCameraConfig,
     SpectralGridConfig,
@@ -85,6 +86,11 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
                 section[name] = tuple(tuple(v) if isinstance(v, list) else v for v in value)
         if key == "blur":
             section["sigma_px"] = {float(k): float(v) for k, v in section["sigma_px"].items()}
+        if key == "prism" and "sellmeier" in section:
+            own = section["sellmeier"]
+            section["sellmeier"] = SellmeierConfig(
+                tuple(float(x) for x in own["b"]), tuple(float(x) for x in own["c"])
+            )
         kwargs[key] = cls(**section)
     kwargs["lasers_nm"] = tuple(float(x) for x in data["lasers_nm"])
     kwargs["wavelength_lamps"] = tuple(data.get("wavelength_lamps", ()))

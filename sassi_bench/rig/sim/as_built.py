@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.datasets import camera_sensitivities
-from sassi_bench.optics.glass import Glass, get_glass
+from sassi_bench.optics.glass import Glass
 from sassi_bench.optics.lamps import LineList
 from sassi_bench.rig.config import RigDescription, rig_relative_path
 from sassi_bench.rig.sim.sections import as_built_section
@@ -50,6 +50,7 @@ class OffsetGlass(Glass):
 
     Examples
     --------
+    >>> from sassi_bench.optics.glass import get_glass
     >>> bk7 = get_glass("N-BK7")
     >>> melt = OffsetGlass(bk7.name, bk7.b, bk7.c, bk7.nd, bk7.vd, index_offset=0.002)
     >>> round(float(melt.index(587.5618) - bk7.index(587.5618)), 6)
@@ -105,7 +106,7 @@ def prism_glass(desc: RigDescription) -> Glass:
     >>> prism_glass(load_rig_description("sim")).name
     'N-BK7'
     """
-    catalogue = get_glass(desc.prism.glass)
+    catalogue = desc.prism.glass_model()
     offset = as_built_section(desc).glass_index_offset
     if offset == 0.0:
         return catalogue

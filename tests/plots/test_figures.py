@@ -1,0 +1,51 @@
+"""Report figures people read: the same scale where maps are compared, labels that stay
+readable at notebook width."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from sassi_bench.plots.snapshot import reconstruction_figure
+from sassi_bench.plots.spectral import residual_maps_figure
+
+
+def test_the_two_error_maps_of_the_snapshot_report_share_one_colour_scale():
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(0.5, 1.0, (40, 60, 12))
+    run = SimpleNamespace(rank1=ref + 0.2 * rng.normal(size=ref.shape), guided=ref + 0.01)
+    result = SimpleNamespace(
+        runs={"adaptive": run}, reference=ref, valid=np.ones((40, 60), bool),
+        detail=np.zeros((40, 60), bool),
+    )  # fmt: skip
+    fig, data = reconstruction_figure(result)
+    maps = [ax.images[0] for ax in fig.axes[4:6]]
+    assert maps[0].get_clim() == maps[1].get_clim() == (0, data["error_scale_max"])
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(bars) == 1  # one colour bar serves both maps
+    assert data["guided filter_mean_relative_rms"] < data["rank-1_mean_relative_rms"]
+
+
+def test_residual_maps_stay_readable_at_notebook_width():
+    """Five lasers side by side made a 16-inch figure a notebook shrinks to about 10 inches,
+    its labels to unreadable sizes; three maps per row keep the figure about that wide."""
+    rng = np.random.default_rng(1)
+    u, v = rng.uniform(0, 640, 2000), rng.uniform(0, 400, 2000)
+    plane = SimpleNamespace(x=lambda uu, vv: uu * 1.08, y=lambda uu, vv: vv * 1.08)
+    lasers = [
+        SimpleNamespace(
+            laser_map=plane, slm_u=u, slm_v=v, camera_x=u * 1.08 + rng.normal(0, 0.03, u.size),
+            camera_y=v * 1.08, wavelength_nm=nm, residual_rms_px=0.03,
+        )
+        for nm in (450, 520, 532, 635, 670)
+    ]  # fmt: skip
+    fig = residual_maps_figure(lasers, (400, 640))
+    width, _ = fig.get_size_inches()
+    assert width <= 11.5
+    shown = [ax for ax in fig.axes if ax.get_visible() and ax.get_label() != "<colorbar>"]
+    assert len(shown) == 5
+    scale = min(1.0, 10.0 / width)  # as a notebook of about 10 inches shows it
+    for ax in shown:
+        assert ax.title.get_fontsize() * scale >= 9
+        assert ax.xaxis.label.get_fontsize() * scale >= 8
