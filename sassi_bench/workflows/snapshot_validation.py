@@ -136,6 +136,12 @@ def run_snapshot(
     data, progress
         Data root; progress bars.
 
+    Returns
+    -------
+    SnapshotValidation
+        The scan, every mask's run with its cubes and scores, the video's scores, the
+        quality checks and the settings, for the report.
+
     Examples
     --------
     >>> result = run_snapshot(rig, bundle, load_procedure("snapshot_validation"))  # doctest: +SKIP
