@@ -19,20 +19,31 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.spectra.deblur import CHOICE_PIXELS, MeanDeblur, SpectralDeblur
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.deblur import CHOICE_PIXELS, MeanDeblur, MeanSpectrum, SpectralDeblur
 from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.priors import RelativeSmoothnessPrior
 from sassi_bench.spectra.regularisation import RegularisationChoice
 
-__all__ = ["MEAN_PIXELS", "ScanDeblur", "deblur_scan", "stack_bins"]
+__all__ = ["MEAN_PIXELS", "ScanDeblur", "deblur_scan", "scan_mean_spectrum", "stack_bins"]
 
 #: Pixels at most whose mean gives the scan's mean spectrum (a random sample; the mean of
 #: 65536 pixels has a noise far under the forward model's error).
 MEAN_PIXELS = 65536
+
+
+class KeptSums(Protocol):
+    """A scan that kept its column sums (:class:`~sassi_bench.spectra.scan.ScanCube`)."""
+
+    column_sums: NDArray[np.float32] | None
+    noise_variance: NDArray[np.float32] | None
+    origin: tuple[int, int]
+
 
 #: Pixels deblurred per block.
 BLOCK_PIXELS = 32768
@@ -143,3 +154,52 @@ def deblur_scan(
     band = 10.0 * np.log10(peak**2 / np.maximum(np.mean(noise**2, axis=0), 1e-300))
     assert deblur.choice is not None
     return ScanDeblur(deblur.choice, mean.spectrum, band)
+
+
+def scan_mean_spectrum(
+    scan: KeptSums, bundle_model: StreakForwardModel, where: NDArray[np.bool_], *, trim: float = 0.1
+) -> MeanSpectrum:
+    """The deblurred mean of a scan's pixels ``where`` (H, W), from their kept column sums.
+
+    The pixels' column sums (:attr:`~sassi_bench.spectra.scan.ScanCube.column_sums`, light
+    per second before the deblur) are averaged per field point, trimmed per bin, and each
+    mean is deblurred once at its own noise (:class:`~sassi_bench.spectra.deblur.MeanDeblur`).
+
+    Parameters
+    ----------
+    scan
+        A :class:`~sassi_bench.spectra.scan.ScanCube` assembled with ``keep_raw=True``.
+    bundle_model
+        The bundle's streak forward model.
+    where
+        (H, W) the pixels to average.
+    trim
+        Fraction trimmed at each end per bin (dusty or clipped pixels).
+
+    Returns
+    -------
+    MeanSpectrum
+        Light per bin and second, guard bins included.
+
+    Examples
+    --------
+    >>> scan = assemble_scan(session, bundle, keep_raw=True)  # doctest: +SKIP
+    >>> white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle),
+    ...                            scan.quality == 0)  # doctest: +SKIP
+    """
+    if scan.column_sums is None or scan.noise_variance is None:
+        raise ProcedureError(
+            step_error(
+                "mean spectrum",
+                "the scan kept no column sums to average before the deblur",
+                "assemble the scan with keep_raw=True",
+            )
+        )
+    rows, cols = np.nonzero(where)
+    return MeanDeblur(bundle_model)(
+        scan.column_sums[rows, cols],
+        rows + scan.origin[0],
+        cols + scan.origin[1],
+        scan.noise_variance[rows, cols],
+        trim=trim,
+    )
