@@ -29,7 +29,10 @@ def cube_dataset(scan: ScanCube, *, units: str, attrs: dict[str, Any] | None = N
     >>> ds["radiance"].dims, int(ds.x[0]), int(ds.y[0])
     (('y', 'x', 'wavelength'), 20, 10)
     """
-    return spectral_cube_dataset(
+    extra: dict[str, Any] = {}
+    if scan.deblur is not None:
+        extra.update(scan.deblur.to_attrs())
+    ds = spectral_cube_dataset(
         scan.cube,
         scan.wavelengths_nm,
         scan.bin_edges_nm,
@@ -37,8 +40,24 @@ def cube_dataset(scan: ScanCube, *, units: str, attrs: dict[str, Any] | None = N
         quality=scan.quality,
         origin=scan.origin,
         title="SASSI pinhole scan",
-        attrs={"background_check_rms": float(scan.background_check_rms or np.nan), **(attrs or {})},
+        attrs={
+            "background_check_rms": float(scan.background_check_rms or np.nan),
+            **extra,
+            **(attrs or {}),
+        },
     )
+    if scan.band_noise_psnr_db is not None:
+        ds["band_noise_psnr_db"] = (
+            ("wavelength",),
+            np.asarray(scan.band_noise_psnr_db, dtype=np.float64),
+            {
+                "units": "dB",
+                "long_name": "per-band PSNR of the cube against its own propagated noise",
+                "description": "the cube's peak over the RMS of the deblurred spectra's "
+                "photon and read noise, in camera units per second (no truth)",
+            },
+        )
+    return ds
 
 
 def spectral_cube_dataset(

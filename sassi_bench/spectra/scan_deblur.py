@@ -30,7 +30,15 @@ from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.priors import RelativeSmoothnessPrior
 from sassi_bench.spectra.regularisation import RegularisationChoice
 
-__all__ = ["MEAN_PIXELS", "ScanDeblur", "deblur_scan", "scan_mean_spectrum", "stack_bins"]
+__all__ = [
+    "MEAN_PIXELS",
+    "KeptSums",
+    "ScanDeblur",
+    "deblur_scan",
+    "labelled_mean_spectra",
+    "scan_mean_spectrum",
+    "stack_bins",
+]
 
 #: Pixels at most whose mean gives the scan's mean spectrum (a random sample; the mean of
 #: 65536 pixels has a noise far under the forward model's error).
@@ -203,3 +211,28 @@ def scan_mean_spectrum(
         scan.noise_variance[rows, cols],
         trim=trim,
     )
+
+
+def labelled_mean_spectra(
+    scan: KeptSums,
+    model: StreakForwardModel,
+    good: NDArray[np.bool_],
+    labels: NDArray[np.integer],
+    count: int,
+) -> NDArray[np.float64]:
+    """The deblurred mean spectrum of every labelled region (chart patches), (count, B).
+
+    Each region's good pixels are averaged and deblurred once at the mean's noise
+    (:func:`scan_mean_spectrum`, untrimmed: a patch interior is uniform); regions with no
+    good pixel are NaN.
+
+    Examples
+    --------
+    >>> means = labelled_mean_spectra(scan, model, scan.quality == 0, labels, 24)  # doctest: +SKIP
+    """
+    out = np.full((count, model.n_bins - 2 * model.guard), np.nan)
+    for k in range(count):  # a few dozen regions, each one mean
+        where = good & (labels == k)
+        if where.any():
+            out[k] = scan_mean_spectrum(scan, model, where, trim=0.0).band
+    return out

@@ -398,6 +398,7 @@ def run_scan(
     session_id: str | None = None,
     data=None,
     progress: bool = True,
+    keep_raw: bool = False,
 ) -> ScanRun:
     """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``.
 
@@ -421,6 +422,9 @@ def run_scan(
         Data root for sessions.
     progress
         Show progress bars.
+    keep_raw
+        Also keep the column sums before the deblur (for spectra averaged first and
+        deblurred once: the Macbeth patches).
 
     Returns
     -------
@@ -454,5 +458,5 @@ def run_scan(
         data=data,
     )
     run_plan(rig, session.plan, session, progress=progress)
-    scan = assemble_scan(session, bundle, roi=roi, progress=progress)
+    scan = assemble_scan(session, bundle, roi=roi, keep_raw=keep_raw, progress=progress)
     return ScanRun(scan, bundle.response is not None, session, bundle)
