@@ -120,7 +120,7 @@ class CountsNoise:
         >>> noise = CountsNoise.from_camera({"full_well_e": 30000, "bit_depth": 16,
         ...     "dark_offset_adu": 100, "read_noise_e": 3.0})
         >>> round(noise.gain_e_per_adu, 4), round(noise.read_noise_adu, 3)
-        (0.4584, 6.544)
+        (0.4585, 6.543)
         """
         try:
             full_well = float(camera["full_well_e"])
