@@ -18,7 +18,11 @@ judge a weight per pixel (on the sim rig's ColorChecker they gave 13-29 dB again
 so the weight is chosen for many pixels at once: pooled over a scan's pixels (one
 relative smoothness for all, each pixel's weight following its own noise), or per mean
 spectrum, whose noise is its pixels' over their count. :data:`CHOICE_RULES` lists the
-rules; REML is the default (numbers: ``benchmarks/deblur_regularisation.py``).
+rules. A mean is judged by REML. A scan's per-pixel strength is judged by the pooled
+discrepancy principle: on the sim rig's ColorChecker scan it gave 54.7 dB PSNR and a
+1.08 degree mean spectral angle against the truth, where pooled REML chose a weaker
+smoothing (54.3 dB, 1.32 degrees; the curvature prior is a poor model of a single
+pixel's spectrum, so its likelihood under-smooths).
 """
 
 from __future__ import annotations

@@ -243,14 +243,16 @@ class ScanCube:
     noise_variance: NDArray[np.float32] | None = None
 
 
-def _run_frames(task, items: list, label: str, progress: bool, workers: int) -> list:
+def _run_frames(
+    task, items: list, label: str, progress: bool, workers: int, unit: str = "frame"
+) -> list:
     """``task(item)`` for every frame, ``workers`` at a time, results in order.
 
     Threads suffice: the work is numpy, compiled loops and decompression, which release
     the GIL. At most twice ``workers`` frames are in flight, so memory stays bounded.
     """
     results = []
-    with tqdm(total=len(items), desc=label, unit="frame", disable=not progress) as bar:
+    with tqdm(total=len(items), desc=label, unit=unit, disable=not progress) as bar:
         if workers == 1:  # in this thread (profilers and debuggers see the work)
             for item in items:
                 results.append(task(item))
@@ -512,7 +514,9 @@ def assemble_scan(
         background = assembly.background()
         signals = _run_frames(assembly.spectra, frames, "scan spectra", progress, workers)
         deblurred, kept = assembly.finish(
-            lambda task, items, label: _run_frames(task, items, label, progress, workers),
+            lambda task, items, label: _run_frames(
+                task, items, label, progress, workers, unit="block"
+            ),
             keep_raw,
         )
     check = None
