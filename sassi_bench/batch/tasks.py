@@ -185,7 +185,9 @@ def _macbeth(spec: TaskSpec, session: Session, bundle: CalibrationBundle) -> dic
         **spec.procedure,
         "white_reference": {**spec.procedure["white_reference"], "source": "patch"},
     }
-    scan = assemble_scan(session, bundle, roi=spec.roi, progress=False, workers=spec.threads)
+    scan = assemble_scan(
+        session, bundle, roi=spec.roi, keep_raw=True, progress=False, workers=spec.threads
+    )
     result = validate_scans(
         scan, bundle, procedure, corners=spec.corners, settings={"chart_session": session.id}
     )

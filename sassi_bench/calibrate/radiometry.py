@@ -110,38 +110,41 @@ def source_photons_in_bins(
 
 
 def response_from_white(
-    spectra: ArrayLike, source_bins: ArrayLike, reflectance: float | ArrayLike = 1.0
+    white: ArrayLike,
+    source_bins: ArrayLike,
+    reflectance: float | ArrayLike = 1.0,
+    *,
+    pixels: int,
 ) -> NDArray[np.float64]:
-    """Per-bin response: robust mean white signal over source flux times reflectance.
+    """Per-bin response: the white diffuser's mean signal over source flux times reflectance.
 
     Parameters
     ----------
-    spectra
-        White-diffuser spectra (N, B), camera units per second, good pixels only.
+    white
+        (B,) the white diffuser's mean light per bin (camera units per second), deblurred
+        after averaging (:func:`~sassi_bench.spectra.scan_deblur.scan_mean_spectrum`).
     source_bins
         :func:`source_photons_in_bins` of the illuminating source.
     reflectance
         The diffuser's reflectance (scalar or per bin).
+    pixels
+        How many white pixels the mean is of.
 
     Examples
     --------
-    >>> white = np.outer(np.ones(50), [2.0, 4.0, 6.0])
-    >>> response_from_white(white, [1.0, 2.0, 2.0]).tolist()
+    >>> response_from_white([2.0, 4.0, 6.0], [1.0, 2.0, 2.0], pixels=50).tolist()
     [2.0, 2.0, 3.0]
     """
-    data = np.asarray(spectra, dtype=np.float64)
-    if data.ndim != 2 or data.shape[0] < 10:
+    mean = np.asarray(white, dtype=np.float64)
+    if mean.ndim != 1 or pixels < 10:
         raise ProcedureError(
             step_error(
                 "radiometric response",
-                f"need spectra of at least ten white pixels, got shape {data.shape}",
+                f"need the mean spectrum of at least ten white pixels, got {pixels} pixels "
+                f"and shape {mean.shape}",
                 "scan more of the white diffuser",
             )
         )
-    # Trimmed mean over pixels: robust to a few dusty or clipped ones.
-    lo, hi = np.percentile(data, [10, 90], axis=0)
-    inside = (data >= lo) & (data <= hi)
-    mean = np.sum(np.where(inside, data, 0.0), axis=0) / np.maximum(inside.sum(axis=0), 1)
     return mean / (np.asarray(source_bins, dtype=np.float64) * np.asarray(reflectance))
 
 

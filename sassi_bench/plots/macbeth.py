@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "band_error_figure",
     "chart_figure",
     "de00_figure",
     "localisation_figure",
@@ -315,7 +316,60 @@ def wavelength_figure(result, bundle) -> tuple[Any, dict[str, Any]]:
     return fig, data
 
 
-def macbeth_figures(result, bundle, procedure) -> dict[str, tuple[Any, dict[str, Any]]]:
+def band_error_figure(result, errors) -> tuple[Any, dict[str, Any]]:
+    """Per-band error of patches against the reference, with the band-edge zones marked.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+    errors
+        :class:`~sassi_bench.validate.band_error.PatchBandError` of each patch to draw.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        One panel per patch: measured minus reference per band, +- 2 standard errors
+        shaded, the edge zones and the steep-reference bins marked.
+    data : dict
+        The wavelengths and each patch's error, standard error, zones and shares.
+
+    Examples
+    --------
+    >>> fig, data = band_error_figure(result, [patch_band_error(result, 8, True)])  # doctest: +SKIP
+    """
+    lam = result.wavelengths_nm
+    fig = _figure(figsize=(9, 2.6 * max(len(errors), 1) + 0.6), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(max(len(errors), 1), 1, sharex=True))
+    data: dict[str, Any] = {"wavelength_nm": lam.tolist(), "patches": []}
+    for ax, e in zip(axes, errors, strict=False):
+        _shade_unusable(ax, lam, result.usable)
+        zones = np.asarray(e.zones)
+        for zone, colour in (("edge", "tab:orange"), ("steep", "tab:purple")):
+            for k in np.flatnonzero(zones == zone):
+                lo = lam[k] - 0.5 * (lam[min(k + 1, lam.size - 1)] - lam[max(k - 1, 0)]) / 2
+                hi = lam[k] + 0.5 * (lam[min(k + 1, lam.size - 1)] - lam[max(k - 1, 0)]) / 2
+                ax.axvspan(lo, hi, color=colour, alpha=0.12, lw=0)
+        ax.fill_between(lam, -2 * e.standard_error, 2 * e.standard_error, color="0.6",
+                        alpha=0.5, lw=0, label="+-2 standard errors (noise)")  # fmt: skip
+        ax.axhline(0.0, color="black", lw=0.6)
+        ax.plot(lam, e.error, ".-", color="tab:red", label="measured - reference")
+        shares = ", ".join(f"{100 * v:.0f} % {k}" for k, v in e.shares.items())
+        state = "fails" if e.failed else "worst patch, passes"
+        ax.set_title(f"Patch {e.patch + 1} {e.name} ({state}): {shares}", fontsize=9)
+        ax.set_ylabel("reflectance error")
+        ax.grid(alpha=0.3)
+        data["patches"].append(e.to_dict())
+    axes[0].plot([], [], color="tab:orange", alpha=0.4, lw=6, label="band-edge zone")
+    axes[0].plot([], [], color="tab:purple", alpha=0.4, lw=6, label="steep reference")
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[-1].set_xlabel("wavelength (nm)")
+    return fig, data
+
+
+def macbeth_figures(
+    result, bundle, procedure, band_errors=()
+) -> dict[str, tuple[Any, dict[str, Any]]]:
     """Every figure of the report with its data, by name.
 
     Parameters
@@ -326,11 +380,14 @@ def macbeth_figures(result, bundle, procedure) -> dict[str, tuple[Any, dict[str,
         The :class:`~sassi_bench.bundle.CalibrationBundle` validated.
     procedure
         The validation procedure: its ``tolerances`` and ``localisation.interior``.
+    band_errors
+        :class:`~sassi_bench.validate.band_error.PatchBandError` of the patches whose
+        per-band error is drawn (the failing ones).
 
     Returns
     -------
     dict
-        ``"spectra"``, ``"de00"``, ``"chart"``, ``"localisation"`` and
+        ``"band_error"``, ``"spectra"``, ``"de00"``, ``"chart"``, ``"localisation"`` and
         ``"wavelength_calibration"`` -> (figure, data).
 
     Examples
@@ -339,6 +396,7 @@ def macbeth_figures(result, bundle, procedure) -> dict[str, tuple[Any, dict[str,
     >>> fig, data = figures["de00"]  # doctest: +SKIP
     """
     return {
+        "band_error": band_error_figure(result, band_errors),
         "spectra": spectra_figure(result),
         "de00": de00_figure(result, procedure["tolerances"]),
         "chart": chart_figure(result),

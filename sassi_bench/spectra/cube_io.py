@@ -61,7 +61,10 @@ def cube_dataset(
     >>> ds["radiance"].dims, int(ds.x[0]), int(ds.y[0]), ds["response"].attrs["units"]
     (('y', 'x', 'wavelength'), 20, 10, 'count s-1')
     """
-    return spectral_cube_dataset(
+    extra: dict[str, Any] = {}
+    if scan.deblur is not None:
+        extra.update(scan.deblur.to_attrs())
+    ds = spectral_cube_dataset(
         scan.cube,
         scan.wavelengths_nm,
         scan.bin_edges_nm,
@@ -70,8 +73,24 @@ def cube_dataset(
         origin=scan.origin,
         response=response,
         title="SASSI pinhole scan",
-        attrs={"background_check_rms": float(scan.background_check_rms or np.nan), **(attrs or {})},
+        attrs={
+            "background_check_rms": float(scan.background_check_rms or np.nan),
+            **extra,
+            **(attrs or {}),
+        },
     )
+    if scan.band_noise_psnr_db is not None:
+        ds["band_noise_psnr_db"] = (
+            ("wavelength",),
+            np.asarray(scan.band_noise_psnr_db, dtype=np.float64),
+            {
+                "units": "dB",
+                "long_name": "per-band PSNR of the cube against its own propagated noise",
+                "description": "the cube's peak over the RMS of the deblurred spectra's "
+                "photon and read noise, in camera units per second (no truth)",
+            },
+        )
+    return ds
 
 
 def spectral_cube_dataset(

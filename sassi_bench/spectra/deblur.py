@@ -1,188 +1,482 @@
 """The within-streak deblur: undo the spill of each bin's light into its neighbours.
 
 Within a streak the blur spills each bin into its neighbours, up to about 3.5 bins at the
-red end; that mixing matrix (uniform box blurred by a Gaussian, integrated over each bin's
-columns, in closed form: :func:`spill_matrix`) depends only on relative positions, so its
-regularised inverse is diagonalised once at a coarse grid of field points
-(:class:`SpectralDeblur`) and applied with each pixel's own smoothing weight, which follows
-its signal, so dark pixels are smoothed more than bright ones. A few one-pixel guard bins
-beyond 400 and 700 nm absorb light from outside the band.
+red end. The spill is an explicit forward model of each streak
+(:class:`~sassi_bench.spectra.forward.StreakForwardModel`: every bin's columns and the
+blur at its own wavelength, guard bins included), and its regularised inverse
+``min |A x - a|^2 + alpha |P x|^2`` (``P`` a smoothness prior,
+:mod:`~sassi_bench.spectra.priors`) is diagonalised once per field point: with the
+generalised eigenvectors ``Z`` of ``(Q, A^T A + a0 Q)`` the solution for any ``alpha`` is
+``Z diag(1 / (1 + (alpha - a0) lambda)) (A Z)^T a``, two fixed matrix products and a
+per-pixel scaling, so every pixel gets its own weight at no extra cost.
+
+Two estimators share that machinery:
+
+* :class:`SpectralDeblur`, per pixel (cubes, snapshots). Each pixel's weight follows its
+  photon noise, ``alpha = strength^2 * full_scale / level`` (dark pixels are smoothed
+  more than bright ones), and the strength is chosen per scan from the data's noise
+  (:meth:`SpectralDeblur.choose`, REML pooled over the scan's pixels;
+  :mod:`~sassi_bench.spectra.regularisation`).
+* :class:`MeanDeblur`, for mean spectra (the white diffuser's, a chart patch's, a scan's
+  mean): the raw column sums are averaged first, per field point, and each mean is
+  deblurred once at the noise of the mean, which is its pixels' over their count. Noise
+  averages out of a mean, bias does not: a mean wants the weak regularisation its own
+  noise allows, not the one each pixel needs.
 """
 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import eigh
-from scipy.special import ndtr
+from threadpoolctl import threadpool_limits
 
 from sassi_bench.bundle import CalibrationBundle
-from sassi_bench.spectra.geometry import GUARD_BINS, streak_geometry
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.forward import StreakForwardModel
+from sassi_bench.spectra.priors import SmoothnessPrior
+from sassi_bench.spectra.regularisation import RegularisationChoice, rule_scores
 
-__all__ = ["MIN_SMOOTHING", "SpectralDeblur", "spill_matrix"]
+__all__ = [
+    "DEFAULT_STRENGTH",
+    "GUARD_WEIGHT",
+    "MIN_SMOOTHING",
+    "MeanDeblur",
+    "MeanSpectrum",
+    "SpectralDeblur",
+]
 
-
-def _psi(z: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Antiderivative of the normal CDF: z Phi(z) + phi(z)."""
-    return z * ndtr(z) + np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
-
-
-def spill_matrix(x_left, x_right, sigma) -> NDArray[np.float64]:
-    """Fraction of bin b' light (uniform over its columns, Gaussian-blurred) in bin b's
-    columns: ``A[..., b, b']``.
-
-    Examples
-    --------
-    >>> a = spill_matrix(np.array([0.0, 1.0]), np.array([1.0, 2.0]), np.array([1e-6, 1e-6]))
-    >>> a.round(3).tolist()
-    [[1.0, 0.0], [0.0, 1.0]]
-    """
-    x0, x1 = x_left[..., :, None], x_right[..., :, None]
-    s0, s1 = x_left[..., None, :], x_right[..., None, :]
-    sg = np.broadcast_to(sigma, x_left.shape)[..., None, :]
-    width = s1 - s0
-    return (sg / width) * (
-        _psi((x1 - s0) / sg) - _psi((x1 - s1) / sg) - _psi((x0 - s0) / sg) + _psi((x0 - s1) / sg)
-    )
-
-
-#: The smallest smoothing weight a pixel gets (the brightest pixels' floor).
+#: The smallest smoothing strength a pixel gets (the brightest pixels' floor).
 MIN_SMOOTHING = 0.25
+
+#: The per-pixel strength used when none is chosen from the data.
+DEFAULT_STRENGTH = 2.5
+
+#: Strengths the per-pixel choice tries (log-spaced).
+STRENGTHS = tuple(float(s) for s in np.round(np.geomspace(0.25, 16.0, 19), 4))
+
+#: The ridge on the guard bins beyond the first past each end of the band. The outermost
+#: guards are barely observed (most of their light falls beyond the measured columns), so
+#: without a ridge they take any value (tails of +-0.8 of the spectrum's peak on the sim
+#: rig's ColorChecker); a likelihood choice of the ridge keeps making it weaker, as it buys
+#: the fit of the forward model's own error at the band's end. 0.05 lets the light past
+#: the band end where it ends (720 nm on the virtual bench) and keeps the response within
+#: 3 % on the N-BK7 and SF10 rigs; 0.02-0.1 differ by under 1.5 %.
+GUARD_WEIGHT = 0.05
+
+#: Weights a mean's deblur tries, and the weight its operators are built at.
+MEAN_WEIGHTS = tuple(float(a) for a in np.geomspace(1e-6, 1e2, 33))
+_MEAN_SHIFT = MEAN_WEIGHTS[0]
+
+#: The forward model's relative accuracy, added to a mean's noise when its weight is
+#: judged: the bundle's blur curve, extrapolated to the guard bins, is 0.1-0.3 px narrower
+#: than the light's on the sim rig, about 1 % of the signal at the band's end.
+MODEL_ERROR = 0.01
+
+#: Pixels at most that judge a scan's strength (spread over the scan).
+CHOICE_PIXELS = 4096
+
+
+class Prior(Protocol):
+    """A smoothness prior (:mod:`~sassi_bench.spectra.priors`)."""
+
+    @property
+    def label(self) -> str: ...
+
+    def penalty(self, sigma: NDArray[np.float64], guard: int) -> NDArray[np.float64]: ...
+
+
+@dataclass(frozen=True)
+class _Operators:
+    """The generalised eigen decomposition of a prior against the spill, per field point."""
+
+    project: NDArray[np.float64]  # (P, B', B'): (A Z)^T
+    eigenvalues: NDArray[np.float64]  # (P, B')
+    expand: NDArray[np.float64]  # (P, B', B'): Z
+    gains: NDArray[np.float64]  # (P, B'): |A z_i|^2
+    shift: float
+
+    @classmethod
+    def build(cls, model: StreakForwardModel, prior: Prior, shift: float) -> _Operators:
+        penalty = prior.penalty(model.sigma_px, model.guard)
+        n = model.n_bins
+        out: dict[str, list] = {"project": [], "eigenvalues": [], "expand": [], "gains": []}
+        # One BLAS thread: the matrices are small, and BLAS's spinning threads contend with
+        # any other load (0.15 s with one thread, 0.65 s with two on a busy machine).
+        with threadpool_limits(limits=1, user_api="blas"):
+            for spill, rows in zip(model.spill, penalty, strict=True):  # a few dozen points
+                gram = spill.T @ spill
+                q = (np.trace(gram) / n) * (rows.T @ rows)
+                lam, z = eigh(q, gram + shift * q)
+                projected = spill @ z
+                out["project"].append(projected.T)
+                out["eigenvalues"].append(np.clip(lam, 0.0, None))
+                out["expand"].append(z)
+                out["gains"].append(np.sum(projected**2, axis=0))
+        return cls(*(np.asarray(out[k]) for k in out), float(shift))
+
+    def filters(self, point: NDArray[np.intp], weights: NDArray[np.float64]) -> NDArray:
+        """(N, B') ``1 / (1 + (alpha - a0) lambda)`` of spectra at field points ``point``."""
+        return 1.0 / (1.0 + (weights[:, None] - self.shift) * self.eigenvalues[point])
+
+    def solve(self, means: NDArray, point: NDArray[np.intp], weights: NDArray) -> NDArray:
+        """Deblurred spectra (N, B') of a few spectra at field points ``point``."""
+        coords = np.einsum("nij,nj->ni", self.project[point], means)
+        return np.einsum("nij,nj->ni", self.expand[point], coords * self.filters(point, weights))
+
+    def noise_std(self, point: NDArray[np.intp], weights: NDArray, variance: NDArray) -> NDArray:
+        """(N, B') standard deviation of the solution from white noise of ``variance`` (N,)."""
+        filt = self.filters(point, weights)
+        spread = np.einsum("nbi,ni->nb", self.expand[point] ** 2, filt**2 * self.gains[point])
+        return np.sqrt(np.asarray(variance)[:, None] * spread)
 
 
 @dataclass(frozen=True)
 class SpectralDeblur:
-    """Regularised inverses of the within-streak spill, on a coarse grid of field points.
+    """Per-pixel deblur: each pixel's weight follows its signal, one strength per scan.
 
-    The unmixing solves, per pixel, ``min |A x - y|^2 + s^2 |W L x|^2`` with ``A`` the
-    spill matrix, ``L`` the second difference along the bins and ``W`` the blur sigma of
-    each bin over the largest one: curvature is penalised where the blur mixes bins, while
-    where the blur is narrower than a bin the data alone decide. The weight ``s`` follows
-    each pixel's signal, ``s = strength * sqrt(full_scale / mean bin signal)``: with
-    photon-limited noise (variance proportional to the signal) and a prior whose scale
-    follows the spectrum's own level, that is the noise-whitened Tikhonov weight, so dark
-    pixels are smoothed more than bright ones. A single weight for all pixels either
-    leaves dark pixels noisy or flattens the LED's blue peak in bright ones.
+    ``alpha_n = strength^2 * full_scale / level_n`` (``level_n`` the pixel's mean column
+    sum over the band): with photon-limited noise (variance proportional to the signal)
+    and a prior whose scale follows the spectrum's own level, that is the noise-whitened
+    Tikhonov weight. Each pixel uses the operators of its nearest field point.
 
-    Every pixel has its own weight, yet no per-pixel solve is needed: at each field point
-    ``A^T A + s^2 Q`` (``Q`` the scaled penalty) is diagonalised for all ``s`` at once by
-    the generalised eigenvectors ``Z`` of ``(Q, A^T A + s0^2 Q)``, so the solution is
-    ``Z diag(1 / (1 + (s^2 - s0^2) lambda)) (A Z)^T y``: two fixed matrix products and a
-    per-pixel scaling. Each pixel uses the operators of its nearest field point: they
-    change slowly over the field (blending the four nearest bilinearly changed the
-    ColorChecker cube by 1.4e-4 RMS, relative, at four times the cost).
-
-    Build once per bundle with :meth:`from_bundle`; :meth:`apply` unmixes spectra.
+    Build with :meth:`from_model` (or :meth:`from_bundle`); :meth:`apply` unmixes,
+    :meth:`choose` picks the strength from the data's noise, :meth:`posterior_std`
+    propagates the noise.
     """
 
-    grid_u: NDArray[np.float64]
-    grid_v: NDArray[np.float64]
-    project: NDArray[np.float64]  # (len(grid_v), len(grid_u), B', B'): (A Z)^T
-    eigenvalues: NDArray[np.float64]  # (len(grid_v), len(grid_u), B')
-    expand: NDArray[np.float64]  # (len(grid_v), len(grid_u), B', B'): Z
+    model: StreakForwardModel
+    operators: _Operators
     strength: float
     full_scale: float
+    prior: str
+    choice: RegularisationChoice | None = None
+
+    @classmethod
+    def from_model(
+        cls,
+        model: StreakForwardModel,
+        prior: Prior,
+        *,
+        strength: float = DEFAULT_STRENGTH,
+        full_scale: float = 65535.0,
+    ) -> SpectralDeblur:
+        """Diagonalise the regularised normal equations of ``prior`` at every field point.
+
+        Examples
+        --------
+        >>> model = StreakForwardModel.from_bundle(bundle)  # doctest: +SKIP
+        >>> deblur = SpectralDeblur.from_model(model, SmoothnessPrior(0.05))  # doctest: +SKIP
+        """
+        operators = _Operators.build(model, prior, MIN_SMOOTHING**2)
+        return cls(model, operators, float(strength), float(full_scale), prior.label)
 
     @classmethod
     def from_bundle(
         cls,
         bundle: CalibrationBundle,
         *,
-        strength: float = 1.5,
+        strength: float = DEFAULT_STRENGTH,
         full_scale: float = 65535.0,
-        points: tuple[int, int] = (9, 6),
-        guard: int = GUARD_BINS,
+        prior: Prior | None = None,
     ) -> SpectralDeblur:
-        """Diagonalise the regularised normal equations at a grid of field points.
-
-        Parameters
-        ----------
-        bundle
-            The calibration bundle (streak geometry and blur).
-        strength
-            Smoothing weight of a pixel whose mean bin signal is ``full_scale``.
-        full_scale
-            The camera's full-scale reading (ADU), the reference signal level.
-        points
-            Field points (along u, along v) at which the operators are computed.
-        guard
-            Guard bins at each end of the band (see :func:`streak_geometry`).
+        """The deblur of a bundle's streaks (default prior: :class:`SmoothnessPrior` with
+        the :data:`GUARD_WEIGHT` ridge on the guard bins beyond the band).
 
         Examples
         --------
         >>> deblur = SpectralDeblur.from_bundle(bundle)  # doctest: +SKIP
         """
-        h, w = bundle.slm_shape
-        gu = np.linspace(0, w - 1, points[0])
-        gv = np.linspace(0, h - 1, points[1])
-        vv, uu = np.meshgrid(gv, gu, indexing="ij")
-        geo = streak_geometry(bundle, vv.ravel(), uu.ravel(), guard)
-        a = spill_matrix(geo.x_left, geo.x_right, geo.sigma)  # (P, B', B')
-        n = a.shape[-1]
-        weight = geo.sigma[1:-1] / geo.sigma.max()
-        penalty = weight[:, None] * np.diff(np.eye(n), 2, axis=0)
-        roughness = penalty.T @ penalty
-        project, eigenvalues, expand = [], [], []
-        for spill in a:  # a few dozen field points, each a small symmetric eigenproblem
-            gram = spill.T @ spill
-            q = (np.trace(gram) / n) * roughness
-            lam, z = eigh(q, gram + MIN_SMOOTHING**2 * q)
-            project.append((spill @ z).T)
-            eigenvalues.append(np.clip(lam, 0.0, None))
-            expand.append(z)
-        grid = (points[1], points[0])
-        return cls(
-            gu,
-            gv,
-            np.reshape(project, (*grid, n, n)),
-            np.reshape(eigenvalues, (*grid, n)),
-            np.reshape(expand, (*grid, n, n)),
-            float(strength),
-            float(full_scale),
+        model = StreakForwardModel.from_bundle(bundle)
+        return cls.from_model(
+            model, prior or SmoothnessPrior(GUARD_WEIGHT), strength=strength, full_scale=full_scale
         )
 
-    def smoothing(
-        self, values: NDArray[np.float64], guard: int = GUARD_BINS
+    @property
+    def guard(self) -> int:
+        """Guard bins at each end."""
+        return self.model.guard
+
+    def weights(
+        self, values: NDArray[np.floating], strength: float | None = None
     ) -> NDArray[np.float64]:
-        """Each pixel's smoothing weight from its (N, B') column sums."""
-        level = np.clip(values[:, guard : values.shape[1] - guard].mean(axis=1), 1e-12, None)
-        return np.maximum(self.strength * np.sqrt(self.full_scale / level), MIN_SMOOTHING)
+        """Each pixel's weight ``alpha`` from its (N, B') column sums."""
+        s = self.strength if strength is None else strength
+        core = values[:, self.model.core]
+        level = np.clip(core.mean(axis=1, dtype=np.float64), 1e-12, None)
+        return np.maximum(s**2 * self.full_scale / level, MIN_SMOOTHING**2)
 
     @cached_property
     def _single(self) -> tuple[NDArray[np.float32], ...]:
         """The operators in single precision (for :meth:`apply` on float32 values)."""
-        return tuple(a.astype(np.float32) for a in (self.project, self.eigenvalues, self.expand))
+        ops = self.operators
+        return tuple(a.astype(np.float32) for a in (ops.project, ops.eigenvalues, ops.expand))
 
     def apply(self, values: NDArray[np.floating], rows, cols) -> NDArray[np.floating]:
         """Unmix (N, B') column sums of pixels at SLM (rows, cols), each solved exactly for
-        its own smoothing weight with the operators of its nearest field point.
+        its own weight with the operators of its nearest field point.
 
         Computes in the precision of ``values``: float32 halves the cost of the products
-        and changes the result by about 5e-7 of the spectrum (float32 cubes keep 6e-8).
+        and changes the result by about 5e-7 of the spectrum.
         """
         single = values.dtype == np.float32
         dtype = np.float32 if single else np.float64
+        ops = self.operators
         project, eigenvalues, expand = (
-            self._single if single else (self.project, self.eigenvalues, self.expand)
+            self._single if single else (ops.project, ops.eigenvalues, ops.expand)
         )
-        extra = (self.smoothing(values) ** 2 - MIN_SMOOTHING**2).astype(dtype)
-        fv = np.interp(rows, self.grid_v, np.arange(self.grid_v.size))
-        fu = np.interp(cols, self.grid_u, np.arange(self.grid_u.size))
-        point = np.rint(fv).astype(np.intp) * self.grid_u.size + np.rint(fu).astype(np.intp)
+        extra = (self.weights(values) - ops.shift).astype(dtype)
+        point = self.model.point(rows, cols)
         # Pixels sorted by field point, so that each point's are one contiguous block.
         order = np.argsort(point, kind="stable")
         point, extra = point[order], extra[order, None]
         ordered = values[order].astype(dtype, copy=False)
         edges = np.unique(np.r_[0, np.flatnonzero(np.diff(point)) + 1, point.size])
         for start, stop in itertools.pairwise(edges):  # one pass per field point
-            g = np.unravel_index(point[start], eigenvalues.shape[:2])
+            g = point[start]
             coords = ordered[start:stop] @ project[g].T
             coords /= 1.0 + extra[start:stop] * eigenvalues[g]
             np.matmul(coords, expand[g].T, out=ordered[start:stop])
         out = np.empty(values.shape, dtype)
         out[order] = ordered
         return out
+
+    def posterior_std(
+        self, values: NDArray[np.floating], rows, cols, variance: ArrayLike
+    ) -> NDArray[np.float64]:
+        """(N, B') standard deviation of :meth:`apply`'s spectra from the noise alone.
+
+        ``variance`` (N,) is each pixel's column-sum noise variance
+        (:class:`~sassi_bench.spectra.noise.CountsNoise`).
+        """
+        values = np.asarray(values, dtype=np.float64)
+        point = self.model.point(rows, cols)
+        return self.operators.noise_std(point, self.weights(values), np.asarray(variance))
+
+    def choose(
+        self,
+        values: NDArray[np.floating],
+        rows,
+        cols,
+        variance: ArrayLike,
+        *,
+        rule: str = "discrepancy",
+        candidates: tuple[float, ...] = STRENGTHS,
+    ) -> SpectralDeblur:
+        """This deblur with the strength that ``rule`` prefers for these pixels.
+
+        Parameters
+        ----------
+        values
+            (N, B') column sums of a sample of the scan's pixels (a few thousand).
+        rows, cols
+            Their SLM pixels.
+        variance
+            (N,) the noise variance of each pixel's column sums (mean over bins).
+        rule
+            ``"reml"``, ``"gcv"`` or ``"discrepancy"``
+            (:mod:`~sassi_bench.spectra.regularisation`).
+        candidates
+            Strengths to try.
+
+        Returns
+        -------
+        SpectralDeblur
+            With ``strength`` and ``choice`` set.
+        """
+        values = np.asarray(values, dtype=np.float64)
+        variance = np.asarray(variance, dtype=np.float64)
+        if values.shape[0] == 0:
+            raise ProcedureError(
+                step_error(
+                    "spectral deblur",
+                    "no measured pixels to choose the regularisation from",
+                    "check the scan's quality mask (saturated or off-camera streaks)",
+                )
+            )
+        ops = self.operators
+        point = self.model.point(rows, cols)
+        coords = np.einsum("nij,nj->ni", ops.project[point], values)
+        terms = [
+            rule_scores(
+                rule, coords, ops.gains[point], ops.eigenvalues[point],
+                self.weights(values, s), variance, ops.shift,
+            )
+            for s in candidates
+        ]  # fmt: skip
+        score, residual, dof = (np.asarray(t) for t in zip(*terms, strict=True))
+        pooled = RegularisationChoice.pooled(
+            rule, score, residual, dof, variance, self.model.n_bins
+        )
+        best = int(np.argmin(pooled))
+        choice = RegularisationChoice(
+            rule, "smoothness", candidates[best], tuple(candidates),
+            tuple(float(v) for v in pooled), int(values.shape[0]), prior=self.prior,
+        )  # fmt: skip
+        return replace(self, strength=float(candidates[best]), choice=choice)
+
+
+@dataclass(frozen=True)
+class MeanSpectrum:
+    """A deblurred mean spectrum, guard bins included.
+
+    Attributes
+    ----------
+    spectrum, std
+        (B',) the mean light per bin and its standard deviation from the noise alone.
+    count
+        Pixels averaged.
+    choice
+        How its regularisation was chosen.
+    guard
+        Guard bins at each end.
+    """
+
+    spectrum: NDArray[np.float64]
+    std: NDArray[np.float64]
+    count: int
+    choice: RegularisationChoice
+    guard: int
+
+    @property
+    def band(self) -> NDArray[np.float64]:
+        """The spectrum at the bundle's bins, (B,)."""
+        return self.spectrum[self.guard : self.spectrum.size - self.guard]
+
+    @property
+    def band_std(self) -> NDArray[np.float64]:
+        """Its noise standard deviation at the bundle's bins, (B,)."""
+        return self.std[self.guard : self.std.size - self.guard]
+
+
+def _group_means(values, variance, point, trim):
+    """Per field point: mean (trimmed per bin) column sums, mean variance, count."""
+    groups, inverse, counts = np.unique(point, return_inverse=True, return_counts=True)
+    if trim <= 0:
+        sums = np.stack([np.bincount(inverse, weights=col) for col in values.T], axis=1)
+        means = sums / counts[:, None]
+    else:
+        means = np.empty((groups.size, values.shape[1]))
+        for g in range(groups.size):  # a few dozen field points
+            chunk = values[inverse == g]
+            lo, hi = np.percentile(chunk, [100 * trim, 100 * (1 - trim)], axis=0)
+            inside = (chunk >= lo) & (chunk <= hi)
+            means[g] = np.sum(np.where(inside, chunk, 0.0), 0) / np.maximum(inside.sum(0), 1)
+    var = np.bincount(inverse, weights=variance) / counts
+    return groups, means, var / counts, counts
+
+
+class MeanDeblur:
+    """Deblur mean spectra (a white diffuser's, a patch's, a scan's) once, at the mean's
+    own noise, with the weight chosen by a rule (REML by default).
+
+    The pixels' raw column sums are averaged per field point (their pixels share one
+    spill); each field point's mean is deblurred at its noise, the pixels' variance over
+    their count plus the forward model's own error (:data:`MODEL_ERROR` of the signal:
+    without it the rule reads the model's error at the band's end as signal when the
+    mean has tens of thousands of pixels), and the means are averaged by pixel count.
+
+    Build once per prior (one decomposition per field point, a few tenths of a second),
+    call for every mean.
+
+    Examples
+    --------
+    >>> mean = MeanDeblur.from_bundle(bundle)(values, rows, cols, variance)  # doctest: +SKIP
+    >>> mean.band.shape  # doctest: +SKIP
+    (68,)
+    """
+
+    def __init__(self, model: StreakForwardModel, prior: Prior | None = None):
+        self.model = model
+        self.prior = prior or SmoothnessPrior(GUARD_WEIGHT)
+        self.operators = _Operators.build(model, self.prior, _MEAN_SHIFT)
+
+    @classmethod
+    def from_bundle(cls, bundle: CalibrationBundle, prior: Prior | None = None) -> MeanDeblur:
+        """The mean deblur of a bundle's streaks."""
+        return cls(StreakForwardModel.from_bundle(bundle), prior)
+
+    def __call__(
+        self,
+        values: NDArray[np.floating],
+        rows,
+        cols,
+        variance: ArrayLike,
+        *,
+        rule: str = "reml",
+        trim: float = 0.0,
+    ) -> MeanSpectrum:
+        """The deblurred mean of pixels' (N, B') column sums.
+
+        Parameters
+        ----------
+        values
+            (N, B') column sums of the pixels (guard bins included).
+        rows, cols
+            Their SLM pixels.
+        variance
+            (N,) noise variance of each pixel's column sums (mean over bins), in the
+            units of ``values`` squared.
+        rule
+            ``"reml"``, ``"gcv"`` or ``"discrepancy"``.
+        trim
+            Fraction trimmed at each end, per bin and field point, before averaging
+            (robust to a few dusty or clipped pixels).
+        """
+        values = np.asarray(values, dtype=np.float64)
+        if values.ndim != 2 or values.shape[0] == 0 or values.shape[1] != self.model.n_bins:
+            raise ProcedureError(
+                step_error(
+                    "mean spectrum",
+                    f"got column sums of shape {values.shape}, expected (pixels > 0, "
+                    f"{self.model.n_bins})",
+                    "pass the measured pixels' column sums with their guard bins",
+                )
+            )
+        point = self.model.point(rows, cols)
+        groups, means, noise, counts = _group_means(
+            values, np.asarray(variance, dtype=np.float64), point, trim
+        )
+        judged = noise + MODEL_ERROR**2 * np.mean(means**2, axis=1)
+        ops = self.operators
+        coords = np.einsum("nij,nj->ni", ops.project[groups], means)
+        weights = np.asarray(MEAN_WEIGHTS)
+        scores = np.array(
+            [
+                _own_score(rule, coords, ops, groups, np.full(groups.size, a), judged)
+                for a in weights
+            ]
+        )  # (K, G)
+        alpha = weights[np.argmin(scores, axis=0)]
+        solved = ops.solve(means, groups, alpha)
+        std = ops.noise_std(groups, alpha, noise)
+        total = int(counts.sum())
+        choice = RegularisationChoice(
+            rule, "weight", float(np.median(alpha)), spectra=total,
+            guard_weight=getattr(self.prior, "guard_weight", None), prior=self.prior.label,
+        )  # fmt: skip
+        return MeanSpectrum(
+            spectrum=(solved * counts[:, None]).sum(axis=0) / total,
+            std=np.sqrt(((std * counts[:, None]) ** 2).sum(axis=0)) / total,
+            count=total,
+            choice=choice,
+            guard=self.model.guard,
+        )
+
+
+def _own_score(rule, coords, ops: _Operators, groups, alpha, var) -> NDArray[np.float64]:
+    """Each mean's own score at weights ``alpha`` (lower is better)."""
+    score, residual, dof = rule_scores(
+        rule, coords, ops.gains[groups], ops.eigenvalues[groups], alpha, var, ops.shift
+    )
+    bins = coords.shape[1]
+    if rule == "reml":
+        return score
+    if rule == "gcv":
+        return bins * residual / np.maximum(dof, 1e-9) ** 2
+    return np.abs(residual - bins * var)

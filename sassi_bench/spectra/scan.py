@@ -13,11 +13,18 @@ once, a few frames in memory at a time (threads work on several frames at once):
    plan has it, only checks the estimate). The same pass keeps each open pixel's raw
    cell sums (:mod:`~sassi_bench.spectra.cells`), which are linear in the frame, in the
    cube's own memory, and flags streaks that are saturated or leave the camera.
-2. **Spectra pass.** With the background known, its cell sums are subtracted, the
-   stacked pixels unmixed and the spectra deblurred
-   (:mod:`~sassi_bench.spectra.extract`), in place. Frames with NaNs or the wrong shape,
-   and streaks that are saturated or leave the camera, are reported by frame and SLM
-   pixel and flagged in a quality mask instead of being filled in.
+2. **Spectra pass.** With the background known, its cell sums are subtracted and the
+   stacked pixels unmixed (:mod:`~sassi_bench.spectra.extract`), in place; the noise
+   variance of every pixel's column sums is kept beside them
+   (:class:`~sassi_bench.spectra.noise.CountsNoise`, from the rig's camera). Frames with
+   NaNs or the wrong shape, and streaks that are saturated or leave the camera, are
+   reported by frame and SLM pixel and flagged in a quality mask instead of being filled
+   in.
+3. **Deblur** (:mod:`~sassi_bench.spectra.deblur`). The scan's mean spectrum is deblurred
+   once at its own noise; the per-pixel deblur's prior is the curvature of each spectrum
+   relative to that mean, and its strength is chosen from a sample of the scan's pixels
+   and their noise (:meth:`~sassi_bench.spectra.deblur.SpectralDeblur.choose`). The
+   choice, and the per-band noise of the deblurred cube, go with the cube.
 
 Only the camera rows that light of the SLM can reach are processed; the background is
 NaN on the others.
@@ -45,9 +52,12 @@ from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
-from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
+from sassi_bench.spectra.noise import CountsNoise, row_unmixing_gain
 from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
+from sassi_bench.spectra.regularisation import RegularisationChoice
+from sassi_bench.spectra.scan_deblur import ScanDeblur, deblur_scan, stack_bins
 
 __all__ = [
     "QUALITY_FLAGS",
@@ -199,6 +209,22 @@ class ScanCube:
         RMS difference between the estimate and the closed-SLM frame, if one was taken.
     problems
         One line per frame or pixel problem (frame index, SLM pixel, cause).
+    deblur
+        How the deblur's regularisation was chosen (None: not deblurred).
+    mean_spectrum
+        (B',) the scan's mean light per bin and second, guard bins included, deblurred
+        at its own noise (the per-pixel prior's reference); None when not deblurred.
+    band_noise_psnr_db
+        (B,) per-band PSNR of the cube against its own noise: the cube's peak over the
+        RMS of the deblurred spectra's noise alone (propagated from the photon and read
+        noise, no truth); None when not deblurred.
+    column_sums
+        (H, W, B') the unmixed column sums per second before the deblur, guard bins
+        included, when kept (``keep_raw``): means of them are deblurred once, at the
+        mean's noise (:class:`~sassi_bench.spectra.deblur.MeanDeblur`).
+    noise_variance
+        (H, W) each pixel's column-sum noise variance per second squared (mean over the
+        bins), when kept.
     """
 
     cube: NDArray[np.float32]
@@ -210,16 +236,23 @@ class ScanCube:
     background_check_rms: float | None
     mean_streak_signal: float
     problems: list[str] = field(default_factory=list)
+    deblur: RegularisationChoice | None = None
+    mean_spectrum: NDArray[np.float64] | None = None
+    band_noise_psnr_db: NDArray[np.float64] | None = None
+    column_sums: NDArray[np.float32] | None = None
+    noise_variance: NDArray[np.float32] | None = None
 
 
-def _run_frames(task, items: list, label: str, progress: bool, workers: int) -> list:
+def _run_frames(
+    task, items: list, label: str, progress: bool, workers: int, unit: str = "frame"
+) -> list:
     """``task(item)`` for every frame, ``workers`` at a time, results in order.
 
     Threads suffice: the work is numpy, compiled loops and decompression, which release
     the GIL. At most twice ``workers`` frames are in flight, so memory stays bounded.
     """
     results = []
-    with tqdm(total=len(items), desc=label, unit="frame", disable=not progress) as bar:
+    with tqdm(total=len(items), desc=label, unit=unit, disable=not progress) as bar:
         if workers == 1:  # in this thread (profilers and debuggers see the work)
             for item in items:
                 results.append(task(item))
@@ -288,9 +321,9 @@ class _Assembly:
                     "load the bundle of the rig the scan was taken on",
                 )
             )
-        self.unmix = (
-            SpectralDeblur.from_bundle(bundle, full_scale=self.saturation) if deblur else None
-        )
+        self.model = StreakForwardModel.from_bundle(bundle) if deblur else None
+        self.noise = CountsNoise.from_camera(rig["spectral_camera"])
+        self.row_gain: NDArray[np.float64] | None = None
         self.roi = check_roi(roi, self.slm_shape)
         r0, c0, r1, c1 = self.roi
         h = self.slm_shape[0]
@@ -300,6 +333,8 @@ class _Assembly:
         self.work = np.zeros((*area, self.n_bins), dtype=np.float32)  # raw sums, then cube
         self.guards = np.zeros((*area, 2 * GUARD_BINS), dtype=np.float32)
         self.quality = np.full(area, QUALITY_FLAGS["not_measured"], dtype=np.uint8)
+        self.exposure = np.zeros(area, dtype=np.float32)  # 0: not extracted
+        self.variance = np.zeros(area, dtype=np.float32)
         # Only the camera rows that light of the SLM can reach are processed.
         self.top, bottom = reached_rows(bundle, self.camera_shape[0], guard=GUARD_BINS)
         self.box = (bottom - self.top, self.camera_shape[1])
@@ -382,18 +417,40 @@ class _Assembly:
         geo = streak_geometry(self.bundle, frame.rows, frame.cols, GUARD_BINS).shifted(self.top)
         layout = cell_layout(geo, self.box)
         local = self._local(geo)
-        guards = self.guards[local]
-        raw = np.concatenate([guards[:, : geo.guard], self.work[local], guards[:, geo.guard :]], 1)
+        raw = stack_bins(self.work[local], self.guards[local], geo.guard)
+        with self.lock:  # every frame stacks its pixels alike: one gain for the scan
+            if self.row_gain is None:
+                self.row_gain = row_unmixing_gain(geo, layout)
+        variance = self.noise.variance(raw, layout, self.row_gain)
         raw -= cell_sums(self.background_cumulative, layout)
         amplitudes = unmix_rows(raw, layout, geo)
-        if self.unmix is not None:
-            # In single precision, like the cube (see SpectralDeblur.apply).
-            amplitudes = self.unmix.apply(amplitudes.astype(np.float32), geo.rows, geo.cols)
-        signal = amplitudes[:, geo.core]
+        self.work[local] = amplitudes[:, geo.core]
+        self.guards[local] = np.concatenate(
+            [amplitudes[:, : geo.guard], amplitudes[:, geo.core.stop :]], 1
+        )
         exposure = self.session.plan.steps[frame.index].exposure_s
-        self.work[local] = (signal / exposure).astype(np.float32)
+        self.exposure[local] = exposure
+        self.variance[local] = variance.mean(axis=1)
+        signal = amplitudes[:, geo.core] / exposure
         good = self.quality[local] == 0
         return float(signal[good].sum(dtype=np.float64)), int(good.sum()) * self.n_bins
+
+    def finish(self, run, keep_raw: bool) -> tuple[ScanDeblur | None, NDArray | None]:
+        """After the spectra pass: keep the column sums if asked, then deblur in place."""
+        extracted = self.exposure > 0
+        seconds = np.where(extracted, self.exposure, 1.0)[..., None]
+        kept = None
+        if keep_raw:
+            kept = (stack_bins(self.work, self.guards, GUARD_BINS) / seconds).astype(np.float32)
+        if self.model is None:
+            self.work /= seconds
+            return None, kept
+        c0 = self.roi.col0
+        result = deblur_scan(
+            self.work, self.guards, self.exposure, self.variance, self.quality == 0,
+            (self.w0, c0), self.model, float(self.saturation), run,
+        )  # fmt: skip
+        return result, kept
 
 
 def assemble_scan(
@@ -402,6 +459,7 @@ def assemble_scan(
     *,
     roi: Sequence[int] | None = None,
     deblur: bool = True,
+    keep_raw: bool = False,
     progress: bool = True,
     workers: int | None = None,
 ) -> ScanCube:
@@ -424,7 +482,11 @@ def assemble_scan(
         Optional (row0, col0, row1, col1) SLM region (end exclusive) to assemble.
     deblur
         Undo the spill of each bin into its neighbours along the streak (see
-        :mod:`sassi_bench.spectra.deblur`).
+        :mod:`sassi_bench.spectra.deblur`), with the regularisation chosen from the scan.
+    keep_raw
+        Also keep every pixel's column sums before the deblur and their noise
+        (:attr:`ScanCube.column_sums`, :attr:`ScanCube.noise_variance`), for spectra
+        averaged before they are deblurred (the response, the Macbeth patches).
     progress
         Show progress bars.
     workers
@@ -451,6 +513,12 @@ def assemble_scan(
         frames = _run_frames(assembly.read, steps, "scan frames", progress, workers)
         background = assembly.background()
         signals = _run_frames(assembly.spectra, frames, "scan spectra", progress, workers)
+        deblurred, kept = assembly.finish(
+            lambda task, items, label: _run_frames(
+                task, items, label, progress, workers, unit="block"
+            ),
+            keep_raw,
+        )
     check = None
     closed = [i for i in session.plan.select(role="closed") if i in session.completed]
     if closed:
@@ -458,6 +526,7 @@ def assemble_scan(
         check = float(np.sqrt(np.nanmean(residual**2)))
     r0, c0, r1, _ = assembly.roi
     crop = slice(r0 - assembly.w0, r1 - assembly.w0)
+    seconds = np.where(assembly.exposure > 0, assembly.exposure, 1.0) ** 2
     return ScanCube(
         cube=assembly.work if roi is None else assembly.work[crop].copy(),
         quality=assembly.quality if roi is None else assembly.quality[crop].copy(),
@@ -468,6 +537,11 @@ def assemble_scan(
         background_check_rms=check,
         mean_streak_signal=sum(s for s, _ in signals) / max(sum(c for _, c in signals), 1),
         problems=[line for frame in frames for line in frame.problems],
+        deblur=None if deblurred is None else deblurred.choice,
+        mean_spectrum=None if deblurred is None else deblurred.mean_spectrum,
+        band_noise_psnr_db=None if deblurred is None else deblurred.band_noise_psnr_db,
+        column_sums=None if kept is None else kept[crop],
+        noise_variance=(assembly.variance / seconds)[crop].astype(np.float32) if keep_raw else None,
     )
 
 

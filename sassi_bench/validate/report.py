@@ -37,9 +37,13 @@ from sassi_bench.plots.html import (
 )
 from sassi_bench.plots.macbeth import macbeth_figures
 from sassi_bench.provenance import package_version
+from sassi_bench.validate.band_error import failing_patches, patch_band_error
 from sassi_bench.validate.macbeth import MacbethResult
 
-__all__ = ["MacbethReport", "render_report", "report_data", "write_report"]
+__all__ = ["MAX_DRAWN", "MacbethReport", "render_report", "report_data", "write_report"]
+
+#: Failing patches whose per-band error the report draws at most (worst first).
+MAX_DRAWN = 4
 
 
 def report_data(
@@ -47,7 +51,11 @@ def report_data(
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The report's JSON document (without its ``bundle`` section) and the figures
     (name -> matplotlib figure)."""
-    figures = macbeth_figures(result, bundle, procedure)
+    failing = failing_patches(result, procedure["tolerances"])
+    # Failing patches, or else the worst one, so a lab sees where even a pass is weakest.
+    drawn = failing[:MAX_DRAWN] or [int(np.argmax(result.rmse))]
+    band_errors = [patch_band_error(result, k, bool(failing)) for k in drawn]
+    figures = macbeth_figures(result, bundle, procedure, band_errors)
     doc = {
         "kind": "macbeth_validation",
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
@@ -58,6 +66,7 @@ def report_data(
         "checks": [c.to_manifest() for c in result.checks],
         "usable_band_nm": list(result.band_nm),
         "notes": result.notes,
+        "band_errors": [e.to_dict() for e in band_errors],
         "settings": result.settings,
         "tolerances": dict(procedure["tolerances"]),
         "patches": [
@@ -233,6 +242,9 @@ mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
 <p>{_bundle_paragraph(ident)}</p>
 <div class="flex"><div><h2>Tolerances</h2>{checks}</div><div><h2>Run</h2>{settings}</div></div>
 {notes}
+<h2>Where the error lies along the band</h2>
+{"".join(f'<div class="note">{esc(e["sentence"])}</div>' for e in doc["band_errors"])}
+{img["band_error"]}
 <h2>Patch spectra</h2>{img["spectra"]}
 <h2>Colour difference</h2>{img["de00"]}
 <h2>Measured chart and reference</h2>{img["chart"]}

@@ -120,7 +120,7 @@ def run_macbeth(
     light, pitch = scan_cfg["light"], tuple(scan_cfg["pitch_px"])
     chart = run_scan(
         rig, bundle, scene=scan_cfg["scene"], light=light, pitch=pitch, roi=roi,
-        session_id=session_id, data=data, progress=progress,
+        session_id=session_id, data=data, progress=progress, keep_raw=True,
     )  # fmt: skip
     picture = None
     loc = procedure["localisation"]
@@ -132,6 +132,7 @@ def run_macbeth(
         diffuser = run_scan(
             rig, bundle, scene=procedure["white_reference"]["diffuser_scene"], light=light,
             pitch=pitch, roi=roi, session_id=white_session_id, data=data, progress=progress,
+            keep_raw=True,
         )  # fmt: skip
         white = diffuser.scan
         settings["white_session"] = diffuser.session.id

@@ -31,7 +31,9 @@ from sassi_bench.calibrate.radiometry import (
 )
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig, check_light, check_scene
+from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.scan import ScanCube, assemble_scan, check_pitch, check_roi, scan_plan
+from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
 from sassi_bench.workflows.rig_lock import drives_rig
 
 __all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
@@ -292,10 +294,15 @@ def run_response(
         data=data,
     )
     run_plan(rig, session.plan, session, progress=progress)
-    scan = assemble_scan(session, bundle, progress=progress)
-    good = scan.quality == 0
-    spectra = scan.cube[good & (np.abs(scan.cube).sum(axis=-1) > 0)]
-    response = response_from_white(spectra, source.photons_in_bins(bundle.bin_edges), reflectance)
+    scan = assemble_scan(session, bundle, keep_raw=True, progress=progress)
+    lit = (scan.quality == 0) & (np.abs(scan.cube).sum(axis=-1) > 0)
+    spectra = scan.cube[lit]
+    # The white's column sums are averaged first and deblurred once, at the mean's noise:
+    # noise averages out of a mean, the per-pixel deblur's smoothing bias would not.
+    white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle), lit)
+    response = response_from_white(
+        white.band, source.photons_in_bins(bundle.bin_edges), reflectance, pixels=white.count
+    )
     positive = bool(np.all(np.isfinite(response)) and np.all(response > 0))
     spread = float(np.median(np.std(spectra, axis=0) / np.abs(np.mean(spectra, axis=0))))
     residuals: dict[str, Any] = {"white_relative_spread": spread}
@@ -326,6 +333,10 @@ def run_response(
                 "every": every,
                 "reflectance": reflectance,
                 "source": source.label,
+                "deblur": {
+                    "mean": white.choice.to_dict(),
+                    "pixels": scan.deblur.to_dict() if scan.deblur is not None else None,
+                },
             },
         },
         inputs=[{"id": session.id, "sha256": session.sha256(), "kind": "session"}],
@@ -391,6 +402,7 @@ def run_scan(
     session_id: str | None = None,
     data=None,
     progress: bool = True,
+    keep_raw: bool = False,
 ) -> ScanRun:
     """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``.
 
@@ -414,6 +426,9 @@ def run_scan(
         Data root for sessions.
     progress
         Show progress bars.
+    keep_raw
+        Also keep the column sums before the deblur (for spectra averaged first and
+        deblurred once: the Macbeth patches).
 
     Returns
     -------
@@ -447,5 +462,5 @@ def run_scan(
         data=data,
     )
     run_plan(rig, session.plan, session, progress=progress)
-    scan = assemble_scan(session, bundle, roi=roi, progress=progress)
+    scan = assemble_scan(session, bundle, roi=roi, keep_raw=keep_raw, progress=progress)
     return ScanRun(scan, bundle.response is not None, session, bundle)

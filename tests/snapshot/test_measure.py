@@ -8,7 +8,7 @@ from scipy.special import ndtr
 
 from sassi_bench.errors import ProcedureError
 from sassi_bench.snapshot import measure_samples, uniform_mask
-from sassi_bench.spectra.deblur import _psi
+from sassi_bench.spectra.forward import _psi
 from sassi_bench.spectra.geometry import streak_geometry
 
 CAMERA = (2048, 2048)

@@ -5,8 +5,10 @@ import pytest
 
 from sassi_bench.bundle import load
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum
-from sassi_bench.spectra.deblur import SpectralDeblur, spill_matrix
+from sassi_bench.spectra.deblur import GUARD_WEIGHT, SpectralDeblur
+from sassi_bench.spectra.forward import spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
+from sassi_bench.spectra.priors import SmoothnessPrior
 
 
 @pytest.mark.parametrize("dtype", [np.uint16, np.float64])
@@ -49,18 +51,21 @@ def test_deblur_solves_each_pixels_regularised_problem(calibrated_sim):
     _, _, data = calibrated_sim
     bundle = load(rig="sim", data=data)
     deblur = SpectralDeblur.from_bundle(bundle, full_scale=65535.0)
-    row, col = deblur.grid_v[2], deblur.grid_u[4]  # a field point: its own operators
-    geo = streak_geometry(bundle, [row], [col])
-    a = spill_matrix(geo.x_left, geo.x_right, geo.sigma)[0]
+    model = deblur.model
+    point = 2 * model.grid_u.size + 4  # a field point: its own operators
+    row, col = model.grid_v[2], model.grid_u[4]
+    a = model.spill[point]
     n = a.shape[0]
-    penalty = (geo.sigma[1:-1] / geo.sigma.max())[:, None] * np.diff(np.eye(n), 2, axis=0)
+    penalty = SmoothnessPrior(GUARD_WEIGHT).penalty(model.sigma_px, model.guard)[point]
     gram = a.T @ a
     spectrum = 1000.0 * (1.2 + np.sin(np.linspace(0, 3, n)))
     values = (a @ spectrum)[None] * np.array([[1.0], [0.01]])  # bright and dark pixels
     unmixed = deblur.apply(values, np.array([row, row]), np.array([col, col]))
-    for y, x, s in zip(values, unmixed, deblur.smoothing(values), strict=True):
-        normal = gram + s**2 * (np.trace(gram) / n) * (penalty.T @ penalty)
+    for y, x, alpha in zip(values, unmixed, deblur.weights(values), strict=True):
+        normal = gram + alpha * (np.trace(gram) / n) * (penalty.T @ penalty)
         assert x == pytest.approx(np.linalg.solve(normal, a.T @ y), rel=1e-6, abs=1e-9)
+    # Dark pixels are smoothed more than bright ones.
+    assert deblur.weights(values)[1] > deblur.weights(values)[0]
 
 
 def test_deblur_in_single_precision_follows_double(calibrated_sim):

@@ -5,8 +5,8 @@ import pytest
 from scipy.special import ndtr
 
 from sassi_bench.spectra.cells import NEGLIGIBLE_COUPLING
-from sassi_bench.spectra.deblur import spill_matrix
 from sassi_bench.spectra.extract import extract_spectra
+from sassi_bench.spectra.forward import spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry
 
 

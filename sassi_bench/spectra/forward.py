@@ -1,0 +1,192 @@
+"""The forward model of a streak along its length: how each bin's light reaches the columns.
+
+Within a streak, bin ``b'``'s light is spread evenly over its camera columns
+``[x_left, x_right]`` and blurred by a Gaussian of the blur at the bin's *own*
+wavelength; the fraction of it that lands in bin ``b``'s columns is
+``A[b, b']`` (:func:`spill_matrix`, in closed form). So the column sums ``a`` of a pixel
+(what the row unmixing gives, :mod:`~sassi_bench.spectra.cells`) are ``a = A x`` with
+``x`` the light per bin.
+
+The guard bins, one camera pixel each beyond both ends of the band, carry light from
+outside the bundle's bins (at the red end of a prism's band, a pixel spans 10-15 nm, so
+six guard bins reach 60-90 nm past 700 nm). Their wavelengths come from the bundle's
+dispersion model inverted at their columns, and their blur from the bundle's blur model
+at those wavelengths: the blur at 700-760 nm is far wider than at the last bin, and a
+model that gave the guards the last bin's blur would predict several per cent more
+light at the band's end than reaches the camera, which the deblur amplifies.
+
+The spill depends only on the field position, slowly, so it is built at a coarse grid of
+field points (:class:`StreakForwardModel`) and each pixel uses its nearest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.special import ndtr
+
+from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.geometry import GUARD_BINS, streak_geometry
+
+__all__ = ["FIELD_POINTS", "StreakForwardModel", "guard_wavelengths", "spill_matrix"]
+
+#: Field points (along u, along v) at which the forward model is evaluated: the spill
+#: changes slowly over the field (blending the four nearest points bilinearly changed the
+#: ColorChecker cube by 1.4e-4 RMS, relative, at four times the cost of the nearest).
+FIELD_POINTS = (9, 6)
+
+#: Wavelength grid (nm) on which the dispersion is inverted for the guard bins.
+_INVERSION_GRID_NM = np.linspace(300.0, 1200.0, 9001)
+
+
+def _psi(z: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Antiderivative of the normal CDF: z Phi(z) + phi(z)."""
+    return z * ndtr(z) + np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
+
+
+def spill_matrix(x_left, x_right, sigma) -> NDArray[np.float64]:
+    """Fraction of bin b' light (uniform over its columns, Gaussian-blurred by
+    ``sigma[..., b']``) in bin b's columns: ``A[..., b, b']``.
+
+    Examples
+    --------
+    >>> a = spill_matrix(np.array([0.0, 1.0]), np.array([1.0, 2.0]), np.array([1e-6, 1e-6]))
+    >>> a.round(3).tolist()
+    [[1.0, 0.0], [0.0, 1.0]]
+    """
+    x0, x1 = x_left[..., :, None], x_right[..., :, None]
+    s0, s1 = x_left[..., None, :], x_right[..., None, :]
+    sg = np.broadcast_to(sigma, x_left.shape)[..., None, :]
+    width = s1 - s0
+    return (sg / width) * (
+        _psi((x1 - s0) / sg) - _psi((x1 - s1) / sg) - _psi((x0 - s0) / sg) + _psi((x0 - s1) / sg)
+    )
+
+
+def guard_wavelengths(
+    bundle: CalibrationBundle, rows: ArrayLike, cols: ArrayLike, guard: int = GUARD_BINS
+) -> NDArray[np.float64]:
+    """Centre wavelength of every bin of pixels (rows, cols), guard bins included, (N, B').
+
+    The bundle's bins keep their centres; a guard bin's wavelength is where the bundle's
+    dispersion model puts the centre of its camera column (the model inverted on a
+    0.1 nm grid, 300-1200 nm).
+
+    Examples
+    --------
+    >>> lam = guard_wavelengths(bundle, [200], [320])  # doctest: +SKIP
+    >>> lam[0, :6].round(0), lam[0, -6:].round(0)  # doctest: +SKIP
+    (array([388., 390., 392., 394., 396., 398.]), array([706., 719., 732., 746., 760., 775.]))
+    """
+    geo = streak_geometry(bundle, rows, cols, guard)
+    x, _ = bundle.models.dispersion.evaluate(
+        geo.cols[:, None].astype(float), geo.rows[:, None].astype(float), _INVERSION_GRID_NM
+    )
+    centres = 0.5 * (geo.x_left + geo.x_right)
+    lam = np.empty_like(centres)
+    for n in range(centres.shape[0]):  # a few dozen field points
+        ascending = x[n, -1] > x[n, 0]
+        xs = x[n] if ascending else x[n, ::-1]
+        grid = _INVERSION_GRID_NM if ascending else _INVERSION_GRID_NM[::-1]
+        lam[n] = np.interp(centres[n], xs, grid)
+    lam[:, geo.core] = np.asarray(bundle.wavelengths, dtype=np.float64)
+    return lam
+
+
+@dataclass(frozen=True)
+class StreakForwardModel:
+    """The spill of every bin into every other, at a grid of field points.
+
+    Attributes
+    ----------
+    grid_u, grid_v
+        SLM columns and rows of the field points; point ``p = iv * len(grid_u) + iu``.
+    wavelengths_nm
+        (P, B') centre wavelength of every bin, guard bins included.
+    sigma_px
+        (P, B') blur sigma at each bin's own wavelength (camera px).
+    spill
+        (P, B', B') :func:`spill_matrix` of each field point's bins.
+    guard
+        Guard bins at each end; the bundle's bins are ``guard .. B' - guard``.
+    """
+
+    grid_u: NDArray[np.float64]
+    grid_v: NDArray[np.float64]
+    wavelengths_nm: NDArray[np.float64]
+    sigma_px: NDArray[np.float64]
+    spill: NDArray[np.float64]
+    guard: int = GUARD_BINS
+
+    @classmethod
+    def from_bundle(
+        cls,
+        bundle: CalibrationBundle,
+        *,
+        points: tuple[int, int] = FIELD_POINTS,
+        guard: int = GUARD_BINS,
+    ) -> StreakForwardModel:
+        """The spill at ``points`` field points, from the bundle's bins, dispersion and blur.
+
+        The blur model is evaluated at every bin's own wavelength, the guards' too (an
+        extrapolation of the fitted curve past the lasers; kept within half the band's
+        narrowest and twice its widest blur, so a fit that bends away outside the band
+        cannot give nonsense).
+
+        Examples
+        --------
+        >>> model = StreakForwardModel.from_bundle(bundle)  # doctest: +SKIP
+        >>> model.spill.shape  # doctest: +SKIP
+        (54, 80, 80)
+        """
+        h, w = bundle.slm_shape
+        gu = np.linspace(0, w - 1, points[0])
+        gv = np.linspace(0, h - 1, points[1])
+        vv, uu = np.meshgrid(gv, gu, indexing="ij")
+        rows, cols = np.rint(vv.ravel()), np.rint(uu.ravel())
+        geo = streak_geometry(bundle, rows, cols, guard)
+        lam = guard_wavelengths(bundle, rows, cols, guard)
+        band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
+        if not (np.all(np.isfinite(band)) and np.all(band > 0)):
+            raise ProcedureError(
+                step_error(
+                    "spectral deblur",
+                    f"the bundle's blur widths {band.min():.3g}..{band.max():.3g} px are not "
+                    "all positive",
+                    "load a bundle whose blur fit passed its checks (sassi-bench bundle verify)",
+                )
+            )
+        sigma = np.clip(bundle.blur_width(lam), 0.5 * band.min(), 2.0 * band.max())
+        return cls(gu, gv, lam, sigma, spill_matrix(geo.x_left, geo.x_right, sigma), guard)
+
+    @property
+    def n_bins(self) -> int:
+        """B', the bins with guards."""
+        return int(self.spill.shape[-1])
+
+    @property
+    def core(self) -> slice:
+        """Index of the bundle's own bins along the bin axis."""
+        return slice(self.guard, self.n_bins - self.guard)
+
+    def point(self, rows: ArrayLike, cols: ArrayLike) -> NDArray[np.intp]:
+        """Index of the nearest field point of SLM pixels (rows, cols).
+
+        Examples
+        --------
+        >>> model = StreakForwardModel(np.array([0.0, 10.0]), np.array([0.0, 4.0]),
+        ...                            *(np.zeros((4, 1)),) * 2, np.zeros((4, 1, 1)), 0)
+        >>> model.point([0, 4, 3], [2, 9, 6]).tolist()
+        [0, 3, 3]
+        """
+        fv = np.interp(rows, self.grid_v, np.arange(self.grid_v.size))
+        fu = np.interp(cols, self.grid_u, np.arange(self.grid_u.size))
+        return np.rint(fv).astype(np.intp) * self.grid_u.size + np.rint(fu).astype(np.intp)
+
+    def point_pixels(self) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """SLM (rows, cols) of every field point, (P,) each."""
+        vv, uu = np.meshgrid(self.grid_v, self.grid_u, indexing="ij")
+        return np.rint(vv.ravel()).astype(np.intp), np.rint(uu.ravel()).astype(np.intp)

@@ -1,0 +1,179 @@
+"""The noise of column sums: photon and read noise of the cells, through the row unmixing.
+
+A column sum (:mod:`~sassi_bench.spectra.cells`) adds camera pixels weighted by the
+fraction ``w`` of each column inside the bin, so its variance is
+``sum w^2 var(pixel)``: the photon noise of the light *and* the background above the
+camera's dark level, ``(sum w^2 / sum w) * level / gain``, plus the read noise of every
+pixel of the cell, ``rows * sum w^2 * read^2``. The row unmixing of stacked pixels then
+multiplies it by a gain per bin (1 where the cells hold their pixel's light alone, up to
+about 5 at the blurriest bins at the scan's 5-row pitch; :func:`row_unmixing_gain`).
+
+The camera's gain, read noise and dark level come from the rig's *description* (its
+``spectral_camera`` section: full well, bit depth, dark offset, read noise), never from a
+virtual bench's truth. Against a 40-draw Monte Carlo of the sim rig's frames the variance
+agrees to within 5 % in every bin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.special import ndtr
+
+from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.spectra.cells import CellLayout
+from sassi_bench.spectra.geometry import StreakGeometry
+
+__all__ = ["CountsNoise", "column_weights", "row_unmixing_gain"]
+
+
+def column_weights(layout: CellLayout) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``sum w`` and ``sum w^2`` over each cell's columns, (N, B') each.
+
+    ``w`` is the fraction of column ``[c - 0.5, c + 0.5]`` inside the bin, on the camera.
+
+    Examples
+    --------
+    >>> from sassi_bench.spectra.cells import CellLayout
+    >>> layout = CellLayout(*(np.zeros((1, 1)),) * 3, np.zeros((1, 1), int),
+    ...                     np.array([[2.25]]), np.array([[3.25]]), (8, 8))
+    >>> [a.tolist() for a in column_weights(layout)]  # 0.25 of column 2, 0.75 of column 3
+    [[[1.0]], [[0.625]]]
+    """
+    left = np.clip(layout.x_left, -0.5, layout.shape[1] - 0.5)
+    right = np.clip(layout.x_right, -0.5, layout.shape[1] - 0.5)
+    first = np.floor(left + 0.5)
+    total, square = np.zeros_like(left), np.zeros_like(left)
+    for k in range(int(np.ceil(np.max(right - left, initial=0.0))) + 2):
+        centre = first + k
+        w = np.clip(np.minimum(centre + 0.5, right) - np.maximum(centre - 0.5, left), 0.0, None)
+        total += w
+        square += w * w
+    return total, square
+
+
+def row_unmixing_gain(
+    geometry: StreakGeometry, layout: CellLayout, stack: int = 41
+) -> NDArray[np.float64]:
+    """The variance gain of the row unmixing per bin, (B',).
+
+    For a long column of pixels stacked at the geometry's median pitch, with the median
+    cell of each bin: the squared row of the inverse mixing matrix of the middle pixel
+    (a Toeplitz inverse). 1 where no pixels are stacked.
+
+    Examples
+    --------
+    >>> geo = StreakGeometry(np.array([0, 5]), np.array([3, 3]), np.array([[10.0]] * 2),
+    ...                      np.array([[11.0]] * 2), np.array([[4.0], [9.0]]),
+    ...                      np.array([3.0]), guard=0)
+    >>> from sassi_bench.spectra.cells import cell_layout
+    >>> gain = row_unmixing_gain(geo, cell_layout(geo, (20, 30)))
+    >>> bool(gain[0] > 1.5)  # a 3 px blur at a 5 px pitch: neighbours' light is undone
+    True
+    """
+    index = layout.index
+    upper, lower = index[:, :-1], index[:, 1:]
+    paired = (upper >= 0) & (lower >= 0)
+    if not paired.any():
+        return np.ones(geometry.sigma.size)
+    pitch = np.median(np.abs(geometry.y[lower[paired]] - geometry.y[upper[paired]]), axis=0)
+    low = np.median(layout.lo - geometry.y, axis=0)
+    high = np.median(layout.hi - geometry.y, axis=0)
+    k = np.arange(stack) - stack // 2
+    offset = (k[:, None] - k[None, :])[None] * pitch[:, None, None]  # (B', S, S)
+    sigma = geometry.sigma[:, None, None]
+    mixing = ndtr((high[:, None, None] + offset) / sigma) - ndtr(
+        (low[:, None, None] + offset) / sigma
+    )
+    inverse = np.linalg.inv(mixing)
+    return np.sum(inverse[:, stack // 2] ** 2, axis=-1)
+
+
+@dataclass(frozen=True)
+class CountsNoise:
+    """The spectral camera's noise: gain, read noise and dark level (camera units).
+
+    Attributes
+    ----------
+    gain_e_per_adu
+        Electrons per ADU (full well over the ADC's range above the dark level).
+    read_noise_adu
+        Read noise of one pixel.
+    dark_offset_adu
+        The camera's dark level, part of every raw pixel.
+    """
+
+    gain_e_per_adu: float
+    read_noise_adu: float
+    dark_offset_adu: float
+
+    @classmethod
+    def from_camera(cls, camera: Mapping[str, Any]) -> CountsNoise:
+        """From a rig description's ``spectral_camera`` section (a mapping).
+
+        Examples
+        --------
+        >>> noise = CountsNoise.from_camera({"full_well_e": 30000, "bit_depth": 16,
+        ...     "dark_offset_adu": 100, "read_noise_e": 3.0})
+        >>> round(noise.gain_e_per_adu, 4), round(noise.read_noise_adu, 3)
+        (0.4585, 6.543)
+        """
+        try:
+            full_well = float(camera["full_well_e"])
+            levels = 2 ** int(camera["bit_depth"]) - 1
+            dark = float(camera.get("dark_offset_adu", 0.0))
+            read = float(camera["read_noise_e"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(
+                step_error(
+                    "spectral deblur noise model",
+                    f"the spectral camera's description lacks {exc}",
+                    "give spectral_camera.full_well_e, bit_depth and read_noise_e in the rig",
+                )
+            ) from exc
+        if not (full_well > 0 and levels > dark and read >= 0):
+            raise ConfigError(
+                step_error(
+                    "spectral deblur noise model",
+                    f"full well {full_well:g} e, {levels} levels above a dark level of "
+                    f"{dark:g} ADU and read noise {read:g} e are no camera",
+                    "fix the rig's spectral_camera section",
+                )
+            )
+        gain = full_well / (levels - dark)
+        return cls(gain, read / gain, dark)
+
+    def variance(
+        self, raw_sums: NDArray[np.floating], layout: CellLayout, row_gain: NDArray[np.floating]
+    ) -> NDArray[np.float64]:
+        """Variance of every unmixed column sum, (N, B') in ADU^2.
+
+        Parameters
+        ----------
+        raw_sums
+            (N, B') cell sums of the raw frame (light, background and dark level).
+        layout
+            The cells (:func:`~sassi_bench.spectra.cells.cell_layout`).
+        row_gain
+            (B',) :func:`row_unmixing_gain` of the frame's stacking.
+
+        Examples
+        --------
+        >>> from sassi_bench.spectra.cells import CellLayout
+        >>> layout = CellLayout(np.array([[0.5]]), np.array([[4.5]]), np.zeros((1, 1), bool),
+        ...                     np.zeros((1, 1), int), np.array([[2.5]]), np.array([[3.5]]),
+        ...                     (8, 8))
+        >>> noise = CountsNoise(2.0, 1.0, 100.0)
+        >>> noise.variance(np.array([[1400.0]]), layout, np.ones(1)).tolist()  # 4 px of 350
+        [[504.0]]
+        """
+        total, square = column_weights(layout)
+        rows = layout.bottom - layout.top
+        above_dark = np.clip(raw_sums - self.dark_offset_adu * rows * total, 0.0, None)
+        share = np.divide(square, total, out=np.zeros_like(total), where=total > 0)
+        photons = share * above_dark / self.gain_e_per_adu
+        return (photons + rows * square * self.read_noise_adu**2) * np.asarray(row_gain)

@@ -1,0 +1,238 @@
+"""The deblur stage of a scan's assembly: one regularisation for the scan, chosen from it.
+
+After the spectra pass every measured pixel's unmixed column sums and their noise
+variance are known (:mod:`~sassi_bench.spectra.scan`). Then:
+
+1. the scan's mean spectrum, the column sums of (a sample of) its good pixels averaged
+   per field point and deblurred once at the mean's noise
+   (:class:`~sassi_bench.spectra.deblur.MeanDeblur`);
+2. the per-pixel prior: curvature relative to that mean
+   (:class:`~sassi_bench.spectra.priors.RelativeSmoothnessPrior`), so what all pixels
+   share (the light, the camera, the cut-off beyond the band) is not smoothed away;
+3. the strength of the per-pixel weights, chosen on a sample of pixels by the pooled
+   discrepancy principle (:meth:`~sassi_bench.spectra.deblur.SpectralDeblur.choose`);
+4. every pixel deblurred, block by block on all workers, and the per-band noise of the
+   result (its PSNR against the noise alone) estimated on the sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.spectra.deblur import CHOICE_PIXELS, MeanDeblur, MeanSpectrum, SpectralDeblur
+from sassi_bench.spectra.forward import StreakForwardModel
+from sassi_bench.spectra.priors import RelativeSmoothnessPrior
+from sassi_bench.spectra.regularisation import RegularisationChoice
+
+__all__ = [
+    "MEAN_PIXELS",
+    "KeptSums",
+    "ScanDeblur",
+    "deblur_scan",
+    "labelled_mean_spectra",
+    "scan_mean_spectrum",
+    "stack_bins",
+]
+
+#: Pixels at most whose mean gives the scan's mean spectrum (a random sample; the mean of
+#: 65536 pixels has a noise far under the forward model's error).
+MEAN_PIXELS = 65536
+
+
+class KeptSums(Protocol):
+    """A scan that kept its column sums (:class:`~sassi_bench.spectra.scan.ScanCube`)."""
+
+    column_sums: NDArray[np.float32] | None
+    noise_variance: NDArray[np.float32] | None
+    origin: tuple[int, int]
+
+
+#: Pixels deblurred per block.
+BLOCK_PIXELS = 32768
+
+
+@dataclass(frozen=True)
+class ScanDeblur:
+    """What the deblur stage decided and measured.
+
+    Attributes
+    ----------
+    choice
+        The per-pixel strength and how it was chosen.
+    mean_spectrum
+        (B',) the scan's deblurred mean light per bin and second, guard bins included.
+    band_noise_psnr_db
+        (B,) the cube's peak over the RMS noise of its deblurred spectra, per band.
+    """
+
+    choice: RegularisationChoice
+    mean_spectrum: NDArray[np.float64]
+    band_noise_psnr_db: NDArray[np.float64]
+
+
+def stack_bins(core: NDArray, guards: NDArray, guard: int) -> NDArray:
+    """(..., B') column sums from the band's (..., B) and the guards' (..., 2 guard).
+
+    Examples
+    --------
+    >>> stack_bins(np.array([[5.0, 6.0]]), np.array([[1.0, 9.0]]), 1).tolist()
+    [[1.0, 5.0, 6.0, 9.0]]
+    """
+    return np.concatenate([guards[..., :guard], core, guards[..., guard:]], axis=-1)
+
+
+def deblur_scan(
+    work: NDArray[np.float32],
+    guards: NDArray[np.float32],
+    exposure: NDArray[np.float32],
+    variance: NDArray[np.float32],
+    good: NDArray[np.bool_],
+    origin: tuple[int, int],
+    model: StreakForwardModel,
+    full_scale: float,
+    run: Callable[[Callable, list, str], list],
+) -> ScanDeblur | None:
+    """Deblur a scan's work area in place: ``work`` becomes light per bin and second.
+
+    Parameters
+    ----------
+    work, guards
+        (H, W, B) and (H, W, 2 guard) unmixed column sums (camera units, per frame).
+    exposure
+        (H, W) each pixel's exposure (s); 0 where the pixel was not extracted.
+    variance
+        (H, W) each pixel's column-sum noise variance (mean over bins).
+    good
+        (H, W) pixels whose spectra judge the scan (quality 0).
+    origin
+        SLM (row, column) of the work area's first pixel.
+    model
+        The bundle's streak forward model.
+    full_scale
+        The camera's full-scale reading (the per-pixel weights' reference level).
+    run
+        ``run(task, items, label)`` runs ``task`` on every item (threads, progress).
+
+    Returns
+    -------
+    ScanDeblur or None
+        None when no good pixel has light (the work area is then only divided by the
+        exposure).
+    """
+    extracted = exposure > 0
+    rows, cols = np.nonzero(extracted)
+    guard = model.guard
+    judged = np.flatnonzero((good & extracted)[rows, cols])
+    judged = judged[work[rows[judged], cols[judged]].mean(axis=1) > 0]
+    if judged.size == 0:
+        work[extracted] /= exposure[extracted][:, None]
+        return None
+    rng = np.random.default_rng(0)
+    r0, c0 = origin
+
+    def sample(size: int) -> tuple[NDArray, ...]:
+        picked = np.sort(rng.choice(judged, min(size, judged.size), replace=False))
+        r, c = rows[picked], cols[picked]
+        values = stack_bins(work[r, c], guards[r, c], guard).astype(np.float64)
+        return values, r + r0, c + c0, variance[r, c].astype(np.float64), exposure[r, c]
+
+    values, slm_r, slm_c, var, seconds = sample(MEAN_PIXELS)
+    mean = MeanDeblur(model)(
+        values / seconds[:, None], slm_r, slm_c, var / seconds.astype(np.float64) ** 2
+    )
+    values, slm_r, slm_c, var, seconds = sample(CHOICE_PIXELS)
+    deblur = SpectralDeblur.from_model(
+        model, RelativeSmoothnessPrior.of(mean.spectrum), full_scale=full_scale
+    ).choose(values, slm_r, slm_c, var)
+    noise = deblur.posterior_std(values, slm_r, slm_c, var)[:, model.core] / seconds[:, None]
+
+    def block(start: int) -> None:
+        r, c = rows[start : start + BLOCK_PIXELS], cols[start : start + BLOCK_PIXELS]
+        spectra = deblur.apply(stack_bins(work[r, c], guards[r, c], guard), r + r0, c + c0)
+        work[r, c] = spectra[:, model.core] / exposure[r, c][:, None]
+
+    run(block, list(range(0, rows.size, BLOCK_PIXELS)), "scan deblur")
+    peak = float(np.max(work[rows[judged], cols[judged]]))
+    band = 10.0 * np.log10(peak**2 / np.maximum(np.mean(noise**2, axis=0), 1e-300))
+    assert deblur.choice is not None
+    return ScanDeblur(deblur.choice, mean.spectrum, band)
+
+
+def scan_mean_spectrum(
+    scan: KeptSums, bundle_model: StreakForwardModel, where: NDArray[np.bool_], *, trim: float = 0.1
+) -> MeanSpectrum:
+    """The deblurred mean of a scan's pixels ``where`` (H, W), from their kept column sums.
+
+    The pixels' column sums (:attr:`~sassi_bench.spectra.scan.ScanCube.column_sums`, light
+    per second before the deblur) are averaged per field point, trimmed per bin, and each
+    mean is deblurred once at its own noise (:class:`~sassi_bench.spectra.deblur.MeanDeblur`).
+
+    Parameters
+    ----------
+    scan
+        A :class:`~sassi_bench.spectra.scan.ScanCube` assembled with ``keep_raw=True``.
+    bundle_model
+        The bundle's streak forward model.
+    where
+        (H, W) the pixels to average.
+    trim
+        Fraction trimmed at each end per bin (dusty or clipped pixels).
+
+    Returns
+    -------
+    MeanSpectrum
+        Light per bin and second, guard bins included.
+
+    Examples
+    --------
+    >>> scan = assemble_scan(session, bundle, keep_raw=True)  # doctest: +SKIP
+    >>> white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle),
+    ...                            scan.quality == 0)  # doctest: +SKIP
+    """
+    if scan.column_sums is None or scan.noise_variance is None:
+        raise ProcedureError(
+            step_error(
+                "mean spectrum",
+                "the scan kept no column sums to average before the deblur",
+                "assemble the scan with keep_raw=True",
+            )
+        )
+    rows, cols = np.nonzero(where)
+    return MeanDeblur(bundle_model)(
+        scan.column_sums[rows, cols],
+        rows + scan.origin[0],
+        cols + scan.origin[1],
+        scan.noise_variance[rows, cols],
+        trim=trim,
+    )
+
+
+def labelled_mean_spectra(
+    scan: KeptSums,
+    model: StreakForwardModel,
+    good: NDArray[np.bool_],
+    labels: NDArray[np.integer],
+    count: int,
+) -> NDArray[np.float64]:
+    """The deblurred mean spectrum of every labelled region (chart patches), (count, B).
+
+    Each region's good pixels are averaged and deblurred once at the mean's noise
+    (:func:`scan_mean_spectrum`, untrimmed: a patch interior is uniform); regions with no
+    good pixel are NaN.
+
+    Examples
+    --------
+    >>> means = labelled_mean_spectra(scan, model, scan.quality == 0, labels, 24)  # doctest: +SKIP
+    """
+    out = np.full((count, model.n_bins - 2 * model.guard), np.nan)
+    for k in range(count):  # a few dozen regions, each one mean
+        where = good & (labels == k)
+        if where.any():
+            out[k] = scan_mean_spectrum(scan, model, where, trim=0.0).band
+    return out
