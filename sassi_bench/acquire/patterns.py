@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.arrays import check_ndim, check_shape_equality
 from sassi_bench.errors import ProcedureError, did_you_mean, step_error
 
 __all__ = [
@@ -177,10 +178,7 @@ def pixels_descriptor(mask: NDArray[np.bool_]) -> dict[str, Any]:
     True
     """
     mask = np.asarray(mask)
-    if mask.ndim != 2:
-        raise ProcedureError(
-            step_error("pattern", f"a mask must be 2-D, got shape {mask.shape}", "pass (H, W)")
-        )
+    check_ndim(mask, 2, step="pattern", name="the mask", fix="pass (H, W)")
     rows, cols = np.nonzero(mask)
     return {"kind": "pixels", "rows": rows.tolist(), "cols": cols.tolist()}
 
@@ -190,14 +188,9 @@ def _pixel_list(
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     rows = np.asarray(descriptor["rows"], dtype=np.intp)
     cols = np.asarray(descriptor["cols"], dtype=np.intp)
-    if rows.ndim != 1 or rows.shape != cols.shape:
-        raise ProcedureError(
-            step_error(
-                "pattern",
-                f"pixels: rows and cols must be lists of equal length ({rows.size}, {cols.size})",
-                "list one row and one column per open pixel",
-            )
-        )
+    fix = "list one row and one column per open pixel"
+    check_ndim(rows, 1, step="pattern", name="pixels.rows", fix=fix)
+    check_shape_equality(rows, cols, step="pattern", names=("pixels.rows", "pixels.cols"), fix=fix)
     if rows.size and (
         rows.min() < 0 or cols.min() < 0 or rows.max() >= shape[0] or cols.max() >= shape[1]
     ):

@@ -34,6 +34,21 @@ CONNECT_TIMEOUT_S = 20
 def check_scheduler(address: str) -> str:
     """Refuse a scheduler address that is not ``protocol://host:port``.
 
+    Parameters
+    ----------
+    address
+        A dask scheduler address; the protocol is ``tcp``, ``tls``, ``ws`` or ``wss``.
+
+    Returns
+    -------
+    str
+        ``address``, unchanged.
+
+    Raises
+    ------
+    ProcedureError
+        If ``address`` is not of that form.
+
     Examples
     --------
     >>> check_scheduler("tcp://10.0.0.5:8786")
@@ -55,7 +70,18 @@ def check_scheduler(address: str) -> str:
 
 
 def default_workers() -> int:
-    """Workers of the local cluster: one single-threaded process per CPU available here."""
+    """Workers of the local cluster: one single-threaded process per CPU available here.
+
+    Returns
+    -------
+    int
+        The CPUs this process may run on (its affinity), at least 1.
+
+    Examples
+    --------
+    >>> default_workers() >= 1
+    True
+    """
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover (not Linux)
@@ -70,6 +96,23 @@ def batch_client(scheduler: str | None = None, workers: int | None = None) -> It
 
     Worker processes (not threads): assembly holds the GIL in parts (Python between
     compiled passes, NetCDF writes), and a process can be killed alone.
+
+    Parameters
+    ----------
+    scheduler
+        Address of a running scheduler (``tcp://host:port``), or None for a local cluster.
+    workers
+        Worker processes of the local cluster (ignored with ``scheduler``).
+
+    Yields
+    ------
+    distributed.Client
+        Connected; closed (and the local cluster shut down) on exit.
+
+    Raises
+    ------
+    ProcedureError
+        For a malformed address, a scheduler that does not answer, or fewer than 1 worker.
 
     Examples
     --------
@@ -114,6 +157,23 @@ def run_tasks(
     task: Callable[[TaskSpec], SessionResult] = run_task,
 ) -> list[SessionResult]:
     """Submit one task per spec and gather the results as they finish (in spec order).
+
+    Parameters
+    ----------
+    client
+        A ``distributed.Client`` (see :func:`batch_client`).
+    specs
+        One task per session.
+    progress
+        Show a progress bar (and each failure as it comes).
+    task
+        The function each worker runs on a spec.
+
+    Returns
+    -------
+    list of SessionResult
+        One per spec, in the order of ``specs``; a task lost with its workers (e.g.
+        ``KilledWorker``) is a ``"failed"`` result naming the exception.
 
     Examples
     --------

@@ -24,12 +24,41 @@ __all__ = ["finished", "record_path", "write_atomic"]
 
 
 def record_path(output: Path) -> Path:
-    """The record beside an output: ``cube.nc`` -> ``cube.nc.json``."""
+    """The record beside an output: ``cube.nc`` -> ``cube.nc.json``.
+
+    Parameters
+    ----------
+    output
+        An output file.
+
+    Returns
+    -------
+    pathlib.Path
+        Its record's path.
+
+    Examples
+    --------
+    >>> record_path(Path("out/s1.nc")).as_posix()
+    'out/s1.nc.json'
+    """
     return output.with_name(output.name + ".json")
 
 
 def finished(output: Path, inputs: Mapping[str, Any]) -> bool:
     """True if ``output`` is complete and was made from ``inputs``.
+
+    Parameters
+    ----------
+    output
+        The output file.
+    inputs
+        What it should have been made from (as given to :func:`write_atomic`).
+
+    Returns
+    -------
+    bool
+        False if the output or its record is missing, unreadable or does not match the
+        output's hash (the output is made again).
 
     Raises
     ------

@@ -41,6 +41,21 @@ class BatchResult:
 def check_out(out: str | os.PathLike[str]) -> Path:
     """The output folder as an absolute path (not created here); refused when it is a file.
 
+    Parameters
+    ----------
+    out
+        The ``--out`` folder of a batch.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out`` resolved to an absolute path.
+
+    Raises
+    ------
+    ProcedureError
+        If ``out`` is an existing file.
+
     Examples
     --------
     >>> check_out("/tmp/cubes").as_posix()

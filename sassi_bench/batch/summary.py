@@ -22,6 +22,18 @@ def summary_rows(results: Sequence[SessionResult]) -> tuple[list[str], list[list
     """Header and rows: session, status, frames, time, the metrics any session has, output
     and error.
 
+    Parameters
+    ----------
+    results
+        One result per session.
+
+    Returns
+    -------
+    header : list of str
+        The column names.
+    rows : list of list of str
+        One row of text cells per result, in order (floats to 3 decimals, time to 2).
+
     Examples
     --------
     >>> header, rows = summary_rows([SessionResult("scan-1", "done", 20, 1.234, "/o/scan-1.nc")])
@@ -43,7 +55,27 @@ def summary_rows(results: Sequence[SessionResult]) -> tuple[list[str], list[list
 
 
 def summary_csv(results: Sequence[SessionResult], path: str | Path) -> Path:
-    """Write the summary table as CSV."""
+    """Write the summary table as CSV.
+
+    Parameters
+    ----------
+    results
+        One result per session.
+    path
+        The CSV file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "batch.csv"
+    >>> summary_csv([SessionResult("scan-1", "done", 20, 1.2)], path).read_text().splitlines()[1]
+    'scan-1,done,20,1.20,,'
+    """
     header, rows = summary_rows(results)
     buffer = io.StringIO()
     writer = csv.writer(buffer)
@@ -73,7 +105,8 @@ def summary_html(
 
     Returns
     -------
-    Path
+    pathlib.Path
+        ``path``.
 
     Examples
     --------

@@ -94,6 +94,17 @@ class SessionResult:
 def output_path(spec: TaskSpec) -> Path:
     """Where a task writes its result.
 
+    Parameters
+    ----------
+    spec
+        The task.
+
+    Returns
+    -------
+    pathlib.Path
+        ``<out>/<session>.nc`` for ``assemble``, ``<out>/<session>.macbeth.json`` for
+        ``validate``.
+
     Examples
     --------
     >>> output_path(TaskSpec("assemble", "scan-1", "/d", "/b", "/out")).as_posix()
@@ -103,7 +114,22 @@ def output_path(spec: TaskSpec) -> Path:
 
 
 def bundle_sha256(bundle: CalibrationBundle) -> str:
-    """SHA-256 of the bundle's manifest (which holds the hash of every array)."""
+    """SHA-256 of the bundle's manifest (which holds the hash of every array).
+
+    Parameters
+    ----------
+    bundle
+        A loaded bundle.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+
+    Examples
+    --------
+    >>> bundle_sha256(load(rig="sim"))  # doctest: +SKIP
+    """
     return sha256_file(Path(bundle.path) / "manifest.json")
 
 
@@ -115,6 +141,22 @@ def scan_dataset(
     threads: int | None = None,
 ) -> xr.Dataset:
     """A scan session's cube as written by ``sassi-bench scan`` and by batches.
+
+    Parameters
+    ----------
+    session
+        A pinhole-scan session.
+    bundle
+        The bundle to assemble with.
+    roi
+        Part of the SLM to assemble; all of it by default.
+    threads
+        Threads of the assembly.
+
+    Returns
+    -------
+    xarray.Dataset
+        The cube (dims y, x, wavelength) with its quality mask, units and provenance.
 
     Examples
     --------
@@ -156,6 +198,19 @@ def _frames(session: Session) -> int:
 
 def run_task(spec: TaskSpec) -> SessionResult:
     """Run one session's task; every error is caught and returned with the session's id.
+
+    An output already finished from the same inputs is skipped (see
+    :func:`~sassi_bench.batch.outputs.finished`).
+
+    Parameters
+    ----------
+    spec
+        The task: its kind, session, data root, bundle and output folder.
+
+    Returns
+    -------
+    SessionResult
+        ``done``, ``skipped`` or ``failed`` (with the error and its traceback).
 
     Examples
     --------

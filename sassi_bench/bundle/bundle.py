@@ -22,6 +22,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_dtype_kind, check_ndim
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.bundle.spacing import MaskSpacing, mask_spacing
@@ -293,14 +294,18 @@ class CalibrationBundle:
                 )
             )
         array = np.asarray(image)
-        if array.ndim not in (2, 3) or array.dtype.kind not in "uif" or array.size == 0:
-            raise BundleError(
-                step_error(
-                    "bundle warp_guide_to_slm",
-                    f"image has shape {array.shape} and dtype {array.dtype}",
-                    "pass a (rows, cols) or (rows, cols, channels) numeric image",
-                )
-            )
+        step = "bundle warp_guide_to_slm"
+        fix = "pass a (rows, cols) or (rows, cols, channels) numeric image"
+        check_ndim(
+            array,
+            (2, 3),
+            step=step,
+            name="the image",
+            fix=fix,
+            allow_empty=False,
+            error=BundleError,
+        )
+        check_dtype_kind(array, "uif", step=step, name="the image", fix=fix, error=BundleError)
         height, width = self.slm_shape
         flags = cv2.INTER_LINEAR if interpolation is None else int(interpolation)
         try:

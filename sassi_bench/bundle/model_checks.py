@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.arrays import ShapePattern, check_dtype_kind, check_shape
 from sassi_bench.bundle.errors import BundleSchemaError
 from sassi_bench.errors import step_error
 
@@ -90,16 +91,43 @@ def sequence(value: Any, count: int, where: str) -> list[Any]:
     return items
 
 
-def frozen_array(value: Any, where: str, ndim: int) -> NDArray[np.float64]:
-    """Read-only float64 copy of a finite real array with ``ndim`` dimensions."""
+def frozen_array(
+    value: Any,
+    where: str,
+    shape: ShapePattern,
+    *,
+    expected_for: str | None = None,
+    allow_empty: bool = True,
+) -> NDArray[np.float64]:
+    """Read-only float64 copy of a finite real array of ``shape``.
+
+    ``shape``, ``expected_for`` and ``allow_empty`` are those of
+    :func:`~sassi_bench._shared.arrays.check_shape` (``("K", 6)``: any K rows of 6).
+
+    Examples
+    --------
+    >>> frozen_array([[1, 2]], "models.blur.coeffs", ("K", 2)).dtype
+    dtype('float64')
+    >>> frozen_array([1, 2], "models.response", (3,), expected_for="3 bins")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    sassi_bench.bundle.errors.BundleSchemaError: models.response: the value has shape (2,), ...
+    """
     try:
         array = np.asarray(value)
     except (ValueError, TypeError, OverflowError) as exc:
         raise bad(where, f"is not a numeric array ({exc})") from exc
-    if array.dtype.kind not in "iuf":
-        raise bad(where, f"must be a real numeric array, got dtype {array.dtype}")
-    if array.ndim != ndim:
-        raise bad(where, f"must have {ndim} dimension(s), got shape {array.shape}")
+    check_dtype_kind(array, "iuf", step=where, name="the value", fix=_FIX, error=BundleSchemaError)
+    check_shape(
+        array,
+        shape,
+        step=where,
+        name="the value",
+        expected_for=expected_for,
+        fix=_FIX,
+        allow_empty=allow_empty,
+        error=BundleSchemaError,
+    )
     out = np.array(array, dtype=np.float64, copy=True)
     if not np.all(np.isfinite(out)):
         raise bad(where, "holds NaN or infinite values")

@@ -105,13 +105,13 @@ class DispersionModel:
         n_terms = len(legendre2d_terms(degree))
         coeffs = {}
         for key in ("x_coeffs", "y_coeffs"):
-            array = frozen_array(getattr(self, key), f"{where}.{key}", 2)
-            if array.shape[0] < 1 or array.shape[1] != n_terms:
-                raise bad(
-                    f"{where}.{key}",
-                    f"has shape {array.shape}, expected (K, {n_terms}) for field_degree {degree}",
-                )
-            coeffs[key] = array
+            coeffs[key] = frozen_array(
+                getattr(self, key),
+                f"{where}.{key}",
+                ("K", n_terms),
+                expected_for=f"field_degree {degree}",
+                allow_empty=False,
+            )
         values = {
             "sellmeier_b": b,
             "sellmeier_c": c,
@@ -271,21 +271,16 @@ class WavelengthBins:
 
     def __post_init__(self) -> None:
         where = "models.wavelength_bins"
-        centres = frozen_array(self.centres_nm, f"{where}.bin_centres_nm", 1)
-        edges = frozen_array(self.edges_nm, f"{where}.bin_edges_nm", 1)
-        resolution = frozen_array(self.resolution_nm, f"{where}.bin_resolution_nm", 1)
-        if centres.size < 1:
-            raise bad(f"{where}.bin_centres_nm", "is empty")
-        if edges.shape != (centres.size + 1,):
-            raise bad(
-                f"{where}.bin_edges_nm",
-                f"has shape {edges.shape}, expected ({centres.size + 1},) for {centres.size} bins",
-            )
-        if resolution.shape != centres.shape:
-            raise bad(
-                f"{where}.bin_resolution_nm",
-                f"has shape {resolution.shape}, expected {centres.shape}",
-            )
+        centres = frozen_array(
+            self.centres_nm, f"{where}.bin_centres_nm", ("B",), allow_empty=False
+        )
+        count = f"{centres.size} bins"
+        edges = frozen_array(
+            self.edges_nm, f"{where}.bin_edges_nm", (centres.size + 1,), expected_for=count
+        )
+        resolution = frozen_array(
+            self.resolution_nm, f"{where}.bin_resolution_nm", centres.shape, expected_for=count
+        )
         if np.any(np.diff(edges) <= 0):
             raise bad(f"{where}.bin_edges_nm", "must be strictly increasing")
         if edges[0] <= 0:

@@ -118,9 +118,7 @@ class CalibrationModels:
                 raise bad(f"models.{name}", f"must be a {kind.__name__}")
         bins = self.bins
         if self.guide_to_slm is not None:
-            matrix = frozen_array(self.guide_to_slm, "models.guide_homography", 2)
-            if matrix.shape != (3, 3):
-                raise bad("models.guide_homography", f"must be 3x3, got {matrix.shape}")
+            matrix = frozen_array(self.guide_to_slm, "models.guide_homography", (3, 3))
             if not abs(np.linalg.det(matrix)) > 1e-12 * max(1.0, float(np.abs(matrix).max()) ** 3):
                 raise bad("models.guide_homography", "is singular")
             object.__setattr__(self, "guide_to_slm", matrix)
@@ -142,11 +140,12 @@ class CalibrationModels:
                 raise bad("models.offset.method", "must be a non-empty string")
             object.__setattr__(self, "offset", freeze(offset))
         if self.response is not None:
-            response = frozen_array(self.response, "models.response", 1)
-            if response.shape != (bins.count,):
-                raise bad(
-                    "models.response", f"has shape {response.shape}, expected ({bins.count},)"
-                )
+            response = frozen_array(
+                self.response,
+                "models.response",
+                (bins.count,),
+                expected_for=f"{bins.count} wavelength bins",
+            )
             if np.any(response < 0):
                 raise bad("models.response", "must be >= 0")
             object.__setattr__(self, "response", response)

@@ -65,6 +65,7 @@ import numpy as np
 from numpy.polynomial import legendre
 from numpy.typing import NDArray
 
+from sassi_bench._shared.arrays import check_ndim, check_shape_equality
 from sassi_bench.bundle.errors import BundleError
 from sassi_bench.bundle.model_types import DispersionModel
 from sassi_bench.bundle.models import CalibrationModels
@@ -116,8 +117,11 @@ class MaskSpacing:
             array = np.array(getattr(self, name), dtype=np.int32, copy=True)
             array.flags.writeable = False
             object.__setattr__(self, name, array)
-        if self.left.shape != self.right.shape or self.left.ndim != 2:
-            raise ValueError("left and right must be (H, W) arrays of one shape")
+        step, fix = "mask spacing", "pass left and right as (H, W) arrays of one shape"
+        check_ndim(self.left, 2, step=step, name="left", fix=fix, error=ValueError)
+        check_shape_equality(
+            self.left, self.right, step=step, names=("left", "right"), fix=fix, error=ValueError
+        )
         if int(self.pitch) < 1:
             raise ValueError(f"pitch must be >= 1, got {self.pitch}")
         object.__setattr__(self, "pitch", int(self.pitch))

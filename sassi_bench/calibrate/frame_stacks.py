@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["check_frame_shape", "dark_level", "frame_stack", "subtract_dark"]
+__all__ = ["dark_level", "frame_stack", "subtract_dark"]
 
 
 def frame_stack(frames: ArrayLike, step: str, name: str, minimum: int = 1) -> NDArray:
@@ -38,41 +39,14 @@ def frame_stack(frames: ArrayLike, step: str, name: str, minimum: int = 1) -> ND
     >>> frame_stack(np.zeros((2, 4)), "phase decoding", "phase")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    sassi_bench.errors.ProcedureError: phase decoding: phase has shape (2, 4). Fix: ...
+    sassi_bench.errors.ProcedureError: phase decoding: phase has shape (2, 4), expected (N, H, W)...
     """
     arr = np.asarray(frames)
-    if arr.ndim != 3 or arr.shape[0] < minimum:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"{name} has shape {arr.shape}",
-                f"pass at least {minimum} frame(s) stacked as (N, H, W)",
-            )
-        )
+    fix = f"pass at least {minimum} frame(s) stacked as (N, H, W)"
+    check_shape(arr, ("N", "H", "W"), step=step, name=name, fix=fix)
+    if arr.shape[0] < minimum:
+        raise ProcedureError(step_error(step, f"{name} has shape {arr.shape}", fix))
     return arr
-
-
-def check_frame_shape(
-    shape: tuple[int, ...], expected: tuple[int, ...], step: str, name: str
-) -> None:
-    """Refuse frames ``name`` of ``shape`` when the other frames are ``expected``.
-
-    Examples
-    --------
-    >>> check_frame_shape((4, 5), (4, 5), "Gray decoding", "dark")
-    >>> check_frame_shape((4, 6), (4, 5), "Gray decoding", "dark")  # doctest: +ELLIPSIS
-    Traceback (most recent call last):
-    ...
-    sassi_bench.errors.ProcedureError: Gray decoding: dark frames are (4, 6), the others ...
-    """
-    if tuple(shape) != tuple(expected):
-        raise ProcedureError(
-            step_error(
-                step,
-                f"{name} frames are {tuple(shape)}, the others are {tuple(expected)}",
-                "pass frames of one camera, all of the same shape",
-            )
-        )
 
 
 def dark_level(dark: ArrayLike | None, shape: tuple[int, ...], step: str) -> NDArray[np.float32]:
@@ -87,7 +61,14 @@ def dark_level(dark: ArrayLike | None, shape: tuple[int, ...], step: str) -> NDA
         return np.float32(0.0)
     arr = np.asarray(dark, dtype=np.float32)
     if arr.ndim != 0:
-        check_frame_shape(arr.shape, shape, step, "dark")
+        check_shape(
+            arr,
+            tuple(shape),
+            step=step,
+            name="dark",
+            expected_for="the frames",
+            fix="pass a dark frame of the frames' shape, or a scalar dark level",
+        )
     return arr
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape_equality
 from sassi_bench.calibrate.frame_stacks import dark_level, frame_stack, subtract_dark
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -105,14 +106,13 @@ def decode_gray(
     step = "Gray decoding"
     pos = frame_stack(positive, step, "positive")
     neg = frame_stack(negative, step, "negative")
-    if neg.shape != pos.shape:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"positive frames {pos.shape} and negative frames {neg.shape} differ",
-                "pass one inverse frame per Gray bit, in the same order",
-            )
-        )
+    check_shape_equality(
+        pos,
+        neg,
+        step=step,
+        names=("positive frames", "negative frames"),
+        fix="pass one inverse frame per Gray bit, in the same order",
+    )
     check_block(block, step)
     dark_arr = dark_level(dark, pos.shape[1:], step)
     shape = pos.shape[1:]

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
 from scipy.stats import trim_mean
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["GreyResponse", "harmonic_distortion", "measure_grey_response", "sinusoid_profile"]
@@ -154,22 +155,21 @@ def _lit_mask(span: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 
 def _check_inputs(levels: NDArray[np.integer], frames: NDArray, dark: ArrayLike) -> None:
-    if frames.ndim != 3 or frames.shape[0] != levels.size:
-        raise ProcedureError(
-            step_error(
-                _STEP,
-                f"frames have shape {frames.shape} for {levels.size} levels",
-                "pass one (H, W) frame per level, stacked as (levels, H, W)",
-            )
-        )
-    if np.ndim(dark) not in (0, 2) or (np.ndim(dark) == 2 and np.shape(dark) != frames.shape[1:]):
-        raise ProcedureError(
-            step_error(
-                _STEP,
-                f"dark has shape {np.shape(dark)}, frames are {frames.shape[1:]}",
-                "pass a dark frame of the frames' shape (or a scalar black level)",
-            )
-        )
+    check_shape(
+        frames,
+        (levels.size, "H", "W"),
+        step=_STEP,
+        name="the frame stack",
+        expected_for=f"{levels.size} levels",
+        fix="pass one (H, W) frame per level, stacked as (levels, H, W)",
+    )
+    check_shape(
+        dark,
+        [(), frames.shape[1:]],
+        step=_STEP,
+        name="dark",
+        fix="pass a dark frame of the frames' shape (or a scalar black level)",
+    )
     if levels.size < 3 or len(set(levels.tolist())) != levels.size:
         raise ProcedureError(
             step_error(

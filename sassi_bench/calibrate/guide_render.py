@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.optics.datasets import camera_sensitivities
 
@@ -120,24 +121,21 @@ def render_rgb(
     """
     data = np.asarray(cube, dtype=np.float64)
     wl = np.asarray(wavelengths_nm, dtype=np.float64)
-    if data.ndim != 3 or data.shape[-1] != wl.size:
-        raise ProcedureError(
-            step_error(
-                STEP,
-                f"cube of shape {data.shape} does not match {wl.size} wavelengths",
-                "pass an (H, W, B) cube with its B bin centres",
-            )
-        )
+    check_shape(
+        data,
+        ("H", "W", wl.size),
+        step=STEP,
+        name="the cube",
+        expected_for=f"{wl.size} wavelengths",
+        fix="pass an (H, W, B) cube with its B bin centres",
+    )
     mask = np.ones(data.shape[:2], bool) if valid is None else np.asarray(valid, bool)
     data = np.where(mask[..., None] & np.isfinite(data), data, 0.0)
     if sensitivities is not None:
         weights = np.asarray(sensitivities, dtype=np.float64)
-        if weights.shape != (3, wl.size):
-            raise ProcedureError(
-                step_error(
-                    STEP, f"sensitivities have shape {weights.shape}", f"pass (3, {wl.size})"
-                )
-            )
+        check_shape(
+            weights, (3, wl.size), step=STEP, name="sensitivities", fix=f"pass (3, {wl.size})"
+        )
         rgb = np.clip(data @ weights.T, 0.0, None)
     else:
         import colour

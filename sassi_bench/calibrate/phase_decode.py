@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.calibrate.frame_stacks import dark_level, frame_stack, subtract_dark
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -116,10 +117,14 @@ def decode_phase(
     if shifts is None:
         shifts = np.arange(count) * period // count
     shifts = np.asarray(shifts, dtype=np.float64)
-    if shifts.shape != (count,):
-        raise ProcedureError(
-            step_error(step, f"{shifts.size} shifts for {count} frames", "pass one per frame")
-        )
+    check_shape(
+        shifts,
+        (count,),
+        step=step,
+        name="shifts",
+        expected_for=f"{count} frames",
+        fix="pass one shift per frame",
+    )
     solver = _phase_solver(shifts, float(period), step)
     dark_arr = dark_level(dark, stack.shape[1:], step)
     coef = _phase_coefficients(stack, dark_arr, solver)

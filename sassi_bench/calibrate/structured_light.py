@@ -24,13 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape, check_shape_equality
 from sassi_bench.acquire.patterns import gray_bit_count
-from sassi_bench.calibrate.frame_stacks import (
-    check_frame_shape,
-    dark_level,
-    frame_stack,
-    subtract_dark,
-)
+from sassi_bench.calibrate.frame_stacks import dark_level, frame_stack, subtract_dark
 from sassi_bench.calibrate.gray_decode import check_block, decode_gray
 from sassi_bench.calibrate.phase_decode import blur_from_modulation, decode_phase, unwrap
 from sassi_bench.calibrate.pixel_validity import (
@@ -111,10 +107,12 @@ def _check_axis_inputs(
     """Shapes, bit count and the Gray/phase geometry of :func:`decode_axis`'s inputs."""
     step = "structured-light decoding"
     shape = pos.shape[1:]
-    check_frame_shape(neg.shape, pos.shape, step, "gray_negative")
-    check_frame_shape(fringes.shape[1:], shape, step, "phase")
-    check_frame_shape(blank.shape, shape, step, "blank")
-    check_frame_shape(full.shape, shape, step, "full")
+    fix = "pass frames of one camera, all of the same shape"
+    names = ("gray_positive", "gray_negative")
+    check_shape_equality(pos, neg, step=step, names=names, fix=fix)
+    check_shape(fringes, ("N", *shape), step=step, name="phase", expected_for="the frames", fix=fix)
+    check_shape(blank, shape, step=step, name="blank", expected_for="the frames", fix=fix)
+    check_shape(full, shape, step=step, name="full", expected_for="the frames", fix=fix)
     check_block(block, step)
     if isinstance(length, bool) or not isinstance(length, (int, np.integer)) or length < 1:
         raise ProcedureError(
@@ -357,14 +355,13 @@ def decode_correspondences(x_axis: AxisDecode, y_axis: AxisDecode) -> Correspond
     (6, [0.5, 1.5], 0.5)
     """
     step = "correspondences"
-    if x_axis.coord.shape != y_axis.coord.shape:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"x axis is {x_axis.coord.shape}, y axis is {y_axis.coord.shape}",
-                "decode both axes from frames of the same camera",
-            )
-        )
+    check_shape_equality(
+        x_axis.coord,
+        y_axis.coord,
+        step=step,
+        names=("the x axis", "the y axis"),
+        fix="decode both axes from frames of the same camera",
+    )
     rx, ry = x_axis.reason, y_axis.reason
     reason = np.where((rx == 0) | ((ry != 0) & (ry < rx)), ry, rx).astype(np.uint8)
     valid = reason == 0

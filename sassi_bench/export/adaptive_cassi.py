@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_dtype_kind, check_shape
 from sassi_bench.acquire.patterns import render_pattern
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
@@ -293,13 +294,21 @@ def export_adaptive_cassi(
         )
     frame = session.read_frame(spectral)
     camera_shape = camera_shape_of(bundle)
-    if frame.shape != camera_shape:
-        raise _fail(
-            f"step {spectral} is a {frame.shape} frame, the bundle's camera is {camera_shape}",
-            "export with a bundle of the rig the session was captured on",
-        )
-    if frame.dtype.kind not in "ui":
-        raise _fail(f"step {spectral} has dtype {frame.dtype}", "export a raw camera frame")
+    check_shape(
+        frame,
+        camera_shape,
+        step="snapshot export",
+        name=f"the frame of step {spectral}",
+        expected_for="the bundle's camera",
+        fix="export with a bundle of the rig the session was captured on",
+    )
+    check_dtype_kind(
+        frame,
+        "ui",
+        step="snapshot export",
+        name=f"the frame of step {spectral}",
+        fix="export a raw camera frame",
+    )
     mask = lcos_mask(session.event(spectral)["pattern"], slm_shape)
     crop = _limits(limits, slm_shape)
     h1, h2, w1, w2 = crop

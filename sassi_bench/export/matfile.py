@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.io import savemat
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench._shared.atomic import atomic_path
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -127,14 +128,13 @@ def _write_stream(fh, name: str, stream: BandStream, level: int) -> None:
     count = 0
     for plane in stream.planes():
         data = np.asarray(plane, dtype=dtype)
-        if data.shape != (height, width):
-            raise ProcedureError(
-                step_error(
-                    f"MAT file variable {name!r}",
-                    f"plane {count} has shape {data.shape}, expected {(height, width)}",
-                    "yield (H, W) planes of the declared shape",
-                )
-            )
+        check_shape(
+            data,
+            (height, width),
+            step=f"MAT file variable {name!r}",
+            name=f"plane {count}",
+            fix="yield (H, W) planes of the declared shape",
+        )
         # Column-major: plane t of an (H, W, T) array is one contiguous block.
         written += fh.write(packer.compress(data.tobytes(order="F")))
         count += 1

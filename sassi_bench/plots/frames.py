@@ -19,8 +19,18 @@ def _figure(*args, **kwargs):
 def frames_figure(frames: Mapping[str, ArrayLike], columns: int = 3):
     """Camera frames side by side, each scaled to its own 1st-99.9th percentile.
 
-    Frames are arrays or :class:`~sassi_bench.rig.frame.Frame` objects; (H, W, 3) frames
-    are shown in colour.
+    Parameters
+    ----------
+    frames
+        Title -> frame: arrays or :class:`~sassi_bench.rig.frame.Frame` objects; (H, W, 3)
+        frames are shown in colour, (H, W) ones in grey with a colour bar.
+    columns
+        Frames per row at most.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per frame, in the order of ``frames``.
 
     Examples
     --------
@@ -55,6 +65,24 @@ def cube_figure(
     units: str = "signal",
 ):
     """A cube at a few wavelengths, and the spectra of a few (row, col) pixels.
+
+    Parameters
+    ----------
+    cube
+        (H, W, B) cube.
+    wavelengths_nm
+        (B,) wavelength of each band.
+    pixels
+        (row, col) of the pixels whose spectra are drawn (and circled on the images).
+    bands_nm
+        The wavelengths shown as images (the nearest band of each).
+    units
+        Label of the spectra's axis.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One image per wavelength of ``bands_nm``, then the spectra.
 
     Examples
     --------

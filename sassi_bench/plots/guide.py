@@ -35,6 +35,18 @@ def _display(image: ArrayLike, valid: ArrayLike | None = None) -> NDArray[np.flo
 def checkerboard(a: ArrayLike, b: ArrayLike, tile_px: int = 40) -> NDArray[np.float64]:
     """Tiles of ``a`` and ``b`` alternating like a checkerboard (same shapes).
 
+    Parameters
+    ----------
+    a, b
+        (H, W) or (H, W, C) images of one shape; ``a`` fills the top-left tile.
+    tile_px
+        Side of a square tile in pixels.
+
+    Returns
+    -------
+    ndarray
+        float64, the shape of ``a``.
+
     Examples
     --------
     >>> checkerboard(np.zeros((2, 4)), np.ones((2, 4)), tile_px=2).tolist()
@@ -50,7 +62,30 @@ def checkerboard(a: ArrayLike, b: ArrayLike, tile_px: int = 40) -> NDArray[np.fl
 
 def matches_figure(registration, guide_image: ArrayLike, slm_image: ArrayLike, *, limit: int = 300):
     """The guide image and the SLM rendering side by side with the matched features:
-    inliers green, rejected matches red."""
+    inliers green, rejected matches red.
+
+    Parameters
+    ----------
+    registration
+        A :class:`~sassi_bench.calibrate.guide_registration.Registration`: its matched
+        points (guide, SLM), inlier flags and quality.
+    guide_image
+        The guide camera's image the features were found in.
+    slm_image
+        The rendering of the scene on the SLM grid.
+    limit
+        Most matches drawn of each kind (a random subset beyond).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel; the title gives the inlier count, the reprojection RMS and coverage.
+
+    Examples
+    --------
+    >>> fig = matches_figure(result.registration, result.guide_image,
+    ...                      result.reference.image)  # doctest: +SKIP
+    """
     guide = _display(guide_image)
     slm = _display(slm_image)
     height = max(guide.shape[0], slm.shape[0])
@@ -93,7 +128,34 @@ def checkerboard_figure(
     tile_px: int = 40,
 ):
     """The guide image warped onto the SLM grid, tiled with the SLM rendering: edges that
-    run on unbroken across tile borders show the fit. Right: the central quarter, enlarged."""
+    run on unbroken across tile borders show the fit. Right: the central quarter, enlarged.
+
+    Parameters
+    ----------
+    homography
+        (3, 3) guide -> SLM homography.
+    guide_image
+        The guide camera's image.
+    slm_image
+        The rendering of the scene on the SLM grid, (H, W) or (H, W, C).
+    slm_valid
+        (H, W) pixels of the rendering to show; all by default.
+    tile_px
+        Side of a checkerboard tile in SLM pixels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The whole blend and its enlarged centre.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> image = rng.random((60, 80))
+    >>> fig = checkerboard_figure(np.eye(3), image, image, tile_px=10)
+    >>> len(fig.axes)
+    2
+    """
     slm = np.asarray(slm_image)
     height, width = slm.shape[:2]
     warped = cv2.warpPerspective(
@@ -137,7 +199,26 @@ def checkerboard_figure(
 
 
 def guide_figures(result) -> dict[str, Any]:
-    """Both figures of a :class:`~sassi_bench.workflows.guide.GuideRegistration`."""
+    """Both figures of a :class:`~sassi_bench.workflows.guide.GuideRegistration`.
+
+    Parameters
+    ----------
+    result
+        The registration result: its ``registration``, ``homography``, ``guide_image``
+        and ``reference`` (the SLM rendering and where it is valid).
+
+    Returns
+    -------
+    dict
+        ``"guide_matches"`` (:func:`matches_figure`) and ``"guide_checkerboard"``
+        (:func:`checkerboard_figure`).
+
+    Examples
+    --------
+    >>> figures = guide_figures(result)  # doctest: +SKIP
+    >>> sorted(figures)  # doctest: +SKIP
+    ['guide_checkerboard', 'guide_matches']
+    """
     ref = result.reference
     return {
         "guide_matches": matches_figure(result.registration, result.guide_image, ref.image),

@@ -66,6 +66,16 @@ def figure_base64(fig: Any, dpi: int = 100) -> str:
 def image_tags(images: Mapping[str, str]) -> dict[str, str]:
     """``<img>`` elements for base64 PNGs, by name (the name is the alt text).
 
+    Parameters
+    ----------
+    images
+        Name -> base64 PNG (e.g. from :func:`figure_base64`).
+
+    Returns
+    -------
+    dict
+        Name -> ``<img>`` element with the PNG inline as a data URI.
+
     Examples
     --------
     >>> image_tags({"spectra": "AAAA"})["spectra"]
@@ -80,6 +90,16 @@ def image_tags(images: Mapping[str, str]) -> dict[str, str]:
 def jsonable(value: Any) -> Any:
     """``value`` with NumPy arrays and scalars as Python lists and numbers, mappings with
     string keys, and non-finite floats as None (JSON has no NaN), for a report's JSON.
+
+    Parameters
+    ----------
+    value
+        Nested mappings, lists, tuples, arrays and scalars.
+
+    Returns
+    -------
+    object
+        The same structure made of dicts, lists, str, int, float, bool and None.
 
     Examples
     --------

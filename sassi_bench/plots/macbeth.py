@@ -29,7 +29,27 @@ def _shade_unusable(ax, lam, usable) -> None:
 
 
 def spectra_figure(result) -> tuple[Any, dict[str, Any]]:
-    """The 24 patch spectra against the reference, in the chart's 4 x 6 layout."""
+    """The 24 patch spectra against the reference, in the chart's 4 x 6 layout.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        One panel per patch: the measured mean, ± 1 std and the reference.
+    data : dict
+        The plotted values: wavelengths, usable bins, patch names, measured, spread,
+        reference and pixel counts.
+
+    Examples
+    --------
+    >>> fig, data = spectra_figure(result)  # doctest: +SKIP
+    >>> len(data["measured"])  # doctest: +SKIP
+    24
+    """
     lam, usable = result.wavelengths_nm, result.usable
     fig = _figure(figsize=(13.5, 8.2), layout="constrained")
     axes = fig.subplots(4, 6, sharex=True, sharey=True)
@@ -73,7 +93,26 @@ def spectra_figure(result) -> tuple[Any, dict[str, Any]]:
 
 
 def de00_figure(result, tolerances) -> tuple[Any, dict[str, Any]]:
-    """CIEDE2000 per patch with the tolerances."""
+    """CIEDE2000 per patch with the tolerances.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+    tolerances
+        The procedure's tolerances: ``max_de00`` and ``mean_de00``.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        One bar per patch, in the patch's reference colour, and the tolerance lines.
+    data : dict
+        Patch numbers, CIEDE2000 per patch and the two tolerances.
+
+    Examples
+    --------
+    >>> fig, data = de00_figure(result, {"max_de00": 6.0, "mean_de00": 3.0})  # doctest: +SKIP
+    """
     fig = _figure(figsize=(10, 3.6), layout="constrained")
     ax = fig.subplots()
     x = np.arange(1, 25)
@@ -106,7 +145,24 @@ def _swatches(rgb) -> np.ndarray:
 
 
 def chart_figure(result) -> tuple[Any, dict[str, Any]]:
-    """The measured chart rendered beside the reference swatches (D65, sRGB)."""
+    """The measured chart rendered beside the reference swatches (D65, sRGB).
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        The measured and the reference chart as swatches.
+    data : dict
+        sRGB and CIELAB of the measured and the reference patches.
+
+    Examples
+    --------
+    >>> fig, data = chart_figure(result)  # doctest: +SKIP
+    """
     fig = _figure(figsize=(10, 3.4), layout="constrained")
     axes = fig.subplots(1, 2)
     for ax, rgb, title in (
@@ -148,6 +204,11 @@ def grid_figure(picture, origin: tuple[int, int], grid, interior: float):
     interior
         Side of each measured square, as a fraction of the patch pitch.
 
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The picture (if any) with each patch's measured square and number, in SLM pixels.
+
     Examples
     --------
     >>> from sassi_bench.validate.locate import grid_from_corners
@@ -178,7 +239,26 @@ def grid_figure(picture, origin: tuple[int, int], grid, interior: float):
 
 
 def localisation_figure(result, interior: float) -> tuple[Any, dict[str, Any]]:
-    """The picture the chart was found on, with the measured patch interiors."""
+    """The picture the chart was found on, with the measured patch interiors.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+    interior
+        Side of each measured square, as a fraction of the patch pitch.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        See :func:`grid_figure`.
+    data : dict
+        How the chart was located, its homography to the SLM and the patch centres.
+
+    Examples
+    --------
+    >>> fig, data = localisation_figure(result, 0.5)  # doctest: +SKIP
+    """
     fig = grid_figure(result.picture, result.picture_origin, result.grid, interior)
     centres = result.grid.centres()
     data = {
@@ -192,7 +272,26 @@ def localisation_figure(result, interior: float) -> tuple[Any, dict[str, Any]]:
 
 
 def wavelength_figure(result, bundle) -> tuple[Any, dict[str, Any]]:
-    """The bundle's wavelength bins: width per bin, and the white signal that set the band."""
+    """The bundle's wavelength bins: width per bin, and the white signal that set the band.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+    bundle
+        The :class:`~sassi_bench.bundle.CalibrationBundle` validated (its bin resolutions).
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        Bin width against bin centre, and the relative white signal with the usable band.
+    data : dict
+        Bin centres, edges and resolutions, the white signal and the usable band.
+
+    Examples
+    --------
+    >>> fig, data = wavelength_figure(result, bundle)  # doctest: +SKIP
+    """
     lam, edges = result.wavelengths_nm, result.bin_edges_nm
     fig = _figure(figsize=(10, 3.4), layout="constrained")
     axes = fig.subplots(1, 2)
@@ -217,7 +316,28 @@ def wavelength_figure(result, bundle) -> tuple[Any, dict[str, Any]]:
 
 
 def macbeth_figures(result, bundle, procedure) -> dict[str, tuple[Any, dict[str, Any]]]:
-    """Every figure of the report with its data, by name."""
+    """Every figure of the report with its data, by name.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+    bundle
+        The :class:`~sassi_bench.bundle.CalibrationBundle` validated.
+    procedure
+        The validation procedure: its ``tolerances`` and ``localisation.interior``.
+
+    Returns
+    -------
+    dict
+        ``"spectra"``, ``"de00"``, ``"chart"``, ``"localisation"`` and
+        ``"wavelength_calibration"`` -> (figure, data).
+
+    Examples
+    --------
+    >>> figures = macbeth_figures(result, bundle, procedure)  # doctest: +SKIP
+    >>> fig, data = figures["de00"]  # doctest: +SKIP
+    """
     return {
         "spectra": spectra_figure(result),
         "de00": de00_figure(result, procedure["tolerances"]),

@@ -10,6 +10,18 @@ __all__ = ["figure_png"]
 def figure_png(fig, dpi: int = 110) -> bytes:
     """Render a matplotlib figure to PNG bytes.
 
+    Parameters
+    ----------
+    fig
+        A :class:`matplotlib.figure.Figure`.
+    dpi
+        Resolution of the PNG.
+
+    Returns
+    -------
+    bytes
+        The PNG file's bytes.
+
     Examples
     --------
     >>> from matplotlib.figure import Figure

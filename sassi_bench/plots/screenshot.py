@@ -17,6 +17,12 @@ _NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable
 def chromium_path() -> str | None:
     """The first Chromium-like browser on ``PATH``, or None.
 
+    Returns
+    -------
+    str or None
+        The browser's path, or None if none of Chromium, chromium-browser, google-chrome
+        or google-chrome-stable is on ``PATH``.
+
     Examples
     --------
     >>> chromium_path() is None or chromium_path().startswith("/")
@@ -38,6 +44,22 @@ def screenshot(
     timeout_s: float = 60.0,
 ) -> Path:
     """Render ``html`` into ``png`` (a ``width`` x ``height`` window) with headless Chromium.
+
+    Parameters
+    ----------
+    html
+        The HTML file to render.
+    png
+        The PNG file to write.
+    width, height
+        The browser window in CSS pixels; the page is cut at ``height``.
+    timeout_s
+        Seconds Chromium may take.
+
+    Returns
+    -------
+    pathlib.Path
+        The absolute path of the PNG written.
 
     Raises
     ------

@@ -38,7 +38,25 @@ def _band_image(cube: NDArray) -> NDArray[np.float32]:
 
 
 def masks_figure(result) -> tuple[Any, dict[str, Any]]:
-    """Every mask's open pixels (and the adaptive mask's regions) on the guide image."""
+    """Every mask's open pixels (and the adaptive mask's regions) on the guide image.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.snapshot.SnapshotValidation`: one panel per entry
+        of its ``runs``.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        The guide image warped to the SLM with the open pixels and region borders.
+    data : dict
+        Per run, its number of open pixels and of regions.
+
+    Examples
+    --------
+    >>> fig, data = masks_figure(result)  # doctest: +SKIP
+    """
     from skimage.segmentation import find_boundaries
 
     runs = result.runs
@@ -71,8 +89,17 @@ def snapshot_quick_look(frame, wavelengths_nm: NDArray) -> Any:
     """One reconstructed frame at a glance: the open pixels on the guide image, and the
     rank-1 and guided cubes rendered in sRGB (CIE 1931 colour matching functions).
 
-    ``frame`` is a :class:`~sassi_bench.snapshot.pipeline.FrameReconstruction`; both cubes
-    share the guided cube's brightness scale.
+    Parameters
+    ----------
+    frame
+        A :class:`~sassi_bench.snapshot.pipeline.FrameReconstruction`.
+    wavelengths_nm
+        (B,) wavelengths of the cubes' bands.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three panels; both cubes share one brightness scale.
 
     Examples
     --------
@@ -103,7 +130,25 @@ def snapshot_quick_look(frame, wavelengths_nm: NDArray) -> Any:
 
 
 def reconstruction_figure(result) -> tuple[Any, dict[str, Any]]:
-    """The scan, both reconstructions of the main snapshot and their error maps."""
+    """The scan, both reconstructions of the main snapshot and their error maps.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.snapshot.SnapshotValidation`; its first run is shown.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        Top: the scan and both reconstructions in false colour; bottom: the detail
+        pixels and each method's RMS error over bands relative to the scan's peak.
+    data : dict
+        The error peak and each method's mean relative RMS error.
+
+    Examples
+    --------
+    >>> fig, data = reconstruction_figure(result)  # doctest: +SKIP
+    """
     run = next(iter(result.runs.values()))
     ref = result.reference
     top = float(np.percentile(_band_image(ref)[result.valid], 99.5)) or 1.0
@@ -131,7 +176,24 @@ def reconstruction_figure(result) -> tuple[Any, dict[str, Any]]:
 
 
 def band_psnr_figure(result) -> tuple[Any, dict[str, Any]]:
-    """Per-band PSNR of every snapshot and method."""
+    """Per-band PSNR of every snapshot and method.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.snapshot.SnapshotValidation`.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        PSNR against wavelength, one line per run and method.
+    data : dict
+        The wavelengths and, per ``<run>_<method>``, the PSNR of each band.
+
+    Examples
+    --------
+    >>> fig, data = band_psnr_figure(result)  # doctest: +SKIP
+    """
     lam = result.wavelengths_nm
     fig = _figure(figsize=(9, 4.2), layout="constrained")
     ax = fig.subplots()
@@ -159,7 +221,26 @@ def _points(result, count: int) -> list[tuple[int, int]]:
 
 
 def spectra_figure(result, count: int = 4) -> tuple[Any, dict[str, Any]]:
-    """Reconstructed spectra against the scan at a few pixels."""
+    """Reconstructed spectra against the scan at a few pixels.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.snapshot.SnapshotValidation`; its first run is shown.
+    count
+        Pixels shown, spread over the brightness range of the scan.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        One panel per pixel: the scan, rank-1 and guided spectra.
+    data : dict
+        The wavelengths and, per pixel, its (u, v) and the three spectra.
+
+    Examples
+    --------
+    >>> fig, data = spectra_figure(result, count=3)  # doctest: +SKIP
+    """
     run = next(iter(result.runs.values()))
     lam = result.wavelengths_nm
     points = _points(result, count)
@@ -187,7 +268,24 @@ def spectra_figure(result, count: int = 4) -> tuple[Any, dict[str, Any]]:
 
 
 def video_figure(result) -> tuple[Any, dict[str, Any]]:
-    """Per-frame PSNR of the video (after the affine fit)."""
+    """Per-frame PSNR of the video (after the affine fit).
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.snapshot.SnapshotValidation` with a ``video``.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        PSNR per frame, one line per method.
+    data : dict
+        The frame numbers and each method's PSNR per frame.
+
+    Examples
+    --------
+    >>> fig, data = video_figure(result)  # doctest: +SKIP
+    """
     frames = [f["frame"] for f in result.video]
     fig = _figure(figsize=(7, 3.6), layout="constrained")
     ax = fig.subplots()
@@ -206,7 +304,25 @@ def video_figure(result) -> tuple[Any, dict[str, Any]]:
 
 
 def snapshot_figures(result, points: int = 4) -> dict[str, tuple[Any, dict[str, Any]]]:
-    """Every figure of the report, by name."""
+    """Every figure of the report, by name.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.validate.snapshot.SnapshotValidation`.
+    points
+        Pixels of the spectra figure.
+
+    Returns
+    -------
+    dict
+        ``"masks"``, ``"reconstruction"``, ``"band_psnr"``, ``"spectra"`` and, with a
+        video, ``"video"`` -> (figure, data).
+
+    Examples
+    --------
+    >>> figures = snapshot_figures(result)  # doctest: +SKIP
+    """
     figures = {
         "masks": masks_figure(result),
         "reconstruction": reconstruction_figure(result),

@@ -18,7 +18,24 @@ def _figure(*args, **kwargs):
 
 def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
     """Per laser: RMS distance (camera px) of the decoded correspondences from the smooth
-    map, binned over the SLM field."""
+    map, binned over the SLM field.
+
+    Parameters
+    ----------
+    lasers
+        Every laser's :class:`~sassi_bench.workflows.spectral_decode.LaserDecode`.
+    slm_shape
+        SLM (height, width).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One map per laser on a 16 x 24 grid over the SLM, all on one colour scale.
+
+    Examples
+    --------
+    >>> fig = residual_maps_figure(result.lasers, bundle.slm_shape)  # doctest: +SKIP
+    """
     n = len(lasers)
     fig = _figure(figsize=(3.2 * n, 2.9), layout="constrained")
     axes = fig.subplots(1, n, squeeze=False)[0]
@@ -46,7 +63,27 @@ def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
 
 def dispersion_figure(dispersion, lasers, slm_shape: tuple[int, int]):
     """Streak position versus wavelength at five field points with the laser points, and
-    the wavelength resolution of the bins."""
+    the wavelength resolution of the bins.
+
+    Parameters
+    ----------
+    dispersion
+        The :class:`~sassi_bench.calibrate.dispersion.DispersionFit`: its model, bins and
+        leave-one-out errors.
+    lasers
+        Every laser's :class:`~sassi_bench.workflows.spectral_decode.LaserDecode`.
+    slm_shape
+        SLM (height, width).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The dispersion curves with the laser points, and bin width against bin centre.
+
+    Examples
+    --------
+    >>> fig = dispersion_figure(result.dispersion, result.lasers, (400, 640))  # doctest: +SKIP
+    """
     fig = _figure(figsize=(9, 3.6), layout="constrained")
     ax, ax_res = fig.subplots(1, 2)
     h, w = slm_shape
@@ -77,7 +114,22 @@ def dispersion_figure(dispersion, lasers, slm_shape: tuple[int, int]):
 
 
 def blur_figure(blur):
-    """Measured line-spread widths at the laser lines and the quadratic fit."""
+    """Measured line-spread widths at the laser lines and the quadratic fit.
+
+    Parameters
+    ----------
+    blur
+        The :class:`~sassi_bench.calibrate.blur.BlurFit`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Spot sigma against wavelength: the fit and the measured points.
+
+    Examples
+    --------
+    >>> fig = blur_figure(result.blur)  # doctest: +SKIP
+    """
     fig = _figure(figsize=(4.8, 3.4), layout="constrained")
     ax = fig.subplots()
     lam = np.linspace(400, 700, 200)
@@ -91,7 +143,22 @@ def blur_figure(blur):
 
 
 def spectral_figures(result: Any) -> dict[str, Any]:
-    """The report figures of a :class:`~sassi_bench.workflows.spectral.SpectralCalibration`."""
+    """The report figures of a spectral calibration.
+
+    Parameters
+    ----------
+    result
+        A :class:`~sassi_bench.workflows.spectral_analysis.SpectralCalibration`.
+
+    Returns
+    -------
+    dict
+        ``"residual_maps"``, ``"dispersion"`` and ``"blur"`` -> figure.
+
+    Examples
+    --------
+    >>> figures = spectral_figures(result)  # doctest: +SKIP
+    """
     shape = result.lasers[0].laser_map.x.slm_shape
     return {
         "residual_maps": residual_maps_figure(result.lasers, shape),

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.frame import Frame, FrameMeta
 from sassi_bench.rig.rig import check_light
@@ -51,14 +52,14 @@ def check_pattern(pattern: ArrayLike, shape: tuple[int, int]) -> NDArray[np.uint
     [[255, 255], [255, 255]]
     """
     arr = np.asarray(pattern)
-    if arr.shape != tuple(shape):
-        raise ProcedureError(
-            step_error(
-                "SLM show",
-                f"pattern has shape {arr.shape}, the SLM is {tuple(shape)} (height, width)",
-                f"pass an array of shape {tuple(shape)}",
-            )
-        )
+    check_shape(
+        arr,
+        tuple(shape),
+        step="SLM show",
+        name="pattern",
+        expected_for="the SLM (height, width)",
+        fix=f"pass an array of shape {tuple(shape)}",
+    )
     if arr.dtype == np.bool_:
         return arr.astype(np.uint8) * np.uint8(255)
     if arr.dtype != np.uint8:

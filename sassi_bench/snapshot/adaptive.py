@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.bundle import MaskSpacing
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
@@ -90,14 +91,14 @@ def place_samples(
     [[4, 5], [4, 15], [4, 25], [4, 35]]
     """
     labels = np.ascontiguousarray(superpixel_labels, dtype=np.int32)
-    if labels.shape != spacing.slm_shape:
-        raise ProcedureError(
-            step_error(
-                "adaptive mask",
-                f"the superpixel labels have shape {labels.shape}, the SLM {spacing.slm_shape}",
-                "segment the guide image warped onto the SLM grid (guide_on_slm)",
-            )
-        )
+    check_shape(
+        labels,
+        spacing.slm_shape,
+        step="adaptive mask",
+        name="the superpixel label image",
+        expected_for="the SLM",
+        fix="segment the guide image warped onto the SLM grid (guide_on_slm)",
+    )
     n_labels = int(labels.max()) + 1 if labels.size else 0
     builder = MaskBuilder.empty(spacing)
     samples = np.empty((max(n_labels, 0), 2), np.int32)
@@ -244,13 +245,14 @@ def adaptive_mask(
         segments = superpixels(
             guide_slm, n_segments, compactness=compactness, shape=spacing.slm_shape
         )
-    elif segments.labels.shape != (h, w):
-        raise ProcedureError(
-            step_error(
-                "adaptive mask",
-                f"the superpixels have shape {segments.labels.shape}, the SLM {(h, w)}",
-                "segment the guide image warped onto the SLM grid (guide_on_slm)",
-            )
+    else:
+        check_shape(
+            segments.labels,
+            (h, w),
+            step="adaptive mask",
+            name="the superpixel label image",
+            expected_for="the SLM",
+            fix="segment the guide image warped onto the SLM grid (guide_on_slm)",
         )
     if fill not in ("residual", "raster", None):
         raise ProcedureError(

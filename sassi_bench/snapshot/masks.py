@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.bundle import MaskSpacing
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
@@ -22,14 +23,14 @@ __all__ = ["check_mask", "mask_conflicts", "random_mask", "uniform_mask"]
 
 def _as_mask(mask: ArrayLike, spacing: MaskSpacing, step: str) -> NDArray[np.bool_]:
     array = np.asarray(mask)
-    if array.shape != spacing.slm_shape:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the mask has shape {array.shape}, the SLM {spacing.slm_shape}",
-                f"pass a boolean {spacing.slm_shape} array (rows, columns of the SLM)",
-            )
-        )
+    check_shape(
+        array,
+        spacing.slm_shape,
+        step=step,
+        name="the mask",
+        expected_for="the SLM",
+        fix=f"pass a boolean {spacing.slm_shape} array (rows, columns of the SLM)",
+    )
     if array.dtype != np.bool_:
         if array.dtype.kind not in "iuf" or not np.isin(array, (0, 1)).all():
             raise ProcedureError(

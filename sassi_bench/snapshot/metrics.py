@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import as_float_array, check_shape, check_shape_equality
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra.angles import spectral_angle_deg
 
@@ -23,28 +24,28 @@ __all__ = ["affine_fit", "band_psnr", "mean_spectral_angle_deg", "psnr", "ssim"]
 
 
 def _pair(reference: ArrayLike, estimate: ArrayLike, valid: ArrayLike | None):
-    ref = np.asarray(reference, dtype=np.float64)
-    est = np.asarray(estimate, dtype=np.float64)
-    if ref.shape != est.shape or ref.ndim < 2:
+    step, fix = "snapshot metrics", "compare cubes of one shape (..., bands)"
+    ref = as_float_array(reference, step=step, name="the reference", fix=fix)
+    est = as_float_array(estimate, step=step, name="the estimate", fix=fix)
+    check_shape_equality(ref, est, step=step, names=("the reference", "the estimate"), fix=fix)
+    if ref.ndim < 2:
         raise ProcedureError(
-            step_error(
-                "snapshot metrics",
-                f"reference {ref.shape} and estimate {est.shape} differ or have no band axis",
-                "compare cubes of one shape (..., bands)",
-            )
+            step_error(step, f"the cubes have shape {ref.shape}, no band axis", fix)
         )
     if valid is None:
         return ref.reshape(-1, ref.shape[-1]), est.reshape(-1, est.shape[-1])
     keep = np.asarray(valid, dtype=bool)
-    if keep.shape != ref.shape[:-1] or not keep.any():
-        raise ProcedureError(
-            step_error(
-                "snapshot metrics",
-                f"the valid mask has shape {keep.shape} ({int(keep.sum())} pixels), the cube's "
-                f"pixels {ref.shape[:-1]}",
-                "pass a boolean mask over the cube's pixels with at least one True",
-            )
-        )
+    mask_fix = "pass a boolean mask over the cube's pixels with at least one True"
+    check_shape(
+        keep,
+        ref.shape[:-1],
+        step=step,
+        name="the valid mask",
+        expected_for="the cube's pixels",
+        fix=mask_fix,
+    )
+    if not keep.any():
+        raise ProcedureError(step_error(step, "the valid mask selects no pixel", mask_fix))
     return ref[keep], est[keep]
 
 

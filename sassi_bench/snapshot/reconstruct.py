@@ -34,6 +34,12 @@ import numpy as np
 import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import (
+    check_dtype_kind,
+    check_ndim,
+    check_shape,
+    check_shape_equality,
+)
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
@@ -67,24 +73,19 @@ DENSE_BACKGROUND_PASSES = 24
 def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
     array = np.asarray(pixels)
     if array.dtype == np.bool_:
-        if array.shape != tuple(shape):
-            raise ProcedureError(
-                step_error(
-                    step,
-                    f"the mask has shape {array.shape}, the SLM {tuple(shape)}",
-                    "pass the (H, W) mask shown on the SLM, or (N, 2) (row, column) pixels",
-                )
-            )
+        check_shape(
+            array,
+            tuple(shape),
+            step=step,
+            name="the mask",
+            expected_for="the SLM",
+            fix="pass the (H, W) mask shown on the SLM, or (N, 2) (row, column) pixels",
+        )
         rows, cols = np.nonzero(array)
         return rows, cols
-    if array.ndim != 2 or array.shape[1] != 2 or array.dtype.kind not in "iu":
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the open pixels have shape {array.shape} and dtype {array.dtype}",
-                "pass a boolean (H, W) mask or an (N, 2) integer array of (row, column)",
-            )
-        )
+    fix = "pass a boolean (H, W) mask or an (N, 2) integer array of (row, column)"
+    check_shape(array, ("N", 2), step=step, name="the open pixel list", fix=fix)
+    check_dtype_kind(array, "iu", step=step, name="the open pixel list", fix=fix)
     rows, cols = array[:, 0].astype(np.intp), array[:, 1].astype(np.intp)
     h, w = shape
     if rows.size and (rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w):
@@ -151,14 +152,10 @@ def measure_samples(
     """
     step = "snapshot spectra"
     image = np.asarray(frame)
-    if image.ndim != 2 or image.dtype.kind not in "iuf":
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the frame has shape {image.shape} and dtype {image.dtype}",
-                "pass one spectral-camera frame",
-            )
-        )
+    check_ndim(image, 2, step=step, name="the frame", fix="pass one spectral-camera frame")
+    check_dtype_kind(
+        image, "iuf", step=step, name="the frame", fix="pass one spectral-camera frame"
+    )
     if not (np.isfinite(exposure_s) and exposure_s > 0):
         raise ProcedureError(step_error(step, f"exposure_s is {exposure_s}", "pass seconds > 0"))
     rows, cols = _open_pixels(pixels, bundle.slm_shape, step)
@@ -198,12 +195,9 @@ def guide_intensity(guide_slm: ArrayLike) -> NDArray[np.float32]:
 
 
 def _check_samples(guide, rows, cols, spectra, step):
+    check_ndim(guide, (2, 3), step=step, name="the guide", fix="pass (H, W[, C])")
     intensity = guide_intensity(guide)
     values = np.asarray(spectra)
-    if intensity.ndim != 2:
-        raise ProcedureError(
-            step_error(step, f"the guide has shape {np.shape(guide)}", "pass (H, W[, C])")
-        )
     if values.ndim != 2 or values.shape[0] != rows.size or rows.size == 0:
         raise ProcedureError(
             step_error(
@@ -260,14 +254,13 @@ def rank1_cube(
     step = "snapshot rank-1 reconstruction"
     rows, cols = _open_pixels(pixels, regions.shape, step)
     intensity, values = _check_samples(guide_slm, rows, cols, spectra, step)
-    if intensity.shape != regions.shape:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the guide has shape {intensity.shape}, the labels {regions.shape}",
-                "pass the guide image and labels on the same SLM grid",
-            )
-        )
+    check_shape_equality(
+        intensity,
+        regions,
+        step=step,
+        names=("the guide", "the labels"),
+        fix="pass the guide image and labels on the same SLM grid",
+    )
     n_regions = int(regions.max()) + 1
     owner = regions[rows, cols]
     weight = intensity[rows, cols].astype(np.float64)
@@ -424,15 +417,14 @@ def snapshot_dataset(
     ('y', 'x', 'wavelength')
     """
     h, w = bundle.slm_shape
-    if cube.shape != (h, w, bundle.wavelengths.size):
-        raise ProcedureError(
-            step_error(
-                "snapshot cube",
-                f"the cube has shape {cube.shape}, the bundle's SLM and bins "
-                f"{(h, w, bundle.wavelengths.size)}",
-                "reconstruct with this bundle",
-            )
-        )
+    check_shape(
+        cube,
+        (h, w, bundle.wavelengths.size),
+        step="snapshot cube",
+        name="the cube",
+        expected_for="the bundle's SLM and bins",
+        fix="reconstruct with this bundle",
+    )
     return spectral_cube_dataset(
         cube.astype(np.float32, copy=False),
         bundle.wavelengths,

@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench._shared.arrays import check_shape
 from sassi_bench.bundle import BundleError, CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -36,6 +37,9 @@ __all__ = ["Superpixels", "guide_features", "guide_on_slm", "superpixels"]
 
 #: SLIC iterations (see the module docstring for the measurement).
 ITERATIONS = 2
+
+#: The guide images accepted: grey, one channel or RGB.
+_GUIDE_SHAPES = [("H", "W"), ("H", "W", 1), ("H", "W", 3)]
 
 
 def guide_on_slm(bundle: CalibrationBundle, guide: ArrayLike) -> NDArray[np.float32]:
@@ -61,14 +65,13 @@ def guide_on_slm(bundle: CalibrationBundle, guide: ArrayLike) -> NDArray[np.floa
             )
         )
     image = np.asarray(guide)
-    if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] not in (1, 3)):
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the guide image has shape {image.shape}",
-                "pass the guide camera's (rows, cols) or (rows, cols, 3) image",
-            )
-        )
+    check_shape(
+        image,
+        _GUIDE_SHAPES,
+        step=step,
+        name="the guide image",
+        fix="pass the guide camera's (rows, cols) or (rows, cols, 3) image",
+    )
     try:
         warped = bundle.warp_guide_to_slm(image.astype(np.float32, copy=False))
     except BundleError as exc:
@@ -77,24 +80,25 @@ def guide_on_slm(bundle: CalibrationBundle, guide: ArrayLike) -> NDArray[np.floa
 
 
 def _check_slm_image(image: ArrayLike, shape: tuple[int, int] | None, step: str) -> NDArray:
+    check_shape(
+        image,
+        _GUIDE_SHAPES,
+        step=step,
+        name="the guide image on the SLM grid",
+        fix="pass an (H, W) or (H, W, 3) image on the SLM grid (guide_on_slm)",
+        allow_empty=False,
+    )
     array = np.asarray(image)
     if array.ndim == 2:
         array = array[..., None]
-    if array.ndim != 3 or array.shape[2] not in (1, 3) or array.size == 0:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the guide image on the SLM grid has shape {np.shape(image)}",
-                "pass an (H, W) or (H, W, 3) image on the SLM grid (guide_on_slm)",
-            )
-        )
-    if shape is not None and array.shape[:2] != tuple(shape):
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the guide image has shape {array.shape[:2]}, the SLM {tuple(shape)}",
-                "warp the guide image onto the SLM grid first (guide_on_slm)",
-            )
+    if shape is not None:
+        check_shape(
+            array[..., 0],  # its (rows, cols)
+            tuple(shape),
+            step=step,
+            name="the guide image",
+            expected_for="the SLM",
+            fix="warp the guide image onto the SLM grid first (guide_on_slm)",
         )
     if not np.all(np.isfinite(array)):
         raise ProcedureError(

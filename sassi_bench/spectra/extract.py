@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench._shared.arrays import check_ndim
 from sassi_bench.spectra.cells import (
     NEGLIGIBLE_COUPLING,
     cell_layout,
@@ -74,12 +74,7 @@ def extract_spectra(
         True where part of a bin's window fell off the camera, (N, B).
     """
     image = np.asarray(image, dtype=np.float64)
-    if image.ndim != 2:
-        raise ProcedureError(
-            step_error(
-                "spectrum extraction", f"frame has shape {image.shape}", "pass one 2-D frame"
-            )
-        )
+    check_ndim(image, 2, step="spectrum extraction", name="the frame", fix="pass one 2-D frame")
     if geometry.rows.size == 0:
         nb = geometry.sigma.size - 2 * geometry.guard
         return np.zeros((0, nb)), np.zeros((0, nb), dtype=bool)

@@ -145,6 +145,33 @@ def coarse_scan_plan(
     The measured SLM pixels form a lattice ``stride`` apart, starting at (0, 0); with
     ``stride == (1, 1)`` this is the full Nyquist scan.
 
+    Parameters
+    ----------
+    slm_shape
+        SLM (height, width).
+    light
+        The light the scan is captured under.
+    exposure_s
+        Exposure of every pinhole frame.
+    pitch
+        (horizontal, vertical) pinhole pitch in SLM pixels.
+    stride
+        (horizontal, vertical) step between the pinhole offsets kept; each divides the
+        pitch on its axis.
+    scene
+        The scene scanned (recorded in the plan's parameters).
+
+    Returns
+    -------
+    Plan
+        ``guide-scan``: the full scan's dark and reference frames and the kept pinhole
+        frames, with ``stride`` among its parameters.
+
+    Raises
+    ------
+    ConfigError
+        If a stride does not divide the pitch.
+
     Examples
     --------
     >>> plan = coarse_scan_plan((400, 640), "led", 0.1, (100, 5), (4, 1), "natural")
@@ -179,7 +206,37 @@ def scan_reference(
     data=None,
     progress: bool = True,
 ) -> SlmReference:
-    """Scan the procedure's scene (coarse or full) and render it as RGB on the SLM grid."""
+    """Scan the procedure's scene (coarse or full) and render it as RGB on the SLM grid.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    bundle
+        The calibration bundle the scan is assembled with.
+    procedure
+        The guide-registration procedure: its ``scene``, ``light``, ``scan`` and
+        ``rendering`` sections.
+    session_id
+        Id of the raw scan session; an existing id resumes.
+    data
+        Data root for sessions.
+    progress
+        Show progress bars.
+
+    Returns
+    -------
+    SlmReference
+        The rendering (radiance if the bundle has a response), where it is measured, and
+        the scan session.
+
+    Examples
+    --------
+    >>> ref = scan_reference(rig, bundle, load_procedure("guide_registration"),
+    ...                      session_id="guide-scan")  # doctest: +SKIP
+    >>> ref.image.shape == (*rig.slm.shape, 3)  # doctest: +SKIP
+    True
+    """
     scan_cfg = procedure["scan"]
     pitch = tuple(int(p) for p in scan_cfg["pitch_px"])
     stride = (int(scan_cfg["stride_px"][0]), int(scan_cfg["stride_px"][1]))
@@ -221,7 +278,36 @@ def capture_guide(
     data=None,
     progress: bool = True,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], Session]:
-    """Averaged, dark-subtracted guide image of the procedure's scene, and unsaturated pixels."""
+    """Averaged, dark-subtracted guide image of the procedure's scene, and unsaturated pixels.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    procedure
+        The guide-registration procedure: its ``scene``, ``light`` and ``guide`` sections
+        (frames to average, exposure target).
+    session_id
+        Id of the raw guide session; an existing id resumes.
+    data
+        Data root for sessions.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    image : ndarray
+        float64, lit minus dark frames, each averaged.
+    valid : ndarray
+        bool (H, W), pixels no lit frame saturated.
+    session : Session
+        The guide session.
+
+    Examples
+    --------
+    >>> image, valid, session = capture_guide(rig, load_procedure("guide_registration"),
+    ...                                       session_id="guide-capture")  # doctest: +SKIP
+    """
     cfg = procedure["guide"]
     scene, light = str(procedure["scene"]), str(procedure["light"])
     blank = {"kind": "blank"}
@@ -387,6 +473,26 @@ def publish_guide(
     The new version carries ``bundle``'s quality checks (see
     :func:`~sassi_bench.bundle.publish_derived`): a parent published with an override is
     refused unless ``allow_failed``.
+
+    Parameters
+    ----------
+    result
+        A finished registration.
+    bundle
+        The parent bundle whose models the new version carries.
+    data
+        Data root for bundles.
+    allow_failed
+        Publish although a check failed (recorded as an override).
+
+    Returns
+    -------
+    pathlib.Path
+        The new bundle's folder.
+
+    Examples
+    --------
+    >>> path = publish_guide(result, bundle)  # doctest: +SKIP
     """
     ref = result.reference
     info = {

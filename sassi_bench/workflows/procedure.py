@@ -77,6 +77,23 @@ def with_changes(procedure: dict[str, Any], **changes: Any) -> dict[str, Any]:
     Notebooks use it for the choices a person makes (which lasers, what tolerance); the
     change is recorded in ``source`` so a published bundle says the procedure was edited.
 
+    Parameters
+    ----------
+    procedure
+        A procedure from :func:`load_procedure` (its ``name`` picks the schema).
+    **changes
+        New values of top-level keys.
+
+    Returns
+    -------
+    dict
+        The changed, validated procedure; ``source`` names the keys that changed.
+
+    Raises
+    ------
+    ConfigError
+        If the changed procedure breaks its schema.
+
     Examples
     --------
     >>> proc = with_changes(load_procedure("spectral_calibration"), lasers_nm=[450, 532, 670])
@@ -104,6 +121,20 @@ def save_working_procedure(
     Written to ``<data>/procedures/<session_id>-<kind>.yaml``, where
     :func:`working_procedure` finds it in a later notebook.
 
+    Parameters
+    ----------
+    procedure
+        A loaded (possibly changed) procedure.
+    session_id
+        The session the procedure is for.
+    data
+        Data root.
+
+    Returns
+    -------
+    pathlib.Path
+        The YAML file written (replacing an earlier one).
+
     Examples
     --------
     >>> import tempfile
@@ -124,6 +155,27 @@ def save_working_procedure(
 def working_procedure(
     kind: str, session_id: str, data: str | os.PathLike[str] | None = None
 ) -> dict[str, Any]:
-    """The procedure saved for a named session, or the shipped default if none was saved."""
+    """The procedure saved for a named session, or the shipped default if none was saved.
+
+    Parameters
+    ----------
+    kind
+        Procedure kind, e.g. ``"spectral_calibration"``.
+    session_id
+        The session the procedure was saved for (:func:`save_working_procedure`).
+    data
+        Data root.
+
+    Returns
+    -------
+    dict
+        The validated procedure, with ``source`` naming the file it came from.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> working_procedure("spectral_calibration", "none-saved", tempfile.mkdtemp())["source"]
+    'procedures/spectral_calibration.yaml'
+    """
     path = _working_path(kind, session_id, data)
     return load_procedure(kind, path if path.is_file() else None)

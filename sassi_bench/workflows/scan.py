@@ -47,7 +47,30 @@ def check_scan(
     pitch: tuple[int, int],
     roi: Sequence[int] | None = None,
 ) -> None:
-    """Refuse a scan the rig cannot take (scene, light, pitch, ROI), before any capture."""
+    """Refuse a scan the rig cannot take (scene, light, pitch, ROI), before any capture.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    scene
+        The scene to scan (a virtual bench's scene name).
+    light
+        One of the rig's lights.
+    pitch
+        (horizontal, vertical) pinhole pitch in SLM pixels.
+    roi
+        Part of the SLM to assemble, or None for all of it.
+
+    Raises
+    ------
+    ProcedureError
+        Naming the first argument the rig cannot take, and the choices it has.
+
+    Examples
+    --------
+    >>> check_scan(open_rig("sim"), "colorchecker", "led", (100, 5))  # doctest: +SKIP
+    """
     check_scene(scene, step="scan")
     check_light(light, rig.light.available, step="scan")
     check_pitch(pitch, rig.slm.shape)
@@ -68,7 +91,24 @@ class ResponseSource:
     label: str
 
     def photons_in_bins(self, bin_edges_nm) -> np.ndarray:
-        """Relative photon flux per bin (:func:`source_photons_in_bins`)."""
+        """Relative photon flux per bin (:func:`source_photons_in_bins`).
+
+        Parameters
+        ----------
+        bin_edges_nm
+            (B + 1,) edges of the wavelength bins.
+
+        Returns
+        -------
+        ndarray
+            (B,) photon flux of the source in each bin, relative.
+
+        Examples
+        --------
+        >>> flux = ResponseSource(3000.0, None, "blackbody 3000 K").photons_in_bins([400, 550, 700])
+        >>> bool(flux[1] > flux[0])  # a halogen lamp is redder than it is blue
+        True
+        """
         return source_photons_in_bins(
             bin_edges_nm, temperature_k=self.temperature_k, reference=self.reference
         )
@@ -79,6 +119,19 @@ class ResponseSource:
         """How much a response taken under this blackbody changes, per bin, if the lamp
         is ``delta_k`` cooler or hotter than assumed (None for a reference spectrum,
         whose uncertainty is the lab's to state).
+
+        Parameters
+        ----------
+        bin_edges_nm
+            (B + 1,) edges of the wavelength bins.
+        delta_k
+            The lamp temperature uncertainty (K).
+
+        Returns
+        -------
+        dict or None
+            The temperature, ``delta_k``, the largest relative change over bins and the
+            relative change per bin for a cooler and a hotter lamp.
 
         Examples
         --------
@@ -105,6 +158,30 @@ def response_source(
 ) -> ResponseSource:
     """The source of a response scan: a reference CSV, else a blackbody at ``temperature_k``
     or the rig's ``light.halogen_k``; refused before any capture when none is known.
+
+    Parameters
+    ----------
+    rig
+        Device handles (their description's ``light.halogen_k``).
+    temperature_k
+        Colour temperature of the lamp (1000-10000 K).
+    reference_csv
+        A CSV of ``wavelength_nm,power``; wins over a temperature.
+
+    Returns
+    -------
+    ResponseSource
+        The spectrum and a label for the bundle's provenance.
+
+    Raises
+    ------
+    ProcedureError
+        If no source spectrum is known, or the temperature is no lamp's.
+
+    Examples
+    --------
+    >>> response_source(open_rig("sim"), temperature_k=3100).label  # doctest: +SKIP
+    'blackbody 3100 K'
     """
     if reference_csv is not None:
         return ResponseSource(None, read_reference_csv(reference_csv), str(reference_csv))
@@ -167,6 +244,41 @@ def run_response(
     ``light.halogen_k``) or a reference CSV (wavelength_nm, power). The new bundle
     carries ``bundle``'s quality checks; a parent published with an override is refused
     (before anything is captured) unless ``allow_failed``.
+
+    Parameters
+    ----------
+    rig
+        Device handles; the white diffuser is put in front.
+    bundle
+        The bundle the scan is assembled with and the new version derives from.
+    light
+        The light the diffuser is lit with.
+    temperature_k, reference_csv
+        The source's spectrum (see :func:`response_source`).
+    reflectance
+        Reflectance of the diffuser.
+    pitch
+        (horizontal, vertical) pinhole pitch in SLM pixels.
+    every
+        Keep every n-th pinhole offset (a thinned scan is enough for a flat target).
+    session_id
+        Id of the raw session; an existing id resumes.
+    data
+        Data root for sessions and bundles.
+    progress
+        Show progress bars.
+    allow_failed
+        Publish although a check failed, or derive from a parent published with an
+        override.
+
+    Returns
+    -------
+    pathlib.Path
+        The new bundle's folder.
+
+    Examples
+    --------
+    >>> path = run_response(rig, bundle, temperature_k=3100)  # doctest: +SKIP
     """
     check_parent(bundle, "response", allow_failed=allow_failed)
     check_scan(rig, "white", light, pitch)
@@ -230,7 +342,19 @@ class ScanRun:
     bundle: CalibrationBundle
 
     def dataset(self):
-        """The cube as an xarray Dataset with its provenance as attributes."""
+        """The cube as an xarray Dataset with its provenance as attributes.
+
+        Returns
+        -------
+        xarray.Dataset
+            Dims (y, x, wavelength), divided by the bundle's response when ``radiance``;
+            its attributes name the bundle, session, scene and light.
+
+        Examples
+        --------
+        >>> run_scan(rig, bundle, scene="white").dataset()["radiance"].dims  # doctest: +SKIP
+        ('y', 'x', 'wavelength')
+        """
         from sassi_bench.spectra.cube_io import cube_dataset
 
         cube = self.scan
@@ -264,7 +388,45 @@ def run_scan(
     data=None,
     progress: bool = True,
 ) -> ScanRun:
-    """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``."""
+    """Capture (or resume) a pinhole scan of ``scene`` and assemble it with ``bundle``.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    bundle
+        This rig's calibration bundle.
+    scene
+        The scene to scan.
+    light
+        The light to scan under.
+    pitch
+        (horizontal, vertical) pinhole pitch in SLM pixels.
+    roi
+        Part of the SLM to assemble, or None for all of it.
+    session_id
+        Id of the raw session; an existing id resumes.
+    data
+        Data root for sessions.
+    progress
+        Show progress bars.
+
+    Returns
+    -------
+    ScanRun
+        The assembled cube, whether it is radiance (the bundle has a response), the
+        session and the bundle.
+
+    Raises
+    ------
+    ProcedureError
+        For a scan the rig cannot take, or a bundle of another SLM.
+
+    Examples
+    --------
+    >>> run = run_scan(open_rig("sim"), load(rig="sim"), scene="white")  # doctest: +SKIP
+    >>> run.scan.cube.shape  # doctest: +SKIP
+    """
     check_scan(rig, scene, light, pitch, roi)
     if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
         raise ProcedureError(

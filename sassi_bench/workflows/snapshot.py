@@ -107,6 +107,18 @@ def check_inputs(
 def procedure_spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -> MaskSpacing:
     """The bundle's spacing rule at the procedure's row pitch (``snapshot.row_pitch_px``).
 
+    Parameters
+    ----------
+    bundle
+        The calibration bundle (its dispersion and blur set the rule).
+    procedure
+        A snapshot procedure; without a row pitch the bundle's own is used.
+
+    Returns
+    -------
+    MaskSpacing
+        Which SLM pixels may be open together.
+
     Examples
     --------
     >>> spacing = procedure_spacing(bundle, load_procedure("snapshot_validation"))  # doctest: +SKIP
@@ -119,6 +131,20 @@ def adaptive_planner(
 ) -> Callable[[NDArray[Any]], NDArray[np.bool_]]:
     """The next frame's mask as a function of a raw guide image: its adaptive mask on the
     SLM grid (what :func:`~sassi_bench.acquire.snapshots.capture_snapshots` calls).
+
+    Parameters
+    ----------
+    bundle
+        The bundle whose guide homography warps the guide image onto the SLM.
+    spacing
+        The spacing rule every mask keeps.
+    compactness
+        SLIC compactness of the superpixels.
+
+    Returns
+    -------
+    callable
+        Raw guide image -> (H, W) bool mask on the SLM.
 
     Examples
     --------
@@ -200,6 +226,24 @@ def take_snapshots(
 def open_snapshots(prefix: str, *, data: str | os.PathLike[str] | None = None) -> SnapshotVideo:
     """The sessions of a snapshot video taken before: ``<prefix>-preview`` and its frames.
 
+    Parameters
+    ----------
+    prefix
+        The ``--session`` the snapshots were taken with.
+    data
+        Data root the sessions are under.
+
+    Returns
+    -------
+    SnapshotVideo
+        The preview and the complete frames ``<prefix>-f000``, ``-f001``, ... up to the
+        first missing or incomplete one.
+
+    Raises
+    ------
+    ProcedureError
+        If there is no preview session, or no complete frame.
+
     Examples
     --------
     >>> video = open_snapshots("snap", data="calib_data")  # doctest: +SKIP
@@ -250,6 +294,24 @@ def frame_samples(
     """Region centres of frame ``t``: the adaptive samples of the guide image its mask was
     planned on (the previous frame's, or the preview's), else None (every open pixel).
 
+    Parameters
+    ----------
+    video
+        The snapshot sessions.
+    t
+        Frame number.
+    bundle
+        The bundle the masks were drawn with.
+    spacing
+        The spacing rule of the masks.
+    compactness
+        SLIC compactness the masks were drawn with.
+
+    Returns
+    -------
+    ndarray or None
+        (N, 2) int32 (row, column) samples, or None when the frame's mask was not adaptive.
+
     Examples
     --------
     >>> samples = frame_samples(video, 0, bundle, spacing, 10.0)  # doctest: +SKIP
@@ -268,6 +330,23 @@ def reconstruct_snapshots(
     progress: bool = True,
 ) -> Iterator[FrameReconstruction]:
     """Reconstruct every frame of a snapshot video, one at a time (cubes are large).
+
+    Parameters
+    ----------
+    video
+        The snapshot sessions (:func:`take_snapshots` or :func:`open_snapshots`).
+    bundle
+        The bundle to reconstruct with.
+    procedure
+        A snapshot procedure: its ``snapshot`` (row pitch, compactness) and
+        ``reconstruction`` (guided filter radius and eps) sections.
+    progress
+        Show a progress bar over the frames.
+
+    Yields
+    ------
+    FrameReconstruction
+        Each frame's mask, guide on the SLM, and rank-1 and guided cubes.
 
     Examples
     --------
@@ -293,6 +372,18 @@ def reconstruct_snapshots(
 def frame_outputs(out: str | os.PathLike[str], name: str) -> list[Path]:
     """The files :func:`write_frame` writes for frame ``name`` (ENVI aside).
 
+    Parameters
+    ----------
+    out
+        The output folder.
+    name
+        The frame's name, e.g. ``"snap-f000"``.
+
+    Returns
+    -------
+    list of pathlib.Path
+        One NetCDF cube per method of :data:`METHODS`, then the quick-look PNG.
+
     Examples
     --------
     >>> [p.name for p in frame_outputs("snaps", "snap-f000")]
@@ -305,6 +396,18 @@ def frame_outputs(out: str | os.PathLike[str], name: str) -> list[Path]:
 def check_outputs_free(out: str | os.PathLike[str], names: list[str]) -> None:
     """Refuse to write frames whose cubes already exist in ``out`` (checked before any
     capture, so nothing is captured for nothing and nothing is overwritten).
+
+    Parameters
+    ----------
+    out
+        The output folder.
+    names
+        The frames to be written.
+
+    Raises
+    ------
+    ProcedureError
+        Naming (up to three of) the files that exist.
 
     Examples
     --------
@@ -332,6 +435,31 @@ def write_frame(
 ) -> list[Path]:
     """Write a frame's cubes (``<name>-rank1.nc``, ``<name>-guided.nc``, and ENVI) and a
     quick-look PNG (``<name>.png``) into ``out``; never over an existing file.
+
+    Parameters
+    ----------
+    frame
+        A reconstructed frame.
+    bundle
+        The bundle it was reconstructed with (its bins and provenance).
+    out
+        The output folder; created if needed.
+    name
+        The files' stem, e.g. ``"snap-f000"``.
+    session
+        The frame's session id, recorded in the cubes.
+    envi
+        Also write each cube as ENVI (``.hdr``/``.img``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        Every file written.
+
+    Raises
+    ------
+    ProcedureError
+        If one of the frame's files exists already.
 
     Examples
     --------

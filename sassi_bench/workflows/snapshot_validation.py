@@ -1,13 +1,13 @@
 """The snapshot validation on a rig: does a bundle give good SASSI snapshots?
 
-:func:`run_snapshot` scans the scene with pinholes (the ground truth, or a scan cube
-given on disk), takes an adaptive snapshot whose mask comes from the guide image,
+:func:`run_snapshot` scans the scene with pinholes (the measured reference, or a scan
+cube given on disk), takes an adaptive snapshot whose mask comes from the guide image,
 reconstructs it by rank-1 per region and by the masked guided filter, and scores both
 against the scan in the same bins on the SLM grid (:mod:`sassi_bench.validate.snapshot`).
 Optionally it adds a photon-starved snapshot, uniform and random masks of the adaptive
 mask's separation, and a video of a moving scene (each frame's mask from the previous guide
 frame; each frame scored against the scan moved by the pose the procedure commanded). It
-never sees the bench's truth.
+sees only device handles, never the virtual bench's hidden scene.
 """
 
 from __future__ import annotations
@@ -135,6 +135,12 @@ def run_snapshot(
         Prefix of the raw sessions; an existing one resumes.
     data, progress
         Data root; progress bars.
+
+    Returns
+    -------
+    SnapshotValidation
+        The scan, every mask's run with its cubes and scores, the video's scores, the
+        quality checks and the settings, for the report.
 
     Examples
     --------

@@ -59,7 +59,18 @@ class SpectralCalibration:
         return all(c.passed for c in self.checks)
 
     def models(self) -> CalibrationModels:
-        """The bundle models of this calibration."""
+        """The bundle models of this calibration.
+
+        Returns
+        -------
+        CalibrationModels
+            The fitted dispersion, its wavelength bins and the blur model.
+
+        Examples
+        --------
+        >>> result.models().bins.count  # doctest: +SKIP
+        68
+        """
         return CalibrationModels(
             dispersion=self.dispersion.model, bins=self.dispersion.bins, blur=self.blur.model
         )

@@ -29,6 +29,11 @@ def laser_light(wavelength_nm: float) -> str:
     wavelength_nm
         The laser's labelled wavelength, nm.
 
+    Returns
+    -------
+    str
+        ``"laser:<nm>"``, the wavelength in its shortest form.
+
     Examples
     --------
     >>> laser_light(532.0)
@@ -44,6 +49,11 @@ def grey_levels(count: int) -> list[int]:
     ----------
     count
         How many levels (fewer when rounding makes two equal).
+
+    Returns
+    -------
+    list of int
+        Sorted, distinct, from 0 to 255.
 
     Examples
     --------
@@ -198,6 +208,13 @@ def sweep_plan(
     blur_exposures
         Exposure per line for the pinhole (blur) frames; lines only in this mapping
         (e.g. an extra 405 nm line) get pinhole frames but no sweep.
+
+    Returns
+    -------
+    Plan
+        ``spectral-sweep``: per line, its dark, blank and full frames and its sweep (Gray
+        code and phase, or lines), then its pinhole (blur) frames; each step is tagged
+        with its role and laser.
 
     Examples
     --------

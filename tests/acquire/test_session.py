@@ -359,7 +359,7 @@ def test_write_frame_checks_index_camera_and_shape(rig_description, mixed_plan, 
         SessionError, match=r"step 1: .*guide camera but the frame came from spectral"
     ):
         session.write_frame(1, make_frame("spectral"))
-    with pytest.raises(SessionError, match=r"must have shape \(H, W, 3\)"):
+    with pytest.raises(SessionError, match=r"guide frame has shape \(4, 5\), expected \(H, W, 3\)"):
         session.write_frame(1, make_frame("adapter-7", shape=(4, 5)))
     session.write_frame(0, make_frame())
     with pytest.raises(SessionError, match=r"step 2: .*stored so far are uint16 \(6, 8\)"):

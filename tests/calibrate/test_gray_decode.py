@@ -51,5 +51,5 @@ def test_errors_name_step_cause_and_fix():
         decode_gray(frames, frames[:3], 8)
     with pytest.raises(ValueError, match="Gray decoding: block 0"):
         decode_gray(frames, frames, 0)
-    with pytest.raises(ValueError, match=r"Gray decoding: dark frames are \(3, 4\)"):
+    with pytest.raises(ValueError, match=r"Gray decoding: dark has shape \(3, 4\)"):
         decode_gray(frames, frames, 8, dark=np.zeros((3, 4)))

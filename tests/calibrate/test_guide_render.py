@@ -38,7 +38,7 @@ def test_cie_rendering_of_daylight_is_neutral_and_of_blue_light_is_blue():
     s = camera_sensitivities("Nikon 5100 (NPL)", wl)
     cam = render_rgb(cube, wl, sensitivities=s, valid=np.array([[True, False]]))
     assert cam[0, 0].max() == pytest.approx(1.0) and np.all(cam[0, 1] == 0)
-    with pytest.raises(ValueError, match="does not match"):
+    with pytest.raises(ValueError, match=r"expected \(H, W, 61\) for 61 wavelengths"):
         render_rgb(cube[..., :-1], wl)
 
 

@@ -65,5 +65,7 @@ def test_errors_name_step_cause_and_fix():
         decode_phase(frames[:2], 16)
     with pytest.raises(ValueError, match=r"phase decoding: phase shifts .* do not span"):
         decode_phase(frames, 16, shifts=[0, 0, 0, 0])
-    with pytest.raises(ValueError, match=r"phase decoding: 3 shifts for 4 frames"):
+    with pytest.raises(
+        ValueError, match=r"phase decoding: shifts has shape \(3,\), expected \(4,\) for 4"
+    ):
         decode_phase(frames, 16, shifts=[0, 4, 8])

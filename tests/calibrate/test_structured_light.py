@@ -204,9 +204,9 @@ def test_errors_name_step_cause_and_fix():
     gray = frames[:1]  # 5 px in blocks of 8: one Gray bit
     refs = {"blank": frames[0], "full": frames[0], "length": 5}
     decode_axis(gray, gray, frames, **refs)  # well-formed input decodes (to all dark)
-    with pytest.raises(ValueError, match="structured-light decoding: full frames are"):
+    with pytest.raises(ValueError, match="structured-light decoding: full has shape"):
         decode_axis(gray, gray, frames, **{**refs, "full": np.zeros((3, 4))})
-    with pytest.raises(ValueError, match="structured-light decoding: dark frames are"):
+    with pytest.raises(ValueError, match="structured-light decoding: dark has shape"):
         decode_axis(gray, gray, frames, **refs, dark=np.ones(3))
     with pytest.raises(ValueError, match="structured-light decoding: phase has shape"):
         decode_axis(gray, gray, frames[:2], **refs)
@@ -309,7 +309,9 @@ def test_correspondences_refuse_mismatched_or_empty_axes():
             np.zeros(shape), ok, np.ones(shape), {}, reason, np.zeros(shape), 0.5, 1.0
         )
 
-    with pytest.raises(ValueError, match=r"correspondences: x axis is \(2, 3\)"):
+    with pytest.raises(
+        ValueError, match=r"correspondences: the x axis \(2, 3\) and the y axis \(3, 2\) differ"
+    ):
         decode_correspondences(axis((2, 3), True), axis((3, 2), True))
     with pytest.raises(ValueError, match="correspondences: no pixel was decoded on both axes"):
         decode_correspondences(axis((2, 3), True), axis((2, 3), False))

@@ -30,14 +30,17 @@ from numpy.typing import NDArray
 from zarr.codecs import ZstdCodec
 from zarr.storage import LocalStore
 
+from sassi_bench._shared.arrays import check_dtype_kind, check_shape
 from sassi_bench._shared.atomic import fsync_dir, fsync_file
-from sassi_bench.acquire.session.errors import SessionIntegrityError, session_error
+from sassi_bench.acquire.session.errors import SessionError, SessionIntegrityError, session_error
 
 __all__ = ["FRAMES_DIR", "FRAME_CODEC", "FrameStore", "check_frame", "frame_sha256"]
 
 FRAMES_DIR = "frames.zarr"
 #: The compressor of every frame chunk.
 FRAME_CODEC = ZstdCodec(level=3)
+#: The shape of a frame of each canonical camera: grey spectral, RGB guide.
+_FRAME_SHAPES = {"spectral": ("H", "W"), "guide": ("H", "W", 3)}
 
 
 def frame_sha256(data: NDArray[Any]) -> str:
@@ -72,16 +75,18 @@ def check_frame(where: str, camera: str, frame_camera: str, data: NDArray[Any]) 
             f"the step is for the {camera} camera but the frame came from {frame_camera}",
             f"capture with rig.{camera}_camera",
         )
-    rgb = data.ndim == 3 and data.shape[-1] == 3
-    if (camera == "spectral" and data.ndim != 2) or (camera == "guide" and not rgb):
-        expected = "(H, W)" if camera == "spectral" else "(H, W, 3)"
-        raise session_error(
-            where,
-            f"a {camera} frame must have shape {expected}, got {data.shape}",
-            f"capture with rig.{camera}_camera",
+    if camera in _FRAME_SHAPES:
+        check_shape(
+            data,
+            _FRAME_SHAPES[camera],
+            step=where,
+            name=f"the {camera} frame",
+            fix=f"capture with rig.{camera}_camera",
+            error=SessionError,
         )
-    if data.dtype.kind not in "biuf":
-        raise session_error(where, f"frame dtype {data.dtype} is not numeric", "pass camera pixels")
+    check_dtype_kind(
+        data, "biuf", step=where, name="the frame", fix="pass camera pixels", error=SessionError
+    )
 
 
 class FrameStore:
