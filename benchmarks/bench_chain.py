@@ -5,17 +5,18 @@ virtual rig and prints one row per stage:
 
 * **frames**: frames the stage stored (for the fits, the frames they read back);
 * **wall s / CPU s**: the stage's wall time and the process's CPU time (all threads);
-* **render s**: the virtual bench's share (electron rates, sensor noise, scene builds:
+* **render**: the virtual bench's share (electron rates, sensor noise, scene builds:
   the cost a real bench does not have, which streams frames at the SLM's rate);
-* **store s**: writing frames to their session (compression, hash, fsync);
-* **process s**: the rest, the procedure's own work;
+* **store**: writing frames to their session (compression, hash, fsync);
+* **process**: the rest, the procedure's own work;
 * **read ms**: reading one of the stage's frames back from its session (the stage's
   sessions are read once more at the end of the run, frame by frame, in the same run);
 * **process/read**: processing per frame over that read time (the goal is at most 1.5);
 * **peak GB**: the process's peak resident memory during the stage.
 
-The CPU seconds are the figures to compare between machines or on a busy one (the load
-average at the start and end is printed); the wall times are this run's. ``--accuracy``
+Render, store, process and read are CPU seconds (all threads), so the split and the
+ratio hold on a busy machine, where wall time is mostly waiting for a core (the load
+average at the start and end is printed); the wall column is this run's. ``--accuracy``
 runs the chain with the accuracy table's procedure (``benchmarks/accuracy_table.py``,
 laser wavelengths estimated) and prints the table's column for the rig, scored against
 the bench's truth, so one run gives both.
@@ -94,7 +95,7 @@ class StageClock:
         self.cpu: dict[str, float] = defaultdict(float)
         self.peak: dict[str, int] = defaultdict(int)
         self.render: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
-        self.store: dict[str, list[float]] = defaultdict(lambda: [0.0, 0])
+        self.store: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
         self.reads: dict[str, set[str]] = defaultdict(set)
         self.frames_read: dict[str, int] = defaultdict(int)
         self.written: dict[str, str] = {}  # session id -> stage that wrote it
@@ -191,13 +192,14 @@ def instrument(clock: StageClock, rig) -> None:
     )
 
     def write(self, step_index, frame):
-        start = time.perf_counter()
+        start = (time.perf_counter(), time.process_time())
         try:
             return write_frame(self, step_index, frame)
         finally:
             entry = clock.store[clock.stage]
-            entry[0] += time.perf_counter() - start
-            entry[1] += 1
+            entry[0] += time.perf_counter() - start[0]
+            entry[1] += time.process_time() - start[1]
+            entry[2] += 1
             clock.written.setdefault(self.id, clock.stage)
 
     def read(self, step_index):
@@ -215,7 +217,7 @@ def instrument(clock: StageClock, rig) -> None:
 
 
 def read_back(sessions: dict[str, Path]) -> dict[str, float]:
-    """Seconds to read one frame back from each session, frame by frame (all frames)."""
+    """CPU seconds to read one frame back from each session, frame by frame (all frames)."""
     import numpy as np
 
     from sassi_bench.acquire.session import Session
@@ -224,10 +226,10 @@ def read_back(sessions: dict[str, Path]) -> dict[str, float]:
     for session_id, data in sessions.items():
         session = Session.open(session_id, data=data)
         steps = sorted(session.completed)
-        start = time.perf_counter()
+        start = time.process_time()
         for frame in session.iter_frames(steps):
             np.asarray(frame)
-        per_frame[session_id] = (time.perf_counter() - start) / max(len(steps), 1)
+        per_frame[session_id] = (time.process_time() - start) / max(len(steps), 1)
     return per_frame
 
 
@@ -236,8 +238,8 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
     from sassi_bench._shared.tables import text_table
 
     header = [
-        "stage", "frames", "wall s", "CPU s", "render s", "store s", "process s",
-        "read ms", "process/read", "peak GB",
+        "stage", "frames", "wall s", "CPU s", "render CPU s", "store CPU s",
+        "process CPU s", "read CPU ms", "process/read", "peak GB",
     ]  # fmt: skip
     rows = []
     totals = defaultdict(float)
@@ -245,9 +247,9 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
         if stage not in clock.wall:
             continue
         wall, cpu = clock.wall[stage], clock.cpu[stage]
-        render_wall, _, _ = clock.render[stage]
-        store_wall, stored = clock.store[stage]
-        process = wall - render_wall - store_wall
+        _, render, _ = clock.render[stage]
+        _, store, stored = clock.store[stage]
+        process = cpu - render - store
         sessions = [s for s, st in clock.written.items() if st == stage] or sorted(
             clock.reads[stage]
         )
@@ -256,19 +258,18 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
         read = sum(reads) / len(reads) if reads else float("nan")
         ratio = process / frames / read if frames and reads else float("nan")
         rows.append([
-            stage, str(frames), f"{wall:.1f}", f"{cpu:.1f}", f"{render_wall:.1f}",
-            f"{store_wall:.1f}", f"{process:.1f}", f"{1000 * read:.1f}" if reads else "-",
+            stage, str(frames), f"{wall:.1f}", f"{cpu:.1f}", f"{render:.1f}",
+            f"{store:.1f}", f"{process:.1f}", f"{1000 * read:.1f}" if reads else "-",
             f"{ratio:.2f}" if ratio == ratio else "-", f"{clock.peak[stage] / 1e9:.2f}",
         ])  # fmt: skip
-        for key, value in (("wall", wall), ("cpu", cpu), ("render", render_wall)):
+        for key, value in (("wall", wall), ("cpu", cpu), ("render", render), ("store", store)):
             totals[key] += value
-        totals["store"] += store_wall
         totals["frames"] += stored
     peak = max(clock.peak.values())
     rows.append([
         "whole chain", str(int(totals["frames"])), f"{totals['wall']:.1f}",
         f"{totals['cpu']:.1f}", f"{totals['render']:.1f}", f"{totals['store']:.1f}",
-        f"{totals['wall'] - totals['render'] - totals['store']:.1f}", "-", "-",
+        f"{totals['cpu'] - totals['render'] - totals['store']:.1f}", "-", "-",
         f"{peak / 1e9:.2f}",
     ])  # fmt: skip
     return text_table(header, rows)
@@ -278,13 +279,18 @@ def disk_use(staging: Path) -> str:
     """Bytes of raw frames per session left in the staging folder."""
     from sassi_bench.storage.inventory import folder_size, format_size
 
-    lines, total = [], 0
+    lines, total, audit = [], 0, 0
     for folder in sorted((staging / "sessions").iterdir()):
         frames = folder / "frames.zarr"
         size = folder_size(frames)[0] if frames.exists() else 0
         total += size
+        audit += size if folder.name.endswith(("-spectral-grey", "-spectral-sweep")) else 0
         lines.append(f"  {folder.name}: {format_size(size)}")
-    return "\n".join([f"raw frames left by the run: {format_size(total)}", *lines])
+    return "\n".join([
+        f"raw frames left by the run: {format_size(total)} (keep: all); "
+        f"{format_size(audit)} with keep: audit (grey and sweep frames)",
+        *lines,
+    ])  # fmt: skip
 
 
 def main() -> None:
