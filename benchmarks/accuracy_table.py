@@ -71,60 +71,59 @@ def _chart_scan_scores(rig, bundle, staging: Path, session_id: str) -> tuple[str
     return f"{psnr:.2f} dB / {angle.mean():.3f} deg", f"{mid:.1f} / {red:.1f} dB"
 
 
-def measure(rig_name: str) -> dict[str, str]:
-    """Run the chain on one rig and score it against the bench's truth."""
-    rig = open_rig(rig_name)
+def accuracy_procedure(procedure: dict, folder: Path) -> dict:
+    """The full-calibration ``procedure`` with the spectral stage estimating laser
+    wavelengths (its procedure file is written to ``folder``)."""
+    spectral = load_procedure("spectral_calibration")
+    spectral["fit"]["estimate_laser_wavelengths"] = True
+    spectral.pop("source", None)
+    spectral_path = Path(folder) / "spectral.yaml"
+    spectral_path.write_text(yaml.safe_dump(spectral))
+    return {**procedure, "spectral_procedure": str(spectral_path)}
+
+
+def score(rig, result) -> dict[str, str]:
+    """Every model of a finished chain (``run_full_calibration``) against the bench's truth."""
     t = truth(rig)
-    with tempfile.TemporaryDirectory(prefix="accuracy-") as tmp:
-        spectral = load_procedure("spectral_calibration")
-        spectral["fit"]["estimate_laser_wavelengths"] = True
-        spectral.pop("source", None)
-        spectral_path = Path(tmp) / "spectral.yaml"
-        spectral_path.write_text(yaml.safe_dump(spectral))
-        procedure = load_procedure("full_calibration")
-        procedure["spectral_procedure"] = str(spectral_path)
-        result = run_full_calibration(
-            rig, procedure, session_id="accuracy", data=tmp, progress=False, allow_failed=True
+    bundle = load(result.bundle_path)
+    cal = result.stages["spectral"]
+    corr_rms = 0.0
+    for d in cal.lasers:
+        x, y = t.slm_to_camera(d.slm_u, d.slm_v, t.laser_centre_nm(d.wavelength_nm))
+        error = np.hypot(x - d.camera_x, y - d.camera_y)
+        corr_rms = max(corr_rms, float(np.sqrt(np.mean(error**2))))
+    error_nm = t.wavelength_map_error_nm(cal.dispersion.model)
+    map_rms, map_max = float(np.sqrt(np.mean(error_nm**2))), float(np.abs(error_nm).max())
+    estimated = cal.dispersion.estimated_lines
+    if estimated:
+        laser = ", ".join(
+            f"{label:g} nm at {cal.dispersion.wavelengths_nm[label]:.2f} "
+            f"(true {t.laser_centre_nm(label):.2f})"
+            for label in estimated
         )
-        bundle = load(result.bundle_path)
-        cal = result.stages["spectral"]
-        corr_rms = 0.0
-        for d in cal.lasers:
-            x, y = t.slm_to_camera(d.slm_u, d.slm_v, t.laser_centre_nm(d.wavelength_nm))
-            error = np.hypot(x - d.camera_x, y - d.camera_y)
-            corr_rms = max(corr_rms, float(np.sqrt(np.mean(error**2))))
-        error_nm = t.wavelength_map_error_nm(cal.dispersion.model)
-        map_rms, map_max = float(np.sqrt(np.mean(error_nm**2))), float(np.abs(error_nm).max())
-        estimated = cal.dispersion.estimated_lines
-        if estimated:
-            laser = ", ".join(
-                f"{label:g} nm at {cal.dispersion.wavelengths_nm[label]:.2f} "
-                f"(true {t.laser_centre_nm(label):.2f})"
-                for label in estimated
-            )
-        else:
-            agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
-            laser = f"none off label (max {agree:.3f} nm)"
-        band = np.linspace(420, 690, 28)
-        blur = float(np.abs(cal.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max())
-        guide_rms, _ = field_discrepancy_px(bundle.guide_to_slm, t.guide_to_slm, rig.slm.shape)
-        relative = np.asarray(bundle.response) / t.relative_response(bundle.bin_edges)
-        relative /= np.median(relative)
-        wl = bundle.wavelengths
-        core = (wl > 410) & (wl < 640)
-        wide = (wl > 410) & (wl < 690)
-        lamp = bundle.manifest["quality"]["residuals"]["response"]["lamp_temperature_sensitivity"]
-        macbeth = result.stages["macbeth"]
-        summary = macbeth.summary()
-        names = [n.lower() for n in macbeth.patch_names]
-        edges = " / ".join(
-            f"{macbeth.rmse[names.index(p)]:.4f} ({macbeth.noise['rmse'][names.index(p)]:.4f})"
-            for p in EDGE_PATCHES
-        )
-        scan_scores, band_psnr = _chart_scan_scores(
-            rig, bundle, result.stages["staging"], macbeth.settings["chart_session"]
-        )
-        failed = [c.name for c in result.checks if not c.passed]
+    else:
+        agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
+        laser = f"none off label (max {agree:.3f} nm)"
+    band = np.linspace(420, 690, 28)
+    blur = float(np.abs(cal.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max())
+    guide_rms, _ = field_discrepancy_px(bundle.guide_to_slm, t.guide_to_slm, rig.slm.shape)
+    relative = np.asarray(bundle.response) / t.relative_response(bundle.bin_edges)
+    relative /= np.median(relative)
+    wl = bundle.wavelengths
+    core = (wl > 410) & (wl < 640)
+    wide = (wl > 410) & (wl < 690)
+    lamp = bundle.manifest["quality"]["residuals"]["response"]["lamp_temperature_sensitivity"]
+    macbeth = result.stages["macbeth"]
+    summary = macbeth.summary()
+    names = [n.lower() for n in macbeth.patch_names]
+    edges = " / ".join(
+        f"{macbeth.rmse[names.index(p)]:.4f} ({macbeth.noise['rmse'][names.index(p)]:.4f})"
+        for p in EDGE_PATCHES
+    )
+    scan_scores, band_psnr = _chart_scan_scores(
+        rig, bundle, result.stages["staging"], macbeth.settings["chart_session"]
+    )
+    failed = [c.name for c in result.checks if not c.passed]
     return {
         "rig": rig.description.name,
         "all checks pass": "yes" if not failed else "no: " + ", ".join(failed),
@@ -145,6 +144,17 @@ def measure(rig_name: str) -> dict[str, str]:
         "chart scan vs truth: PSNR / mean angle": scan_scores,
         "chart scan per-band PSNR, 500-600 / > 650 nm": band_psnr,
     }
+
+
+def measure(rig_name: str) -> dict[str, str]:
+    """Run the chain on one rig and score it against the bench's truth."""
+    rig = open_rig(rig_name)
+    with tempfile.TemporaryDirectory(prefix="accuracy-") as tmp:
+        procedure = accuracy_procedure(load_procedure("full_calibration"), Path(tmp))
+        result = run_full_calibration(
+            rig, procedure, session_id="accuracy", data=tmp, progress=False, allow_failed=True
+        )
+        return score(rig, result)
 
 
 def markdown(columns: list[dict[str, str]]) -> str:

@@ -18,6 +18,9 @@ from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 
 __all__ = ["FieldFit", "fit_field"]
 
+# Samples per block when the final residual is evaluated over every sample.
+_RESIDUAL_BLOCK = 1 << 16
+
 
 @dataclass(frozen=True)
 class FieldFit:
@@ -115,20 +118,27 @@ def fit_field(
             )
         )
     u_hat, v_hat = field_coordinates(u, v, slm_shape)
-    design = legendre2d_design(u_hat, v_hat, degree)
     subset = np.arange(u.size)
     if u.size > max_samples:
         subset = np.sort(np.random.default_rng(seed).choice(u.size, max_samples, replace=False))
+    # The design matrix of the solve's samples only (all samples' would be N x terms doubles).
+    design = legendre2d_design(u_hat[subset], v_hat[subset], degree)
+    sampled = values[subset]
     keep = np.ones(subset.size, dtype=bool)
     for _ in range(10):
-        coeffs, *_ = np.linalg.lstsq(design[subset][keep], values[subset][keep], rcond=None)
-        resid = values[subset] - design[subset] @ coeffs
+        coeffs, *_ = np.linalg.lstsq(design[keep], sampled[keep], rcond=None)
+        resid = sampled - design @ coeffs
         scale = 1.4826 * np.median(np.abs(resid[keep] - np.median(resid[keep])))
         new_keep = np.abs(resid) <= clip_sigmas * max(scale, 1e-12)
         if np.array_equal(new_keep, keep):
             break
         keep = new_keep
-    residual = values - design @ coeffs
+    residual = np.empty_like(values)
+    for start in range(0, u.size, _RESIDUAL_BLOCK):
+        block = slice(start, start + _RESIDUAL_BLOCK)
+        residual[block] = (
+            values[block] - legendre2d_design(u_hat[block], v_hat[block], degree) @ coeffs
+        )
     spread = 1.4826 * np.median(np.abs(residual - np.median(residual)))
     inliers = np.abs(residual) <= clip_sigmas * max(spread, 1e-12)
     return FieldFit(

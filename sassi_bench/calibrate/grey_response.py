@@ -262,13 +262,16 @@ def measure_grey_response(
     levels = np.asarray(levels)
     frames = np.asarray(frames)
     _check_inputs(levels, frames, dark)
+    # One frame at a time in float64: the stack itself (uint16 from a session) is not copied.
     order = np.argsort(levels)
     levels = levels[order].astype(np.int64)
-    signal = frames[order].astype(np.float64) - np.asarray(dark, dtype=np.float64)
-    low, span = signal[0], signal[-1] - signal[0]
+    dark = np.asarray(dark, dtype=np.float64)
+    low = frames[order[0]] - dark
+    span = (frames[order[-1]] - dark) - low
     use = _lit_mask(span) if mask is None else np.asarray(mask, dtype=bool) & (span > 0)
     if saturation_level is not None and use.shape == span.shape:
-        use = use & ~np.any(frames >= saturation_level, axis=0)
+        for frame in frames:
+            use &= frame < saturation_level
     if use.shape != span.shape or not np.any(use):
         raise ProcedureError(
             step_error(
@@ -278,9 +281,15 @@ def measure_grey_response(
                 "check the light is on, the exposure and the mask's shape",
             )
         )
-    ratio = (signal[:, use] - low[use]) / span[use]
-    mean = trim_mean(ratio, 0.1, axis=1)
-    stderr = np.std(ratio, axis=1) / np.sqrt(ratio.shape[1])
+    lit = np.flatnonzero(use)
+    dark_lit = dark.ravel()[lit] if dark.ndim else dark
+    low_lit, span_lit = low.ravel()[lit], span.ravel()[lit]
+    mean = np.empty(levels.size)
+    stderr = np.empty(levels.size)
+    for k, index in enumerate(order):
+        ratio = (frames[index].ravel()[lit] - dark_lit - low_lit) / span_lit
+        mean[k] = trim_mean(ratio, 0.1)
+        stderr[k] = np.std(ratio) / np.sqrt(ratio.size)
     return GreyResponse(levels, _enforce_monotonic(levels, mean, stderr))
 
 

@@ -11,8 +11,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
+
+from sassi_bench.calibrate._window_median import window_medians
 
 __all__ = ["REASONS", "first_reason", "local_outliers", "noise_floor", "reason_counts", "saturated"]
 
@@ -143,13 +144,7 @@ def local_outliers(
     residual[rows, cols] = coord[rows, cols] - design @ plane
     half = _OUTLIER_WINDOW // 2
     padded = np.pad(residual, half, constant_values=np.inf)
-    windows = sliding_window_view(padded, (_OUTLIER_WINDOW, _OUTLIER_WINDOW))[rows, cols]
-    ordered = np.sort(windows.reshape(rows.size, -1), axis=1)  # invalid (inf) sort last
-    count = np.sum(np.isfinite(ordered), axis=1)
-    median = 0.5 * (
-        np.take_along_axis(ordered, ((count - 1) // 2)[:, None], axis=1)[:, 0]
-        + np.take_along_axis(ordered, (count // 2)[:, None], axis=1)[:, 0]
-    )
+    median, count = window_medians(padded, rows, cols, _OUTLIER_WINDOW)
     jump = np.abs(residual[rows, cols] - median)
     out[rows, cols] = (count - 1 >= _OUTLIER_MIN_NEIGHBOURS) & (jump > max_jump)
     return out

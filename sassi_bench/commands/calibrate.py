@@ -61,6 +61,8 @@ def _full(args: argparse.Namespace) -> int:
         print("  bundle: not published (a tolerance failed; --allow-failed publishes it marked)")
     print(f"  report: {result.report_html}")
     _print_data_use(result.stages["staging"], result.bundle_path, args.data)
+    for line in result.kept.lines():
+        print(f"  raw frames {line}")
     print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
     return 0 if result.passed else 1
 

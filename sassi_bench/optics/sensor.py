@@ -6,18 +6,28 @@ A pixel collecting ``rate`` photo-electrons per second for ``t`` seconds records
     ADU = clip(round(e / gain) + dark_offset, 0, 2^bits - 1)
 
 so the variance in ADU is ``(mean_e + read_noise^2) / gain^2`` below saturation.
+
+A frame is drawn in :data:`NOISE_BLOCKS` bands of rows, each from its own child of the
+frame's random stream, in parallel threads (NumPy draws without the GIL): the bands and
+their streams do not depend on the machine, so the same stream gives the same frame.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
 
-__all__ = ["QE_CURVES", "SensorModel", "qe_curve"]
+__all__ = ["NOISE_BLOCKS", "QE_CURVES", "SensorModel", "qe_curve"]
+
+#: Bands of rows of a frame drawn from separate child streams (see the module's notes).
+NOISE_BLOCKS = 4
 
 # Representative quantum-efficiency curves (wavelength nm -> QE), read off makers'
 # published plots. "scmos" resembles a front-illuminated scientific CMOS of the
@@ -60,6 +70,12 @@ def qe_curve(spec: str | Mapping[float, float], key: str = "qe") -> PchipInterpo
             step_error(key, "the curve is not two or more points", "give QE values from 0 to 1")
         )
     return PchipInterpolator(lam, val, extrapolate=True)
+
+
+@lru_cache(maxsize=1)
+def _pool() -> ThreadPoolExecutor:
+    """Threads drawing a frame's bands of rows (one per core, at most NOISE_BLOCKS)."""
+    return ThreadPoolExecutor(max_workers=max(1, min(NOISE_BLOCKS, os.cpu_count() or 1)))
 
 
 @dataclass
@@ -129,22 +145,50 @@ class SensorModel:
     ) -> NDArray[np.unsignedinteger]:
         """Integrate ``electron_rate`` (e-/s per pixel) for ``exposure_s`` with noise.
 
+        Parameters
+        ----------
+        electron_rate
+            Electron rate per pixel (e-/s), (H, W) or (H, W, C).
+        exposure_s
+            Integration time, s.
+        rng
+            The frame's random stream; its band ``i`` of rows is drawn from
+            ``rng.spawn(NOISE_BLOCKS)[i]``.
+
         Returns
         -------
         ndarray
             Digitised frame, dtype :attr:`dtype`.
         """
-        mean_e = (np.asarray(electron_rate, dtype=np.float64) + self.dark_current_e_per_s) * (
-            exposure_s
-        )
-        electrons = rng.poisson(np.clip(mean_e, 0.0, None)).astype(np.float32)
+        rate = np.asarray(electron_rate)
+        out = np.empty(rate.shape, dtype=self.dtype)
+        edges = [rate.shape[0] * band // NOISE_BLOCKS for band in range(NOISE_BLOCKS + 1)]
+        streams = rng.spawn(NOISE_BLOCKS)
+
+        def draw(band: int) -> None:
+            rows = slice(edges[band], edges[band + 1])
+            out[rows] = self._digitise(rate[rows], exposure_s, streams[band])
+
+        for _ in _pool().map(draw, range(NOISE_BLOCKS)):
+            pass
+        return out
+
+    def _digitise(
+        self, electron_rate: NDArray[np.floating], exposure_s: float, rng: np.random.Generator
+    ) -> NDArray[np.unsignedinteger]:
+        """Noise and digitisation of one band of rows (see :meth:`expose`)."""
+        mean_e = np.array(electron_rate, dtype=np.float64)
+        mean_e += self.dark_current_e_per_s
+        mean_e *= exposure_s
+        np.maximum(mean_e, 0.0, out=mean_e)
+        electrons = rng.poisson(mean_e).astype(np.float32)
         electrons += rng.standard_normal(electrons.shape, dtype=np.float32) * np.float32(
             self.read_noise_e
         )
         # A full pixel reads a constant: the well (and with the default gain the ADC)
         # clips after the read-out noise, as a saturated sCMOS pixel does.
         np.minimum(electrons, np.float32(self.full_well_e), out=electrons)
-        adu = np.rint(
-            electrons / np.float32(self.gain_e_per_adu) + np.float32(self.dark_offset_adu)
-        )
-        return np.clip(adu, 0, self.max_adu).astype(self.dtype)
+        electrons /= np.float32(self.gain_e_per_adu)
+        electrons += np.float32(self.dark_offset_adu)
+        np.rint(electrons, out=electrons)
+        return np.clip(electrons, 0, self.max_adu).astype(self.dtype)

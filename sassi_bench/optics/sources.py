@@ -23,6 +23,7 @@ __all__ = [
     "SpectralSamples",
     "blackbody_power",
     "broadband_samples",
+    "coarser_samples",
     "colour_illuminant_power",
     "laser_samples",
     "wavelength_grid",
@@ -162,3 +163,27 @@ def broadband_samples(
     if total <= 0:
         raise ConfigError("light: the source has no power between 400 and 700 nm")
     return SpectralSamples(grid_nm.copy(), density * (flux / total))
+
+
+def coarser_samples(samples: SpectralSamples, every: int) -> SpectralSamples:
+    """Merge each run of ``every`` neighbouring samples into one.
+
+    The merged sample carries the run's total weight at its weighted mean wavelength,
+    so the flux and the mean wavelength of the light are kept.
+
+    Examples
+    --------
+    >>> s = SpectralSamples(np.array([400.0, 402.0, 404.0, 406.0]), np.array([1.0, 1, 1, 3]))
+    >>> c = coarser_samples(s, 2)
+    >>> c.wavelengths_nm.tolist(), c.weights.tolist()
+    ([401.0, 405.5], [2.0, 4.0])
+    """
+    starts = np.arange(0, samples.wavelengths_nm.size, every)
+    weights = np.add.reduceat(samples.weights, starts)
+    moments = np.add.reduceat(samples.weights * samples.wavelengths_nm, starts)
+    plain = np.add.reduceat(samples.wavelengths_nm, starts) / np.diff(
+        np.append(starts, samples.wavelengths_nm.size)
+    )
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centres = np.where(weights > 0, moments / weights, plain)
+    return SpectralSamples(centres, weights)

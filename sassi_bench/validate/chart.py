@@ -78,9 +78,7 @@ def locate_chart(
     if corners is not None:
         return grid_from_corners(corners)
     if picture is None:
-        rgb = cube_to_srgb(
-            scan.wavelengths_nm, np.where(scan.quality[..., None] == 0, scan.cube, 0)
-        )
+        rgb = cube_to_srgb(scan.wavelengths_nm, scan.cube, usable=scan.quality == 0)
         grid = detect_chart(rgb, reference_rgb(reference))
         # Detected in ROI pixels: move the map to SLM coordinates.
         shift = np.array([[1, 0, scan.origin[1]], [0, 1, scan.origin[0]], [0, 0, 1]], float)

@@ -24,6 +24,8 @@ __all__ = [
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 ILLUMINANT = "D65"
+# Pixels per block of cube_to_srgb (a few MB of float32 for a 68-band cube).
+_SRGB_BLOCK = 1 << 14
 
 
 @cache
@@ -123,26 +125,55 @@ def rmse(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     return np.sqrt(np.mean(diff**2, axis=-1))
 
 
-def cube_to_srgb(wavelengths_nm: ArrayLike, cube: ArrayLike) -> NDArray[np.float32]:
+def cube_to_srgb(
+    wavelengths_nm: ArrayLike, cube: ArrayLike, usable: ArrayLike | None = None
+) -> NDArray[np.float32]:
     """Display sRGB (0-1) of a radiance cube (..., B), scaled so its 99th percentile Y is 1.
 
     The cube's own light is kept (no illuminant is applied): this is a picture of the scene
-    for finding things in it, not a colour measurement.
+    for finding things in it, not a colour measurement. The cube is read in blocks of
+    pixels in float32 (NaN counts as 0), so no whole-cube copy is made.
+
+    Parameters
+    ----------
+    wavelengths_nm
+        Band centres (B,).
+    cube
+        Radiance cube (..., B).
+    usable
+        Optional mask (...): pixels where it is False count as 0.
+
+    Returns
+    -------
+    ndarray
+        (..., 3) float32 display sRGB.
 
     Examples
     --------
     >>> cube = np.ones((2, 2, 3))
     >>> cube_to_srgb([450.0, 550.0, 650.0], cube).shape
     (2, 2, 3)
+    >>> cube_to_srgb([450.0, 550.0, 650.0], cube, usable=np.eye(2, dtype=bool))[0, 1].tolist()
+    [0.0, 0.0, 0.0]
     """
     import colour
 
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     cmfs = colour.MSDS_CMFS[OBSERVER]
     weights = np.stack([np.interp(lam, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)])
-    data = np.nan_to_num(np.asarray(cube, dtype=np.float64))
-    xyz = data @ weights.T
-    scale = float(np.percentile(xyz[..., 1], 99))
-    xyz = xyz / scale if scale > 0 else xyz
-    rgb = colour.XYZ_to_sRGB(xyz, apply_cctf_encoding=True)
+    weights = weights.T.astype(np.float32)
+    cube = np.asarray(cube)
+    pixels = cube.reshape(-1, cube.shape[-1])
+    keep = None if usable is None else np.asarray(usable, dtype=bool).reshape(-1)
+    xyz = np.empty((pixels.shape[0], 3), dtype=np.float32)
+    for start in range(0, pixels.shape[0], _SRGB_BLOCK):
+        block = slice(start, start + _SRGB_BLOCK)
+        part = np.nan_to_num(pixels[block].astype(np.float32))
+        if keep is not None:
+            part[~keep[block]] = 0.0
+        xyz[block] = part @ weights
+    scale = float(np.percentile(xyz[:, 1], 99))
+    if scale > 0:
+        xyz /= np.float32(scale)
+    rgb = colour.XYZ_to_sRGB(xyz.reshape(*cube.shape[:-1], 3), apply_cctf_encoding=True)
     return np.clip(rgb, 0.0, 1.0).astype(np.float32)

@@ -26,6 +26,7 @@ from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.validate.report import render_report
 from sassi_bench.workflows.guide import run_guide_registration
+from sassi_bench.workflows.keep import KeptFrames, keep_frames
 from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.procedure import load_procedure, with_changes
 from sassi_bench.workflows.rig_lock import drives_rig
@@ -37,12 +38,14 @@ __all__ = ["FullCalibration", "run_full_calibration"]
 
 @dataclass
 class FullCalibration:
-    """What the chain produced: every stage's checks, the bundle and the report."""
+    """What the chain produced: every stage's checks, the bundle, the report, and the raw
+    frames it kept (``kept``; every frame while the bundle is unpublished)."""
 
     checks: list[QualityCheck]
     bundle_path: Path | None
     report_html: Path
     stages: dict[str, Any]
+    kept: KeptFrames
 
     @property
     def passed(self) -> bool:
@@ -176,5 +179,7 @@ def run_full_calibration(
             "quality": {"checks": [c.to_manifest() for c in checks]},
         }
         html, _ = report.write(report_dir, unpublished)
+    # Frames go only once the bundle is published: until then a re-run resumes from them.
+    kept = keep_frames(staging, base, procedure.get("keep", "all") if bundle_path else "all")
     stages = {"spectral": spectral, "guide": guide, "macbeth": macbeth, "staging": staging}
-    return FullCalibration(checks, bundle_path, html, stages)
+    return FullCalibration(checks, bundle_path, html, stages, kept)

@@ -115,8 +115,9 @@ def measure_response(session: Session, saturation: float) -> GreyResponse:
     indices = plan.select(role="grey")
     levels = [plan.steps[i].tags["level"] for i in indices]
     dark = _one(session, role="dark")
+    # The raw frames (uint16): measure_grey_response converts one frame at a time.
     return measure_grey_response(
-        levels, _frames(session, indices), dark, saturation_level=saturation
+        levels, session.read_frames(indices), dark, saturation_level=saturation
     )
 
 

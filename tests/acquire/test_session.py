@@ -459,3 +459,28 @@ def test_float_and_odd_dtypes_round_trip(rig_description, data, make_frame):
     session.write_frame(0, type(base)(pixels, base.meta))
     np.testing.assert_array_equal(session.read_frame(0), pixels)
     assert session.verify() == 1
+
+
+def test_frames_are_byte_shuffled_and_stores_of_an_earlier_codec_still_read(tmp_path):
+    from numcodecs import Zstd
+    from zarr.codecs import ZstdCodec
+
+    rng = np.random.default_rng(2)
+    mean_e = np.full((256, 400), 30.0)
+    mean_e[:, ::20] = 3000.0  # bright streaks on a dark, noisy frame, as a scan frame
+    frame = (rng.poisson(mean_e) + 100).astype(np.uint16)
+    FrameStore.create(tmp_path, {"session": "codec"})
+    store = FrameStore(tmp_path, {"spectral": [0]})
+    store.write("spectral", 0, frame, replace_ok=True, where="test")
+    meta = json.loads((tmp_path / "frames.zarr" / "spectral" / "zarr.json").read_text())
+    assert meta["codecs"][1]["configuration"]["shuffle"] == "shuffle"
+    plain = len(Zstd(level=3).encode(frame.tobytes()))
+    assert store.chunk_file("spectral", 0).stat().st_size < 0.9 * plain
+    # A store written with plain zstd (the earlier codec) reads through the same code.
+    old = tmp_path / "old"
+    FrameStore.create(old, {"session": "old"})
+    zarr.open_group(old / "frames.zarr", mode="r+").create_array(
+        "spectral", shape=(1, *frame.shape), chunks=(1, *frame.shape), dtype=frame.dtype,
+        compressors=ZstdCodec(level=3), attributes={"camera": "spectral", "steps": [0]},
+    )[0] = frame  # fmt: skip
+    assert np.array_equal(FrameStore(old, {"spectral": [0]}).read("spectral", 0), frame)

@@ -167,3 +167,19 @@ def test_inverse_picks_the_nearest_level(gamma, knots, t):
     got = r.inverse(np.array(t))
     best = np.abs(table[None, :] - np.clip(t, 0, 1)[:, None]).min(axis=1)
     assert np.allclose(np.abs(table[got] - np.clip(t, 0, 1)), best, atol=1e-12)
+
+
+def test_frame_by_frame_measurement_equals_the_whole_stack_formula():
+    from scipy.stats import trim_mean
+
+    frames, dark = uniform_frames(LEVELS, seed=4)
+    frames[3, 10, 10] = 65535  # a saturated pixel is left out
+    order = np.argsort(LEVELS)[::-1]  # any order
+    measured = measure_grey_response(LEVELS[order], frames[order], dark)
+    signal = frames.astype(np.float64) - dark
+    low, span = signal[0], signal[-1] - signal[0]
+    use = (span >= 0.5 * np.percentile(span, 99.0)) & ~np.any(frames >= 65535, axis=0)
+    ratio = (signal[:, use] - low[use]) / span[use]
+    expected = trim_mean(ratio, 0.1, axis=1)
+    assert np.all(np.diff(expected) >= 0)  # so the smoothing leaves it as it is
+    np.testing.assert_allclose(measured.response, expected, rtol=1e-12, atol=1e-15)

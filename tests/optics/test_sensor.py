@@ -50,3 +50,16 @@ def test_qe_curve_is_smooth_and_bounded():
         qe_curve("nonexistent")
     with pytest.raises(ConfigError):
         qe_curve({400: 0.5, 500: 1.5})
+
+
+def test_bands_of_rows_are_independent_and_the_stream_decides_the_frame(sensor):
+    rate = np.full((64, 32), 5e4)
+    a = sensor.expose(rate, 0.01, np.random.default_rng([7, 1]))
+    b = sensor.expose(rate, 0.01, np.random.default_rng([7, 1]))
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, sensor.expose(rate, 0.01, np.random.default_rng([7, 2])))
+    # Each band of rows draws its own stream: no two bands repeat each other's noise.
+    bands = a.reshape(4, 16, 32).astype(float)
+    assert all(not np.array_equal(bands[0], bands[i]) for i in range(1, 4))
+    # A frame with fewer rows than bands still gets every pixel.
+    assert sensor.expose(np.zeros((2, 3)), 0.01, np.random.default_rng(0)).shape == (2, 3)

@@ -21,6 +21,7 @@ def test_the_full_chain_publishes_a_passing_bundle_with_every_stage(tmp_path, ca
     out = capsys.readouterr().out
     assert status == 0, out
     assert "all tolerances passed" in out and "FAIL" not in out
+    assert "raw frames kept (keep: all): chain-guide-guide" in out  # the shipped keep
     path = tmp_path / "sim" / "v0001"
     verify(path)
     bundle = load(path)

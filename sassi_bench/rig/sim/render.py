@@ -12,20 +12,17 @@ and the spot width of :func:`~sassi_bench.optics.blur.line_spread_sigma`):
   so the blur adds only the variance still missing.
 * **sparse** (:meth:`SpectralRenderer.render_sparse`), for pinholes and adaptive masks:
   every open pixel's streak is splatted as a sum over wavelength samples of separable
-  Gaussians placed at the ray-traced positions, batched as one matrix product per
-  pixel block and scattered into the frame with ``np.bincount``.
+  spots (tabulated profiles) placed at the ray-traced positions, by a compiled loop
+  (:mod:`~sassi_bench.rig.sim._splat`).
 
 Both return the photo-electron rate (e-/s) per camera pixel; noise is added by the
 sensor model. No Python loop runs over pixels: loops run over wavelength samples
-(dense) or blocks of open pixels (sparse).
+(dense) or in compiled code (sparse).
 """
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -34,6 +31,7 @@ from numpy.typing import NDArray
 from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
+from sassi_bench.rig.sim._splat import splat
 from sassi_bench.rig.sim.geometry import linear_upsampler
 from sassi_bench.rig.sim.scenes import Scene
 
@@ -42,10 +40,9 @@ __all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
 _TRUNCATE_SIGMAS = 4.0
 # Samples per camera pixel of the tabulated spot profiles.
 _TABLE_STEPS = 64
-# Margin (px) the spot tables keep beyond a spot's reach, for a run's own extent.
-_RUN_SPAN_PX = 24
-# Wavelength samples splatted together (see SpectralRenderer._splat).
-_RUN = 8
+# A light with at most this many samples (a laser line) keeps its full-resolution inverse
+# maps between dense frames (three float32 camera frames per sample).
+_CACHED_SAMPLES = 8
 
 
 def spot_profile(
@@ -121,12 +118,6 @@ def discrete_gaussian_kernel(sigma: float) -> NDArray[np.float32]:
     return kernel(width).astype(np.float32)
 
 
-@lru_cache(maxsize=1)
-def _pool() -> ThreadPoolExecutor:
-    """Worker threads for the sparse renderer (one per core, at most four)."""
-    return ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1)))
-
-
 @dataclass(frozen=True)
 class _SpotTable:
     """Spot profiles of a set of wavelength samples, for the sparse renderer.
@@ -157,8 +148,6 @@ class SpectralRenderer:
         Callable nm -> QE of the spectral camera.
     coarse_step
         Spacing (camera px) of the grid on which inverse maps are solved exactly.
-    block
-        Open pixels splatted per batch by the sparse renderer (bounds memory).
     """
 
     def __init__(
@@ -168,13 +157,11 @@ class SpectralRenderer:
         fill_factor: float,
         quantum_efficiency,
         coarse_step: int = 8,
-        block: int = 256,
     ) -> None:
         self.relay = relay
         self.blur = blur
         self.fill_factor = fill_factor
         self.quantum_efficiency = quantum_efficiency
-        self.block = block
         hc, wc = relay.camera_shape
         self.camera_shape = (hc, wc)
         step = float(coarse_step)
@@ -183,7 +170,15 @@ class SpectralRenderer:
         self._up_x = linear_upsampler(self._coarse_x, wc)
         self._up_y = linear_upsampler(self._coarse_y, hc)
         self._inverse_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
+        self._dense_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
         self._tables: dict[tuple[float, ...], _SpotTable] = {}
+
+    def use_relay(self, relay: SpectralRelay) -> None:
+        """Render through ``relay`` from now on (a drifted bench), dropping what was
+        cached for the previous one."""
+        self.relay = relay
+        self._inverse_cache.clear()
+        self._dense_cache.clear()
 
     # -- the optical model shared by both renderers ---------------------------------
     def spot_sigma(self, wavelength_nm: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -207,7 +202,7 @@ class SpectralRenderer:
             sigma = self._tent_blur(spot)
             scale = self.relay.scale
             own_reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.intp) + 1
-            half = (int(own_reach.max()) + _RUN_SPAN_PX) * _TABLE_STEPS
+            half = (int(own_reach.max()) + 2) * _TABLE_STEPS
             offsets = np.arange(-half, half + 1) / _TABLE_STEPS
             values = np.stack([spot_profile(offsets, scale, sd) for sd in sigma])
             values[np.abs(offsets)[None, :] > own_reach[:, None]] = 0.0
@@ -252,6 +247,21 @@ class SpectralRenderer:
     def _upsample(self, coarse: NDArray[np.float32]) -> NDArray[np.float32]:
         return self._up_y @ coarse @ self._up_x.T
 
+    def _dense_maps(self, wavelength_nm: float, keep: bool) -> tuple[NDArray[np.float32], ...]:
+        """Full-resolution inverse map (u, v) and area ratio at one wavelength.
+
+        Up-sampling the coarse maps is most of a dense frame's cost, and a sweep renders
+        the same laser's few wavelengths frame after frame: with ``keep`` the maps of the
+        current light are kept (those of any other light are dropped first).
+        """
+        key = round(float(wavelength_nm), 6)
+        maps = self._dense_cache.get(key)
+        if maps is None:
+            maps = tuple(self._upsample(m) for m in self._inverse_maps(key))
+            if keep:
+                self._dense_cache[key] = maps
+        return maps
+
     def render_dense(
         self,
         transmission: NDArray[np.float32],
@@ -276,20 +286,24 @@ class SpectralRenderer:
         gain = self.electrons_per_photon(samples)
         sigma = self.spot_sigma(samples.wavelengths_nm)
         extra = self._tent_blur(sigma)
+        keep = samples.wavelengths_nm.size <= _CACHED_SAMPLES
+        wanted = {round(float(lam), 6) for lam in samples.wavelengths_nm}
+        if not keep or not wanted.issuperset(self._dense_cache):
+            self._dense_cache.clear()
         for lam, g, s in zip(samples.wavelengths_nm, gain, extra, strict=True):
             if g <= 0:
                 continue
             source = transmission * scene.reflectance_image(lam)[rows, cols]
-            cu, cv, carea = self._inverse_maps(lam)
+            map_u, map_v, area = self._dense_maps(lam, keep)
             warped = cv2.remap(
                 source,
-                self._upsample(cu),
-                self._upsample(cv),
+                map_u,
+                map_v,
                 interpolation=cv2.INTER_LINEAR,
                 borderMode=cv2.BORDER_CONSTANT,
                 borderValue=0.0,
             )
-            warped *= self._upsample(carea) * np.float32(g)
+            warped *= area * np.float32(g)
             if s > 0.05:
                 k = discrete_gaussian_kernel(float(s))
                 warped = cv2.sepFilter2D(warped, -1, k, k, borderType=cv2.BORDER_CONSTANT)
@@ -307,92 +321,47 @@ class SpectralRenderer:
     ) -> NDArray[np.float32]:
         """Electron rate for a few open SLM pixels, by splatting their streaks.
 
+        Every (pixel, sample) spot is the tabulated profile (1/64 px steps, nearest
+        entry) in x times that in y; each sampled spot's sum is known per sub-pixel
+        phase, so dividing by it makes every sample deposit exactly its energy.
+
         Parameters
         ----------
         rows, cols
             SLM coordinates of the open pixels (N,).
         transmission
             Their transmissions (N,).
+
+        Examples
+        --------
+        >>> from sassi_bench import open_rig
+        >>> from sassi_bench.rig.sim import truth
+        >>> bench = truth(open_rig("sim")).bench
+        >>> lit = np.array([200]), np.array([320])
+        >>> rate = bench.renderer.render_sparse(
+        ...     *lit, np.ones(1, np.float32), bench.scene, bench.samples("laser:532")
+        ... )
+        >>> rate.shape, bool(rate.sum() > 0)
+        ((512, 800), True)
         """
-        hc, wc = self.camera_shape
-        total = np.zeros(hc * wc, dtype=np.float64)
+        total = np.zeros(self.camera_shape, dtype=np.float64)
         if rows.size == 0:
-            return total.reshape(hc, wc).astype(np.float32)
+            return total.astype(np.float32)
         lam = samples.wavelengths_nm
         gain = self.electrons_per_photon(samples).astype(np.float32)
         table = self._spot_table(lam)
-
-        def splat_block(start: int) -> NDArray[np.float64]:
-            r = rows[start : start + self.block]
-            c = cols[start : start + self.block]
-            spectra = scene.reflectance_at(r + scene.margin, c + scene.margin, lam)
-            spectra *= gain[None, :] * transmission[start : start + self.block, None]
-            x, y = self.relay.forward(c[:, None], r[:, None], lam[None, :])
-            return self._splat(x, y, spectra, table)
-
-        # NumPy releases the GIL in the heavy steps, so blocks render in parallel threads;
-        # partial frames are summed in block order, so results stay deterministic.
-        for part in _pool().map(splat_block, range(0, rows.size, self.block)):
-            total += part
-        return total.reshape(hc, wc).astype(np.float32)
-
-    def _splat(self, x, y, spectra, table: _SpotTable) -> NDArray[np.float64]:
-        """Scatter the streaks of a block of pixels; returns the flat frame increment.
-
-        Wavelength samples are processed in short runs: a run's spots only reach a few
-        pixels past the run's own extent, so each run fills a small window of the
-        pixel's patch (a batched matrix product) instead of the whole streak length.
-        Spot profiles come from the table (1/64 px steps, nearest entry); each sampled
-        kernel's sum is known per sub-pixel phase, so normalising it (every sample
-        deposits exactly its energy) only rescales the (pixel, sample) weights.
-        """
-        hc, wc = self.camera_shape
-        n_pix, n_lam = x.shape
-        reach = int(table.reach.max())
-        x0 = np.floor(x.min(axis=1)).astype(np.intp) - reach
-        y0 = np.floor(y.min(axis=1)).astype(np.intp) - reach
-        width = int(np.ceil((x.max(axis=1) - x0).max())) + reach + 1
-        height = int(np.ceil((y.max(axis=1) - y0).max())) + reach + 1
-        # Positions relative to each pixel's patch, in whole table steps.
-        ix = np.rint((x - x0[:, None]) * _TABLE_STEPS).astype(np.int32)
-        iy = np.rint((y - y0[:, None]) * _TABLE_STEPS).astype(np.int32)
-        lam_index = np.arange(n_lam)
-        weights = spectra / (
-            table.norm[lam_index, ix % _TABLE_STEPS] * table.norm[lam_index, iy % _TABLE_STEPS]
+        spectra = scene.reflectance_at(rows + scene.margin, cols + scene.margin, lam)
+        spectra *= gain[None, :] * np.asarray(transmission, dtype=np.float32)[:, None]
+        x, y = self.relay.forward(cols[:, None], rows[:, None], lam[None, :])
+        splat(
+            np.ascontiguousarray(x, dtype=np.float64),
+            np.ascontiguousarray(y, dtype=np.float64),
+            spectra.astype(np.float64),
+            table.values,
+            table.centre,
+            _TABLE_STEPS,
+            table.norm,
+            table.reach.astype(np.int64),
+            total,
         )
-        row_base = (lam_index * table.values.shape[1] + table.centre).astype(np.int32)
-        flat = table.values.ravel()
-        patches = np.zeros((n_pix, height, width), dtype=np.float32)
-        for start in range(0, n_lam, _RUN):
-            run = slice(start, min(start + _RUN, n_lam))
-            r = int(table.reach[run].max())
-            left = max(int(ix[:, run].min()) // _TABLE_STEPS - r, 0)
-            right = min(int(ix[:, run].max()) // _TABLE_STEPS + r + 2, width)
-            top = max(int(iy[:, run].min()) // _TABLE_STEPS - r, 0)
-            bottom = min(int(iy[:, run].max()) // _TABLE_STEPS + r + 2, height)
-            base = row_base[run][None, :, None]
-            gx = flat[self._taps(left, right, ix[:, run], base, table)]
-            gy = flat[self._taps(top, bottom, iy[:, run], base, table)]
-            gy *= weights[:, run, None].astype(np.float32)
-            patches[:, top:bottom, left:right] += np.matmul(gy.transpose(0, 2, 1), gx)
-        index = (
-            (y0 * wc + x0).astype(np.int64)[:, None, None]
-            + (np.arange(height) * wc)[None, :, None]
-            + np.arange(width)[None, None, :]
-        )
-        if x0.min() < 0 or (x0 + width).max() > wc or y0.min() < 0 or (y0 + height).max() > hc:
-            cols = x0[:, None, None] + np.arange(width)[None, None, :]
-            rows = y0[:, None, None] + np.arange(height)[None, :, None]
-            inside = (cols >= 0) & (cols < wc) & (rows >= 0) & (rows < hc)
-            index = np.where(inside, index, 0)
-            patches = np.where(inside, patches, 0.0)
-        return np.bincount(index.ravel(), weights=patches.ravel(), minlength=hc * wc)
-
-    @staticmethod
-    def _taps(lo: int, hi: int, positions, base, table: _SpotTable):
-        """Flat table indices of pixels lo..hi-1 for spots at ``positions`` (table steps)."""
-        steps = (np.arange(lo, hi, dtype=np.int32) * _TABLE_STEPS)[None, None, :]
-        offset = steps - positions[:, :, None]
-        if np.abs(offset).max() > table.centre:  # a run wider than the table's margin
-            np.clip(offset, -table.centre, table.centre, out=offset)
-        return offset + base
+        return total.astype(np.float32)

@@ -209,3 +209,54 @@ def test_prototype_scale_renders_a_pinhole_frame():
     u, v = 950, 525
     x, y = truth(rig).slm_to_camera(u, v, 532.0)
     assert frame.data[round(float(y)), round(float(x))] > 5 * np.median(frame.data)
+
+
+def test_the_same_state_is_rendered_once_and_its_rate_is_read_only(sim_rig):
+    bench = truth(sim_rig).bench
+    sim_rig.set_scene("white")
+    sim_rig.light.select("laser:520")
+    sim_rig.slm.show(pinhole_pattern(sim_rig.slm.shape, pitch=(40, 10)))
+    first = bench.spectral_rate()
+    assert bench.spectral_rate() is first
+    assert not first.flags.writeable
+    sim_rig.slm.show(pinhole_pattern(sim_rig.slm.shape, pitch=(40, 10), offset=(1, 0)))
+    moved = bench.spectral_rate()
+    assert moved is not first and not np.array_equal(moved, first)
+    sim_rig.light.select("laser:532")
+    assert not np.array_equal(bench.spectral_rate(), moved)
+
+
+def test_dense_frames_are_the_same_with_kept_and_fresh_maps(sim_rig):
+    bench = truth(sim_rig).bench
+    renderer = bench.renderer
+    scene, samples = bench.scene_named("white"), bench.samples("laser:450")
+    image = np.zeros(bench.slm_shape, np.float32)
+    image[:, ::16] = 1.0
+    first = renderer.render_dense(image, scene, samples)  # maps made and kept
+    assert renderer.render_dense(image, scene, samples).tobytes() == first.tobytes()
+    renderer.render_dense(image, scene, bench.samples("led"))  # a broadband light drops them
+    assert not renderer._dense_cache
+    assert renderer.render_dense(image, scene, samples).tobytes() == first.tobytes()
+
+
+def test_the_closed_slm_background_with_coarser_samples_is_within_noise(sim_rig):
+    from sassi_bench.optics.sources import coarser_samples
+
+    bench = truth(sim_rig).bench
+    scene, samples = bench.scene_named("colorchecker"), bench.samples("led")
+    closed = np.full(bench.slm_shape, np.float32(bench.eps))
+    full = bench.renderer.render_dense(closed, scene, samples)
+    coarse = bench.renderer.render_dense(closed, scene, coarser_samples(samples, 2))
+    assert coarse.sum() == pytest.approx(full.sum(), rel=1e-3)
+    # At an exposure that fills the open streaks to 60 % of the well, the difference
+    # is a small fraction of the noise.
+    rows, cols = np.nonzero(pinhole_pattern(bench.slm_shape))
+    open_rate = bench.renderer.render_sparse(
+        rows, cols, np.ones(rows.size, np.float32), scene, samples
+    )
+    exposure = 0.6 * bench.sensor.full_well_e / open_rate.max()
+    difference_e = (coarse - full) * exposure
+    read = bench.sensor.read_noise_e
+    assert np.sqrt(np.mean(difference_e**2)) < 0.05 * read
+    noise_e = np.sqrt(full * exposure + read**2)
+    assert np.abs(difference_e / noise_e).max() < 0.1

@@ -1,0 +1,352 @@
+"""The whole calibration chain, stage by stage: frames, time, rendering, memory.
+
+Runs ``sassi-bench calibrate`` (``run_full_calibration`` with the shipped procedures) on a
+virtual rig and prints one row per stage:
+
+* **frames**: frames the stage stored (for the fits, the frames they read back);
+* **wall s / CPU s**: the stage's wall time and the process's CPU time (all threads);
+* **render**: the virtual bench's share (electron rates, sensor noise, scene builds:
+  the cost a real bench does not have, which streams frames at the SLM's rate);
+* **store**: writing frames to their session (compression, hash, fsync);
+* **process**: the rest, the procedure's own work;
+* **read ms**: reading one of the stage's frames back from its session (the stage's
+  sessions are read once more at the end of the run, frame by frame, in the same run);
+* **process/read**: processing per frame over that read time (the goal is at most 1.5);
+* **peak GB**: the process's peak resident memory during the stage.
+
+Render, store, process and read are CPU seconds (all threads), so the split and the
+ratio hold on a busy machine, where wall time is mostly waiting for a core (the load
+average at the start and end is printed); the wall column is this run's. ``--accuracy``
+runs the chain with the accuracy table's procedure (``benchmarks/accuracy_table.py``,
+laser wavelengths estimated) and prints the table's column for the rig, scored against
+the bench's truth, so one run gives both.
+
+Run: ``python benchmarks/bench_chain.py [--rig sim-prototype] [--data DIR] [--accuracy]``
+(``--rig sim`` takes about two minutes on two quiet cores; ``sim-prototype`` about five).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import functools
+import importlib
+import os
+import shutil
+import sys
+import tempfile
+import threading
+import time
+from collections import defaultdict
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+STAGES = (
+    "grey response",
+    "sweeps and decoding",
+    "dispersion and blur fits",
+    "response scan",
+    "guide scan and registration",
+    "Macbeth scan and validation",
+    "publishing",
+)
+# (module, function, stage): calling the function enters the stage until it returns.
+MARKERS = (
+    ("sassi_bench.workflows.full", "run_spectral_calibration", "sweeps and decoding"),
+    ("sassi_bench.workflows.full", "run_response", "response scan"),
+    ("sassi_bench.workflows.full", "run_guide_registration", "guide scan and registration"),
+    ("sassi_bench.workflows.full", "run_macbeth", "Macbeth scan and validation"),
+    ("sassi_bench.workflows.full", "render_report", "Macbeth scan and validation"),
+    ("sassi_bench.workflows.full", "publish_derived", "publishing"),
+    ("sassi_bench.workflows.spectral_capture", "measure_response", "grey response"),
+    ("sassi_bench.workflows.spectral", "analyse_spectral_sweeps", "dispersion and blur fits"),
+    ("sassi_bench.workflows.spectral", "render_figures", "dispersion and blur fits"),
+    ("sassi_bench.workflows.spectral", "publish_spectral", "publishing"),
+    ("sassi_bench.workflows.spectral_analysis", "measure_response", "grey response"),
+    ("sassi_bench.workflows.spectral_decode", "_structured_decode", "sweeps and decoding"),
+    ("sassi_bench.workflows.spectral_decode", "_line_decode", "sweeps and decoding"),
+    ("sassi_bench.workflows.scan", "publish_derived", "publishing"),
+    ("sassi_bench.workflows.guide", "publish_derived", "publishing"),
+)
+
+
+def _status(key: str) -> int:
+    """A /proc/self/status field in bytes (VmRSS, VmHWM)."""
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def _reset_peak() -> None:
+    """Start a new resident-memory high-water mark (Linux: clear_refs 5)."""
+    with contextlib.suppress(OSError), open("/proc/self/clear_refs", "w") as refs:
+        refs.write("5")
+
+
+class StageClock:
+    """Wall, CPU and peak memory per stage; the stage is the innermost marker entered."""
+
+    def __init__(self) -> None:
+        self.stack = ["setup"]
+        self.wall: dict[str, float] = defaultdict(float)
+        self.cpu: dict[str, float] = defaultdict(float)
+        self.peak: dict[str, int] = defaultdict(int)
+        self.render: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
+        self.store: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
+        self.reads: dict[str, set[str]] = defaultdict(set)
+        self.frames_read: dict[str, int] = defaultdict(int)
+        self.written: dict[str, str] = {}  # session id -> stage that wrote it
+        self._mark = (time.perf_counter(), time.process_time())
+        self._main = threading.main_thread()
+        _reset_peak()
+
+    @property
+    def stage(self) -> str:
+        return self.stack[-1]
+
+    def _switch(self) -> None:
+        now = (time.perf_counter(), time.process_time())
+        stage = self.stage
+        self.wall[stage] += now[0] - self._mark[0]
+        self.cpu[stage] += now[1] - self._mark[1]
+        self.peak[stage] = max(self.peak[stage], _status("VmHWM"))
+        _reset_peak()
+        self._mark = now
+
+    @contextlib.contextmanager
+    def entered(self, stage: str):
+        if threading.current_thread() is not self._main:
+            yield
+            return
+        self._switch()
+        self.stack.append(stage)
+        try:
+            yield
+        finally:
+            self._switch()
+            self.stack.pop()
+
+    def wrap(self, function, stage: str):
+        @functools.wraps(function)
+        def marked(*args, **kwargs):
+            with self.entered(stage):
+                return function(*args, **kwargs)
+
+        return marked
+
+    def finish(self) -> None:
+        """End the timing; later reads (the read-back) count to no stage."""
+        self._switch()
+        self.stack.append("read back")
+
+
+def instrument(clock: StageClock, rig) -> None:
+    """Put the stage markers and the bench, store and read timers in place."""
+    from sassi_bench.acquire.session import Session
+    from sassi_bench.rig.sim import truth
+
+    for module_name, name, stage in MARKERS:
+        module = importlib.import_module(module_name)
+        if hasattr(module, name):
+            setattr(module, name, clock.wrap(getattr(module, name), stage))
+        else:
+            print(f"note: {module_name}.{name} not found; its time counts to its caller")
+
+    capture = importlib.import_module("sassi_bench.workflows.spectral_capture")
+    run_plan = capture.run_plan
+
+    def run_stage_plan(rig, plan, session, **kwargs):
+        if not session.id.endswith("-grey"):
+            return run_plan(rig, plan, session, **kwargs)
+        with clock.entered("grey response"):
+            return run_plan(rig, plan, session, **kwargs)
+
+    capture.run_plan = run_stage_plan
+
+    def timed_render(function):
+        @functools.wraps(function)
+        def rendering(*args, **kwargs):
+            start = (time.perf_counter(), time.process_time())
+            try:
+                return function(*args, **kwargs)
+            finally:
+                entry = clock.render[clock.stage]
+                entry[0] += time.perf_counter() - start[0]
+                entry[1] += time.process_time() - start[1]
+                entry[2] += 1
+
+        return rendering
+
+    bench = truth(rig).bench
+    for camera in (rig.spectral_camera, rig.guide_camera):
+        camera._expose = timed_render(camera._expose)
+    bench.set_scene = timed_render(bench.set_scene)
+
+    write_frame, read_frame, read_frames = (
+        Session.write_frame,
+        Session.read_frame,
+        Session.read_frames,
+    )
+
+    def write(self, step_index, frame):
+        start = (time.perf_counter(), time.process_time())
+        try:
+            return write_frame(self, step_index, frame)
+        finally:
+            entry = clock.store[clock.stage]
+            entry[0] += time.perf_counter() - start[0]
+            entry[1] += time.process_time() - start[1]
+            entry[2] += 1
+            clock.written.setdefault(self.id, clock.stage)
+
+    def read(self, step_index):
+        clock.reads[clock.stage].add(self.id)
+        clock.frames_read[clock.stage] += 1
+        return read_frame(self, step_index)
+
+    def read_many(self, step_indices):
+        indices = list(step_indices)
+        clock.reads[clock.stage].add(self.id)
+        clock.frames_read[clock.stage] += len(indices)
+        return read_frames(self, indices)
+
+    Session.write_frame, Session.read_frame, Session.read_frames = write, read, read_many
+
+
+def read_back(sessions: dict[str, Path]) -> dict[str, float]:
+    """CPU seconds to read one frame back from each session, frame by frame (all frames)."""
+    import numpy as np
+
+    from sassi_bench.acquire.session import Session
+
+    per_frame = {}
+    for session_id, data in sessions.items():
+        session = Session.open(session_id, data=data)
+        steps = sorted(session.completed)
+        start = time.process_time()
+        for frame in session.iter_frames(steps):
+            np.asarray(frame)
+        per_frame[session_id] = (time.process_time() - start) / max(len(steps), 1)
+    return per_frame
+
+
+def table(clock: StageClock, read_s: dict[str, float]) -> str:
+    """The per-stage Markdown table."""
+    from sassi_bench._shared.tables import text_table
+
+    header = [
+        "stage", "frames", "wall s", "CPU s", "render CPU s", "store CPU s",
+        "process CPU s", "read CPU ms", "process/read", "peak GB",
+    ]  # fmt: skip
+    rows = []
+    totals = defaultdict(float)
+    for stage in ("setup", *STAGES):
+        if stage not in clock.wall:
+            continue
+        wall, cpu = clock.wall[stage], clock.cpu[stage]
+        _, render, _ = clock.render[stage]
+        _, store, stored = clock.store[stage]
+        process = cpu - render - store
+        sessions = [s for s, st in clock.written.items() if st == stage] or sorted(
+            clock.reads[stage]
+        )
+        frames = int(stored) if stored else clock.frames_read[stage]
+        reads = [read_s[s] for s in sessions if s in read_s]
+        read = sum(reads) / len(reads) if reads else float("nan")
+        ratio = process / frames / read if frames and reads else float("nan")
+        rows.append([
+            stage, str(frames), f"{wall:.1f}", f"{cpu:.1f}", f"{render:.1f}",
+            f"{store:.1f}", f"{process:.1f}", f"{1000 * read:.1f}" if reads else "-",
+            f"{ratio:.2f}" if ratio == ratio else "-", f"{clock.peak[stage] / 1e9:.2f}",
+        ])  # fmt: skip
+        for key, value in (("wall", wall), ("cpu", cpu), ("render", render), ("store", store)):
+            totals[key] += value
+        totals["frames"] += stored
+    peak = max(clock.peak.values())
+    rows.append([
+        "whole chain", str(int(totals["frames"])), f"{totals['wall']:.1f}",
+        f"{totals['cpu']:.1f}", f"{totals['render']:.1f}", f"{totals['store']:.1f}",
+        f"{totals['cpu'] - totals['render'] - totals['store']:.1f}", "-", "-",
+        f"{peak / 1e9:.2f}",
+    ])  # fmt: skip
+    return text_table(header, rows)
+
+
+def disk_use(staging: Path) -> str:
+    """Bytes of raw frames per session left in the staging folder."""
+    from sassi_bench.storage.inventory import folder_size, format_size
+
+    lines, total, audit = [], 0, 0
+    for folder in sorted((staging / "sessions").iterdir()):
+        frames = folder / "frames.zarr"
+        size = folder_size(frames)[0] if frames.exists() else 0
+        total += size
+        audit += size if folder.name.endswith(("-spectral-grey", "-spectral-sweep")) else 0
+        lines.append(f"  {folder.name}: {format_size(size)}")
+    return "\n".join([
+        f"raw frames left by the run: {format_size(total)} (keep: all); "
+        f"{format_size(audit)} with keep: audit (grey and sweep frames)",
+        *lines,
+    ])  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--rig", default="sim-prototype")
+    parser.add_argument("--data", help="data folder to keep the run in (default: a temporary one)")
+    parser.add_argument(
+        "--accuracy", action="store_true", help="also score the run against the truth"
+    )
+    args = parser.parse_args()
+    print(f"load average at start: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
+    clock = StageClock()
+    from sassi_bench import open_rig
+    from sassi_bench.workflows.full import run_full_calibration
+    from sassi_bench.workflows.procedure import load_procedure
+
+    rig = open_rig(args.rig)
+    instrument(clock, rig)
+    with tempfile.TemporaryDirectory(prefix="bench-chain-") as tmp:
+        data = Path(args.data) if args.data else Path(tmp)
+        procedure = load_procedure("full_calibration")
+        if "keep" in procedure:
+            procedure["keep"] = "all"  # every frame stays, to be read back below
+        if args.accuracy:
+            from accuracy_table import accuracy_procedure
+
+            procedure = accuracy_procedure(procedure, data)
+        start = time.perf_counter()
+        result = run_full_calibration(
+            rig, procedure, session_id="bench-chain", data=data, progress=False,
+            allow_failed=True,
+        )  # fmt: skip
+        chain_wall = time.perf_counter() - start
+        clock.finish()
+        staging = result.stages["staging"]
+        read_s = read_back(dict.fromkeys(clock.written, staging))
+        print(f"\nrig {args.rig}: whole chain {chain_wall:.0f} s wall")
+        failed = [c.name for c in result.checks if not c.passed]
+        print("all checks pass" if not failed else "FAILED checks: " + ", ".join(failed))
+        print(table(clock, read_s))
+        renders = {stage: entry for stage, entry in clock.render.items() if entry[2]}
+        print("\nrendering per bench call (camera exposures and scene changes):")
+        for stage, (wall, cpu, calls) in renders.items():
+            print(
+                f"  {stage}: {calls} calls, {1000 * cpu / calls:.0f} ms CPU, "
+                f"{1000 * wall / calls:.0f} ms wall each"
+            )
+        print(disk_use(staging))
+        if args.accuracy:
+            from accuracy_table import markdown, score
+
+            print("\n" + markdown([score(rig, result)]))
+        if args.data is None:
+            shutil.rmtree(staging, ignore_errors=True)
+    print(f"load average at end: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()
