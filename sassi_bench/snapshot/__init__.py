@@ -9,7 +9,9 @@ package outside the workbench would:
 * :mod:`~sassi_bench.snapshot.superpixels`: the guide image on the SLM grid, SLIC;
 * :mod:`~sassi_bench.snapshot.adaptive`: the SASSI paper's adaptive mask;
 * :mod:`~sassi_bench.snapshot.reconstruct`: spectra at the open pixels, then the cube by
-  rank-1 per region or by a masked guided filter; cubes on disk like scan cubes;
+  rank-1 per region; cubes on disk like scan cubes;
+* :mod:`~sassi_bench.snapshot.guided`: the masked guided filter in a rank-6 spectral basis;
+* :mod:`~sassi_bench.snapshot.factored`: both cubes in factored form, dense on demand;
 * :mod:`~sassi_bench.snapshot.pipeline`: one frame from raw guide and spectral images to
   both cubes;
 * :mod:`~sassi_bench.snapshot.metrics`: PSNR (raw and after an affine fit), SSIM, spectral
@@ -22,6 +24,8 @@ from sassi_bench.snapshot.adaptive import (
     place_samples,
     segment_around_samples,
 )
+from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube, spectral_basis
+from sassi_bench.snapshot.guided import guided_cube, guided_factors
 from sassi_bench.snapshot.masks import check_mask, mask_conflicts, random_mask, uniform_mask
 from sassi_bench.snapshot.metrics import (
     affine_fit,
@@ -37,9 +41,9 @@ from sassi_bench.snapshot.pipeline import (
 )
 from sassi_bench.snapshot.reconstruct import (
     guide_intensity,
-    guided_cube,
     measure_samples,
     rank1_cube,
+    rank1_factors,
     snapshot_dataset,
     write_cube,
 )
@@ -48,6 +52,8 @@ from sassi_bench.snapshot.superpixels import Superpixels, guide_features, guide_
 __all__ = [
     "AdaptiveMask",
     "FrameReconstruction",
+    "LowRankCube",
+    "Rank1Cube",
     "Superpixels",
     "adaptive_mask",
     "adaptive_samples",
@@ -58,6 +64,7 @@ __all__ = [
     "guide_intensity",
     "guide_on_slm",
     "guided_cube",
+    "guided_factors",
     "mask_conflicts",
     "mean_spectral_angle_deg",
     "measure_samples",
@@ -65,9 +72,11 @@ __all__ = [
     "psnr",
     "random_mask",
     "rank1_cube",
+    "rank1_factors",
     "reconstruct_frame",
     "segment_around_samples",
     "snapshot_dataset",
+    "spectral_basis",
     "ssim",
     "superpixels",
     "uniform_mask",
