@@ -14,6 +14,8 @@ package outside the workbench would:
 * :mod:`~sassi_bench.snapshot.factored`: both cubes in factored form, dense on demand;
 * :mod:`~sassi_bench.snapshot.pipeline`: one frame from raw guide and spectral images to
   both cubes;
+* :mod:`~sassi_bench.snapshot.video`: the per-frame pipeline of a video, frame after frame,
+  spectra beside the segmentation on two threads;
 * :mod:`~sassi_bench.snapshot.metrics`: PSNR (raw and after an affine fit), SSIM, spectral
   angle.
 """
@@ -42,12 +44,14 @@ from sassi_bench.snapshot.pipeline import (
 from sassi_bench.snapshot.reconstruct import (
     guide_intensity,
     measure_samples,
+    measure_with_background,
     rank1_cube,
     rank1_factors,
     snapshot_dataset,
     write_cube,
 )
 from sassi_bench.snapshot.superpixels import Superpixels, guide_features, guide_on_slm, superpixels
+from sassi_bench.snapshot.video import VideoFrame, VideoPipeline
 
 __all__ = [
     "AdaptiveMask",
@@ -55,6 +59,8 @@ __all__ = [
     "LowRankCube",
     "Rank1Cube",
     "Superpixels",
+    "VideoFrame",
+    "VideoPipeline",
     "adaptive_mask",
     "adaptive_samples",
     "affine_fit",
@@ -68,6 +74,7 @@ __all__ = [
     "mask_conflicts",
     "mean_spectral_angle_deg",
     "measure_samples",
+    "measure_with_background",
     "place_samples",
     "psnr",
     "random_mask",

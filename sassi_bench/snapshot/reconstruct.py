@@ -42,11 +42,12 @@ from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write
 from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.extract import extract_spectra, extract_with_background
 from sassi_bench.spectra.geometry import reached_rows, streak_geometry
-from sassi_bench.spectra.offset import estimate_background, streak_footprint
+from sassi_bench.spectra.offset import Background, estimate_background, streak_footprint
 
 __all__ = [
     "guide_intensity",
     "measure_samples",
+    "measure_with_background",
     "rank1_cube",
     "rank1_factors",
     "snapshot_dataset",
@@ -62,6 +63,9 @@ RADIANCE_UNITS = "relative photon radiance per bin"
 #: 5 px pitch 41.1 after 24. Each pass costs about 15 ms there (the streak model is
 #: factorised once), so the frame takes about 0.4 s.
 DENSE_BACKGROUND_PASSES = 24
+#: Background refinements of a dense mask started from the previous video frame's background
+#: (:func:`measure_with_background`).
+WARM_BACKGROUND_PASSES = 2
 
 
 def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
@@ -144,6 +148,56 @@ def measure_samples(
     >>> spectra, units = measure_samples(frame.data, mask, bundle,
     ...                                  exposure_s=frame.meta.exposure_s)  # doctest: +SKIP
     """
+    spectra, units, _ = measure_with_background(
+        frame, pixels, bundle, exposure_s=exposure_s, deblur=deblur, full_scale=full_scale,
+        background_block=background_block, background_passes=background_passes,
+    )  # fmt: skip
+    return spectra, units
+
+
+def measure_with_background(
+    frame: ArrayLike,
+    pixels: ArrayLike,
+    bundle: CalibrationBundle,
+    *,
+    exposure_s: float,
+    deblur: SpectralDeblur | None = None,
+    full_scale: float = 65535.0,
+    background_block: tuple[int, int] = (8, 16),
+    background_passes: int | None = None,
+    background_start: NDArray[np.floating] | None = None,
+) -> tuple[NDArray[np.float64], str, Background]:
+    """:func:`measure_samples`, also returning the background it removed, and starting its
+    refinements from ``background_start`` when given (video: the previous frame's
+    background, so a few passes follow a slowly changing scene).
+
+    Parameters
+    ----------
+    frame, pixels, bundle, exposure_s, deblur, full_scale, background_block, background_passes
+        As :func:`measure_samples`.
+    background_start
+        The background image of the reached camera rows (the ``image`` of a returned
+        :class:`~sassi_bench.spectra.offset.Background`) to refine when the mask is dense,
+        by :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
+        estimated from the pixels outside the footprints.
+
+    Returns
+    -------
+    spectra : ndarray
+        (N, B) float64 at ``bundle.wavelengths``.
+    units : str
+        As :func:`measure_samples`.
+    background : Background
+        The background of the reached camera rows.
+
+    Examples
+    --------
+    >>> spectra, units, background = measure_with_background(
+    ...     frame.data, mask, bundle, exposure_s=0.05)  # doctest: +SKIP
+    >>> spectra, units, background = measure_with_background(
+    ...     next_frame.data, next_mask, bundle, exposure_s=0.05, background_passes=2,
+    ...     background_start=background.image)  # doctest: +SKIP
+    """
     step = "snapshot spectra"
     image = np.asarray(frame)
     check_ndim(image, 2, step=step, name="the frame", fix="pass one spectral-camera frame")
@@ -159,12 +213,14 @@ def measure_samples(
     top, bottom = reached_rows(bundle, image.shape[0])
     window = image[top:bottom]
     geometry = streak_geometry(bundle, rows, cols).shifted(top)
-    if background_passes is None:
-        background_passes = DENSE_BACKGROUND_PASSES if columns_interact(geometry) else 0
+    if background_passes is None and columns_interact(geometry):
+        warm = background_start is not None
+        background_passes = WARM_BACKGROUND_PASSES if warm else DENSE_BACKGROUND_PASSES
     if background_passes:
-        spectra, _, _ = extract_with_background(
-            window, geometry, deblur, block=background_block, passes=background_passes
-        )
+        spectra, _, background = extract_with_background(
+            window, geometry, deblur, block=background_block, passes=background_passes,
+            start=background_start,
+        )  # fmt: skip
     else:
         background = estimate_background(
             window, streak_footprint(geometry, window.shape), block=background_block
@@ -172,8 +228,8 @@ def measure_samples(
         spectra, _ = extract_spectra(window - background.image, geometry, deblur)
     spectra /= exposure_s
     if bundle.response is not None:
-        return spectra / np.asarray(bundle.response), RADIANCE_UNITS
-    return spectra, CAMERA_UNITS
+        return spectra / np.asarray(bundle.response), RADIANCE_UNITS, background
+    return spectra, CAMERA_UNITS, background
 
 
 def guide_intensity(guide_slm: ArrayLike) -> NDArray[np.float32]:
