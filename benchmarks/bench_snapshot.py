@@ -1,32 +1,32 @@
-"""Snapshot speed at the SASSI paper's SLM crop (698 x 931): mask design and one frame.
+"""Snapshot speed per frame at the SASSI paper's SLM crop (698 x 931), as video runs it.
 
-Builds a prototype-like bundle for a 698 x 931 SLM (1 camera px per SLM px, 68 px streaks
-over 400-700 nm, blur sigma 1.7 px at 405 and 635 nm and 0.42 px at 520 nm, a guide camera
-of 1440 x 1080 px) and a guide image (scikit-image's coffee photograph), writes a few
+Builds a prototype-like bundle for a 698 x 931 SLM (``--slm prototype``: the whole
+1920 x 1080 SLM of ``sim-prototype``; 1 camera px per SLM px, 68 px streaks over
+400-700 nm, blur sigma 1.7 px at 405 and 635 nm and 0.42 px at 520 nm, a guide camera of
+1440 x 1080 px) and a guide image (scikit-image's coffee photograph), writes a few
 2048 x 2048 spectral frames (camera noise: the work does not depend on the content) into a
-session, and in each of ``--rounds`` rounds times:
+session, and runs :class:`~sassi_bench.snapshot.video.VideoPipeline` frame after frame at
+three mask densities: the bundle's own spacing (streak footprints never overlap), the
+snapshot procedure's default 8-row pitch and the SASSI paper's 5-row pitch (dense: streaks
+of neighbouring columns overlap and are unmixed jointly, the background refined from the
+previous frame's). In each of ``--rounds`` rounds it times:
 
-* reading one frame from the session (the baseline, as in the other benchmarks);
-* the guide image warped onto the SLM grid, its SLIC superpixels;
-* the adaptive mask given the superpixels (centroids, spacing enforced, fill; the paper
-  reports under 2 ms), also as CPU time and under a rule with half the pitch and half the
-  exclusions (a denser mask), and the re-segmentation around the samples;
-* the spectra of the open pixels (offset removal, extraction, deblur) and the rank-1 cube
-  (written into one cube's memory reused from frame to frame, as video does);
-* the spectra of a dense mask (the bundle's rule with a 5 px row pitch, the SASSI paper's:
-  streaks of neighbouring columns overlap, so the extraction fits them jointly and refines
-  the background from their residual), with its ratio to the frame read;
-* the masked guided filter (not part of the per-frame total).
+* reading one frame from the session (the baseline, as in the other benchmarks) and
+  copying one dense float32 cube of the SLM at the bundle's 68 bins (the cost of merely
+  touching a dense cube once);
+* each step of a frame (wall clock and the CPU time of the thread that ran it, which the
+  machine's other work inflates less): guide -> SLM warp, superpixels, the next frame's mask, the
+  re-segmentation around the samples, the spectra at the open pixels (offset removal,
+  extraction, deblur), the rank-1 cube in factored form; and the frame's wall-clock
+  total (spectra on one thread beside the segmentation on another: two cores);
+* outside the total: materialising the dense rank-1 cube (on demand only), and the masked
+  guided filter in a rank-6 spectral basis (factored; and dense).
 
-Per-frame total = warp + superpixels + mask + re-segmentation + spectra + rank-1 (the paper:
-about 55 ms, 18 fps, on a GPU laptop). Medians over the rounds are printed, and the ratio of
-each round's total to its own frame read (the machine may be shared: ratios taken side by
-side are steadier than absolute times).
+Medians over the rounds are printed, with each total's ratio to the frame read and to the
+cube copy of its own round (the machine may be shared: ratios taken side by side are
+steadier than absolute times). The paper: about 55 ms a frame (18 fps) on a GPU laptop.
 
-The mask design is repeated ``--repeat`` times a round (its median and fastest are printed);
-the spectra are also timed with the background estimated in coarser blocks.
-
-Run: ``python benchmarks/bench_snapshot.py [--rounds 7] [--segments N] [--repeat 20]``
+Run: ``python benchmarks/bench_snapshot.py [--rounds 7] [--slm crop|prototype]``
 """
 
 from __future__ import annotations
@@ -47,7 +47,6 @@ from sassi_bench.bundle import (
     BlurModel,
     CalibrationModels,
     DispersionModel,
-    MaskSpacing,
     QualityCheck,
     WavelengthBins,
     load,
@@ -56,46 +55,36 @@ from sassi_bench.bundle import (
 from sassi_bench.optics.glass import sellmeier_index
 from sassi_bench.rig.config import load_rig_description
 from sassi_bench.rig.frame import Frame, FrameMeta
-from sassi_bench.snapshot import (
-    guide_on_slm,
-    guided_cube,
-    measure_samples,
-    place_samples,
-    rank1_cube,
-    segment_around_samples,
-    superpixels,
-)
-from sassi_bench.snapshot.adaptive import default_segments
-from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.snapshot import VideoPipeline, guided_factors
 
-SLM = (698, 931)
+SLMS = {"crop": (698, 931), "prototype": (1080, 1920)}
 CAMERA = (2048, 2048)
 GUIDE = (1080, 1440)
 BK7_B = (1.03961212, 0.231792344, 1.01046945)
 BK7_C = (0.00600069867, 0.0200179144, 103.560653)
 
 
-def prototype_models() -> CalibrationModels:
-    """A 698 x 931 SLM imaged 1:1 near the camera's centre, N-BK7, 68 px streaks."""
+def prototype_models(slm: tuple[int, int] = SLMS["crop"]) -> CalibrationModels:
+    """An SLM imaged 1:1 near the camera's centre, N-BK7, 68 px streaks."""
     n_blue, n_mid, n_red = sellmeier_index([400.0, 550.0, 700.0], BK7_B, BK7_C)
     x = np.zeros((3, 3))
-    x[0, :3] = [1024.0, (SLM[1] - 1) / 2, 2.0]  # centre, scale 1 along u, a little tilt
+    x[0, :3] = [1024.0, (slm[1] - 1) / 2, 2.0]  # centre, scale 1 along u, a little tilt
     x[1, 0] = -34.0  # s_x runs -1..1 over 400-700 nm: a 68 px streak
     y = np.zeros((3, 3))
-    y[0, :3] = [1024.0, -1.5, (SLM[0] - 1) / 2]
+    y[0, :3] = [1024.0, -1.5, (slm[0] - 1) / 2]
     y[1, 0], y[2, 0] = 0.4, 0.2  # smile
     dispersion = DispersionModel(
-        "N-BK7", BK7_B, BK7_C, float(n_mid), float(n_blue - n_red) / 2, 550.0, 150.0, SLM, 1, x, y
+        "N-BK7", BK7_B, BK7_C, float(n_mid), float(n_blue - n_red) / 2, 550.0, 150.0, slm, 1, x, y
     )
     lam = np.linspace(400.0, 700.0, 4001)
-    xs, _ = dispersion.evaluate((SLM[1] - 1) / 2, (SLM[0] - 1) / 2, lam)
+    xs, _ = dispersion.evaluate((slm[1] - 1) / 2, (slm[0] - 1) / 2, lam)
     order = np.argsort(xs)
     x_edges = np.linspace(xs.min(), xs.max(), 69)
     edges = np.sort(np.interp(x_edges, xs[order], lam[order]))
     centres = (edges[:-1] + edges[1:]) / 2
     bins = WavelengthBins(centres, edges, 1.2 * np.diff(edges))
     blur = BlurModel((0.42, 0.0, (1.7 - 0.42) / 1.15**2), 520.0, 100.0, 2.5)
-    scale = SLM[1] / GUIDE[1]
+    scale = slm[1] / GUIDE[1]
     homography = np.array([[scale, 0.0, 0.0], [0.0, scale, -10.0], [0.0, 0.0, 1.0]])
     return CalibrationModels(
         dispersion=dispersion,
@@ -117,32 +106,103 @@ def guide_image() -> np.ndarray:
 
 
 def timed(fn, *args, **kwargs):
-    start = time.perf_counter()
+    """``fn``'s result and its (wall, thread CPU) seconds."""
+    start, cpu = time.perf_counter(), time.thread_time()
     out = fn(*args, **kwargs)
-    return out, time.perf_counter() - start
+    return out, (time.perf_counter() - start, time.thread_time() - cpu)
+
+
+STEPS_PRINTED = (
+    ("warp", "guide -> SLM warp"),
+    ("superpixels", "superpixels (SLIC at half size)"),
+    ("mask", "next frame's mask given superpixels"),
+    ("resegment", "re-segmentation around samples"),
+    ("spectra", "spectra (offset, extraction, deblur)"),
+    ("rank1", "rank-1 cube, factored"),
+)
+
+
+def run_density(name, bundle, spacing, session, guide, rounds, cube, copy_of):
+    """Frames of one mask density; rows of per-round times."""
+    pipeline = VideoPipeline(bundle, spacing)
+    mask, samples = pipeline.plan(guide)
+    # Once untimed: compiles the kernels and refines the first background from scratch.
+    frame, (cold, _) = timed(
+        pipeline.process, guide, session.read_frame(0), mask, samples, exposure_s=0.1
+    )
+    frame.rank1.dense(cube)
+    guided_factors(frame.guide_slm, frame.mask, frame.spectra).dense(cube)
+    rows = []
+    for r in range(rounds):
+        raw, read = timed(session.read_frame, r % 3)
+        _, copy = timed(np.copyto, cube, copy_of)
+        mask, samples = frame.next_mask, frame.next_samples
+        frame = pipeline.process(guide, raw, mask, samples, exposure_s=0.1)
+        _, dense = timed(frame.rank1.dense, cube)
+        guided, guided_s = timed(guided_factors, frame.guide_slm, mask, frame.spectra)
+        _, guided_dense = timed(guided.dense, cube)
+        wall, cpu = frame.seconds, frame.cpu_seconds
+        steps = [key for key, _ in STEPS_PRINTED]
+        row = {key: (wall[key], cpu[key]) for key in steps}
+        row["steps"] = (sum(wall[k] for k in steps), sum(cpu[k] for k in steps))
+        row["total"] = (wall["total"], float("nan"))
+        rows.append(
+            dict(row, read=read, copy=copy, dense=dense, guided=guided_s, guided_dense=guided_dense)
+        )
+    pipeline.close()
+    print(
+        f"\n== {name}: {spacing.pitch}-row pitch, {int(mask.sum())} open pixels "
+        f"({mask.mean() * 100:.2f} % of the SLM), {len(samples)} samples; first frame "
+        f"(background from scratch, kernels compiled) {cold:.2f} s"
+    )
+    median = {key: statistics.median(row[key][0] for row in rows) for key in rows[0]}
+    cpu = {key: statistics.median(row[key][1] for row in rows) for key in rows[0]}
+    print(f"{'step':46s} {'ms':>7s} {'cpu ms':>7s} {'/ read':>7s} {'/ copy':>7s}")
+    table = [("read", "read one frame (baseline)"), ("copy", "copy one dense cube (baseline)")]
+    table += list(STEPS_PRINTED)
+    table += [
+        ("steps", "sum of the steps (one core)"),
+        ("total", "per frame total, wall clock (two threads)"),
+        ("dense", "rank-1 dense cube, on demand (not in total)"),
+        ("guided", "guided filter, rank 6, factored (not in total)"),
+        ("guided_dense", "guided filter dense cube, on demand"),
+    ]
+    for key, label in table:
+        print(
+            f"{label:46s} {1e3 * median[key]:7.1f} {1e3 * cpu[key]:7.1f} "
+            f"{median[key] / median['read']:6.1f}x {median[key] / median['copy']:6.2f}x"
+        )
+    ratios = sorted(row["total"][0] / row["read"][0] for row in rows)
+    copies = sorted(row["total"][0] / row["copy"][0] for row in rows)
+    print(
+        f"total / read, per round: median {statistics.median(ratios):.1f}x (range "
+        f"{ratios[0]:.1f}-{ratios[-1]:.1f}x); total / cube copy: median "
+        f"{statistics.median(copies):.2f}x (range {copies[0]:.2f}-{copies[-1]:.2f}x); "
+        f"{1 / median['total']:.1f} frames per second; CPU of the steps "
+        f"{1e3 * cpu['steps']:.0f} ms (one core's share of the budget: the two threads "
+        f"split it)"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rounds", type=int, default=7)
-    parser.add_argument("--segments", type=int, help="superpixels (default: lattice size)")
-    parser.add_argument("--repeat", type=int, default=20, help="mask designs per round")
+    parser.add_argument("--slm", choices=sorted(SLMS), default="crop")
+    parser.add_argument(
+        "--pitches", default="bundle,8,5", help="mask densities: row pitches, 'bundle' = its own"
+    )
     args = parser.parse_args()
+    slm = SLMS[args.slm]
     with tempfile.TemporaryDirectory() as scratch, threadpool_limits(1, "blas"):
         bundle = load(
             publish(
-                prototype_models(),
+                prototype_models(slm),
                 rig={"name": "bench-crop"},
                 quality={"checks": [QualityCheck.at_most("synthetic", 0.0, 1.0, "px")]},
                 procedure={},
                 inputs=[],
                 data=Path(scratch),
             )
-        )
-        spacing, seconds = timed(bundle.mask_spacing)
-        print(
-            f"spacing: {seconds:.2f} s; columns {int((spacing.left + spacing.right).min())}-"
-            f"{int((spacing.left + spacing.right).max())} px, pitch {spacing.pitch} rows"
         )
         rng = np.random.default_rng(0)
         rig = load_rig_description("sim-prototype")
@@ -152,111 +212,14 @@ def main() -> None:
             noise = rng.poisson(200.0, CAMERA).astype(np.uint16) + np.uint16(100)
             session.write_frame(i, Frame(noise, FrameMeta("spectral", 0.1, 0.0, None, "led", i)))
         guide = guide_image()
-        deblur = SpectralDeblur.from_bundle(bundle)
-        n_segments = args.segments or default_segments(spacing)
-        # Once untimed: compiles the kernels (numba, once per process).
-        first = time.perf_counter()
-        segments = superpixels(guide_on_slm(bundle, guide), n_segments)
-        mask, samples = place_samples(segments.labels, spacing)
-        dense = MaskSpacing(
-            spacing.left // 2, spacing.right // 2, max(1, spacing.pitch // 2),
-            spacing.blur_sigmas, spacing.margin_px,
-        )  # fmt: skip
-        dense_segments = superpixels(guide_on_slm(bundle, guide), default_segments(dense))
-        place_samples(dense_segments.labels, dense)
-        paper = bundle.mask_spacing(row_pitch=5)
-        paper_segments = superpixels(guide_on_slm(bundle, guide), default_segments(paper))
-        paper_mask, _ = place_samples(paper_segments.labels, paper)
-        measure_samples(session.read_frame(0), paper_mask, bundle, exposure_s=0.1, deblur=deblur)
-        segment_around_samples(guide_on_slm(bundle, guide), samples, features=segments.features)
-        measure_samples(session.read_frame(0), mask, bundle, exposure_s=0.1, deblur=deblur)
-        print(f"first run (compiles the kernels): {time.perf_counter() - first:.1f} s")
-        # Video reconstructs frame after frame into one cube's memory.
-        cube = np.empty((*SLM, bundle.wavelengths.size), np.float32)
-        rows = []
-        for r in range(args.rounds):
-            frame, read = timed(session.read_frame, r % 3)
-            guide_slm, warp = timed(guide_on_slm, bundle, guide)
-            segments, slic = timed(superpixels, guide_slm, n_segments)
-            # The mask alone is a few ms: repeated, its median and minimum are steadier.
-            designs = []
-            for _ in range(args.repeat):
-                (mask, samples), seconds = timed(place_samples, segments.labels, spacing)
-                designs.append(seconds)
-            design = statistics.median(designs)
-            mask_best = min(designs)
-            # CPU time of one design: what the machine's other work does not inflate.
-            cpu = time.thread_time()
-            for _ in range(args.repeat):
-                place_samples(segments.labels, spacing)
-            mask_cpu = (time.thread_time() - cpu) / args.repeat
-            # A denser rule (half the pitch and the exclusions), its own lattice of superpixels.
-            dense_designs = []
-            for _ in range(args.repeat):
-                _, seconds = timed(place_samples, dense_segments.labels, dense)
-                dense_designs.append(seconds)
-            labels, resegment = timed(
-                segment_around_samples, guide_slm, samples, features=segments.features
-            )
-            (spectra, _), extract = timed(
-                measure_samples, frame, mask, bundle, exposure_s=0.1, deblur=deblur
-            )
-            _, rank1 = timed(rank1_cube, guide_slm, labels, mask, spectra, out=cube)
-            _, guided = timed(guided_cube, guide_slm, mask, spectra)
-            _, coarse = timed(
-                measure_samples, frame, mask, bundle, exposure_s=0.1, deblur=deblur,
-                background_block=(32, 64),
-            )  # fmt: skip
-            _, dense_extract = timed(
-                measure_samples, frame, paper_mask, bundle, exposure_s=0.1, deblur=deblur
-            )
-            total = warp + slic + design + resegment + extract + rank1
-            rows.append(
-                dict(
-                    read=read, warp=warp, slic=slic, mask=design, resegment=resegment,
-                    extract=extract, rank1=rank1, total=total, ratio=total / read,
-                    guided=guided, mask_best=mask_best, coarse=coarse, mask_cpu=mask_cpu,
-                    mask_dense=statistics.median(dense_designs), mask_dense_best=min(dense_designs),
-                    extract_paper=dense_extract, paper_ratio=dense_extract / read,
-                )
-            )  # fmt: skip
-        print(
-            f"{segments.count} superpixels, {len(samples)} samples, {int(mask.sum())} open "
-            f"pixels ({mask.mean() * 100:.2f} % of the SLM)"
-        )
-        for key, label in (
-            ("read", "read one frame (baseline)"),
-            ("warp", "guide -> SLM warp"),
-            ("slic", "SLIC superpixels"),
-            ("mask", "mask given superpixels (target <= 2 ms)"),
-            ("mask_best", "  the same, fastest of the repeats"),
-            ("mask_cpu", "  the same, CPU time of one"),
-            ("mask_dense", "mask, rule with half pitch and exclusions"),
-            ("mask_dense_best", "  the same, fastest of the repeats"),
-            ("resegment", "re-segmentation around samples"),
-            ("extract", "spectra (offset, extraction, deblur)"),
-            ("rank1", "rank-1 cube"),
-            ("total", "per frame total"),
-            ("guided", "guided-filter cube (not in the total)"),
-            ("coarse", "spectra, background in 32 x 64 px blocks"),
-            ("extract_paper", f"spectra, 5 px row pitch ({int(paper_mask.sum())} open px)"),
-        ):
-            values = [row[key] for row in rows]
-            print(
-                f"{label:42s} median {1e3 * statistics.median(values):8.1f} ms "
-                f"(range {1e3 * min(values):7.1f}-{1e3 * max(values):7.1f})"
-            )
-        ratios = sorted(row["ratio"] for row in rows)
-        print(
-            f"per frame total / reading one frame: median {statistics.median(ratios):.1f}x "
-            f"(range {ratios[0]:.1f}-{ratios[-1]:.1f}x over {len(rows)} rounds); "
-            f"{1 / statistics.median(row['total'] for row in rows):.1f} frames per second"
-        )
-        ratios = sorted(row["paper_ratio"] for row in rows)
-        print(
-            f"spectra at a 5 px row pitch / reading one frame: median "
-            f"{statistics.median(ratios):.1f}x (range {ratios[0]:.1f}-{ratios[-1]:.1f}x)"
-        )
+        cube = np.empty((*slm, bundle.wavelengths.size), np.float32)
+        copy_of = np.ones_like(cube)
+        print(f"SLM {slm[0]} x {slm[1]}, {bundle.wavelengths.size} bins, camera {CAMERA}")
+        for pitch in args.pitches.split(","):
+            row_pitch = None if pitch == "bundle" else int(pitch)
+            spacing = bundle.mask_spacing(row_pitch=row_pitch)
+            name = "bundle's spacing" if row_pitch is None else f"row pitch {row_pitch}"
+            run_density(name, bundle, spacing, session, guide, args.rounds, cube, copy_of)
 
 
 if __name__ == "__main__":

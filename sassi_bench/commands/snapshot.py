@@ -29,6 +29,7 @@ from sassi_bench.commands.options import (
     check_output_folder,
     new_session,
 )
+from sassi_bench.commands.snapshot_live import register_live
 from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = ["parse_tags", "register"]
@@ -407,3 +408,4 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out", required=True, help="folder to write adaptive_cassi.mat into")
     p.add_argument("--data", metavar="DIR", default=None, help=DATA_HELP)
     p.set_defaults(func=_snapshot_export)
+    register_live(sub)

@@ -9,9 +9,13 @@ package outside the workbench would:
 * :mod:`~sassi_bench.snapshot.superpixels`: the guide image on the SLM grid, SLIC;
 * :mod:`~sassi_bench.snapshot.adaptive`: the SASSI paper's adaptive mask;
 * :mod:`~sassi_bench.snapshot.reconstruct`: spectra at the open pixels, then the cube by
-  rank-1 per region or by a masked guided filter; cubes on disk like scan cubes;
+  rank-1 per region; cubes on disk like scan cubes;
+* :mod:`~sassi_bench.snapshot.guided`: the masked guided filter in a rank-6 spectral basis;
+* :mod:`~sassi_bench.snapshot.factored`: both cubes in factored form, dense on demand;
 * :mod:`~sassi_bench.snapshot.pipeline`: one frame from raw guide and spectral images to
   both cubes;
+* :mod:`~sassi_bench.snapshot.video`: the per-frame pipeline of a video, frame after frame,
+  spectra beside the segmentation on two threads;
 * :mod:`~sassi_bench.snapshot.metrics`: PSNR (raw and after an affine fit), SSIM, spectral
   angle.
 """
@@ -22,6 +26,8 @@ from sassi_bench.snapshot.adaptive import (
     place_samples,
     segment_around_samples,
 )
+from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube, spectral_basis
+from sassi_bench.snapshot.guided import guided_cube, guided_factors
 from sassi_bench.snapshot.masks import check_mask, mask_conflicts, random_mask, uniform_mask
 from sassi_bench.snapshot.metrics import (
     affine_fit,
@@ -37,18 +43,24 @@ from sassi_bench.snapshot.pipeline import (
 )
 from sassi_bench.snapshot.reconstruct import (
     guide_intensity,
-    guided_cube,
     measure_samples,
+    measure_with_background,
     rank1_cube,
+    rank1_factors,
     snapshot_dataset,
     write_cube,
 )
 from sassi_bench.snapshot.superpixels import Superpixels, guide_features, guide_on_slm, superpixels
+from sassi_bench.snapshot.video import VideoFrame, VideoPipeline
 
 __all__ = [
     "AdaptiveMask",
     "FrameReconstruction",
+    "LowRankCube",
+    "Rank1Cube",
     "Superpixels",
+    "VideoFrame",
+    "VideoPipeline",
     "adaptive_mask",
     "adaptive_samples",
     "affine_fit",
@@ -58,16 +70,20 @@ __all__ = [
     "guide_intensity",
     "guide_on_slm",
     "guided_cube",
+    "guided_factors",
     "mask_conflicts",
     "mean_spectral_angle_deg",
     "measure_samples",
+    "measure_with_background",
     "place_samples",
     "psnr",
     "random_mask",
     "rank1_cube",
+    "rank1_factors",
     "reconstruct_frame",
     "segment_around_samples",
     "snapshot_dataset",
+    "spectral_basis",
     "ssim",
     "superpixels",
     "uniform_mask",

@@ -15,13 +15,16 @@ open pixel is a region centre.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.snapshot.adaptive import adaptive_mask, segment_around_samples
-from sassi_bench.snapshot.reconstruct import guided_cube, measure_samples, rank1_cube
+from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube
+from sassi_bench.snapshot.guided import guided_factors
+from sassi_bench.snapshot.reconstruct import measure_samples, rank1_factors
 from sassi_bench.snapshot.superpixels import guide_on_slm
 from sassi_bench.spectra.deblur import SpectralDeblur
 
@@ -46,8 +49,10 @@ class FrameReconstruction:
         (M, B) float64: the spectra of the open pixels (row-major order), in ``units``.
     units
         Units of the spectra and the cubes.
-    rank1, guided
-        (H, W, B) float32 cubes at the bundle's bins.
+    rank1_factored
+        The rank-1 cube in factored form (labels, per-pixel scale, region spectra).
+    guided_factored
+        The guided-filter cube in its rank-6 spectral basis.
     """
 
     mask: NDArray[np.bool_]
@@ -56,8 +61,18 @@ class FrameReconstruction:
     guide_slm: NDArray[np.float32]
     spectra: NDArray[np.float64]
     units: str
-    rank1: NDArray[np.float32]
-    guided: NDArray[np.float32]
+    rank1_factored: Rank1Cube
+    guided_factored: LowRankCube
+
+    @cached_property
+    def rank1(self) -> NDArray[np.float32]:
+        """(H, W, B) float32 rank-1 cube, materialised on first use."""
+        return self.rank1_factored.dense()
+
+    @cached_property
+    def guided(self) -> NDArray[np.float32]:
+        """(H, W, B) float32 guided-filter cube, materialised on first use."""
+        return self.guided_factored.dense()
 
 
 def adaptive_samples(
@@ -130,7 +145,7 @@ def reconstruct_frame(
     Examples
     --------
     >>> frame = reconstruct_frame(bundle, guide, spectral, mask, exposure_s=0.05)  # doctest: +SKIP
-    >>> frame.rank1.shape == (*bundle.slm_shape, bundle.wavelengths.size)  # doctest: +SKIP
+    >>> frame.rank1_factored.shape == (*bundle.slm_shape, bundle.wavelengths.size)  # doctest: +SKIP
     True
     """
     guide_slm = guide_on_slm(bundle, guide)
@@ -146,6 +161,8 @@ def reconstruct_frame(
         guide_slm=guide_slm,
         spectra=spectra,
         units=units,
-        rank1=rank1_cube(guide_slm, labels, mask, spectra),
-        guided=guided_cube(guide_slm, mask, spectra, radius=guided_radius, eps=guided_eps),
+        rank1_factored=rank1_factors(guide_slm, labels, mask, spectra),
+        guided_factored=guided_factors(
+            guide_slm, mask, spectra, radius=guided_radius, eps=guided_eps
+        ),
     )

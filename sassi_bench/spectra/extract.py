@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench._shared.arrays import check_ndim
+from sassi_bench._shared.arrays import check_ndim, check_shape
 from sassi_bench.spectra.cells import (
     NEGLIGIBLE_COUPLING,
     cell_layout,
@@ -100,6 +100,7 @@ def extract_with_background(
     *,
     block: tuple[int, int] = (8, 16),
     passes: int = 2,
+    start: NDArray[np.floating] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], Background]:
     """Spectra of a raw frame's open pixels with the background refined from the residual.
 
@@ -125,6 +126,10 @@ def extract_with_background(
         Camera (rows, columns) of the background's median blocks.
     passes
         Background refinements (0: the footprint-based estimate only).
+    start
+        A background image of the window's shape to refine instead of the footprint-based
+        first estimate (video: the previous frame's, which a slowly moving scene leaves
+        nearly right, so a few passes follow it).
 
     Returns
     -------
@@ -140,7 +145,18 @@ def extract_with_background(
     >>> spectra, off, bg = extract_with_background(window, geometry, deblur)  # doctest: +SKIP
     """
     image = np.asarray(window, dtype=np.float64)
-    background = estimate_background(image, streak_footprint(geometry, image.shape), block)
+    if start is not None:
+        check_shape(
+            start,
+            image.shape,
+            step="spectrum extraction",
+            name="the starting background",
+            expected_for="the window",
+            fix="pass the background of a frame of the same camera window",
+        )
+        background = Background(np.asarray(start, dtype=np.float64), float("nan"), 1.0)
+    else:
+        background = estimate_background(image, streak_footprint(geometry, image.shape), block)
     model = StreakModel(geometry, image.shape)
     everywhere = np.zeros(image.shape, dtype=bool)
     for refinement in range(int(passes) + 1):

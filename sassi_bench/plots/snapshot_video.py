@@ -1,0 +1,81 @@
+"""Quick-look animation of a snapshot video store: an RGB rendering beside one band.
+
+Each frame is read back from the store (:func:`~sassi_bench.snapshot.video_store.read_frame`)
+at a reduced size (every ``step``-th SLM pixel of the factored form, so no full dense cube
+is built), rendered as sRGB (:func:`~sassi_bench.calibrate.guide_render.render_rgb`) and,
+beside it, the band nearest ``band_nm`` in grey; one brightness scale for the whole video
+(the 99.5th percentile of the first frame), so frames can be compared. Written as a GIF by
+imageio.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from sassi_bench.calibrate.guide_render import render_rgb
+from sassi_bench.snapshot.factored import Rank1Cube
+from sassi_bench.snapshot.video_store import read_frame
+
+__all__ = ["video_animation"]
+
+
+def _frame_image(cube: Rank1Cube, wavelengths, band: int, scale: float, step: int):
+    small = Rank1Cube(
+        np.ascontiguousarray(cube.labels[::step, ::step]),
+        np.ascontiguousarray(cube.scale[::step, ::step]),
+        cube.spectra,
+    )
+    rgb = render_rgb(small.dense(), wavelengths)
+    grey = np.clip(small.band(band) / scale, 0.0, 1.0)
+    image = np.concatenate([rgb, np.repeat(grey[..., None], 3, axis=2)], axis=1)
+    return (255 * np.clip(image, 0.0, 1.0)).astype(np.uint8)
+
+
+def video_animation(
+    store: str | os.PathLike[str],
+    path: str | os.PathLike[str],
+    *,
+    band_nm: float = 550.0,
+    step: int = 2,
+    fps: float = 10.0,
+) -> Path:
+    """Write the quick-look GIF of a video store (RGB rendering | one band).
+
+    Parameters
+    ----------
+    store
+        The video store (``video.zarr``).
+    path
+        The GIF to write.
+    band_nm
+        The band shown in grey (the nearest bin).
+    step
+        Every ``step``-th SLM pixel in both directions.
+    fps
+        Frames per second of the animation.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Examples
+    --------
+    >>> video_animation("live/video.zarr", "live/quicklook.gif")  # doctest: +SKIP
+    PosixPath('live/quicklook.gif')
+    """
+    import imageio.v2 as imageio
+
+    first, attrs = read_frame(store, 0)
+    wavelengths = np.asarray(attrs["wavelength_nm"])
+    band = int(np.argmin(np.abs(wavelengths - band_nm)))
+    level = float(np.percentile(first.band(band), 99.5))
+    scale = level if level > 0 else 1.0
+    target = Path(path)
+    with imageio.get_writer(target, mode="I", duration=1000.0 / fps, loop=0) as writer:
+        for t in range(int(attrs["frames"])):
+            cube, _ = read_frame(store, t)
+            writer.append_data(_frame_image(cube, wavelengths, band, scale, step))
+    return target

@@ -1,0 +1,238 @@
+"""Video-rate snapshots: the per-frame pipeline with its state carried from frame to frame.
+
+Frame ``t`` was taken with the mask planned on guide image ``t - 1`` (its samples are the
+regions' centres). :meth:`VideoPipeline.process` then, for frame ``t``:
+
+* on one thread, the spectra of the open pixels (:func:`measure_with_background`), the
+  dense mask's background refined from frame ``t - 1``'s instead of from scratch;
+* on another, at the same time: guide ``t`` warped onto the SLM grid, its superpixels (SLIC
+  on the features shrunk by 2: see :mod:`~sassi_bench.snapshot.superpixels`), the
+  mask of frame ``t + 1`` (:func:`~sassi_bench.snapshot.adaptive.place_samples`, the row-order
+  fill) and the re-segmentation of guide ``t`` around frame ``t``'s samples;
+* then the rank-1 cube, kept factored (:class:`~sassi_bench.snapshot.factored.Rank1Cube`).
+
+The two threads run compiled code that releases the GIL (numba, OpenCV, SuperLU), so two
+cores work at once. Each step's seconds are kept, for the benchmark and the live mode's
+progress line.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sassi_bench.bundle import CalibrationBundle, MaskSpacing
+from sassi_bench.snapshot.adaptive import default_segments, place_samples, segment_around_samples
+from sassi_bench.snapshot.factored import Rank1Cube
+from sassi_bench.snapshot.reconstruct import measure_with_background, rank1_factors
+from sassi_bench.snapshot.superpixels import VIDEO_SHRINK, guide_on_slm, superpixels
+from sassi_bench.spectra.deblur import SpectralDeblur
+
+__all__ = ["STEPS", "VideoFrame", "VideoPipeline"]
+
+#: The timed steps of a frame, in pipeline order.
+STEPS = ("warp", "superpixels", "mask", "resegment", "spectra", "rank1")
+
+
+@dataclass(frozen=True)
+class VideoFrame:
+    """One frame of a snapshot video, reconstructed.
+
+    Attributes
+    ----------
+    mask
+        (H, W) bool: the mask the frame was taken with.
+    samples
+        (N, 2) int32: its samples (the regions' centres).
+    guide_slm
+        (H, W, C) float32: the frame's guide image on the SLM grid.
+    spectra
+        (M, B) float64: spectra of the open pixels (row-major order), in ``units``.
+    units
+        Units of the spectra and the cube.
+    rank1
+        The rank-1 cube in factored form (dense on demand: ``rank1.dense()``).
+    next_mask, next_samples
+        The mask (and samples) planned on this frame's guide image, for the next frame.
+    seconds
+        Seconds of every step of :data:`STEPS`, and ``"total"`` (wall clock: the two
+        threads overlap, so it is less than the steps' sum).
+    cpu_seconds
+        CPU seconds of every step (of the thread that ran it): what other work on a shared
+        machine does not inflate.
+    """
+
+    mask: NDArray[np.bool_]
+    samples: NDArray[np.int32]
+    guide_slm: NDArray[np.float32]
+    spectra: NDArray[np.float64]
+    units: str
+    rank1: Rank1Cube
+    next_mask: NDArray[np.bool_]
+    next_samples: NDArray[np.int32]
+    seconds: dict[str, float] = field(default_factory=dict)
+    cpu_seconds: dict[str, float] = field(default_factory=dict)
+
+
+def _timed(times: tuple[dict[str, float], dict[str, float]], name: str, fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, its wall and thread CPU seconds written under ``name``."""
+    wall, cpu = time.perf_counter(), time.thread_time()
+    out = fn(*args, **kwargs)
+    times[0][name] = time.perf_counter() - wall
+    times[1][name] = time.thread_time() - cpu
+    return out
+
+
+class VideoPipeline:
+    """The per-frame pipeline of a snapshot video (see the module docstring).
+
+    Parameters
+    ----------
+    bundle
+        The calibration bundle (it needs a guide homography).
+    spacing
+        The rule every mask keeps (``bundle.mask_spacing(row_pitch=...)``).
+    compactness
+        SLIC's weight of space against colour (superpixels and re-segmentation).
+    n_segments
+        Superpixels per frame; default: the lattice size of the rule.
+    deblur
+        The within-streak unmixing; built from the bundle when None.
+    threads
+        2: spectra beside the segmentation; 1: one after the other.
+    background_passes
+        Background refinements of a dense mask from the previous frame's background (None:
+        :data:`~sassi_bench.snapshot.reconstruct.WARM_BACKGROUND_PASSES`); the first frame
+        refines from scratch.
+
+    Examples
+    --------
+    >>> pipeline = VideoPipeline(bundle, bundle.mask_spacing(row_pitch=8))  # doctest: +SKIP
+    >>> mask, samples = pipeline.plan(preview_guide)  # doctest: +SKIP
+    >>> frame = pipeline.process(guide, spectral, mask, samples, exposure_s=0.05)  # doctest: +SKIP
+    >>> mask, samples = frame.next_mask, frame.next_samples  # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        bundle: CalibrationBundle,
+        spacing: MaskSpacing,
+        *,
+        compactness: float = 10.0,
+        n_segments: int | None = None,
+        deblur: SpectralDeblur | None = None,
+        threads: int = 2,
+        background_passes: int | None = None,
+    ) -> None:
+        self.bundle = bundle
+        self.spacing = spacing
+        self.compactness = float(compactness)
+        self.n_segments = n_segments or default_segments(spacing)
+        self.deblur = deblur if deblur is not None else SpectralDeblur.from_bundle(bundle)
+        self.background_passes = background_passes
+        self._pool = ThreadPoolExecutor(max_workers=1) if threads >= 2 else None
+        self._background: NDArray[np.float64] | None = None
+
+    def close(self) -> None:
+        """Stop the spectra thread."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __enter__(self) -> VideoPipeline:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _segment(self, guide: ArrayLike, samples: NDArray[np.int32], times):
+        guide_slm = _timed(times, "warp", guide_on_slm, self.bundle, guide)
+        segments = _timed(
+            times, "superpixels", superpixels, guide_slm, self.n_segments,
+            compactness=self.compactness, shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
+        )  # fmt: skip
+        next_mask, next_samples = _timed(
+            times, "mask", place_samples, segments.labels, self.spacing
+        )
+        labels = _timed(
+            times, "resegment", segment_around_samples, guide_slm, samples,
+            compactness=self.compactness, features=segments.features,
+        )  # fmt: skip
+        return guide_slm, labels, next_mask, next_samples
+
+    def _spectra(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float, times):
+        return _timed(
+            times, "spectra", measure_with_background,
+            spectral, mask, self.bundle, exposure_s=exposure_s, deblur=self.deblur,
+            background_passes=self.background_passes if self._background is not None else None,
+            background_start=self._background,
+        )  # fmt: skip
+
+    def plan(self, guide: ArrayLike) -> tuple[NDArray[np.bool_], NDArray[np.int32]]:
+        """The first frame's mask and samples, from a preview guide image.
+
+        Parameters
+        ----------
+        guide
+            A raw guide-camera image.
+
+        Returns
+        -------
+        mask : ndarray
+            (H, W) bool.
+        samples : ndarray
+            (N, 2) int32.
+        """
+        guide_slm = guide_on_slm(self.bundle, guide)
+        segments = superpixels(
+            guide_slm, self.n_segments, compactness=self.compactness,
+            shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
+        )  # fmt: skip
+        return place_samples(segments.labels, self.spacing)
+
+    def process(
+        self,
+        guide: ArrayLike,
+        spectral: ArrayLike,
+        mask: NDArray[np.bool_],
+        samples: NDArray[np.int32],
+        *,
+        exposure_s: float,
+    ) -> VideoFrame:
+        """Reconstruct one frame and plan the next frame's mask.
+
+        Parameters
+        ----------
+        guide, spectral
+            The frame's raw guide and spectral images.
+        mask, samples
+            The mask the frame was taken with and its samples (from :meth:`plan` or the
+            previous frame's ``next_mask``, ``next_samples``).
+        exposure_s
+            The spectral exposure; spectra are per second.
+
+        Returns
+        -------
+        VideoFrame
+        """
+        start = time.perf_counter()
+        times: tuple[dict[str, float], dict[str, float]] = ({}, {})
+        mask = np.asarray(mask, dtype=bool)
+        samples = np.asarray(samples, dtype=np.int32)
+        if self._pool is not None:
+            future = self._pool.submit(self._spectra, spectral, mask, exposure_s, times)
+            guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
+            spectra, units, background = future.result()
+        else:
+            spectra, units, background = self._spectra(spectral, mask, exposure_s, times)
+            guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
+        self._background = background.image
+        rank1 = _timed(times, "rank1", rank1_factors, guide_slm, labels, mask, spectra)
+        times[0]["total"] = time.perf_counter() - start
+        return VideoFrame(
+            mask, samples, guide_slm, spectra, units, rank1, next_mask, next_samples, *times
+        )
