@@ -37,6 +37,7 @@ from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.provenance import package_version
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_lamps import camera_noise, lamp_streaks
 from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
 
@@ -247,6 +248,7 @@ def _lamp_exposure(bundle: CalibrationBundle, light: str) -> float | None:
     return None
 
 
+@drives_rig("health check")
 def run_health_check(
     rig: Rig,
     bundle: CalibrationBundle,

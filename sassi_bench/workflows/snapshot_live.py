@@ -44,6 +44,7 @@ from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 from sassi_bench.snapshot.video import VideoPipeline
 from sassi_bench.snapshot.video_store import VideoStore
+from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.snapshot import check_inputs, procedure_spacing
 
 __all__ = ["LiveRun", "run_live"]
@@ -143,6 +144,7 @@ class _Capture(threading.Thread):
             self.error = exc
 
 
+@drives_rig("snapshot live")
 def run_live(
     rig: Rig,
     bundle: CalibrationBundle,
