@@ -28,7 +28,7 @@ def _run(args: argparse.Namespace) -> int:
         procedure["light"] = args.light
     desc = load_rig_description(args.rig)
     check_light(desc, procedure)  # before any bundle is read or frame taken
-    bundle = bundle_from_args(args, desc.name)
+    bundle = bundle_from_args(args, desc.name, step="check")
     rig = open_rig(desc)
     check = run_health_check(rig, bundle, procedure, data=args.data, progress=False)
     print(check.summary())

@@ -37,7 +37,13 @@ def _live(args: argparse.Namespace) -> int:
     procedure = load_procedure("snapshot_validation", args.procedure)
     check_output_folder("snapshot live", args.out)
     rig = open_rig(args.rig)
-    bundle = bundle_from_args(args, rig.description.name)
+    bundle = bundle_from_args(
+        args,
+        rig.description.name,
+        step="snapshot live",
+        needs=("guide_homography",),
+        wants=("response",),
+    )
     print(
         f"Live snapshots of {args.scene} on rig {rig.description.name} with bundle "
         f"{bundle.rig_name}/{bundle.version}; Ctrl-C stops and keeps every captured frame"
