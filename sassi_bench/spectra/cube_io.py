@@ -22,6 +22,7 @@ import xarray as xr
 from numpy.typing import NDArray
 
 from sassi_bench._shared.atomic import atomic_path
+from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.errors import SassiBenchError, step_error
 from sassi_bench.spectra.scan import QUALITY_FLAGS, ScanCube
 
@@ -278,7 +279,8 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike[str], overwrite: bool =
         if name in ds and ds[name].dtype.kind == "f":
             encoding[name] = {"_FillValue": None}
     try:
-        with atomic_path(path, overwrite=overwrite) as temporary:
+        # Stopped inside the HDF5 writer, the process would wait on its lock for ever.
+        with atomic_path(path, overwrite=overwrite) as temporary, deferred_stop_signals():
             ds.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
     except FileExistsError:  # appeared while it was written
         raise _exists("cube output", path, "choose another --out or remove the file") from None
