@@ -26,7 +26,18 @@ POINTS = [
     ("bundle export zip", "SIGKILL", "file:out/.b.zip.*.tmp", True),
     ("bundle export sassi-mat", "SIGTERM", "file:out/mat/.*.tmp", True),
     ("bundle import", "SIGKILL", "file:other/sim/.import-*", True),
-    ("snapshot reconstruct", "SIGINT", "file:out/rec/.*.tmp", True),
+    pytest.param(
+        "snapshot reconstruct",
+        "SIGINT",
+        "file:out/rec/.*.tmp",
+        True,
+        marks=pytest.mark.xfail(
+            run=False,
+            reason="known bug: a Ctrl-C while a cube's NetCDF file is being written leaves "
+            "the process waiting on a lock forever (nothing is lost: only the hidden "
+            "temporary file is there); found by this kill point, not fixed yet",
+        ),
+    ),
     ("data clean", "SIGKILL", "file:data/*/.*.tmp", True),
 ]
 
