@@ -144,13 +144,17 @@ def test_report_is_self_contained_and_renders(chart_scan, good, patch_procedure,
     _, bundle, _, _ = chart_scan
     html, data = write_report(good, bundle, patch_procedure, tmp_path)
     text = html.read_text()
-    assert text.count("data:image/png;base64,") == 5
+    assert text.count("data:image/png;base64,") == 6
     assert 'src="http' not in text and "<link" not in text  # nothing to fetch
     assert "usable band" in text
     doc = json.loads(data.read_text())
     assert set(doc["figures"]) == {
-        "spectra", "de00", "chart", "localisation", "wavelength_calibration"
+        "band_error", "spectra", "de00", "chart", "localisation", "wavelength_calibration"
     }  # fmt: skip
+    # Where the worst patch's error lies (every patch passes here), in a sentence and drawn.
+    assert len(doc["band_errors"]) == 1 and not doc["band_errors"][0]["failed"]
+    assert doc["band_errors"][0]["patch"] == int(np.argmax(good.rmse)) + 1
+    assert "Where the error lies" in text and doc["band_errors"][0]["name"] in text
     assert len(doc["figures"]["spectra"]["measured"]) == 24
     assert doc["figures"]["de00"]["de00"] == pytest.approx(good.de00.tolist())
     if chromium_path() is None:
