@@ -13,6 +13,7 @@ Examples
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +56,8 @@ def _live(args: argparse.Namespace) -> int:
             progress=not args.quiet,
         )  # fmt: skip
     except KeyboardInterrupt:
-        print(f"interrupted: the frames stored so far are in {Path(args.out) / 'video.zarr'}")
+        stored = Path(args.out) / "video.zarr"
+        print(f"interrupted: the frames stored so far are in {stored}", file=sys.stderr)
         return 130
     print(
         f"  {run.stored} frames stored, {run.dropped} dropped of {run.captured} captured in "

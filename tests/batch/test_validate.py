@@ -26,7 +26,9 @@ def test_batch_scores_equal_the_serial_validation_and_a_rerun_reads_them(
     assert result.status == "done", result.error
     procedure = load_procedure("macbeth_validation")
     procedure["white_reference"]["source"] = "patch"
-    scan = assemble_scan(Session.open("scan-chart", data=data), bundle, progress=False)
+    scan = assemble_scan(
+        Session.open("scan-chart", data=data), bundle, keep_raw=True, progress=False
+    )
     serial = validate_scans(scan, bundle, procedure, corners=corners)
     assert result.metrics == {**serial.summary(), "passed": serial.passed}
     assert np.isfinite(result.metrics["mean_de00"])

@@ -67,7 +67,27 @@ def world(tmp_path_factory):
     zipped = export_zip(bundle, root / "bundle.zip")
     snapshot_session(data)
     snapshot_video(data)
+    live_video(root / "live" / "video.zarr", bundle)
     return {"root": root, "data": data, "bundle": bundle, "file": afile, "zip": zipped}
+
+
+def live_video(path: Path, bundle_path: Path) -> None:
+    """A one-frame store of ``snapshot live`` (one region, uniform scale)."""
+    import numpy as np
+
+    from sassi_bench.bundle.loader import load
+    from sassi_bench.snapshot.factored import Rank1Cube
+    from sassi_bench.snapshot.video_store import VideoStore
+
+    bundle = load(bundle_path)
+    h, w = bundle.slm_shape
+    cube = Rank1Cube(
+        np.zeros((h, w), np.intp),
+        np.ones((h, w), np.float32),
+        np.ones((1, bundle.wavelengths.size), np.float32),
+    )
+    store = VideoStore(path, bundle, units="relative")
+    store.append(cube, np.zeros((h, w), bool), time_s=0.0, frame_index=0)
 
 
 def snapshot_session(data: Path) -> None:
@@ -133,6 +153,10 @@ def valid_value(words, action, world):
         return "snap"  # not a pinhole scan: refused before a cluster starts
     if dest == "step":
         return "0"
+    if dest == "frames":
+        return "1"
+    if dest == "video":
+        return str(root / "live")
     if dest == "path":
         return str(world["bundle"])
     if dest in ("a", "b"):
@@ -191,6 +215,9 @@ def bad_value(words, action, world):
         "scheduler": "not-an-address",
         "workers": "0",
         "frames": "0",
+        "frame": "99",
+        "seconds": "-1",
+        "queue": "0",
         "since": "yesterday",
     }
     if words == ("snapshot", "export") and action.dest == "session":
@@ -318,6 +345,8 @@ def test_the_console_script_prints_one_line(world):
 
 #: Commands that capture but keep nothing a later run could resume.
 NOTHING_TO_RESUME = {("rig", "snapshot"), ("check",)}
+#: Commands whose interrupted run is complete as it stands: they say where it is.
+KEEPS_WHAT_IT_TOOK = {("snapshot", "live")}
 
 
 class _CtrlC:
@@ -360,6 +389,9 @@ def test_ctrl_c_prints_the_command_that_resumes(words, world, capsys, monkeypatc
     args = build_parser().parse_args(argv)
     if words in NOTHING_TO_RESUME:
         assert err.strip() == "interrupted"
+        return
+    if words in KEEPS_WHAT_IT_TOOK:
+        assert err.strip().startswith("interrupted: ") and "video.zarr" in err, err
         return
     assert args.resume_options, f"{' '.join(words)} captures: give it resume_options"
     resume = err.strip().splitlines()[-1].strip()
