@@ -28,7 +28,7 @@ def band_psnr_figure(
         (B,) the bins' centres.
     curves
         Label -> (B,) PSNR in dB: the cube against its own propagated noise (any rig),
-        against a virtual bench's truth, ...
+        against a virtual bench's hidden scene, ...
 
     Returns
     -------

@@ -88,7 +88,7 @@ def cube_dataset(
                 "units": "dB",
                 "long_name": "per-band PSNR of the cube against its own propagated noise",
                 "description": "the cube's peak over the RMS of the deblurred spectra's "
-                "photon and read noise, in camera units per second (no truth)",
+                "photon and read noise, in camera units per second (no reference cube)",
             },
         )
     return ds

@@ -10,7 +10,7 @@ about 5 at the blurriest bins at the scan's 5-row pitch; :func:`row_unmixing_gai
 
 The camera's gain, read noise and dark level come from the rig's *description* (its
 ``spectral_camera`` section: full well, bit depth, dark offset, read noise), never from a
-virtual bench's truth. Against a 40-draw Monte Carlo of the sim rig's frames the variance
+virtual bench's hidden state. Against a 40-draw Monte Carlo of the sim rig's frames the variance
 agrees to within 5 % in every bin.
 """
 

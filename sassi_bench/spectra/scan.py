@@ -217,7 +217,7 @@ class ScanCube:
     band_noise_psnr_db
         (B,) per-band PSNR of the cube against its own noise: the cube's peak over the
         RMS of the deblurred spectra's noise alone (propagated from the photon and read
-        noise, no truth); None when not deblurred.
+        noise, no reference cube); None when not deblurred.
     column_sums
         (H, W, B') the unmixed column sums per second before the deblur, guard bins
         included, when kept (``keep_raw``): means of them are deblurred once, at the
