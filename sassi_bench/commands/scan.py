@@ -57,7 +57,7 @@ def _band_psnr_png(run, out):
 
     scan = run.scan
     lam, band = scan.wavelengths_nm, scan.band_noise_psnr_db
-    label = "against the cube's own noise (no truth: the deblur's bias is not in it)"
+    label = "against the cube's own noise (the deblur's bias is not in it)"
     fig, _ = band_psnr_figure(lam, {label: band})
     path = out.with_name(out.stem + "-band-psnr.png")
     atomic_write_bytes(path, figure_png(fig), overwrite=True)

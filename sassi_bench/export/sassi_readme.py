@@ -159,7 +159,7 @@ def readme_text(
           for the widest blur (2 ceil(max sigma) + 1 = {wide} rows): measured
           on the virtual bench (sim rig, an adaptive snapshot of 284 open pixels,
           natural scene, white LED; PSNR of the open pixels' spectra against the
-          bench's truth, one gain for all bands), the authors' extraction scores
+          bench's hidden scene, one gain for all bands), the authors' extraction scores
           26.7 dB at vsize 3, 35.2 dB at vsize 9, and 39.8 dB at vsize 3 with
           this division (36.6 dB at vsize 9 with it): the wider window brings in
           more noise than light (on a sparse pinhole mask: 27.0, 37.0 and

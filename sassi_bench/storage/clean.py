@@ -5,7 +5,7 @@ kind with its own option:
 
 - sessions a published bundle lists as an input (``include_referenced``): the raw
   evidence of that bundle;
-- scans and snapshots taken by commands (``include_measurements``): ground-truth cubes
+- scans and snapshots taken by commands (``include_measurements``): reference cubes
   and snapshots are measurements in their own right, not calibration by-products;
 - sessions of an interrupted run, and any session with fewer frames than planned
   (``include_interrupted``): the run resumes from them. The sessions of a run that is
