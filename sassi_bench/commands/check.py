@@ -42,7 +42,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _history(args: argparse.Namespace) -> int:
-    from datetime import datetime
+    from datetime import UTC, datetime
     from pathlib import Path
 
     from sassi_bench.commands.options import check_output_file
@@ -73,12 +73,14 @@ def _history(args: argparse.Namespace) -> int:
                 f"run sassi-bench check --rig {args.rig} first",
             )
         )
-    out = args.out or f"{name}-health-trend.html"
-    check_output_file("check history", out, "--out")
-    write_trend_html(rows, Path(out), rig=name)
+    # By default beside the history, one page per drawing: a page once written is kept.
+    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+    out = Path(args.out or path.parent / f"{name}-trend-{stamp}.html")
+    check_output_file("check history", str(out), "--out")
+    write_trend_html(rows, out, rig=name)
     last = rows[-1]
     print(f"{len(rows)} checks of {name}; latest {last['checked_utc']}: {last['verdict']}")
-    print(f"trend written to {out}")
+    print(f"trend written to {out.resolve()}")
     return 0
 
 
@@ -100,5 +102,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_rig_option(history)
     add_data_option(history)
     history.add_argument("--since", help="first check time to show (ISO 8601, e.g. 2026-11-01)")
-    history.add_argument("--out", help="HTML file (default: <rig>-health-trend.html)")
+    history.add_argument(
+        "--out", help="HTML file (default: <data>/health/<rig>-trend-<UTC time>.html)"
+    )
     history.set_defaults(func=_history)
