@@ -9,14 +9,13 @@ handler that was in place as soon as the write is over, where it stops the run a
 Examples
 --------
 >>> import os, signal
->>> try:
-...     with deferred_stop_signals():
-...         os.kill(os.getpid(), signal.SIGINT)  # noted, not raised here
-...         print("write finished")
-... except KeyboardInterrupt:
-...     print("stopped after the write")
+>>> previous = signal.signal(signal.SIGTERM, lambda n, f: print("stopped after the write"))
+>>> with deferred_stop_signals():
+...     os.kill(os.getpid(), signal.SIGTERM)  # noted, not acted on here
+...     print("write finished")
 write finished
 stopped after the write
+>>> _ = signal.signal(signal.SIGTERM, previous)
 """
 
 from __future__ import annotations
