@@ -37,11 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import nnls
 from threadpoolctl import threadpool_limits
 
 from sassi_bench.calibrate.dispersion import BAND_NM, LAMBDA_REF_NM, LaserMap
-from sassi_bench.calibrate.lamp_streaks import StreakProfiles, pixel_spot
+from sassi_bench.calibrate.lamp_streaks import StreakProfiles, pixel_spot, shared_line_amplitudes
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 from sassi_bench.optics.glass import Glass
@@ -273,11 +272,7 @@ class _Lamp:
             gains, backgrounds = self._gain_background(spots @ amplitudes, y, w2)
             scaled = spots * (gains[:, None] * self.weight)[:, :, None]  # (P, W, K)
             target = (y - backgrounds[:, None]) * self.weight
-            normal = np.einsum("pjk,pjl->kl", scaled, scaled)
-            rhs = np.einsum("pjk,pj->k", scaled, target)
-            ridge = 1e-10 * np.trace(normal) / normal.shape[0] + 1e-300
-            chol = np.linalg.cholesky(normal + ridge * np.eye(normal.shape[0]))
-            amplitudes, _ = nnls(chol.T, np.linalg.solve(chol, rhs), maxiter=50 * rhs.size)
+            amplitudes = shared_line_amplitudes(scaled, target)
             if amplitudes.sum() <= 0:
                 raise ProcedureError(
                     step_error(

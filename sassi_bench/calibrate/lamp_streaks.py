@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import nnls
 from scipy.special import ndtr
 
 from sassi_bench.bundle import DispersionModel
@@ -35,6 +36,7 @@ __all__ = [
     "extract_streak_profiles",
     "pixel_spot",
     "pixel_spot_profile",
+    "shared_line_amplitudes",
     "signal_and_variance",
 ]
 
@@ -321,3 +323,33 @@ def extract_streak_profiles(
         variance=profile_variance,
         rows=np.stack([top, bottom - 1], axis=1),
     )
+
+
+def shared_line_amplitudes(scaled: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Non-negative line amplitudes shared by every pinhole of a lamp, by least squares.
+
+    Parameters
+    ----------
+    scaled
+        (P, W, K) each line's weighted spot per pinhole and column, times the pinhole's gain.
+    target
+        (P, W) each pinhole's weighted streak minus its background.
+
+    Returns
+    -------
+    numpy.ndarray
+        (K,) amplitudes >= 0.
+
+    Examples
+    --------
+    >>> spots = np.stack([np.eye(3), 2 * np.eye(3)])
+    >>> shared_line_amplitudes(spots, spots @ np.array([1.0, 0.0, 2.0])).round(6).tolist()
+    [1.0, 0.0, 2.0]
+    """
+    normal = np.einsum("pjk,pjl->kl", scaled, scaled)
+    rhs = np.einsum("pjk,pj->k", scaled, target)
+    # A negligible ridge keeps the Cholesky factor defined when a line lights no column.
+    ridge = 1e-10 * np.trace(normal) / normal.shape[0] + 1e-300
+    chol = np.linalg.cholesky(normal + ridge * np.eye(normal.shape[0]))
+    amplitudes, _ = nnls(chol.T, np.linalg.solve(chol, rhs), maxiter=50 * rhs.size)
+    return amplitudes

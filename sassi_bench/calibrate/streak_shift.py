@@ -20,10 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import nnls
 
 from sassi_bench.bundle import DispersionModel
-from sassi_bench.calibrate.lamp_streaks import StreakProfiles, pixel_spot
+from sassi_bench.calibrate.lamp_streaks import StreakProfiles, pixel_spot, shared_line_amplitudes
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 
@@ -158,11 +157,7 @@ def _shared_amplitudes(value, y, weight, gain, background, light) -> NDArray[np.
     """Non-negative line amplitudes shared by every pinhole, the gains and backgrounds held."""
     scaled = value * (gain[:, None] * weight)[:, :, None]  # (P, W, K)
     target = (y - background[:, None]) * weight
-    normal = np.einsum("pjk,pjl->kl", scaled, scaled)
-    rhs = np.einsum("pjk,pj->k", scaled, target)
-    ridge = 1e-10 * np.trace(normal) / normal.shape[0] + 1e-300
-    chol = np.linalg.cholesky(normal + ridge * np.eye(normal.shape[0]))
-    amplitudes, _ = nnls(chol.T, np.linalg.solve(chol, rhs), maxiter=50 * rhs.size)
+    amplitudes = shared_line_amplitudes(scaled, target)
     if amplitudes.max() <= 0:
         raise ProcedureError(
             step_error(
