@@ -60,23 +60,12 @@ def _guided_bundle(work: Path) -> Path:
     )  # fmt: skip
 
 
-def _fresh(template: Path, into: Path) -> dict[str, Path]:
-    """A copy of the template lab, and the places a command template names."""
-    shutil.copytree(template, into)
-    out = into / "out"
-    out.mkdir()
-    return {
-        "data": into / "data", "zip": into / "earlier" / "world.zip", "out": out,
-        "other": into / "other",
-    }  # fmt: skip
-
-
 def _roots(places: dict[str, Path]) -> list[Path]:
     return [places["data"], places["out"], places["other"], places["zip"].parent]
 
 
 def _one(case: kit.Case, template: Path, into: Path, signame: str, trigger: str) -> kit.Outcome:
-    places = _fresh(template, into)
+    places = kit.fresh_lab(template, into)
     argv = kit.fill(case.argv, places)
     roots = _roots(places)
     before = kit.take_snapshot(roots)

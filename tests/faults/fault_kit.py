@@ -23,6 +23,7 @@ import hashlib
 import json
 import os
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -65,6 +66,17 @@ class Outcome:
     seconds: float
     problems: list[str] = field(default_factory=list)
     resumed: str = ""  # the command that resumed it, if run
+
+
+def fresh_lab(template: Path, into: Path) -> dict[str, Path]:
+    """A copy of the template lab, and the places a command template names."""
+    shutil.copytree(template, into)
+    out = into / "out"
+    out.mkdir()
+    return {
+        "data": into / "data", "zip": into / "earlier" / "world.zip", "out": out,
+        "other": into / "other",
+    }  # fmt: skip
 
 
 def fill(template: Sequence[str], places: dict[str, Path]) -> list[str]:

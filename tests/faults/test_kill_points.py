@@ -5,7 +5,6 @@ over every command is ``benchmarks/fault_campaign.py``."""
 
 from __future__ import annotations
 
-import shutil
 import sys
 from pathlib import Path
 
@@ -44,22 +43,12 @@ def lab(guided_bundle, tmp_path_factory) -> Path:
     return template
 
 
-def _places(template: Path, into: Path) -> dict[str, Path]:
-    shutil.copytree(template, into)
-    out = into / "out"
-    out.mkdir()
-    return {
-        "data": into / "data", "zip": into / "earlier" / "world.zip", "out": out,
-        "other": into / "other",
-    }  # fmt: skip
-
-
 @pytest.mark.parametrize(("name", "signame", "trigger", "finish"), POINTS)
 def test_an_interrupted_command_loses_nothing_and_says_how_to_resume(
     lab, tmp_path, name, signame, trigger, finish
 ):
     case = kit.CASES[name]
-    places = _places(lab, tmp_path / "lab")
+    places = kit.fresh_lab(lab, tmp_path / "lab")
     roots = [places["data"], places["out"], places["other"], places["zip"].parent]
     argv = kit.fill(case.argv, places)
     before = kit.take_snapshot(roots)
