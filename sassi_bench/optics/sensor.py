@@ -7,9 +7,13 @@ A pixel collecting ``rate`` photo-electrons per second for ``t`` seconds records
 
 so the variance in ADU is ``(mean_e + read_noise^2) / gain^2`` below saturation.
 
-A frame is drawn in :data:`NOISE_BLOCKS` bands of rows, each from its own child of the
-frame's random stream, in parallel threads (NumPy draws without the GIL): the bands and
-their streams do not depend on the machine, so the same stream gives the same frame.
+The shot noise is drawn exactly (no Gaussian approximation at any mean): a frame is drawn
+in :data:`NOISE_BANDS` bands of rows, each from its own child of the frame's random stream
+(an SFC64 stream seeded from a ``SeedSequence`` child), by a compiled loop that draws the
+Poisson count and the read noise of every pixel and digitises it
+(:mod:`~sassi_bench.optics._noise_kernels`), in parallel threads. The bands and their
+streams do not depend on the machine or its number of cores, so the same stream gives
+the same frame.
 """
 
 from __future__ import annotations
@@ -24,10 +28,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
 
-__all__ = ["NOISE_BLOCKS", "QE_CURVES", "SensorModel", "qe_curve"]
+__all__ = ["NOISE_BANDS", "QE_CURVES", "SensorModel", "qe_curve"]
 
-#: Bands of rows of a frame drawn from separate child streams (see the module's notes).
-NOISE_BLOCKS = 4
+#: Bands of rows of a frame drawn from separate child streams (see the module's notes):
+#: enough for two to four cores to share a frame evenly, whatever its rows hold.
+NOISE_BANDS = 16
 
 # Representative quantum-efficiency curves (wavelength nm -> QE), read off makers'
 # published plots. "scmos" resembles a front-illuminated scientific CMOS of the
@@ -74,8 +79,8 @@ def qe_curve(spec: str | Mapping[float, float], key: str = "qe") -> PchipInterpo
 
 @lru_cache(maxsize=1)
 def _pool() -> ThreadPoolExecutor:
-    """Threads drawing a frame's bands of rows (one per core, at most NOISE_BLOCKS)."""
-    return ThreadPoolExecutor(max_workers=max(1, min(NOISE_BLOCKS, os.cpu_count() or 1)))
+    """Threads drawing a frame's bands of rows (one per core, at most NOISE_BANDS)."""
+    return ThreadPoolExecutor(max_workers=max(1, min(NOISE_BANDS, os.cpu_count() or 1)))
 
 
 @dataclass
@@ -148,47 +153,48 @@ class SensorModel:
         Parameters
         ----------
         electron_rate
-            Electron rate per pixel (e-/s), (H, W) or (H, W, C).
+            Electron rate per pixel (e-/s), (H, W) or (H, W, C); taken as float32.
         exposure_s
             Integration time, s.
         rng
-            The frame's random stream; its band ``i`` of rows is drawn from
-            ``rng.spawn(NOISE_BLOCKS)[i]``.
+            The frame's random stream (a ``Generator`` made from a seed sequence); band
+            ``i`` of :data:`NOISE_BANDS` bands of rows is drawn from the SFC64 stream of
+            ``rng.bit_generator.seed_seq.spawn(NOISE_BANDS)[i]``.
 
         Returns
         -------
         ndarray
             Digitised frame, dtype :attr:`dtype`.
+
+        Raises
+        ------
+        ValueError
+            If a rate is NaN, or so large that no count can hold it.
         """
+        from sassi_bench.optics import _noise_kernels as kernels
+
         rate = np.asarray(electron_rate)
-        out = np.empty(rate.shape, dtype=self.dtype)
-        edges = [rate.shape[0] * band // NOISE_BLOCKS for band in range(NOISE_BLOCKS + 1)]
-        streams = rng.spawn(NOISE_BLOCKS)
-
-        def draw(band: int) -> None:
-            rows = slice(edges[band], edges[band + 1])
-            out[rows] = self._digitise(rate[rows], exposure_s, streams[band])
-
-        for _ in _pool().map(draw, range(NOISE_BLOCKS)):
-            pass
-        return out
-
-    def _digitise(
-        self, electron_rate: NDArray[np.floating], exposure_s: float, rng: np.random.Generator
-    ) -> NDArray[np.unsignedinteger]:
-        """Noise and digitisation of one band of rows (see :meth:`expose`)."""
-        mean_e = np.array(electron_rate, dtype=np.float64)
-        mean_e += self.dark_current_e_per_s
-        mean_e *= exposure_s
-        np.maximum(mean_e, 0.0, out=mean_e)
-        electrons = rng.poisson(mean_e).astype(np.float32)
-        electrons += rng.standard_normal(electrons.shape, dtype=np.float32) * np.float32(
-            self.read_noise_e
+        flat = np.ascontiguousarray(rate, dtype=np.float32).reshape(rate.shape[0], -1)
+        out = np.empty(flat.shape, dtype=self.dtype)
+        edges = [flat.shape[0] * band // NOISE_BANDS for band in range(NOISE_BANDS + 1)]
+        states = [kernels.seed_state(seq) for seq in rng.bit_generator.seed_seq.spawn(NOISE_BANDS)]
+        settings = (
+            float(self.dark_current_e_per_s),
+            float(exposure_s),
+            float(self.read_noise_e),
+            float(self.full_well_e),
+            float(self.gain_e_per_adu),
+            float(self.dark_offset_adu),
+            float(self.max_adu),
         )
-        # A full pixel reads a constant: the well (and with the default gain the ADC)
-        # clips after the read-out noise, as a saturated sCMOS pixel does.
-        np.minimum(electrons, np.float32(self.full_well_e), out=electrons)
-        electrons /= np.float32(self.gain_e_per_adu)
-        electrons += np.float32(self.dark_offset_adu)
-        np.rint(electrons, out=electrons)
-        return np.clip(electrons, 0, self.max_adu).astype(self.dtype)
+
+        def draw(band: int) -> int:
+            rows = slice(edges[band], edges[band + 1])
+            return kernels.expose_band(flat[rows], out[rows], states[band], *settings)
+
+        if any(list(_pool().map(draw, range(NOISE_BANDS)))):
+            raise ValueError(
+                "sensor exposure: an electron rate is NaN or beyond 1e18 e- per exposure; "
+                "the renderer must give finite rates"
+            )
+        return out.reshape(rate.shape)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from sassi_bench.errors import ConfigError
-from sassi_bench.optics.sensor import SensorModel, qe_curve
+from sassi_bench.optics.sensor import NOISE_BANDS, SensorModel, qe_curve
 
 
 @pytest.fixture()
@@ -59,7 +59,7 @@ def test_bands_of_rows_are_independent_and_the_stream_decides_the_frame(sensor):
     assert np.array_equal(a, b)
     assert not np.array_equal(a, sensor.expose(rate, 0.01, np.random.default_rng([7, 2])))
     # Each band of rows draws its own stream: no two bands repeat each other's noise.
-    bands = a.reshape(4, 16, 32).astype(float)
-    assert all(not np.array_equal(bands[0], bands[i]) for i in range(1, 4))
+    bands = a.reshape(NOISE_BANDS, -1, 32).astype(float)
+    assert all(not np.array_equal(bands[0], bands[i]) for i in range(1, NOISE_BANDS))
     # A frame with fewer rows than bands still gets every pixel.
     assert sensor.expose(np.zeros((2, 3)), 0.01, np.random.default_rng(0)).shape == (2, 3)
