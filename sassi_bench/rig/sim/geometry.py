@@ -18,7 +18,7 @@ from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim.as_built import prism_apex_deg, prism_glass
 
-__all__ = ["bench_relay", "linear_upsampler"]
+__all__ = ["bench_relay"]
 
 
 def bench_relay(desc: RigDescription) -> SpectralRelay:
@@ -44,28 +44,3 @@ def bench_relay(desc: RigDescription) -> SpectralRelay:
     68.0
     """
     return desc.nominal_relay().with_prism(prism_glass(desc), prism_apex_deg(desc))
-
-
-def linear_upsampler(coarse_positions: NDArray[np.float64], size: int) -> NDArray[np.float32]:
-    """Matrix that linearly interpolates samples at ``coarse_positions`` onto 0..size-1.
-
-    ``fine = W @ coarse`` (rows: fine pixels). The coarse positions must bracket the
-    fine range, so no sample is extrapolated.
-
-    Examples
-    --------
-    >>> w = linear_upsampler(np.array([-4.0, 4.0, 12.0]), 9)
-    >>> (w @ np.array([-4.0, 4.0, 12.0])).tolist()
-    [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0]
-    """
-    fine = np.arange(size, dtype=np.float64)
-    idx = np.clip(
-        np.searchsorted(coarse_positions, fine, side="right") - 1, 0, len(coarse_positions) - 2
-    )
-    left = coarse_positions[idx]
-    frac = (fine - left) / (coarse_positions[idx + 1] - left)
-    w = np.zeros((size, len(coarse_positions)), dtype=np.float32)
-    rows = np.arange(size)
-    w[rows, idx] = 1.0 - frac
-    w[rows, idx + 1] = frac
-    return w

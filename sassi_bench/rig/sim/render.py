@@ -6,10 +6,13 @@ and the spot width of :func:`~sassi_bench.optics.blur.line_spread_sigma`):
 
 * **dense** (:meth:`SpectralRenderer.render_dense`), for patterns with many open
   pixels: for every wavelength sample the SLM image is warped onto the camera through
-  the inverse relay map (computed exactly on a coarse grid and interpolated; the map is
+  the inverse relay map (solved to 1e-7 px on a coarse grid and interpolated; the map is
   smooth to far below a pixel), scaled by the local area ratio so energy is conserved,
   and blurred. Bilinear warping already spreads a pixel like a tent of one SLM pixel,
-  so the blur adds only the variance still missing.
+  so the blur adds only the variance still missing. Only the camera rows the SLM's
+  light can reach (the coarse map says which, exactly: a bilinear interpolant stays
+  within its nodes' range) are warped and blurred; the others stay 0. The warp is a
+  compiled loop (:mod:`~sassi_bench.rig.sim._warp`).
 * **sparse** (:meth:`SpectralRenderer.render_sparse`), for pinholes and adaptive masks:
   every open pixel's streak is splatted as a sum over wavelength samples of separable
   spots (tabulated profiles) placed at the ray-traced positions, by a compiled loop
@@ -32,17 +35,20 @@ from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim._splat import splat
-from sassi_bench.rig.sim.geometry import linear_upsampler
-from sassi_bench.rig.sim.scenes import Scene
+from sassi_bench.rig.sim._warp import warp_sample
+from sassi_bench.rig.sim.scenes import LabelScene, Scene, interpolate_rows
 
 __all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
 
 _TRUNCATE_SIGMAS = 4.0
 # Samples per camera pixel of the tabulated spot profiles.
 _TABLE_STEPS = 64
-# A light with at most this many samples (a laser line) keeps its full-resolution inverse
-# maps between dense frames (three float32 camera frames per sample).
-_CACHED_SAMPLES = 8
+# Coarse inverse maps kept (three small float32 grids each, 0.8 MB at the prototype's
+# scale): every sample of the lights a calibration uses.
+_KEPT_MAPS = 1024
+# The inverse map's fixed-point iteration: tolerance (camera px) and iteration limit.
+_MAP_TOL_PX = 1e-7
+_MAP_ITERATIONS = 40
 
 
 def spot_profile(
@@ -165,12 +171,12 @@ class SpectralRenderer:
         hc, wc = relay.camera_shape
         self.camera_shape = (hc, wc)
         step = float(coarse_step)
+        self._step = step
         self._coarse_x = np.arange(-step, wc + step, step)
         self._coarse_y = np.arange(-step, hc + step, step)
-        self._up_x = linear_upsampler(self._coarse_x, wc)
-        self._up_y = linear_upsampler(self._coarse_y, hc)
         self._inverse_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
-        self._dense_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
+        self._reference_map: tuple[NDArray[np.float64], ...] | None = None
+        self._labels: tuple[LabelScene, NDArray[np.int32]] | None = None
         self._tables: dict[tuple[float, ...], _SpotTable] = {}
 
     def use_relay(self, relay: SpectralRelay) -> None:
@@ -178,7 +184,7 @@ class SpectralRenderer:
         cached for the previous one."""
         self.relay = relay
         self._inverse_cache.clear()
-        self._dense_cache.clear()
+        self._reference_map = None
 
     # -- the optical model shared by both renderers ---------------------------------
     def spot_sigma(self, wavelength_nm: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -226,41 +232,100 @@ class SpectralRenderer:
         return samples.weights * self.quantum_efficiency(samples.wavelengths_nm)
 
     # -- dense ----------------------------------------------------------------------
+    def _reference(self) -> tuple[NDArray[np.float64], ...]:
+        """The coarse inverse map at the relay's reference wavelength (Newton's method,
+        :meth:`SpectralRelay.inverse`) and its Jacobian d(u, v)/d(x, y): the start and
+        the fixed step of every other wavelength's solve (see :meth:`_inverse_maps`)."""
+        if self._reference_map is None:
+            gx, gy = np.meshgrid(self._coarse_x, self._coarse_y)
+            lam = float(self.relay.reference_nm)
+            u, v = self.relay.inverse(gx, gy, lam)
+            du_dy, du_dx = np.gradient(u, self._step)
+            dv_dy, dv_dx = np.gradient(v, self._step)
+            centre = self._centre_inverse(lam)
+            self._reference_map = (gx, gy, u, v, du_dx, du_dy, dv_dx, dv_dy, *centre)
+        return self._reference_map
+
+    def _centre_inverse(self, wavelength_nm: float) -> tuple[float, float]:
+        """The SLM point imaged at the camera's centre at one wavelength."""
+        hc, wc = self.camera_shape
+        u, v = self.relay.inverse(
+            np.array([(wc - 1) / 2.0]), np.array([(hc - 1) / 2.0]), wavelength_nm
+        )
+        return float(u[0]), float(v[0])
+
     def _inverse_maps(self, wavelength_nm: float) -> tuple[NDArray[np.float32], ...]:
-        """Coarse inverse map (u, v) and area ratio |d(u,v)/d(x,y)| at one wavelength."""
+        """Coarse inverse map (u, v) and area ratio |d(u,v)/d(x,y)| at one wavelength.
+
+        Solved to :data:`_MAP_TOL_PX` by a fixed-point (chord) iteration: it starts from
+        the reference wavelength's map moved by the shift of the camera centre's SLM
+        point, and steps by the reference map's Jacobian, one ray trace per step (about
+        four steps, against Newton's four steps of three traces each). The start depends
+        on the wavelength alone, so the map does not depend on what was rendered before
+        (a resumed capture renders the same frames). Newton's method is the fallback.
+        """
         key = round(float(wavelength_nm), 6)
         cached = self._inverse_cache.get(key)
         if cached is not None:
             return cached
-        gx, gy = np.meshgrid(self._coarse_x, self._coarse_y)
-        u, v = self.relay.inverse(gx, gy, key)
-        step = self._coarse_x[1] - self._coarse_x[0]
-        du_dy, du_dx = np.gradient(u, step)
-        dv_dy, dv_dx = np.gradient(v, step)
-        area = np.abs(du_dx * dv_dy - du_dy * dv_dx)
+        gx, gy, u_ref, v_ref, du_dx, du_dy, dv_dx, dv_dy, cu_ref, cv_ref = self._reference()
+        cu, cv = self._centre_inverse(key)
+        u, v = u_ref + (cu - cu_ref), v_ref + (cv - cv_ref)
+        for _ in range(_MAP_ITERATIONS):
+            fx, fy = self.relay.forward(u, v, key)
+            rx, ry = gx - fx, gy - fy
+            u += du_dx * rx + du_dy * ry
+            v += dv_dx * rx + dv_dy * ry
+            if np.nanmax(np.abs(rx) + np.abs(ry), initial=0.0) < _MAP_TOL_PX:
+                break
+        else:
+            u, v = self.relay.inverse(gx, gy, key)
+        step = self._step
+        grad_u = np.gradient(u, step)
+        grad_v = np.gradient(v, step)
+        area = np.abs(grad_u[1] * grad_v[0] - grad_u[0] * grad_v[1])
         maps = (u.astype(np.float32), v.astype(np.float32), area.astype(np.float32))
-        if len(self._inverse_cache) > 4096:
+        if len(self._inverse_cache) >= _KEPT_MAPS:
             self._inverse_cache.clear()
         self._inverse_cache[key] = maps
         return maps
 
-    def _upsample(self, coarse: NDArray[np.float32]) -> NDArray[np.float32]:
-        return self._up_y @ coarse @ self._up_x.T
+    def _reached_rows(
+        self, maps: tuple[NDArray[np.float32], ...], slm_shape: tuple[int, int]
+    ) -> tuple[int, int]:
+        """Camera rows [first, stop) where the warped SLM image can be non-zero.
 
-    def _dense_maps(self, wavelength_nm: float, keep: bool) -> tuple[NDArray[np.float32], ...]:
-        """Full-resolution inverse map (u, v) and area ratio at one wavelength.
-
-        Up-sampling the coarse maps is most of a dense frame's cost, and a sweep renders
-        the same laser's few wavelengths frame after frame: with ``keep`` the maps of the
-        current light are kept (those of any other light are dropped first).
+        A coarse cell's bilinear map stays within the range of its four nodes, so a cell
+        can sample the SLM (bilinearly: any point within a pixel of it) only if that
+        range overlaps it.
         """
-        key = round(float(wavelength_nm), 6)
-        maps = self._dense_cache.get(key)
-        if maps is None:
-            maps = tuple(self._upsample(m) for m in self._inverse_maps(key))
-            if keep:
-                self._dense_cache[key] = maps
-        return maps
+        u, v = maps[0], maps[1]
+        h, w = slm_shape
+
+        def cell_max(m: NDArray[np.float32]) -> NDArray[np.float32]:
+            return np.maximum(
+                np.maximum(m[:-1, :-1], m[:-1, 1:]), np.maximum(m[1:, :-1], m[1:, 1:])
+            )
+
+        def cell_min(m: NDArray[np.float32]) -> NDArray[np.float32]:
+            return np.minimum(
+                np.minimum(m[:-1, :-1], m[:-1, 1:]), np.minimum(m[1:, :-1], m[1:, 1:])
+            )
+
+        inside = (cell_max(u) > -1) & (cell_min(u) < w) & (cell_max(v) > -1) & (cell_min(v) < h)
+        cells = np.flatnonzero(inside.any(axis=1))
+        if cells.size == 0:
+            return 0, 0
+        first = int(np.floor(self._coarse_y[cells[0]]))
+        stop = int(np.ceil(self._coarse_y[cells[-1] + 1])) + 1
+        return max(first, 0), min(stop, self.camera_shape[0])
+
+    def _slm_labels(self, scene: LabelScene, slm_shape: tuple[int, int]) -> NDArray[np.int32]:
+        """The label image of the SLM's window of ``scene`` (int32, kept for the last scene)."""
+        if self._labels is None or self._labels[0] is not scene:
+            rows, cols = scene.slm_window(slm_shape)
+            self._labels = (scene, np.ascontiguousarray(scene.labels[rows, cols], np.int32))
+        return self._labels[1]
 
     def render_dense(
         self,
@@ -284,30 +349,49 @@ class SpectralRenderer:
         rows, cols = scene.slm_window(transmission.shape)
         rate = np.zeros(self.camera_shape, dtype=np.float32)
         gain = self.electrons_per_photon(samples)
-        sigma = self.spot_sigma(samples.wavelengths_nm)
-        extra = self._tent_blur(sigma)
-        keep = samples.wavelengths_nm.size <= _CACHED_SAMPLES
-        wanted = {round(float(lam), 6) for lam in samples.wavelengths_nm}
-        if not keep or not wanted.issuperset(self._dense_cache):
-            self._dense_cache.clear()
-        for lam, g, s in zip(samples.wavelengths_nm, gain, extra, strict=True):
-            if g <= 0:
-                continue
-            source = transmission * scene.reflectance_image(lam)[rows, cols]
-            map_u, map_v, area = self._dense_maps(lam, keep)
-            warped = cv2.remap(
-                source,
-                map_u,
-                map_v,
-                interpolation=cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_CONSTANT,
-                borderValue=0.0,
-            )
-            warped *= area * np.float32(g)
-            if s > 0.05:
-                k = discrete_gaussian_kernel(float(s))
-                warped = cv2.sepFilter2D(warped, -1, k, k, borderType=cv2.BORDER_CONSTANT)
-            rate += warped
+        extra = self._tent_blur(self.spot_sigma(samples.wavelengths_nm))
+        lit = [k for k in range(gain.size) if gain[k] > 0]
+        if not lit:
+            return rate
+        maps = {k: self._inverse_maps(samples.wavelengths_nm[k]) for k in lit}
+        # One band of rows for every sample: those any sample reaches, plus the widest blur.
+        reach = [self._reached_rows(maps[k], transmission.shape) for k in lit]
+        reach = [r for r in reach if r[1] > r[0]]
+        if not reach:
+            return rate
+        taps = max(int(np.ceil(4.0 * s)) for s in extra[lit]) + 1
+        first = max(0, min(r[0] for r in reach) - taps)
+        stop = min(self.camera_shape[0], max(r[1] for r in reach) + taps)
+        source = np.ascontiguousarray(transmission, dtype=np.float32)
+        label_scene = isinstance(scene, LabelScene)
+        uniform = label_scene and scene.spectra.shape[0] == 1
+        labels = (
+            self._slm_labels(scene, transmission.shape)
+            if label_scene and not uniform
+            else np.zeros((1, 1), np.int32)
+        )
+        per_label = (
+            interpolate_rows(scene.spectra, scene.wavelengths_nm, samples.wavelengths_nm)
+            if label_scene
+            else None
+        )
+        band = np.empty((stop - first, self.camera_shape[1]), np.float32)
+        for k in lit:
+            lam = samples.wavelengths_nm[k]
+            if label_scene:
+                image, values = source, np.ascontiguousarray(per_label[:, k], np.float64)
+            else:
+                image = source * scene.reflectance_image(lam)[rows, cols]
+                values = np.ones(1)
+            map_u, map_v, area = maps[k]
+            warp_sample(
+                image, labels, values, label_scene and not uniform, map_u, map_v, area,
+                self._step, float(gain[k]), first, band,
+            )  # fmt: skip
+            if extra[k] > 0.05:
+                kernel = discrete_gaussian_kernel(float(extra[k]))
+                band = cv2.sepFilter2D(band, -1, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
+            rate[first:stop] += band
         return rate
 
     # -- sparse ---------------------------------------------------------------------

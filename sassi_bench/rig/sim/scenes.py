@@ -28,6 +28,7 @@ __all__ = [
     "Scene",
     "ScenePose",
     "colorchecker_scene",
+    "interpolate_rows",
     "make_scene",
     "natural_scene",
     "pcb_scene",
@@ -36,8 +37,14 @@ __all__ = [
 ]
 
 
-def _interp_rows(table: NDArray[np.float64], grid: NDArray[np.float64], lam: ArrayLike):
-    """Linearly interpolate each row of ``table`` (defined on ``grid``) at ``lam``."""
+def interpolate_rows(table: NDArray[np.float64], grid: NDArray[np.float64], lam: ArrayLike):
+    """Linearly interpolate each row of ``table`` (defined on ``grid``) at ``lam``.
+
+    Examples
+    --------
+    >>> interpolate_rows(np.array([[0.0, 1.0]]), np.array([400.0, 500.0]), [450.0]).tolist()
+    [[0.5]]
+    """
     lam = np.atleast_1d(np.asarray(lam, dtype=np.float64))
     pos = np.clip(np.searchsorted(grid, lam) - 1, 0, grid.size - 2)
     frac = np.clip((lam - grid[pos]) / (grid[pos + 1] - grid[pos]), 0.0, 1.0)
@@ -95,11 +102,13 @@ class LabelScene(Scene):
         return tuple(self.labels.shape)  # type: ignore[return-value]
 
     def reflectance_image(self, wavelength_nm: float) -> NDArray[np.float32]:
-        per_label = _interp_rows(self.spectra, self.wavelengths_nm, wavelength_nm)[:, 0]
+        per_label = interpolate_rows(self.spectra, self.wavelengths_nm, wavelength_nm)[:, 0]
         return per_label.astype(np.float32)[self.labels]
 
     def reflectance_at(self, rows, cols, wavelengths_nm) -> NDArray[np.float32]:
-        table = _interp_rows(self.spectra, self.wavelengths_nm, wavelengths_nm).astype(np.float32)
+        table = interpolate_rows(self.spectra, self.wavelengths_nm, wavelengths_nm).astype(
+            np.float32
+        )
         return table[self.labels[np.asarray(rows), np.asarray(cols)]]
 
     def project(self, weights: NDArray[np.float64]) -> NDArray[np.float32]:
@@ -119,11 +128,13 @@ class BasisScene(Scene):
         return tuple(self.coefficients.shape[1:])  # type: ignore[return-value]
 
     def reflectance_image(self, wavelength_nm: float) -> NDArray[np.float32]:
-        b = _interp_rows(self.basis, self.wavelengths_nm, wavelength_nm)[:, 0].astype(np.float32)
+        b = interpolate_rows(self.basis, self.wavelengths_nm, wavelength_nm)[:, 0].astype(
+            np.float32
+        )
         return np.tensordot(b, self.coefficients, axes=1)
 
     def reflectance_at(self, rows, cols, wavelengths_nm) -> NDArray[np.float32]:
-        b = _interp_rows(self.basis, self.wavelengths_nm, wavelengths_nm).astype(np.float32)
+        b = interpolate_rows(self.basis, self.wavelengths_nm, wavelengths_nm).astype(np.float32)
         c = self.coefficients[:, np.asarray(rows), np.asarray(cols)]
         return c.T @ b
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from sassi_bench.rig.config import load_rig_description
-from sassi_bench.rig.sim.geometry import bench_relay, linear_upsampler
+from sassi_bench.rig.sim.geometry import bench_relay
 
 RIGS = Path(__file__).parents[2] / "rigs"
 
@@ -30,9 +30,3 @@ def test_a_bench_built_with_another_prism_traces_the_true_prism():
     assert (built.f2, built.roll_rad) == (described.f2, described.roll_rad)
     x, _ = built.forward(319.5, 199.5, np.array([400.0, 700.0]))
     assert abs((x[1] - x[0]) - desc.prism.spread_px) > 0.5
-
-
-def test_linear_upsampler_reproduces_linear_functions():
-    coarse = np.arange(-8.0, 108.0, 8.0)
-    w = linear_upsampler(coarse, 100)
-    assert np.allclose(w @ (3 * coarse + 1), 3 * np.arange(100) + 1, atol=1e-4)

@@ -229,14 +229,47 @@ def test_the_same_state_is_rendered_once_and_its_rate_is_read_only(sim_rig):
 def test_dense_frames_are_the_same_with_kept_and_fresh_maps(sim_rig):
     bench = truth(sim_rig).bench
     renderer = bench.renderer
-    scene, samples = bench.scene_named("white"), bench.samples("laser:450")
+    scene, samples = bench.scene_named("colorchecker"), bench.samples("laser:450")
     image = np.zeros(bench.slm_shape, np.float32)
     image[:, ::16] = 1.0
     first = renderer.render_dense(image, scene, samples)  # maps made and kept
     assert renderer.render_dense(image, scene, samples).tobytes() == first.tobytes()
-    renderer.render_dense(image, scene, bench.samples("led"))  # a broadband light drops them
-    assert not renderer._dense_cache
+    # Maps solved after other wavelengths', or afresh, are the same maps.
+    renderer.render_dense(image, scene, bench.samples("led"))
+    renderer.use_relay(renderer.relay)
+    assert not renderer._inverse_cache
+    renderer.render_dense(image, scene, bench.samples("laser:670"))
     assert renderer.render_dense(image, scene, samples).tobytes() == first.tobytes()
+
+
+def test_inverse_maps_are_the_relays_inverse(sim_rig):
+    renderer = truth(sim_rig).bench.renderer
+    for lam in (405.0, 532.0, 698.0):
+        u, v, _ = renderer._inverse_maps(lam)
+        gx, gy = np.meshgrid(renderer._coarse_x, renderer._coarse_y)
+        x, y = renderer.relay.forward(u.astype(float), v.astype(float), lam)
+        # float32 storage: within its resolution at coordinates of some hundred px.
+        assert np.max(np.abs(x - gx)) < 1e-3 and np.max(np.abs(y - gy)) < 1e-3
+
+
+def test_dense_rows_the_light_cannot_reach_are_dark_and_the_rest_match_a_full_warp(sim_rig):
+    """The dense renderer warps only the rows the SLM's image reaches: compare with a
+    frame warped over every row."""
+    bench = truth(sim_rig).bench
+    renderer = bench.renderer
+    scene, samples = bench.scene_named("colorchecker"), bench.samples("laser:532")
+    image = np.zeros(bench.slm_shape, np.float32)
+    image[150:260, :] = 1.0
+    rate = renderer.render_dense(image, scene, samples)
+    rows = np.flatnonzero(rate.sum(axis=1) > 0)
+    assert rows.size and rows[0] > 100 and rows[-1] < bench.camera_shape[0] - 100
+    original = renderer._reached_rows
+    renderer._reached_rows = lambda maps, shape: (0, bench.camera_shape[0])
+    try:
+        full = renderer.render_dense(image, scene, samples)
+    finally:
+        renderer._reached_rows = original
+    assert np.array_equal(rate, full)
 
 
 def test_the_closed_slm_background_with_coarser_samples_is_within_noise(sim_rig):
