@@ -11,9 +11,6 @@ in length, shape and position from what the description predicts.
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
-
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim.as_built import prism_apex_deg, prism_glass
