@@ -4,6 +4,14 @@
 interrupted capture (crash, Ctrl-C, ``stop_after``) resumes by calling it again with the
 same plan and session, possibly on a freshly opened rig. Devices are used only through
 the :class:`~sassi_bench.rig.rig.Rig` protocols.
+
+Storing a frame (compression, hash, fsync: :meth:`Session.write_frame`) runs in one
+background thread while the next frame is captured, in capture order, with at most
+:data:`IN_FLIGHT` frames waiting. The session's invariants do not change: each frame is
+still written whole (chunk, then its event) by ``write_frame``; a frame the camera
+returned is stored before :func:`run_plan` returns or raises, whatever stopped it (a
+Ctrl-C or SIGTERM, which only the main thread receives, a device error); a SIGKILL can
+leave at most the frames in flight unlogged, which a resumed run captures again.
 """
 
 from __future__ import annotations
@@ -11,7 +19,9 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
+from collections import deque
 from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 from tqdm.auto import tqdm
@@ -24,7 +34,10 @@ from sassi_bench.rig.protocols import Camera
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 
-__all__ = ["run_plan"]
+__all__ = ["IN_FLIGHT", "run_plan"]
+
+#: Frames captured but not yet stored, at most (8 MB each at the prototype's scale).
+IN_FLIGHT = 2
 
 
 def _camera(rig: Rig, name: str) -> Camera:
@@ -52,6 +65,58 @@ def _sigint_deferred() -> Iterator[None]:
         )
     if received and previous is not signal.SIG_IGN:  # a background job ignores Ctrl-C
         raise KeyboardInterrupt
+
+
+class _FrameWriter:
+    """Stores a run's frames in one background thread, in the order they are given.
+
+    :meth:`put` waits while :data:`IN_FLIGHT` frames are pending and raises the first
+    failed write; :meth:`close` waits for every pending frame (a Ctrl-C meanwhile is held
+    until they are stored) and raises the first failure. After a failure, frames still
+    queued are not written (a resumed run captures them).
+    """
+
+    def __init__(self, session: Session, stored: Any) -> None:
+        self._session = session
+        self._stored = stored
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="frame-writer")
+        self._pending: deque[Future[None]] = deque()
+        self._failed = threading.Event()
+
+    def _write(self, step_index: int, frame: Any) -> None:
+        if self._failed.is_set():
+            return
+        try:
+            self._session.write_frame(step_index, frame)
+        except BaseException:
+            self._failed.set()
+            raise
+
+    def put(self, step_index: int, frame: Any) -> None:
+        """Queue ``frame`` of step ``step_index`` for storing."""
+        self._pending.append(self._pool.submit(self._write, step_index, frame))
+        while len(self._pending) > IN_FLIGHT or (self._pending and self._pending[0].done()):
+            self._collect()
+
+    def _collect(self) -> None:
+        # Taken off the queue only once stored: a Ctrl-C while waiting leaves it for close.
+        self._pending[0].result()
+        self._pending.popleft()
+        self._stored()
+
+    def close(self) -> None:
+        """Wait until every queued frame is stored; raise the first failed write."""
+        error: BaseException | None = None
+        with _sigint_deferred():
+            while self._pending:
+                try:
+                    self._collect()
+                except BaseException as exc:
+                    self._pending.popleft()
+                    error = error or exc
+            self._pool.shutdown(wait=True)
+        if error is not None:
+            raise error
 
 
 def _check_inputs(rig: Rig, plan: Plan, session: Session, todo: tuple[int, ...]) -> None:
@@ -110,7 +175,8 @@ def run_plan(
 
     For each step: select its light (when it changed), set its camera's exposure,
     show its pattern on the SLM, capture, and store the frame with
-    :meth:`Session.write_frame`. The trigger is armed for the run and always disarmed
+    :meth:`Session.write_frame` (in a background thread, while the next step is
+    captured; see the module's notes). The trigger is armed for the run and always disarmed
     at the end. If ``plan.parameters`` has a ``"scene"``, that scene is put in front of
     the bench first (so a resumed run on a fresh rig sees the same scene), at the
     pose ``"scene_pose"`` (a :class:`~sassi_bench.rig.scene_pose.ScenePose` dict) when
@@ -143,7 +209,7 @@ def run_plan(
     ValueError
         If a remaining step's exposure or pattern is invalid (checked before capturing).
     KeyboardInterrupt
-        Re-raised after the frame being stored is complete; run again to resume.
+        Re-raised once every frame captured so far is stored; run again to resume.
 
     Examples
     --------
@@ -190,25 +256,26 @@ def _capture(
         disable=not progress,
     )
     light: str | None = None
+    writer = _FrameWriter(session, lambda: bar.update(1))
     rig.trigger.arm()
     try:
-        scene = plan.parameters.get("scene")
-        if scene is not None:
-            pose = plan.parameters.get("scene_pose")
-            rig.set_scene(scene, None if pose is None else ScenePose.from_dict(pose))
-        for i in todo:
-            step = plan.steps[i]
-            camera = _camera(rig, step.camera)
-            if step.light != light:
-                rig.light.select(step.light)
-                light = step.light
-            if camera.exposure_s != step.exposure_s:
-                camera.set_exposure(step.exposure_s)
-            rig.slm.show(render_pattern(step.pattern, rig.slm.shape))
-            frame = camera.capture()
-            with _sigint_deferred():
-                session.write_frame(i, frame)
-            bar.update(1)
+        try:
+            scene = plan.parameters.get("scene")
+            if scene is not None:
+                pose = plan.parameters.get("scene_pose")
+                rig.set_scene(scene, None if pose is None else ScenePose.from_dict(pose))
+            for i in todo:
+                step = plan.steps[i]
+                camera = _camera(rig, step.camera)
+                if step.light != light:
+                    rig.light.select(step.light)
+                    light = step.light
+                if camera.exposure_s != step.exposure_s:
+                    camera.set_exposure(step.exposure_s)
+                rig.slm.show(render_pattern(step.pattern, rig.slm.shape))
+                writer.put(i, camera.capture())
+        finally:
+            writer.close()  # every frame captured so far is stored first
     except KeyboardInterrupt:
         if progress:
             bar.write(

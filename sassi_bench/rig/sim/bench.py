@@ -102,6 +102,7 @@ class VirtualBench:
         )
         self.lights = desc.light_names
         self.light = "off"
+        self._transmission_lut: NDArray[np.float32] | None = None
         self.pattern = np.zeros(self.slm_shape, dtype=np.uint8)
         self._rate: tuple[bytes, NDArray[np.float32]] | None = None
         self._scenes: dict[str, Scene] = {}
@@ -229,10 +230,14 @@ class VirtualBench:
     def transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:
         """SLM transmission for a uint8 pattern: eps + (1 - eps) (g / 255) ** gamma,
         with the SLM's true gamma."""
-        response = (pattern.astype(np.float32) / np.float32(255.0)) ** np.float32(
-            as_built.slm_gamma(self.description)
-        )
-        return np.float32(self.eps) + np.float32(1.0 - self.eps) * response
+        if self._transmission_lut is None:
+            # The same float32 arithmetic on the 256 levels, then looked up per pixel.
+            levels = np.arange(256, dtype=np.float32)
+            response = (levels / np.float32(255.0)) ** np.float32(
+                as_built.slm_gamma(self.description)
+            )
+            self._transmission_lut = np.float32(self.eps) + np.float32(1.0 - self.eps) * response
+        return self._transmission_lut[np.asarray(pattern, dtype=np.uint8)]
 
     def slm_transmission(self, pattern: NDArray[np.uint8]) -> NDArray[np.float32]:
         """The transmission the SLM really shows for ``pattern`` (with pixel crosstalk)."""
@@ -304,11 +309,11 @@ class VirtualBench:
         samples = self.samples(self.light)
         if self.light == "off" or not np.any(samples.weights):
             return np.zeros(self.camera_shape, dtype=np.float32)
-        open_rows, open_cols = np.nonzero(self.pattern)
-        if open_rows.size > self.sparse_limit:
+        if np.count_nonzero(self.pattern) > self.sparse_limit:
             return self.renderer.render_dense(
                 self.slm_transmission(self.pattern), self.scene, samples
             )
+        open_rows, open_cols = np.nonzero(self.pattern)
         excess = self.transmission(self.pattern[open_rows, open_cols]) - np.float32(self.eps)
         if self.nuisance.config.slm_crosstalk > 0:
             # Crosstalk lights the open pixels' neighbours: splat those too.
