@@ -1,103 +1,122 @@
-"""Rendering speed of the virtual bench.
+"""Rendering speed of the virtual bench, per kind of frame a calibration captures.
 
-Frames per second for three kinds of frame at both rig scales:
+For each rig scale, the CPU time (all threads, ``time.process_time``) and the wall time
+of one captured frame (show the pattern, render, add the sensor's noise) of each kind:
 
-* a pinhole pattern (100 x 5 px pitch) under the white LED, the frame of a ground-truth
-  scan (sparse renderer);
-* a dense binary stripe pattern under a laser, the frame of a structured-light sweep
-  (dense renderer);
-* an all-open SLM under the white LED (dense renderer, every wavelength sample).
+* **sensor noise only**: an empty frame through the sensor model, the cost no renderer
+  avoids (also the baseline the other rows are divided by, measured in the same run);
+* **dense Gray code**: a Gray-code bit under a laser (structured-light sweep; dense
+  renderer, the laser's coarse inverse maps kept);
+* **sparse pinholes**: a 100 x 5 pinhole frame under the white LED on the ColorChecker
+  (a Macbeth or guide scan frame; sparse renderer over the closed-SLM background);
+* **first sparse frame**: the same, with the closed-SLM background rendered first (once
+  per scene, pose and light);
+* **response frame**: a pinhole frame under the halogen lamp on the white diffuser;
+* **guide frame**: the RGB guide camera under the LED.
 
-Each time is also printed as a ratio to a baseline measured in the same run: adding
-sensor noise to an empty frame, the cost no renderer can avoid. The target of the
-foundation issue is checked at the end: the default rig renders a 500-frame pinhole
-scan in under 60 s on 2 cores.
+CPU time is the comparable figure on a shared machine (wall time waits for cores).
+Each row is the median of ``--frames`` frames after one warm-up (compilation) frame.
+The target of the foundation issue is checked at the end: the default rig renders a
+500-frame pinhole scan in under 60 s on 2 cores (wall).
 
-Run: ``python benchmarks/bench_render.py [--rig sim] [--frames 20]``
+Run: ``python benchmarks/bench_render.py [--rig sim] [--frames 5]``
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import time
+from collections.abc import Callable
 
 import numpy as np
 
 from sassi_bench import open_rig
-from sassi_bench.acquire.patterns import pinhole_pattern
+from sassi_bench.acquire.patterns import pinhole_pattern, render_pattern
 from sassi_bench.rig.sim import truth
 
 TARGET_SCAN_S = 60.0
 SCAN_FRAMES = 500
 
 
-def _time_captures(rig, patterns, repeat: int) -> float:
-    """Seconds per frame (show + capture), after one warm-up frame."""
-    rig.slm.show(patterns[0])
-    rig.spectral_camera.capture()
-    start = time.perf_counter()
-    for i in range(repeat):
-        rig.slm.show(patterns[i % len(patterns)])
-        rig.spectral_camera.capture()
-    return (time.perf_counter() - start) / repeat
+def _timed(action: Callable[[int], object], repeat: int) -> tuple[float, float]:
+    """Median (CPU s, wall s) of ``action(i)`` over ``repeat`` calls, after a warm-up."""
+    action(0)
+    cpu, wall = [], []
+    for i in range(1, repeat + 1):
+        start = (time.process_time(), time.perf_counter())
+        action(i)
+        cpu.append(time.process_time() - start[0])
+        wall.append(time.perf_counter() - start[1])
+    return statistics.median(cpu), statistics.median(wall)
 
 
-def _baseline(rig, repeat: int) -> float:
-    bench = truth(rig).bench
-    zeros = np.zeros(bench.camera_shape, np.float32)
-    rng = np.random.default_rng(0)
-    start = time.perf_counter()
-    for _ in range(repeat):
-        bench.sensor.expose(zeros, 0.01, rng)
-    return (time.perf_counter() - start) / repeat
-
-
-def bench_rig(name: str, frames: int) -> dict[str, float]:
+def bench_rig(name: str, frames: int) -> dict[str, tuple[float, float]]:
     rig = open_rig(name)
-    rig.set_scene("colorchecker")
+    bench = truth(rig).bench
     shape = rig.slm.shape
-    baseline = _baseline(rig, frames)
+    camera = rig.spectral_camera
     print(
-        f"\n== {name}: SLM {shape[1]}x{shape[0]}, camera {rig.spectral_camera.shape[1]}x"
-        f"{rig.spectral_camera.shape[0]} =="
+        f"\n== {name}: SLM {shape[1]}x{shape[0]}, camera {camera.shape[1]}x{camera.shape[0]} =="
     )
-    print(f"baseline (sensor noise only): {baseline * 1e3:8.1f} ms/frame")
+    rows: dict[str, tuple[float, float]] = {}
+    zeros = np.zeros(bench.camera_shape, np.float32)
+    rows["sensor noise only"] = _timed(
+        lambda i: bench.sensor.expose(zeros, 0.01, np.random.default_rng(i)), frames
+    )
+
+    rig.set_scene("colorchecker")
+    rig.light.select(f"laser:{rig.description.lasers_nm[2]:g}")
+    camera.set_exposure(0.01)
+
+    def gray(i: int) -> None:
+        bit = {"kind": "gray", "axis": "x", "bit": i % 7, "block": 8, "inverse": bool(i % 2)}
+        rig.slm.show(render_pattern(bit, shape))
+        camera.capture()
+
+    rows["dense Gray code (laser)"] = _timed(gray, frames)
 
     rig.light.select("led")
-    pinholes = [pinhole_pattern(shape, (100, 5), (i % 100, i % 5)) for i in range(frames)]
-    t_pin = _time_captures(rig, pinholes, frames)
 
-    rig.light.select(f"laser:{rig.description.lasers_nm[1]:g}")
-    cols = np.arange(shape[1])
-    stripes = [np.broadcast_to(((cols >> k) & 1).astype(bool), shape) for k in range(3, 10)]
-    t_dense = _time_captures(rig, stripes, max(3, frames // 4))
+    def pinholes(i: int) -> None:
+        rig.slm.show(pinhole_pattern(shape, (100, 5), (i % 100, i % 5)))
+        camera.capture()
 
+    rows["sparse pinholes (LED)"] = _timed(pinholes, frames)
+
+    def first(i: int) -> None:
+        bench._background.clear()
+        pinholes(i)
+
+    rows["first sparse frame (+ background)"] = _timed(first, 1)
+
+    rig.set_scene("white")
+    rig.light.select("halogen")
+    rows["response frame (halogen)"] = _timed(pinholes, frames)
+
+    rig.set_scene("colorchecker")
     rig.light.select("led")
-    t_open = _time_captures(rig, [np.ones(shape, bool)], 2)
+    rows["guide frame (LED)"] = _timed(lambda i: rig.guide_camera.capture(), frames)
 
-    for label, t in [
-        ("pinhole pattern, LED (sparse)", t_pin),
-        ("stripe pattern, laser (dense)", t_dense),
-        ("all-open SLM, LED (dense)", t_open),
-    ]:
-        print(
-            f"{label:32s} {1 / t:8.2f} fps  {t * 1e3:9.1f} ms/frame  {t / baseline:7.1f}x baseline"
-        )
-    return {"pinhole": t_pin, "dense": t_dense, "open": t_open, "baseline": baseline}
+    base = rows["sensor noise only"][0]
+    print(f"{'frame':36s} {'CPU ms':>9s} {'wall ms':>9s} {'CPU / noise':>12s}")
+    for label, (cpu, wall) in rows.items():
+        print(f"{label:36s} {cpu * 1e3:9.1f} {wall * 1e3:9.1f} {cpu / base:12.1f}")
+    return rows
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rig", action="append", help="rig(s) to time (default: both scales)")
-    parser.add_argument("--frames", type=int, default=20, help="pinhole frames to time")
+    parser.add_argument("--frames", type=int, default=5, help="frames timed per kind")
     args = parser.parse_args()
     rigs = args.rig or ["sim", "sim-prototype"]
     results = {name: bench_rig(name, args.frames) for name in rigs}
     if "sim" in results:
-        scan = results["sim"]["pinhole"] * SCAN_FRAMES
+        scan = results["sim"]["sparse pinholes (LED)"][1] * SCAN_FRAMES
         verdict = "PASS" if scan < TARGET_SCAN_S else "FAIL"
         print(
-            f"\n500-frame pinhole scan on the default rig: {scan:.1f} s "
+            f"\n500-frame pinhole scan on the default rig: {scan:.1f} s wall "
             f"(target < {TARGET_SCAN_S:.0f} s): {verdict}"
         )
 

@@ -35,7 +35,7 @@ from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim._splat import splat
-from sassi_bench.rig.sim._warp import warp_sample
+from sassi_bench.rig.sim._warp import label_image, warp_sample
 from sassi_bench.rig.sim.scenes import LabelScene, Scene, interpolate_rows
 
 __all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
@@ -362,32 +362,23 @@ class SpectralRenderer:
         taps = max(int(np.ceil(4.0 * s)) for s in extra[lit]) + 1
         first = max(0, min(r[0] for r in reach) - taps)
         stop = min(self.camera_shape[0], max(r[1] for r in reach) + taps)
-        source = np.ascontiguousarray(transmission, dtype=np.float32)
-        label_scene = isinstance(scene, LabelScene)
-        uniform = label_scene and scene.spectra.shape[0] == 1
-        labels = (
-            self._slm_labels(scene, transmission.shape)
-            if label_scene and not uniform
-            else np.zeros((1, 1), np.int32)
-        )
-        per_label = (
-            interpolate_rows(scene.spectra, scene.wavelengths_nm, samples.wavelengths_nm)
-            if label_scene
-            else None
-        )
+        transmission = np.ascontiguousarray(transmission, dtype=np.float32)
+        labelled = isinstance(scene, LabelScene)
+        if labelled:
+            labels = self._slm_labels(scene, transmission.shape)
+            per_label = interpolate_rows(
+                scene.spectra, scene.wavelengths_nm, samples.wavelengths_nm
+            ).astype(np.float32)
+        source = np.empty_like(transmission)
         band = np.empty((stop - first, self.camera_shape[1]), np.float32)
         for k in lit:
             lam = samples.wavelengths_nm[k]
-            if label_scene:
-                image, values = source, np.ascontiguousarray(per_label[:, k], np.float64)
+            if labelled:
+                label_image(transmission, labels, np.ascontiguousarray(per_label[:, k]), source)
             else:
-                image = source * scene.reflectance_image(lam)[rows, cols]
-                values = np.ones(1)
+                source = transmission * scene.reflectance_image(lam)[rows, cols]
             map_u, map_v, area = maps[k]
-            warp_sample(
-                image, labels, values, label_scene and not uniform, map_u, map_v, area,
-                self._step, float(gain[k]), first, band,
-            )  # fmt: skip
+            warp_sample(source, map_u, map_v, area, self._step, float(gain[k]), first, band)
             if extra[k] > 0.05:
                 kernel = discrete_gaussian_kernel(float(extra[k]))
                 band = cv2.sepFilter2D(band, -1, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
