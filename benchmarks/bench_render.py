@@ -56,9 +56,7 @@ def bench_rig(name: str, frames: int) -> dict[str, tuple[float, float]]:
     bench = truth(rig).bench
     shape = rig.slm.shape
     camera = rig.spectral_camera
-    print(
-        f"\n== {name}: SLM {shape[1]}x{shape[0]}, camera {camera.shape[1]}x{camera.shape[0]} =="
-    )
+    print(f"\n== {name}: SLM {shape[1]}x{shape[0]}, camera {camera.shape[1]}x{camera.shape[0]} ==")
     rows: dict[str, tuple[float, float]] = {}
     zeros = np.zeros(bench.camera_shape, np.float32)
     rows["sensor noise only"] = _timed(

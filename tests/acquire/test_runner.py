@@ -281,9 +281,7 @@ def test_ctrl_c_during_a_capture_still_stores_the_frames_being_written(plan, dat
     assert run_plan(open_rig("sim"), plan, reopened, progress=False).is_complete
 
 
-def test_a_failed_write_stops_the_run_and_the_rest_is_captured_on_resume(
-    plan, data, monkeypatch
-):
+def test_a_failed_write_stops_the_run_and_the_rest_is_captured_on_resume(plan, data, monkeypatch):
     original = Session.write_frame
 
     def failing(self, step_index, frame):
