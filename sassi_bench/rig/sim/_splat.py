@@ -52,17 +52,23 @@ def splat(x, y, weights, values, centre, steps, norm, reach, out):  # pragma: no
     widest = 0
     for k in range(n_lam):
         widest = max(widest, reach[k])
+    # Each pixel's streak's rows (they vary by about a pixel), once for every band.
+    lowest = np.empty(n_pix)
+    highest = np.empty(n_pix)
+    for p in range(n_pix):
+        low, high = y[p, 0], y[p, 0]
+        for k in range(1, n_lam):
+            low = min(low, y[p, k])
+            high = max(high, y[p, k])
+        lowest[p] = low
+        highest[p] = high
     for band in prange(BANDS):
         gx = np.empty(2 * widest + 1)
         first = band * rows_per_band
         last = min(height, first + rows_per_band) - 1
         for p in range(n_pix):
-            # Skip a pixel whose whole streak misses the band (its rows vary by a pixel).
-            low, high = y[p, 0], y[p, 0]
-            for k in range(1, n_lam):
-                low = min(low, y[p, k])
-                high = max(high, y[p, k])
-            if high + widest + 1 < first or low - widest - 1 > last:
+            # Skip a pixel whose whole streak misses the band.
+            if highest[p] + widest + 1 < first or lowest[p] - widest - 1 > last:
                 continue
             for k in range(n_lam):
                 w = weights[p, k]

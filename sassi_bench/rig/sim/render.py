@@ -178,6 +178,7 @@ class SpectralRenderer:
         self._reference_map: tuple[NDArray[np.float64], ...] | None = None
         self._labels: tuple[LabelScene, NDArray[np.int32]] | None = None
         self._tables: dict[tuple[float, ...], _SpotTable] = {}
+        self._splat_sum: NDArray[np.float64] | None = None
 
     def use_relay(self, relay: SpectralRelay) -> None:
         """Render through ``relay`` from now on (a drifted bench), dropping what was
@@ -419,9 +420,14 @@ class SpectralRenderer:
         >>> rate.shape, bool(rate.sum() > 0)
         ((512, 800), True)
         """
-        total = np.zeros(self.camera_shape, dtype=np.float64)
         if rows.size == 0:
-            return total.astype(np.float32)
+            return np.zeros(self.camera_shape, dtype=np.float32)
+        # The float64 sum is kept between frames: a fresh one costs its page faults.
+        if self._splat_sum is None:
+            self._splat_sum = np.zeros(self.camera_shape, dtype=np.float64)
+        else:
+            self._splat_sum.fill(0.0)
+        total = self._splat_sum
         lam = samples.wavelengths_nm
         gain = self.electrons_per_photon(samples).astype(np.float32)
         table = self._spot_table(lam)
