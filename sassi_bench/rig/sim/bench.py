@@ -105,6 +105,7 @@ class VirtualBench:
         self._transmission_lut: NDArray[np.float32] | None = None
         self.pattern = np.zeros(self.slm_shape, dtype=np.uint8)
         self._rate: tuple[bytes, NDArray[np.float32]] | None = None
+        self._guide_rate: tuple[bytes, NDArray[np.float32]] | None = None
         self._scenes: dict[str, Scene] = {}
         self._samples: dict[str, SpectralSamples] = {}
         self._background: dict[tuple[str, ScenePose, str], NDArray[np.float32]] = {}
@@ -326,8 +327,20 @@ class VirtualBench:
         return self._background_rate() + sparse
 
     def guide_rate(self) -> NDArray[np.float32]:
-        """Photo-electron rate (H, W, 3) on the guide camera for the current state."""
-        samples = self.samples(self.light)
-        if self.light == "off":
-            return np.zeros(self.guide.shape, dtype=np.float32)
-        return self.guide.electron_rate(self.scene, samples.wavelengths_nm, samples.weights)
+        """Photo-electron rate (H, W, 3) on the guide camera for the current state.
+
+        Kept (read-only) with its state (light, scene, pose), like the spectral rate: a
+        guide image averaged over frames renders once.
+        """
+        state = self._state()
+        if self._guide_rate is None or self._guide_rate[0] != state:
+            samples = self.samples(self.light)
+            if self.light == "off":
+                rate = np.zeros(self.guide.shape, dtype=np.float32)
+            else:
+                rate = self.guide.electron_rate(
+                    self.scene, samples.wavelengths_nm, samples.weights
+                )
+            rate.setflags(write=False)
+            self._guide_rate = (state, rate)
+        return self._guide_rate[1]
