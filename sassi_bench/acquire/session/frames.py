@@ -40,8 +40,11 @@ FRAMES_DIR = "frames.zarr"
 #: The compressor of every frame chunk: zstd after a byte shuffle, which puts the 16-bit
 #: pixels' high bytes (nearly constant) together. On simulated prototype frames it keeps
 #: 0.48 of the bytes against 0.60 for plain zstd, and encodes in half the CPU time; it
-#: beats bit-shuffle (0.51) on these noisy frames. Each array records its codec, so frames
-#: written with an earlier one still read.
+#: beats bit-shuffle (0.51) on these noisy frames. Lossless coding cannot go much
+#: further: the frames' shot and read noise alone is 0.41 of the raw bytes; JPEG-LS keeps
+#: 0.45 at three times the encoding and fifteen times the decoding CPU
+#: (``benchmarks/bench_codecs.py``). Each array records its codec, so frames written with
+#: an earlier one still read.
 FRAME_CODEC = BloscCodec(cname="zstd", clevel=3, shuffle=BloscShuffle.shuffle)
 #: The shape of a frame of each canonical camera: grey spectral, RGB guide.
 _FRAME_SHAPES = {"spectral": ("H", "W"), "guide": ("H", "W", 3)}

@@ -338,9 +338,7 @@ class VirtualBench:
             if self.light == "off":
                 rate = np.zeros(self.guide.shape, dtype=np.float32)
             else:
-                rate = self.guide.electron_rate(
-                    self.scene, samples.wavelengths_nm, samples.weights
-                )
+                rate = self.guide.electron_rate(self.scene, samples.wavelengths_nm, samples.weights)
             rate.setflags(write=False)
             self._guide_rate = (state, rate)
         return self._guide_rate[1]
