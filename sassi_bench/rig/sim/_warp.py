@@ -1,27 +1,23 @@
-"""The dense renderer's compiled loops (numba): one wavelength sample's SLM image, warped.
+"""The dense renderer's compiled loops (numba): full-resolution maps, label images.
 
-For every camera pixel of a band of rows, the inverse map (u, v) and the area ratio are
-interpolated bilinearly from their coarse grid (nodes every ``step`` camera px: within a
-grid cell they are linear along a row, so they are stepped), and the SLM image is
-sampled bilinearly at (u, v) (zero outside the SLM), times the area ratio and the
-sample's gain. This replaces up-sampling the three coarse maps to full frames (three
-dense matrix products, 67 ms a map at the prototype's 2048 x 2048) and ``cv2.remap``
-(which rounds map positions to 1/32 px): at the prototype's scale a sample's warp takes
-about 11 ms of CPU against 40 before (25 with the laser's full-size maps kept, 3 x 16
-MB a sample), and no full-size map is held.
+:func:`upsample_maps` interpolates the coarse inverse map and area ratio (nodes every
+``step`` camera px) bilinearly onto the camera rows a frame's light reaches: within a
+grid cell they are linear along a row, so they are stepped. It replaces three dense
+matrix products per map (67 ms a map at the prototype's 2048 x 2048, for the whole
+frame) with about 3 ms for the rows reached. :func:`label_image` makes a label scene's
+SLM image at one wavelength (transmission times the label's reflectance) in one pass.
 
 Rows are split over threads by ``prange``; every output pixel is computed by one thread
-from the same inputs, so the frame does not depend on the number of threads.
+from the same inputs, so the results do not depend on the number of threads.
 
 No on-disk cache: numba's cache pickles into the package folder.
 """
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit, prange
 
-__all__ = ["label_image", "warp_sample"]
+__all__ = ["label_image", "upsample_maps"]
 
 
 @njit(parallel=True, error_model="numpy", cache=False)
@@ -35,29 +31,22 @@ def label_image(transmission, labels, values, out):  # pragma: no cover - compil
 
 
 @njit(parallel=True, error_model="numpy", cache=False)
-def warp_sample(
-    source, map_u, map_v, map_area, step, gain, row0, out
-):  # pragma: no cover - compiled
-    """Write one sample's warped SLM image into ``out`` (camera rows ``row0`` onwards).
+def upsample_maps(map_u, map_v, map_area, step, row0, out_u, out_v, out_area):  # pragma: no cover
+    """The coarse inverse map and area ratio at every camera pixel of a band of rows.
 
     Parameters
     ----------
-    source
-        (H, W) float32 SLM image (transmission times reflectance).
     map_u, map_v, map_area
-        (Ny, Nx) coarse inverse map and area ratio; node (a, b) is at camera
-        (x, y) = ((b - 1) * step, (a - 1) * step), and the grid covers the frame.
+        (Ny, Nx) coarse maps; node (a, b) is at camera (x, y) = ((b - 1) * step,
+        (a - 1) * step), and the grid covers the frame.
     step
         Coarse grid spacing, camera px (an integer).
-    gain
-        The sample's electrons per photon.
     row0
-        Camera row of ``out[0]``.
-    out
-        (rows, Wc) float32, overwritten.
+        Camera row of the band's first row.
+    out_u, out_v, out_area
+        (rows, Wc) float32, overwritten: the bilinear interpolation of the maps.
     """
-    height, width = source.shape
-    rows, cols = out.shape
+    rows, cols = out_u.shape
     inv_step = 1.0 / step
     ny, nx = map_u.shape
     istep = int(step)
@@ -79,27 +68,6 @@ def warp_sample(
             ds = ((1.0 - ty) * map_area[a, b + 1] + ty * map_area[a + 1, b + 1] - s0) * inv_step
             for j in range(first, stop):
                 t = j - j0
-                u = u0 + du * t
-                v = v0 + dv * t
-                value = 0.0
-                if u > -1.0 and v > -1.0 and u < width and v < height:
-                    c0 = int(np.floor(u))
-                    r0 = int(np.floor(v))
-                    fu = u - c0
-                    fv = v - r0
-                    if c0 >= 0 and r0 >= 0 and c0 + 1 < width and r0 + 1 < height:
-                        value = (1.0 - fv) * (
-                            (1.0 - fu) * source[r0, c0] + fu * source[r0, c0 + 1]
-                        ) + fv * ((1.0 - fu) * source[r0 + 1, c0] + fu * source[r0 + 1, c0 + 1])
-                    else:  # at the SLM's edge: the corners outside it are dark
-                        for dr in range(2):
-                            r = r0 + dr
-                            if r < 0 or r >= height:
-                                continue
-                            wr = fv if dr else 1.0 - fv
-                            for dc in range(2):
-                                c = c0 + dc
-                                if 0 <= c < width:
-                                    value += wr * (fu if dc else 1.0 - fu) * source[r, c]
-                    value *= (s0 + ds * t) * gain
-                out[i, j] = value
+                out_u[i, j] = u0 + du * t
+                out_v[i, j] = v0 + dv * t
+                out_area[i, j] = s0 + ds * t

@@ -11,8 +11,9 @@ and the spot width of :func:`~sassi_bench.optics.blur.line_spread_sigma`):
   and blurred. Bilinear warping already spreads a pixel like a tent of one SLM pixel,
   so the blur adds only the variance still missing. Only the camera rows the SLM's
   light can reach (the coarse map says which, exactly: a bilinear interpolant stays
-  within its nodes' range) are warped and blurred; the others stay 0. The warp is a
-  compiled loop (:mod:`~sassi_bench.rig.sim._warp`).
+  within its nodes' range) are warped and blurred; the others stay 0. The full-size
+  maps of those rows are interpolated by a compiled loop
+  (:mod:`~sassi_bench.rig.sim._warp`) and kept for a laser's few samples.
 * **sparse** (:meth:`SpectralRenderer.render_sparse`), for pinholes and adaptive masks:
   every open pixel's streak is splatted as a sum over wavelength samples of separable
   spots (tabulated profiles) placed at the ray-traced positions, by a compiled loop
@@ -35,7 +36,7 @@ from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim._splat import splat
-from sassi_bench.rig.sim._warp import label_image, warp_sample
+from sassi_bench.rig.sim._warp import label_image, upsample_maps
 from sassi_bench.rig.sim.scenes import LabelScene, Scene, interpolate_rows
 
 __all__ = ["SpectralRenderer", "discrete_gaussian_kernel", "spot_profile"]
@@ -46,6 +47,9 @@ _TABLE_STEPS = 64
 # Coarse inverse maps kept (three small float32 grids each, 0.8 MB at the prototype's
 # scale): every sample of the lights a calibration uses.
 _KEPT_MAPS = 1024
+# A light with at most this many samples (a laser line) keeps its full-resolution maps
+# of the rows reached between dense frames (three float32 bands of rows per sample).
+_CACHED_SAMPLES = 8
 # The inverse map's fixed-point iteration: tolerance (camera px) and iteration limit.
 _MAP_TOL_PX = 1e-7
 _MAP_ITERATIONS = 40
@@ -177,6 +181,7 @@ class SpectralRenderer:
         self._inverse_cache: dict[float, tuple[NDArray[np.float32], ...]] = {}
         self._reference_map: tuple[NDArray[np.float64], ...] | None = None
         self._labels: tuple[LabelScene, NDArray[np.int32]] | None = None
+        self._dense_cache: dict[tuple[float, int, int], tuple[NDArray[np.float32], ...]] = {}
         self._tables: dict[tuple[float, ...], _SpotTable] = {}
         self._splat_sum: NDArray[np.float64] | None = None
 
@@ -185,6 +190,7 @@ class SpectralRenderer:
         cached for the previous one."""
         self.relay = relay
         self._inverse_cache.clear()
+        self._dense_cache.clear()
         self._reference_map = None
 
     # -- the optical model shared by both renderers ---------------------------------
@@ -321,6 +327,23 @@ class SpectralRenderer:
         stop = int(np.ceil(self._coarse_y[cells[-1] + 1])) + 1
         return max(first, 0), min(stop, self.camera_shape[0])
 
+    def _dense_maps(
+        self, wavelength_nm: float, first: int, stop: int, keep: bool
+    ) -> tuple[NDArray[np.float32], ...]:
+        """Full-resolution inverse map (u, v) and area ratio of camera rows [first, stop).
+
+        With ``keep`` the maps are kept (a sweep renders the same laser frame after frame).
+        """
+        key = (round(float(wavelength_nm), 6), first, stop)
+        maps = self._dense_cache.get(key)
+        if maps is None:
+            shape = (stop - first, self.camera_shape[1])
+            maps = tuple(np.empty(shape, np.float32) for _ in range(3))
+            upsample_maps(*self._inverse_maps(wavelength_nm), self._step, first, *maps)
+            if keep:
+                self._dense_cache[key] = maps
+        return maps
+
     def _slm_labels(self, scene: LabelScene, slm_shape: tuple[int, int]) -> NDArray[np.int32]:
         """The label image of the SLM's window of ``scene`` (int32, kept for the last scene)."""
         if self._labels is None or self._labels[0] is not scene:
@@ -370,16 +393,27 @@ class SpectralRenderer:
             per_label = interpolate_rows(
                 scene.spectra, scene.wavelengths_nm, samples.wavelengths_nm
             ).astype(np.float32)
+        keep = samples.wavelengths_nm.size <= _CACHED_SAMPLES
+        wanted = {(round(float(samples.wavelengths_nm[k]), 6), first, stop) for k in lit}
+        if not keep or not wanted.issuperset(self._dense_cache):
+            self._dense_cache.clear()
         source = np.empty_like(transmission)
-        band = np.empty((stop - first, self.camera_shape[1]), np.float32)
         for k in lit:
             lam = samples.wavelengths_nm[k]
             if labelled:
                 label_image(transmission, labels, np.ascontiguousarray(per_label[:, k]), source)
             else:
                 source = transmission * scene.reflectance_image(lam)[rows, cols]
-            map_u, map_v, area = maps[k]
-            warp_sample(source, map_u, map_v, area, self._step, float(gain[k]), first, band)
+            map_u, map_v, area = self._dense_maps(lam, first, stop, keep)
+            band = cv2.remap(
+                source,
+                map_u,
+                map_v,
+                interpolation=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=0.0,
+            )
+            band = cv2.multiply(band, area, scale=float(gain[k]))
             if extra[k] > 0.05:
                 kernel = discrete_gaussian_kernel(float(extra[k]))
                 band = cv2.sepFilter2D(band, -1, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
