@@ -31,11 +31,10 @@ The tables are module constants, frozen into the compiled code: passed as argume
 the inlined draw functions they cost an array reference count per call (about 18 ns a
 pixel, more than the draw itself).
 
-Why not numpy: on a 2048 x 2048 frame numpy's ``Generator.poisson`` takes about 310 ms of
-CPU whatever the mean (it evaluates ``loggam`` and broadcasts per pixel),
-``standard_normal`` 50 ms and the digitisation in temporaries about 60 ms; this loop
-takes 40 to 90 ms for the same frame, by the frame's means (``benchmarks/bench_render.py``
-prints both).
+Why not numpy: numpy's ``Generator.poisson`` evaluates ``loggam`` and broadcasts per
+pixel: about 190 ms of CPU for a 2048 x 2048 frame of means of 46 e- (this loop: 50 ms),
+and with its ``standard_normal`` and the digitisation in temporaries about 160 ms for an
+auto-exposed calibration frame, against 80-110 ms here (``benchmarks/bench_render.py``).
 
 No on-disk cache: numba's cache pickles into the package folder (see
 :mod:`sassi_bench.spectra._kernels`); the first frame of a process compiles (a few s).
