@@ -169,3 +169,32 @@ def clipped_blur(bundle: CalibrationBundle, wavelength_nm: ArrayLike) -> NDArray
     band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
     sigma = np.asarray(bundle.blur_width(np.asarray(wavelength_nm, float)), dtype=np.float64)
     return np.clip(sigma, 0.5 * np.min(band), 2.0 * np.max(band))
+
+
+def reached_rows(
+    bundle: CalibrationBundle,
+    camera_height: int,
+    reach_sigmas: float = 3.0,
+    margin_px: float = 3.0,
+    guard: int = GUARD_BINS,
+) -> tuple[int, int]:
+    """First and one-past-last camera row that light of any SLM pixel can reach.
+
+    Streaks are sampled densely along the SLM's border (where a smooth map takes its
+    extremes) and on a coarse interior grid, widened by ``reach_sigmas`` of the widest
+    blur and ``margin_px``, and clipped to the camera.
+
+    Examples
+    --------
+    >>> top, bottom = reached_rows(bundle, 512)  # doctest: +SKIP
+    """
+    h, w = bundle.slm_shape
+    edge_u, edge_v = np.linspace(0, w - 1, 65), np.linspace(0, h - 1, 65)
+    grid_v, grid_u = np.meshgrid(np.linspace(0, h - 1, 17), np.linspace(0, w - 1, 17))
+    u = np.concatenate([edge_u, edge_u, np.zeros(65), np.full(65, w - 1), grid_u.ravel()])
+    v = np.concatenate([np.zeros(65), np.full(65, h - 1), edge_v, edge_v, grid_v.ravel()])
+    geo = streak_geometry(bundle, np.rint(v), np.rint(u), guard)
+    reach = reach_sigmas * geo.sigma.max() + margin_px
+    top = int(np.clip(np.floor(geo.y.min() - reach), 0, camera_height))
+    bottom = int(np.clip(np.ceil(geo.y.max() + reach) + 1, 0, camera_height))
+    return top, bottom
