@@ -20,11 +20,14 @@ once, a few frames in memory at a time (threads work on several frames at once):
    NaNs or the wrong shape, and streaks that are saturated or leave the camera, are
    reported by frame and SLM pixel and flagged in a quality mask instead of being filled
    in.
-3. **Deblur** (:mod:`~sassi_bench.spectra.deblur`). The scan's mean spectrum is deblurred
-   once at its own noise; the per-pixel deblur's prior is the curvature of each spectrum
-   relative to that mean, and its strength is chosen from a sample of the scan's pixels
-   and their noise (:meth:`~sassi_bench.spectra.deblur.SpectralDeblur.choose`). The
-   choice, and the per-band noise of the deblurred cube, go with the cube.
+3. **Deblur** (:mod:`~sassi_bench.spectra.scan_deblur`). The regularisation is chosen
+   once per session, from every pixel of a seeded choice of its frames, extracted whole
+   whatever the ROI: their mean spectrum, deblurred once at its own noise, is the
+   reference of the per-pixel prior (the curvature of each spectrum relative to it), and
+   the strength is chosen from them and their noise
+   (:meth:`~sassi_bench.spectra.deblur.SpectralDeblur.choose`). An ROI's cube is so the
+   whole scan's there. The choice, and the per-band noise of the deblurred cube, go with
+   the cube.
 
 Only the camera rows that light of the SLM can reach are processed; the background is
 NaN on the others.
