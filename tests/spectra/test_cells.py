@@ -5,7 +5,7 @@ import pytest
 
 from sassi_bench.bundle import load
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum
-from sassi_bench.spectra.deblur import GUARD_WEIGHT, SpectralDeblur
+from sassi_bench.spectra.deblur import PIXEL_GUARD_WEIGHT, SpectralDeblur
 from sassi_bench.spectra.forward import spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.priors import SmoothnessPrior
@@ -56,7 +56,7 @@ def test_deblur_solves_each_pixels_regularised_problem(calibrated_sim):
     row, col = model.grid_v[2], model.grid_u[4]
     a = model.spill[point]
     n = a.shape[0]
-    penalty = SmoothnessPrior(GUARD_WEIGHT).penalty(model.sigma_px, model.guard)[point]
+    penalty = SmoothnessPrior(PIXEL_GUARD_WEIGHT).penalty(model.sigma_px, model.guard)[point]
     gram = a.T @ a
     spectrum = 1000.0 * (1.2 + np.sin(np.linspace(0, 3, n)))
     values = (a @ spectrum)[None] * np.array([[1.0], [0.01]])  # bright and dark pixels
