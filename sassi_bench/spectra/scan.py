@@ -398,9 +398,9 @@ class _Assembly:
             scratch.count,
             scratch.marks,
         )
-        if index in self.sample:
-            self._keep_sample(index, everything, scratch.cumulative, window, bad)
         geo = everything if keep.all() else everything.select(keep)
+        if index in self.sample and geo is not everything:  # an ROI: the whole frame too
+            self._keep_sample(index, everything, scratch.cumulative, window, bad)
         if geo.rows.size == 0:
             return _Frame(index, geo.rows, geo.cols, problems, usable=True)
         layout = cell_layout(geo, self.box)
@@ -412,6 +412,8 @@ class _Assembly:
         if bad:
             flags = flags | _pixel_flags(window, geo, self.saturation, index, problems)
         self.quality[local] = flags
+        if index in self.sample and geo is everything:
+            self.sample_raw[index] = (sums, flags == 0)
         return _Frame(index, geo.rows, geo.cols, problems, usable=True)
 
     def _keep_sample(self, index: int, geo: StreakGeometry, cumulative, window, bad) -> None:
