@@ -29,7 +29,12 @@ from scipy.special import ndtr
 
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.spectra.geometry import GUARD_BINS, streak_geometry
+from sassi_bench.spectra.geometry import (
+    GUARD_BINS,
+    bin_wavelengths,
+    clipped_blur,
+    streak_geometry,
+)
 
 __all__ = ["FIELD_POINTS", "StreakForwardModel", "guard_wavelengths", "spill_matrix"]
 
@@ -37,9 +42,6 @@ __all__ = ["FIELD_POINTS", "StreakForwardModel", "guard_wavelengths", "spill_mat
 #: changes slowly over the field (blending the four nearest points bilinearly changed the
 #: ColorChecker cube by 1.4e-4 RMS, relative, at four times the cost of the nearest).
 FIELD_POINTS = (9, 6)
-
-#: Wavelength grid (nm) on which the dispersion is inverted for the guard bins.
-_INVERSION_GRID_NM = np.linspace(300.0, 1200.0, 9001)
 
 
 def _psi(z: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -72,8 +74,8 @@ def guard_wavelengths(
     """Centre wavelength of every bin of pixels (rows, cols), guard bins included, (N, B').
 
     The bundle's bins keep their centres; a guard bin's wavelength is where the bundle's
-    dispersion model puts the centre of its camera column (the model inverted on a
-    0.1 nm grid, 300-1200 nm).
+    dispersion model puts the centre of its camera column
+    (:func:`~sassi_bench.spectra.geometry.bin_wavelengths`).
 
     Examples
     --------
@@ -81,19 +83,7 @@ def guard_wavelengths(
     >>> lam[0, :6].round(0), lam[0, -6:].round(0)  # doctest: +SKIP
     (array([388., 390., 392., 394., 396., 398.]), array([706., 719., 732., 746., 760., 775.]))
     """
-    geo = streak_geometry(bundle, rows, cols, guard)
-    x, _ = bundle.models.dispersion.evaluate(
-        geo.cols[:, None].astype(float), geo.rows[:, None].astype(float), _INVERSION_GRID_NM
-    )
-    centres = 0.5 * (geo.x_left + geo.x_right)
-    lam = np.empty_like(centres)
-    for n in range(centres.shape[0]):  # a few dozen field points
-        ascending = x[n, -1] > x[n, 0]
-        xs = x[n] if ascending else x[n, ::-1]
-        grid = _INVERSION_GRID_NM if ascending else _INVERSION_GRID_NM[::-1]
-        lam[n] = np.interp(centres[n], xs, grid)
-    lam[:, geo.core] = np.asarray(bundle.wavelengths, dtype=np.float64)
-    return lam
+    return bin_wavelengths(bundle, streak_geometry(bundle, rows, cols, guard))
 
 
 @dataclass(frozen=True)
@@ -159,7 +149,7 @@ class StreakForwardModel:
                     "load a bundle whose blur fit passed its checks (sassi-bench bundle verify)",
                 )
             )
-        sigma = np.clip(bundle.blur_width(lam), 0.5 * band.min(), 2.0 * band.max())
+        sigma = clipped_blur(bundle, lam)
         return cls(gu, gv, lam, sigma, spill_matrix(geo.x_left, geo.x_right, sigma), guard)
 
     @property

@@ -1,4 +1,22 @@
-"""Streak geometry: where each bin of each open SLM pixel falls on the spectral camera."""
+"""Streak geometry: where each bin of each open SLM pixel falls on the spectral camera.
+
+:attr:`StreakGeometry.sigma` is the blur *across* the streak, the vertical spread of the
+light in each bin's columns, which the row unmixing (:mod:`~sassi_bench.spectra.cells`),
+the column fit of dense masks (:mod:`~sassi_bench.spectra.crosstalk`), the footprints and
+the noise model use. The guard bins beyond the band keep the blur of the band's end bin
+there: their columns hold mostly the blurred tail of the band's end (on the virtual bench
+no light lies past 720 nm), whose vertical spread is the end bin's. Giving them the blur
+at their own wavelength instead (up to 5.8 px at the sim rig's last guard, 760 nm, for
+5.4 camera rows between stacked pixels) made the row unmixing of those columns
+ill-conditioned: the ColorChecker scan's column-sum noise rose 19-fold (mean variance
+2.7e6 -> 5.1e7 ADU^2), its PSNR against the bench's truth fell from 54.7 to 49.6 dB and
+its mean spectral angle rose from 1.07 to 2.59 degrees.
+
+*Along* the streak, where a guard bin is an unknown of the deblur (light at the guard's
+own wavelength), its blur is the one at that wavelength: :func:`bin_wavelengths` gives the
+wavelength of every bin's column and :func:`clipped_blur` the blur there, which the
+deblur's forward model takes per field point (:mod:`~sassi_bench.spectra.forward`).
+"""
 
 from __future__ import annotations
 
@@ -10,9 +28,18 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.spectra import _kernels
 
-__all__ = ["GUARD_BINS", "StreakGeometry", "streak_geometry"]
+__all__ = [
+    "GUARD_BINS",
+    "StreakGeometry",
+    "bin_wavelengths",
+    "clipped_blur",
+    "streak_geometry",
+]
 
 GUARD_BINS = 6
+
+#: Wavelength grid (nm) on which the dispersion is inverted for the guard bins.
+_INVERSION_GRID_NM = np.linspace(300.0, 1200.0, 9001)
 
 
 @dataclass(frozen=True)
@@ -28,7 +55,8 @@ class StreakGeometry:
     y
         Camera row of each bin's centre, (N, B + 2 * guard).
     sigma
-        Blur sigma of each bin, (B + 2 * guard,).
+        Blur sigma across the streak of each bin, (B + 2 * guard,): the guard bins carry
+        the band's end bins' (see the module docstring).
     guard
         Guard bins at each end; the bundle's bins are ``guard .. guard + B``.
     """
@@ -65,7 +93,14 @@ class StreakGeometry:
 def streak_geometry(
     bundle: CalibrationBundle, rows: ArrayLike, cols: ArrayLike, guard: int = GUARD_BINS
 ) -> StreakGeometry:
-    """Bin footprints of open SLM pixels (rows, cols) on the camera, from a bundle."""
+    """Bin footprints of open SLM pixels (rows, cols) on the camera, from a bundle.
+
+    Examples
+    --------
+    >>> geo = streak_geometry(bundle, [200], [320])  # doctest: +SKIP
+    >>> geo.x_left.shape, geo.sigma.shape  # doctest: +SKIP
+    ((1, 80), (80,))
+    """
     rows = np.asarray(rows, dtype=np.intp).ravel()
     cols = np.asarray(cols, dtype=np.intp).ravel()
     model = bundle.models.dispersion
@@ -87,16 +122,53 @@ def streak_geometry(
         x_right,
         y,
     )
-    sigma = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
-    return StreakGeometry(
-        rows=rows,
-        cols=cols,
-        x_left=x_left,
-        x_right=x_right,
-        y=y,
-        sigma=np.concatenate([np.full(guard, sigma[0]), sigma, np.full(guard, sigma[-1])]),
-        guard=guard,
+    band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
+    sigma = np.concatenate([np.full(guard, band[0]), band, np.full(guard, band[-1])])
+    return StreakGeometry(rows, cols, x_left, x_right, y, sigma, guard)
+
+
+def bin_wavelengths(bundle: CalibrationBundle, geometry: StreakGeometry) -> NDArray[np.float64]:
+    """Centre wavelength of every bin of ``geometry``'s pixels, guard bins included, (N, B').
+
+    The bundle's bins keep their centres; a guard bin's wavelength is where the bundle's
+    dispersion model puts the centre of its camera column (the model inverted on a
+    0.1 nm grid, 300-1200 nm).
+
+    Examples
+    --------
+    >>> lam = bin_wavelengths(bundle, streak_geometry(bundle, [200], [320]))  # doctest: +SKIP
+    >>> lam[0, -6:].round(0)  # doctest: +SKIP
+    array([706., 719., 732., 746., 760., 775.])
+    """
+    x, _ = bundle.models.dispersion.evaluate(
+        geometry.cols[:, None].astype(float),
+        geometry.rows[:, None].astype(float),
+        _INVERSION_GRID_NM,
     )
+    centres = 0.5 * (geometry.x_left + geometry.x_right)
+    lam = np.empty_like(centres)
+    for n in range(centres.shape[0]):  # a few dozen field points
+        ascending = x[n, -1] > x[n, 0]
+        xs = x[n] if ascending else x[n, ::-1]
+        grid = _INVERSION_GRID_NM if ascending else _INVERSION_GRID_NM[::-1]
+        lam[n] = np.interp(centres[n], xs, grid)
+    lam[:, geometry.core] = np.asarray(bundle.wavelengths, dtype=np.float64)
+    return lam
+
+
+def clipped_blur(bundle: CalibrationBundle, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+    """The bundle's blur sigma (camera px) at ``wavelength_nm``, kept within half the
+    band's narrowest and twice its widest blur: outside the band the fitted curve is an
+    extrapolation past the lasers, and a fit that bends away there must not give nonsense.
+
+    Examples
+    --------
+    >>> clipped_blur(bundle, [550.0, 760.0])  # doctest: +SKIP
+    array([0.71, 4.9 ])
+    """
+    band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
+    sigma = np.asarray(bundle.blur_width(np.asarray(wavelength_nm, float)), dtype=np.float64)
+    return np.clip(sigma, 0.5 * np.min(band), 2.0 * np.max(band))
 
 
 def reached_rows(

@@ -20,11 +20,14 @@ once, a few frames in memory at a time (threads work on several frames at once):
    NaNs or the wrong shape, and streaks that are saturated or leave the camera, are
    reported by frame and SLM pixel and flagged in a quality mask instead of being filled
    in.
-3. **Deblur** (:mod:`~sassi_bench.spectra.deblur`). The scan's mean spectrum is deblurred
-   once at its own noise; the per-pixel deblur's prior is the curvature of each spectrum
-   relative to that mean, and its strength is chosen from a sample of the scan's pixels
-   and their noise (:meth:`~sassi_bench.spectra.deblur.SpectralDeblur.choose`). The
-   choice, and the per-band noise of the deblurred cube, go with the cube.
+3. **Deblur** (:mod:`~sassi_bench.spectra.scan_deblur`). The regularisation is chosen
+   once per session, from every pixel of a seeded choice of its frames, extracted whole
+   whatever the ROI: their mean spectrum, deblurred once at its own noise, is the
+   reference of the per-pixel prior (the curvature of each spectrum relative to it), and
+   the strength is chosen from them and their noise
+   (:meth:`~sassi_bench.spectra.deblur.SpectralDeblur.choose`). An ROI's cube is so the
+   whole scan's there. The choice, and the per-band noise of the deblurred cube, go with
+   the cube.
 
 Only the camera rows that light of the SLM can reach are processed; the background is
 NaN on the others.
@@ -57,7 +60,13 @@ from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_row
 from sassi_bench.spectra.noise import CountsNoise, row_unmixing_gain
 from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
 from sassi_bench.spectra.regularisation import RegularisationChoice
-from sassi_bench.spectra.scan_deblur import ScanDeblur, deblur_scan, stack_bins
+from sassi_bench.spectra.scan_deblur import (
+    ChoiceSample,
+    ScanDeblur,
+    deblur_scan,
+    sample_frames,
+    stack_bins,
+)
 
 __all__ = [
     "QUALITY_FLAGS",
@@ -342,6 +351,14 @@ class _Assembly:
         self.scratches: list[_Scratch] = []
         self.thread = threading.local()
         self.background_cumulative: NDArray[np.float64] | None = None
+        # The frames whose every pixel chooses the deblur's regularisation, whatever the ROI
+        # (scan_deblur.sample_frames), and their raw cell sums and good pixels.
+        steps = [i for i in session.plan.select(role="pinholes") if i in session.completed]
+        self.sample: frozenset[int] = frozenset()
+        if deblur and steps:
+            first = open_pixels(session.plan.steps[steps[0]].pattern, self.slm_shape)[0]
+            self.sample = sample_frames(steps, first.size)
+        self.sample_raw: dict[int, tuple[NDArray[np.float32], NDArray[np.bool_]]] = {}
 
     def _scratch(self) -> _Scratch:
         """This thread's background sums and working buffers (made on first use)."""
@@ -382,6 +399,8 @@ class _Assembly:
             scratch.marks,
         )
         geo = everything if keep.all() else everything.select(keep)
+        if index in self.sample and geo is not everything:  # an ROI: the whole frame too
+            self._keep_sample(index, everything, scratch.cumulative, window, bad)
         if geo.rows.size == 0:
             return _Frame(index, geo.rows, geo.cols, problems, usable=True)
         layout = cell_layout(geo, self.box)
@@ -393,7 +412,32 @@ class _Assembly:
         if bad:
             flags = flags | _pixel_flags(window, geo, self.saturation, index, problems)
         self.quality[local] = flags
+        if index in self.sample and geo is everything:
+            self.sample_raw[index] = (sums, flags == 0)
         return _Frame(index, geo.rows, geo.cols, problems, usable=True)
+
+    def _keep_sample(self, index: int, geo: StreakGeometry, cumulative, window, bad) -> None:
+        """Raw cell sums and good pixels of every pixel of a sample frame (as read)."""
+        layout = cell_layout(geo, self.box)
+        flagged = layout.off[:, geo.core].any(axis=1)
+        if bad:
+            flagged |= _pixel_flags(window, geo, self.saturation, index, []) != 0
+        self.sample_raw[index] = (cell_sums(cumulative, layout).astype(np.float32), ~flagged)
+
+    def choice_sample(self) -> ChoiceSample:
+        """The sample frames' pixels unmixed as the spectra pass does (after it)."""
+        parts, gain = [], None
+        for index in sorted(self.sample_raw):  # a few dozen frames at most
+            raw, good = self.sample_raw.pop(index)
+            rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
+            geo = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
+            layout = cell_layout(geo, self.box)
+            gain = row_unmixing_gain(geo, layout) if gain is None else gain
+            variance = self.noise.variance(raw, layout, gain).mean(axis=1)
+            raw -= cell_sums(self.background_cumulative, layout)
+            exposure = np.full(rows.size, self.session.plan.steps[index].exposure_s)
+            parts.append((unmix_rows(raw, layout, geo), rows, cols, variance, exposure, good))
+        return ChoiceSample.of(parts, self.n_bins + 2 * GUARD_BINS)
 
     def background(self) -> NDArray[np.float64]:
         """The background estimate on the whole camera (NaN where no light reaches)."""
@@ -447,7 +491,7 @@ class _Assembly:
             return None, kept
         c0 = self.roi.col0
         result = deblur_scan(
-            self.work, self.guards, self.exposure, self.variance, self.quality == 0,
+            self.work, self.guards, self.exposure, self.choice_sample(), self.quality == 0,
             (self.w0, c0), self.model, float(self.saturation), run,
         )  # fmt: skip
         return result, kept

@@ -32,6 +32,7 @@ from sassi_bench.workflows.procedure import load_procedure, with_changes
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import check_scan, response_source, run_response
 from sassi_bench.workflows.spectral import run_spectral_calibration
+from sassi_bench.workflows.streak_pitch import check_scan_pitch
 
 __all__ = ["FullCalibration", "run_full_calibration"]
 
@@ -109,6 +110,10 @@ def run_full_calibration(
     spectral_proc = _stage_procedure("spectral_calibration", procedure["spectral_procedure"])
     guide_proc = _stage_procedure("guide_registration", procedure["guide_procedure"])
     macbeth_proc = _stage_procedure("macbeth_validation", procedure["macbeth_procedure"])
+    # Every scan of the chain, before anything is captured: a streak too long for a pitch
+    # would otherwise fail only at the scan that uses it.
+    for what, stage in (("guide scan", guide_proc), ("Macbeth scan", macbeth_proc)):
+        check_scan_pitch(rig.description, tuple(stage["scan"]["pitch_px"]), what)
     macbeth_proc = with_changes(
         macbeth_proc,
         white_reference={

@@ -35,6 +35,7 @@ from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.scan import ScanCube, assemble_scan, check_pitch, check_roi, scan_plan
 from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
 from sassi_bench.workflows.rig_lock import drives_rig
+from sassi_bench.workflows.streak_pitch import check_scan_pitch
 
 __all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
 
@@ -68,7 +69,9 @@ def check_scan(
     Raises
     ------
     ProcedureError
-        Naming the first argument the rig cannot take, and the choices it has.
+        Naming the first argument the rig cannot take, and the choices it has; or a
+        pitch at which the streaks leave no streak-free camera columns
+        (:func:`~sassi_bench.workflows.streak_pitch.check_scan_pitch`).
 
     Examples
     --------
@@ -77,6 +80,7 @@ def check_scan(
     check_scene(scene, step="scan")
     check_light(light, rig.light.available, step="scan")
     check_pitch(pitch, rig.slm.shape)
+    check_scan_pitch(rig.description, pitch)
     check_roi(roi, rig.slm.shape, step="scan")
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 
 from sassi_bench.bundle import load
-from sassi_bench.spectra.geometry import streak_geometry
+from sassi_bench.spectra.geometry import bin_wavelengths, clipped_blur, streak_geometry
 
 
 def test_streak_geometry_follows_the_bundles_map(calibrated_sim):
@@ -35,3 +35,20 @@ def test_streak_geometry_of_no_pixels(calibrated_sim):
     bundle = load(rig="sim", data=data)
     geo = streak_geometry(bundle, [], [], guard=2)
     assert geo.y.shape == geo.x_left.shape == (0, bundle.wavelengths.size + 4)
+
+
+def test_guard_bins_keep_the_band_ends_blur_across_the_streak(calibrated_sim):
+    _, _, data = calibrated_sim
+    bundle = load(rig="sim", data=data)
+    geo = streak_geometry(bundle, [200, 10], [320, 600])
+    band = np.asarray(bundle.blur_width(bundle.wavelengths))
+    # Across the streak (the row unmixing's blur) the guards hold the band end's tail...
+    assert np.all(geo.sigma[: geo.guard] == band[0]) and np.all(geo.sigma[-geo.guard :] == band[-1])
+    assert np.array_equal(geo.sigma[geo.core], band)
+    # ...along it (the deblur's unknowns) each guard takes the blur at its own wavelength.
+    lam = bin_wavelengths(bundle, geo)
+    assert np.array_equal(lam[:, geo.core], np.broadcast_to(bundle.wavelengths, (2, band.size)))
+    assert np.all(np.diff(lam[:, geo.core.stop - 1 :], axis=1) > 0)
+    along = clipped_blur(bundle, lam)
+    assert np.all(along[:, -1] > 1.2 * geo.sigma[-1])
+    assert np.allclose(along[:, geo.core], band)
