@@ -132,15 +132,13 @@ def discrete_gaussian_kernel(sigma: float) -> NDArray[np.float32]:
 class _SpotTable:
     """Spot profiles of a set of wavelength samples, for the sparse renderer.
 
-    ``values[k, centre + m]`` is sample k's profile at ``m / _TABLE_STEPS`` px from the
-    spot centre (zero beyond ``reach[k]`` px); ``norm[k, phase]`` is the sum of the
-    profile over whole-pixel steps for a spot at sub-pixel phase ``phase``.
+    ``taps[k, phase, t]`` is sample k's profile at whole-pixel offset
+    ``t - reach[k] - phase / _TABLE_STEPS`` px from the spot's centre (zero beyond
+    ``reach[k]`` px), normalised to sum to 1 over ``t`` for every phase.
     """
 
-    values: NDArray[np.float32]
-    centre: int
-    norm: NDArray[np.float64]
-    reach: NDArray[np.intp]
+    taps: NDArray[np.float32]
+    reach: NDArray[np.int64]
 
 
 class SpectralRenderer:
@@ -183,7 +181,6 @@ class SpectralRenderer:
         self._labels: tuple[LabelScene, NDArray[np.int32]] | None = None
         self._dense_cache: dict[tuple[float, int, int], tuple[NDArray[np.float32], ...]] = {}
         self._tables: dict[tuple[float, ...], _SpotTable] = {}
-        self._splat_sum: NDArray[np.float64] | None = None
 
     def use_relay(self, relay: SpectralRelay) -> None:
         """Render through ``relay`` from now on (a drifted bench), dropping what was
@@ -214,23 +211,16 @@ class SpectralRenderer:
             spot = self.spot_sigma(wavelengths_nm)
             sigma = self._tent_blur(spot)
             scale = self.relay.scale
-            own_reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.intp) + 1
-            half = (int(own_reach.max()) + 2) * _TABLE_STEPS
-            offsets = np.arange(-half, half + 1) / _TABLE_STEPS
-            values = np.stack([spot_profile(offsets, scale, sd) for sd in sigma])
-            values[np.abs(offsets)[None, :] > own_reach[:, None]] = 0.0
-            # Sum over whole-pixel steps for every sub-pixel phase, to normalise kernels.
-            phases = np.arange(_TABLE_STEPS)
-            taps = np.arange(-half // _TABLE_STEPS - 1, half // _TABLE_STEPS + 2) * _TABLE_STEPS
-            where = half - phases[:, None] + taps[None, :]
-            valid = (where >= 0) & (where < values.shape[1])
-            norm = np.where(valid[None], values[:, np.clip(where, 0, values.shape[1] - 1)], 0.0)
-            table = _SpotTable(
-                values=values.astype(np.float32),
-                centre=half,
-                norm=norm.sum(axis=2),
-                reach=own_reach,
-            )
+            reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.int64) + 1
+            width = 2 * int(reach.max()) + 1
+            phase = np.arange(_TABLE_STEPS)[:, None] / _TABLE_STEPS
+            taps = np.zeros((wavelengths_nm.size, _TABLE_STEPS, width))
+            for k, (r, sd) in enumerate(zip(reach, sigma, strict=True)):
+                offsets = np.arange(2 * r + 1)[None, :] - r - phase
+                values = spot_profile(offsets, scale, sd)
+                values[np.abs(offsets) > r] = 0.0
+                taps[k, :, : 2 * r + 1] = values / values.sum(axis=1, keepdims=True)
+            table = _SpotTable(taps=taps.astype(np.float32), reach=reach)
             self._tables[key] = table
         return table
 
@@ -428,12 +418,13 @@ class SpectralRenderer:
         transmission: NDArray[np.float32],
         scene: Scene,
         samples: SpectralSamples,
+        base: NDArray[np.float32] | None = None,
     ) -> NDArray[np.float32]:
         """Electron rate for a few open SLM pixels, by splatting their streaks.
 
         Every (pixel, sample) spot is the tabulated profile (1/64 px steps, nearest
-        entry) in x times that in y; each sampled spot's sum is known per sub-pixel
-        phase, so dividing by it makes every sample deposit exactly its energy.
+        entry) in x times that in y, each normalised over its whole-pixel taps, so every
+        sample deposits exactly its energy.
 
         Parameters
         ----------
@@ -441,6 +432,8 @@ class SpectralRenderer:
             SLM coordinates of the open pixels (N,).
         transmission
             Their transmissions (N,).
+        base
+            A rate the streaks are added onto (a copy of it is returned); default 0.
 
         Examples
         --------
@@ -454,29 +447,17 @@ class SpectralRenderer:
         >>> rate.shape, bool(rate.sum() > 0)
         ((512, 800), True)
         """
-        if rows.size == 0:
-            return np.zeros(self.camera_shape, dtype=np.float32)
-        # The float64 sum is kept between frames: a fresh one costs its page faults.
-        if self._splat_sum is None:
-            self._splat_sum = np.zeros(self.camera_shape, dtype=np.float64)
+        if base is None:
+            total = np.zeros(self.camera_shape, dtype=np.float32)
         else:
-            self._splat_sum.fill(0.0)
-        total = self._splat_sum
+            total = np.array(base, dtype=np.float32, copy=True)
+        if rows.size == 0:
+            return total
         lam = samples.wavelengths_nm
         gain = self.electrons_per_photon(samples).astype(np.float32)
         table = self._spot_table(lam)
         spectra = scene.reflectance_at(rows + scene.margin, cols + scene.margin, lam)
         spectra *= gain[None, :] * np.asarray(transmission, dtype=np.float32)[:, None]
-        x, y = self.relay.forward(cols[:, None], rows[:, None], lam[None, :])
-        splat(
-            np.ascontiguousarray(x, dtype=np.float64),
-            np.ascontiguousarray(y, dtype=np.float64),
-            spectra.astype(np.float64),
-            table.values,
-            table.centre,
-            _TABLE_STEPS,
-            table.norm,
-            table.reach.astype(np.int64),
-            total,
-        )
-        return total.astype(np.float32)
+        x, y = self.relay.forward_grid(cols, rows, lam)
+        splat(x, y, spectra, table.taps, table.reach, _TABLE_STEPS, total)
+        return total
