@@ -46,7 +46,8 @@ def splat(x, y, weights, taps, reach, steps, out):  # pragma: no cover - compile
         (K, steps, T) float32: ``taps[k, phase, t]`` is sample k's profile at whole-pixel
         offset ``t - reach[k] - phase / steps`` from a centre at sub-pixel ``phase``
         (centres are rounded to ``1 / steps`` px), normalised to sum to 1 over ``t``;
-        ``t`` runs over ``0 .. 2 reach[k]``.
+        ``t`` runs over ``0 .. 2 reach[k]``, and the entries after it are 0 up to T, a
+        multiple of 8 above ``2 max(reach)``.
     out
         The frame (float32), added to in place.
     """
@@ -87,17 +88,26 @@ def splat(x, y, weights, taps, reach, steps, out):  # pragma: no cover - compile
                 ix = np.int64(np.rint(x[p, k] * steps))
                 cx = ix // steps
                 left = cx - r
-                start = max(0, -left)
-                stop = min(2 * r + 1, width - left)
-                if start >= stop:
-                    continue
                 ty = taps[k, iy - cy * steps]
-                # Slices indexed from 0: numba then knows no index is negative (no
-                # wrap-around test), and the row loop vectorises.
-                tx = taps[k, ix - cx * steps, start:stop]
-                n = stop - start
-                for i in range(top, bottom + 1):
-                    a = w * ty[i - cy + r]
-                    row = out[i, left + start : left + stop]
-                    for j in range(n):
-                        row[j] += a * tx[j]
+                # The taps run on, as zeros, to a multiple of 8: a row is whole float32
+                # vectors, without a scalar remainder (slices indexed from 0 also tell
+                # numba that no index is negative, so it tests for no wrap-around).
+                whole = (2 * r + 8) // 8 * 8
+                if left >= 0 and left + whole <= width:
+                    tx = taps[k, ix - cx * steps, :whole]
+                    for i in range(top, bottom + 1):
+                        a = w * ty[i - cy + r]
+                        row = out[i, left : left + whole]
+                        for j in range(whole):
+                            row[j] += a * tx[j]
+                else:  # the frame's edge cuts the spot
+                    start = max(0, -left)
+                    stop = min(2 * r + 1, width - left)
+                    if start >= stop:
+                        continue
+                    tx = taps[k, ix - cx * steps, start:stop]
+                    for i in range(top, bottom + 1):
+                        a = w * ty[i - cy + r]
+                        row = out[i, left + start : left + stop]
+                        for j in range(stop - start):
+                            row[j] += a * tx[j]

@@ -134,7 +134,8 @@ class _SpotTable:
 
     ``taps[k, phase, t]`` is sample k's profile at whole-pixel offset
     ``t - reach[k] - phase / _TABLE_STEPS`` px from the spot's centre (zero beyond
-    ``reach[k]`` px), normalised to sum to 1 over ``t`` for every phase.
+    ``reach[k]`` px and after ``t = 2 reach[k]``), normalised to sum to 1 over ``t`` for
+    every phase.
     """
 
     taps: NDArray[np.float32]
@@ -212,7 +213,8 @@ class SpectralRenderer:
             sigma = self._tent_blur(spot)
             scale = self.relay.scale
             reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.int64) + 1
-            width = 2 * int(reach.max()) + 1
+            # Zeros after the taps, to a multiple of 8 (the splat's float32 vectors).
+            width = (2 * int(reach.max()) + 8) // 8 * 8
             phase = np.arange(_TABLE_STEPS)[:, None] / _TABLE_STEPS
             taps = np.zeros((wavelengths_nm.size, _TABLE_STEPS, width))
             for k, (r, sd) in enumerate(zip(reach, sigma, strict=True)):
