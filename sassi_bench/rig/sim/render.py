@@ -27,6 +27,7 @@ sensor model. No Python loop runs over pixels: loops run over wavelength samples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -126,6 +127,14 @@ def discrete_gaussian_kernel(sigma: float) -> NDArray[np.float32]:
     else:
         width = sigma
     return kernel(width).astype(np.float32)
+
+
+@lru_cache(maxsize=4096)
+def _blur_kernel(sigma: float) -> NDArray[np.float32]:
+    """:func:`discrete_gaussian_kernel`, solved once per sigma (read-only)."""
+    kernel = discrete_gaussian_kernel(sigma)
+    kernel.setflags(write=False)
+    return kernel
 
 
 @dataclass(frozen=True)
@@ -390,6 +399,9 @@ class SpectralRenderer:
         if not keep or not wanted.issuperset(self._dense_cache):
             self._dense_cache.clear()
         source = np.empty_like(transmission)
+        band = np.empty((stop - first, self.camera_shape[1]), np.float32)
+        blurred = np.empty_like(band)
+        lit_rows = rate[first:stop]
         for k in lit:
             lam = samples.wavelengths_nm[k]
             if labelled:
@@ -397,19 +409,24 @@ class SpectralRenderer:
             else:
                 source = transmission * scene.reflectance_image(lam)[rows, cols]
             map_u, map_v, area = self._dense_maps(lam, first, stop, keep)
-            band = cv2.remap(
+            cv2.remap(
                 source,
                 map_u,
                 map_v,
+                dst=band,
                 interpolation=cv2.INTER_LINEAR,
                 borderMode=cv2.BORDER_CONSTANT,
                 borderValue=0.0,
             )
-            band = cv2.multiply(band, area, scale=float(gain[k]))
+            cv2.multiply(band, area, dst=band, scale=float(gain[k]))
             if extra[k] > 0.05:
-                kernel = discrete_gaussian_kernel(float(extra[k]))
-                band = cv2.sepFilter2D(band, -1, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
-            rate[first:stop] += band
+                kernel = _blur_kernel(float(extra[k]))
+                cv2.sepFilter2D(
+                    band, -1, kernel, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT
+                )
+                np.add(lit_rows, blurred, out=lit_rows)
+            else:
+                np.add(lit_rows, band, out=lit_rows)
         return rate
 
     # -- sparse ---------------------------------------------------------------------
