@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
-from sassi_bench.rig.sim._splat import splat
+from sassi_bench.rig.sim._splat import PAD, splat, table_width
 from sassi_bench.rig.sim._warp import label_image, upsample_maps
 from sassi_bench.rig.sim.scenes import LabelScene, Scene, interpolate_rows
 
@@ -141,10 +141,10 @@ def _blur_kernel(sigma: float) -> NDArray[np.float32]:
 class _SpotTable:
     """Spot profiles of a set of wavelength samples, for the sparse renderer.
 
-    ``taps[k, phase, t]`` is sample k's profile at whole-pixel offset
+    ``taps[k, phase, PAD + t]`` is sample k's profile at whole-pixel offset
     ``t - reach[k] - phase / _TABLE_STEPS`` px from the spot's centre (zero beyond
-    ``reach[k]`` px and after ``t = 2 reach[k]``), normalised to sum to 1 over ``t`` for
-    every phase.
+    ``reach[k]`` px), normalised to sum to 1 over ``t`` in ``0 .. 2 reach[k]`` for every
+    phase; every other entry is 0 (the layout of :mod:`~sassi_bench.rig.sim._splat`).
     """
 
     taps: NDArray[np.float32]
@@ -222,15 +222,15 @@ class SpectralRenderer:
             sigma = self._tent_blur(spot)
             scale = self.relay.scale
             reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.int64) + 1
-            # Zeros after the taps, to a multiple of 8 (the splat's float32 vectors).
-            width = (2 * int(reach.max()) + 8) // 8 * 8
+            # Zeros around the taps (the splat's layout: see its table_width).
+            width = table_width(int(reach.max()))
             phase = np.arange(_TABLE_STEPS)[:, None] / _TABLE_STEPS
             taps = np.zeros((wavelengths_nm.size, _TABLE_STEPS, width))
             for k, (r, sd) in enumerate(zip(reach, sigma, strict=True)):
                 offsets = np.arange(2 * r + 1)[None, :] - r - phase
                 values = spot_profile(offsets, scale, sd)
                 values[np.abs(offsets) > r] = 0.0
-                taps[k, :, : 2 * r + 1] = values / values.sum(axis=1, keepdims=True)
+                taps[k, :, PAD : PAD + 2 * r + 1] = values / values.sum(axis=1, keepdims=True)
             table = _SpotTable(taps=taps.astype(np.float32), reach=reach)
             self._tables[key] = table
         return table
