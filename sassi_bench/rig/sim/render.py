@@ -27,6 +27,7 @@ sensor model. No Python loop runs over pixels: loops run over wavelength samples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -35,7 +36,7 @@ from numpy.typing import NDArray
 from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
-from sassi_bench.rig.sim._splat import splat
+from sassi_bench.rig.sim._splat import PAD, splat, table_width
 from sassi_bench.rig.sim._warp import label_image, upsample_maps
 from sassi_bench.rig.sim.scenes import LabelScene, Scene, interpolate_rows
 
@@ -128,19 +129,26 @@ def discrete_gaussian_kernel(sigma: float) -> NDArray[np.float32]:
     return kernel(width).astype(np.float32)
 
 
+@lru_cache(maxsize=4096)
+def _blur_kernel(sigma: float) -> NDArray[np.float32]:
+    """:func:`discrete_gaussian_kernel`, solved once per sigma (read-only)."""
+    kernel = discrete_gaussian_kernel(sigma)
+    kernel.setflags(write=False)
+    return kernel
+
+
 @dataclass(frozen=True)
 class _SpotTable:
     """Spot profiles of a set of wavelength samples, for the sparse renderer.
 
-    ``values[k, centre + m]`` is sample k's profile at ``m / _TABLE_STEPS`` px from the
-    spot centre (zero beyond ``reach[k]`` px); ``norm[k, phase]`` is the sum of the
-    profile over whole-pixel steps for a spot at sub-pixel phase ``phase``.
+    ``taps[k, phase, PAD + t]`` is sample k's profile at whole-pixel offset
+    ``t - reach[k] - phase / _TABLE_STEPS`` px from the spot's centre (zero beyond
+    ``reach[k]`` px), normalised to sum to 1 over ``t`` in ``0 .. 2 reach[k]`` for every
+    phase; every other entry is 0 (the layout of :mod:`~sassi_bench.rig.sim._splat`).
     """
 
-    values: NDArray[np.float32]
-    centre: int
-    norm: NDArray[np.float64]
-    reach: NDArray[np.intp]
+    taps: NDArray[np.float32]
+    reach: NDArray[np.int64]
 
 
 class SpectralRenderer:
@@ -183,7 +191,6 @@ class SpectralRenderer:
         self._labels: tuple[LabelScene, NDArray[np.int32]] | None = None
         self._dense_cache: dict[tuple[float, int, int], tuple[NDArray[np.float32], ...]] = {}
         self._tables: dict[tuple[float, ...], _SpotTable] = {}
-        self._splat_sum: NDArray[np.float64] | None = None
 
     def use_relay(self, relay: SpectralRelay) -> None:
         """Render through ``relay`` from now on (a drifted bench), dropping what was
@@ -214,23 +221,17 @@ class SpectralRenderer:
             spot = self.spot_sigma(wavelengths_nm)
             sigma = self._tent_blur(spot)
             scale = self.relay.scale
-            own_reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.intp) + 1
-            half = (int(own_reach.max()) + 2) * _TABLE_STEPS
-            offsets = np.arange(-half, half + 1) / _TABLE_STEPS
-            values = np.stack([spot_profile(offsets, scale, sd) for sd in sigma])
-            values[np.abs(offsets)[None, :] > own_reach[:, None]] = 0.0
-            # Sum over whole-pixel steps for every sub-pixel phase, to normalise kernels.
-            phases = np.arange(_TABLE_STEPS)
-            taps = np.arange(-half // _TABLE_STEPS - 1, half // _TABLE_STEPS + 2) * _TABLE_STEPS
-            where = half - phases[:, None] + taps[None, :]
-            valid = (where >= 0) & (where < values.shape[1])
-            norm = np.where(valid[None], values[:, np.clip(where, 0, values.shape[1] - 1)], 0.0)
-            table = _SpotTable(
-                values=values.astype(np.float32),
-                centre=half,
-                norm=norm.sum(axis=2),
-                reach=own_reach,
-            )
+            reach = np.ceil(_TRUNCATE_SIGMAS * spot + scale).astype(np.int64) + 1
+            # Zeros around the taps (the splat's layout: see its table_width).
+            width = table_width(int(reach.max()))
+            phase = np.arange(_TABLE_STEPS)[:, None] / _TABLE_STEPS
+            taps = np.zeros((wavelengths_nm.size, _TABLE_STEPS, width))
+            for k, (r, sd) in enumerate(zip(reach, sigma, strict=True)):
+                offsets = np.arange(2 * r + 1)[None, :] - r - phase
+                values = spot_profile(offsets, scale, sd)
+                values[np.abs(offsets) > r] = 0.0
+                taps[k, :, PAD : PAD + 2 * r + 1] = values / values.sum(axis=1, keepdims=True)
+            table = _SpotTable(taps=taps.astype(np.float32), reach=reach)
             self._tables[key] = table
         return table
 
@@ -398,6 +399,9 @@ class SpectralRenderer:
         if not keep or not wanted.issuperset(self._dense_cache):
             self._dense_cache.clear()
         source = np.empty_like(transmission)
+        band = np.empty((stop - first, self.camera_shape[1]), np.float32)
+        blurred = np.empty_like(band)
+        lit_rows = rate[first:stop]
         for k in lit:
             lam = samples.wavelengths_nm[k]
             if labelled:
@@ -405,19 +409,24 @@ class SpectralRenderer:
             else:
                 source = transmission * scene.reflectance_image(lam)[rows, cols]
             map_u, map_v, area = self._dense_maps(lam, first, stop, keep)
-            band = cv2.remap(
+            cv2.remap(
                 source,
                 map_u,
                 map_v,
+                dst=band,
                 interpolation=cv2.INTER_LINEAR,
                 borderMode=cv2.BORDER_CONSTANT,
                 borderValue=0.0,
             )
-            band = cv2.multiply(band, area, scale=float(gain[k]))
+            cv2.multiply(band, area, dst=band, scale=float(gain[k]))
             if extra[k] > 0.05:
-                kernel = discrete_gaussian_kernel(float(extra[k]))
-                band = cv2.sepFilter2D(band, -1, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
-            rate[first:stop] += band
+                kernel = _blur_kernel(float(extra[k]))
+                cv2.sepFilter2D(
+                    band, -1, kernel, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT
+                )
+                np.add(lit_rows, blurred, out=lit_rows)
+            else:
+                np.add(lit_rows, band, out=lit_rows)
         return rate
 
     # -- sparse ---------------------------------------------------------------------
@@ -428,12 +437,13 @@ class SpectralRenderer:
         transmission: NDArray[np.float32],
         scene: Scene,
         samples: SpectralSamples,
+        base: NDArray[np.float32] | None = None,
     ) -> NDArray[np.float32]:
         """Electron rate for a few open SLM pixels, by splatting their streaks.
 
         Every (pixel, sample) spot is the tabulated profile (1/64 px steps, nearest
-        entry) in x times that in y; each sampled spot's sum is known per sub-pixel
-        phase, so dividing by it makes every sample deposit exactly its energy.
+        entry) in x times that in y, each normalised over its whole-pixel taps, so every
+        sample deposits exactly its energy.
 
         Parameters
         ----------
@@ -441,6 +451,8 @@ class SpectralRenderer:
             SLM coordinates of the open pixels (N,).
         transmission
             Their transmissions (N,).
+        base
+            A rate the streaks are added onto (a copy of it is returned); default 0.
 
         Examples
         --------
@@ -454,29 +466,17 @@ class SpectralRenderer:
         >>> rate.shape, bool(rate.sum() > 0)
         ((512, 800), True)
         """
-        if rows.size == 0:
-            return np.zeros(self.camera_shape, dtype=np.float32)
-        # The float64 sum is kept between frames: a fresh one costs its page faults.
-        if self._splat_sum is None:
-            self._splat_sum = np.zeros(self.camera_shape, dtype=np.float64)
+        if base is None:
+            total = np.zeros(self.camera_shape, dtype=np.float32)
         else:
-            self._splat_sum.fill(0.0)
-        total = self._splat_sum
+            total = np.array(base, dtype=np.float32, copy=True)
+        if rows.size == 0:
+            return total
         lam = samples.wavelengths_nm
         gain = self.electrons_per_photon(samples).astype(np.float32)
         table = self._spot_table(lam)
         spectra = scene.reflectance_at(rows + scene.margin, cols + scene.margin, lam)
         spectra *= gain[None, :] * np.asarray(transmission, dtype=np.float32)[:, None]
-        x, y = self.relay.forward(cols[:, None], rows[:, None], lam[None, :])
-        splat(
-            np.ascontiguousarray(x, dtype=np.float64),
-            np.ascontiguousarray(y, dtype=np.float64),
-            spectra.astype(np.float64),
-            table.values,
-            table.centre,
-            _TABLE_STEPS,
-            table.norm,
-            table.reach.astype(np.int64),
-            total,
-        )
-        return total.astype(np.float32)
+        x, y = self.relay.forward_grid(cols, rows, lam)
+        splat(x, y, spectra, table.taps, table.reach, _TABLE_STEPS, total)
+        return total
