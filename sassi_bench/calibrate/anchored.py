@@ -500,9 +500,22 @@ class _Problem:
         free = np.ones(self.size, dtype=bool)
         for at in self.amplitudes:
             free[at] = g[at] > 1e-6 * g[at].max()
-        covariance = np.linalg.inv(state.normal[np.ix_(free, free)])
+        # The lasers' block of the inverse, by eliminating every other unknown (a Schur
+        # complement): lines of a lamp that fall on the same pixels (a blend at the red
+        # end) share one column and only their sum is known, which leaves the whole
+        # normal matrix singular, but not the lasers' part; any generalised inverse of
+        # the rest gives the same complement.
+        lasers = np.zeros(self.size, dtype=bool)
+        lasers[self.lasers] = True
+        rest = free & ~lasers
+        normal = state.normal
+        cross = normal[np.ix_(lasers, rest)]
+        reduced = (
+            normal[np.ix_(lasers, lasers)]
+            - cross @ np.linalg.pinv(normal[np.ix_(rest, rest)], hermitian=True) @ cross.T
+        )
         chi2 = max(lamp.chi2(r) for lamp, r in zip(self.lamps, state.residuals, strict=True))
-        variance = np.diag(covariance)[self.lasers] * max(chi2, 1.0)  # λ come before amplitudes
+        variance = np.diag(np.linalg.inv(reduced)) * max(chi2, 1.0)
         return np.sqrt(np.clip(variance, 0.0, None))
 
     def information(self, state: _State, sigma: float) -> XInformation:
