@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench._shared.arrays import check_shape, check_shape_equality
-from sassi_bench.calibrate import _decode_kernels as _kernels
+from sassi_bench.calibrate import _frame_kernels as _kernels
 from sassi_bench.calibrate.frame_stacks import (
     dark_argument,
     dark_level,
@@ -75,7 +75,7 @@ class GrayAccumulator:
 
     Each pair is folded into a running code word, the smallest and second-smallest bit
     contrasts and a saturation mask, in one compiled pass over the two frames
-    (:mod:`~sassi_bench.calibrate._decode_kernels`); the bits may come in any order and
+    (:mod:`~sassi_bench.calibrate._frame_kernels`); the bits may come in any order and
     no frame is kept.
 
     Parameters

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench._shared.arrays import check_shape
-from sassi_bench.calibrate import _decode_kernels as _kernels
+from sassi_bench.calibrate import _frame_kernels as _kernels
 from sassi_bench.calibrate.frame_stacks import dark_argument, dark_level, frame_stack
 from sassi_bench.errors import ProcedureError, step_error
 

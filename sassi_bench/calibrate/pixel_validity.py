@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.calibrate import _decode_kernels as _kernels
+from sassi_bench.calibrate import _frame_kernels as _kernels
 
 __all__ = [
     "REASONS",
@@ -153,7 +153,7 @@ def screen_outliers(coord: NDArray[np.float64], reason: NDArray[np.uint8], max_j
 
     The plane is fitted by its normal equations (sums over the pixels in float64) and
     each window is judged by a compiled loop that sorts only windows whose median could
-    lie beyond ``max_jump`` (:func:`~sassi_bench.calibrate._decode_kernels.window_outliers`).
+    lie beyond ``max_jump`` (:func:`~sassi_bench.calibrate._frame_kernels.window_outliers`).
 
     Examples
     --------

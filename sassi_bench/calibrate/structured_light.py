@@ -22,7 +22,7 @@ Coordinates follow the workbench convention: pixel centres at integers, arrays i
 ``[row, col]``; SLM pixel ``p`` spans ``p - 0.5 .. p + 0.5``.
 
 Every pass over the pixels is a compiled loop
-(:mod:`~sassi_bench.calibrate._decode_kernels`) that takes frames as uint16 or float,
+(:mod:`~sassi_bench.calibrate._frame_kernels`) that takes frames as uint16 or float,
 subtracting the dark frame itself.
 """
 
@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench._shared.arrays import check_shape, check_shape_equality
 from sassi_bench.acquire.patterns import gray_bit_count
-from sassi_bench.calibrate import _decode_kernels as _kernels
+from sassi_bench.calibrate import _frame_kernels as _kernels
 from sassi_bench.calibrate.frame_stacks import (
     dark_level,
     frame_stack,

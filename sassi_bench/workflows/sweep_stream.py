@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.acquire.plan import Plan
-from sassi_bench.calibrate import _decode_kernels
+from sassi_bench.calibrate import _frame_kernels
 from sassi_bench.calibrate.structured_light import AxisDecoder, SweepReference, sweep_reference
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -102,8 +102,8 @@ class _Mean:
         self.saturation = saturation
 
     def add(self, frame: NDArray) -> None:
-        _decode_kernels.accumulate(frame, self.total)
-        _decode_kernels.saturation_test(frame, self.saturation, self.clipped)
+        _frame_kernels.accumulate(frame, self.total)
+        _frame_kernels.saturation_test(frame, self.saturation, self.clipped)
         self.count += 1
 
     def mean(self) -> NDArray[np.float32]:

@@ -1,4 +1,5 @@
-"""Compiled loops of the sweep decoders (numba): one pass per frame, one pass per axis.
+"""Compiled per-pixel loops over camera frames (numba): the sweep decoders (one pass
+per frame, one per axis), running sums of frames, and the lamp frames' moments.
 
 Why compiled: a prototype frame is 4.2 million pixels. The Gray and phase decoders did
 a handful of whole-frame numpy passes per frame (dark subtraction, contrast, running
@@ -340,3 +341,23 @@ def accumulate(frame, total):  # pragma: no cover - compiled
     for r in range(height):
         for c in range(width):
             total[r, c] += np.float32(frame[r, c])
+
+
+@njit(nogil=True)
+def frame_moments(frames, mean, variance):  # pragma: no cover - compiled
+    """Per pixel, the mean and the variance (ddof 1; 0 for one frame) of (F, H, W) frames
+    in float64, as numpy's ``mean(0)`` and ``var(0, ddof=1)`` of the float64 stack (sums
+    in frame order, the variance about the mean), without that stack."""
+    count, height, width = frames.shape
+    for r in range(height):
+        for c in range(width):
+            total = 0.0
+            for f in range(count):
+                total += np.float64(frames[f, r, c])
+            centre = total / count
+            square = 0.0
+            for f in range(count):
+                d = np.float64(frames[f, r, c]) - centre
+                square += d * d
+            mean[r, c] = centre
+            variance[r, c] = square / (count - 1) if count > 1 else 0.0
