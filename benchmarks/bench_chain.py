@@ -16,7 +16,12 @@ virtual rig and prints one row per stage:
 
 Render, store, process and read are CPU seconds (all threads), so the split and the
 ratio hold on a busy machine, where wall time is mostly waiting for a core (the load
-average at the start and end is printed); the wall column is this run's. ``--accuracy``
+average at the start and end is printed); the wall column is this run's. Frames are
+processed while they are captured (decoded, or taken by a scan's reading pass) on
+worker threads: their CPU time during a render or a store is processing, and is taken
+out of those columns. Given ``--data`` of an earlier run, the chain resumes from its
+sessions: nothing is rendered or stored, and the table shows the processing alone
+against reading back the frames each stage read. ``--accuracy``
 runs the chain with the accuracy table's procedure (``benchmarks/accuracy_table.py``,
 laser wavelengths estimated) and prints the table's column for the rig, scored against
 the bench's truth, so one run gives both.
@@ -143,6 +148,29 @@ class StageClock:
         self.stack.append("read back")
 
 
+def _feed_cpu() -> dict[int, float]:
+    """CPU seconds so far of every worker thread that processes frames as they are stored
+    (:mod:`sassi_bench.workflows.frame_feed`), by thread id."""
+    from sassi_bench.workflows.frame_feed import THREAD_PREFIX
+
+    out = {}
+    for thread in threading.enumerate():
+        if thread.name.startswith(THREAD_PREFIX) and thread.ident is not None:
+            with contextlib.suppress(OSError):  # the thread ended meanwhile
+                out[thread.ident] = time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
+    return out
+
+
+def _cpu_besides_feeds(start: tuple[float, dict[int, float]]) -> float:
+    """Process CPU since ``start`` (process time and :func:`_feed_cpu`), less what the
+    frame-processing workers spent meanwhile: while the bench renders or a frame is stored,
+    a worker may be processing an earlier frame, and that is processing."""
+    cpu = time.process_time() - start[0]
+    now = _feed_cpu()
+    workers = sum(value - start[1].get(ident, 0.0) for ident, value in now.items())
+    return cpu - workers
+
+
 def instrument(clock: StageClock, rig) -> None:
     """Put the stage markers and the bench, store and read timers in place."""
     from sassi_bench.acquire.session import Session
@@ -168,13 +196,13 @@ def instrument(clock: StageClock, rig) -> None:
     def timed_render(function):
         @functools.wraps(function)
         def rendering(*args, **kwargs):
-            start = (time.perf_counter(), time.process_time())
+            wall, start = time.perf_counter(), (time.process_time(), _feed_cpu())
             try:
                 return function(*args, **kwargs)
             finally:
                 entry = clock.render[clock.stage]
-                entry[0] += time.perf_counter() - start[0]
-                entry[1] += time.process_time() - start[1]
+                entry[0] += time.perf_counter() - wall
+                entry[1] += _cpu_besides_feeds(start)
                 entry[2] += 1
 
         return rendering
@@ -192,13 +220,13 @@ def instrument(clock: StageClock, rig) -> None:
     )
 
     def write(self, step_index, frame):
-        start = (time.perf_counter(), time.process_time())
+        wall, start = time.perf_counter(), (time.process_time(), _feed_cpu())
         try:
             return write_frame(self, step_index, frame)
         finally:
             entry = clock.store[clock.stage]
-            entry[0] += time.perf_counter() - start[0]
-            entry[1] += time.process_time() - start[1]
+            entry[0] += time.perf_counter() - wall
+            entry[1] += _cpu_besides_feeds(start)
             entry[2] += 1
             clock.written.setdefault(self.id, clock.stage)
 
