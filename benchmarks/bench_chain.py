@@ -8,6 +8,8 @@ virtual rig and prints one row per stage:
 * **render**: the virtual bench's share (electron rates, sensor noise, scene builds:
   the cost a real bench does not have, which streams frames at the SLM's rate);
 * **store**: writing frames to their session (compression, hash, fsync);
+* **compile**: numba compiling the compiled loops, once per process on first use (in
+  whichever stage uses a kernel first; a lab's long-running process pays it once);
 * **process**: the rest, the procedure's own work;
 * **read ms**: reading one of the stage's frames back from its session (the stage's
   sessions are read once more at the end of the run, frame by frame, in the same run);
@@ -100,6 +102,7 @@ class StageClock:
         self.cpu: dict[str, float] = defaultdict(float)
         self.peak: dict[str, int] = defaultdict(int)
         self.render: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
+        self.compile: dict[str, float] = defaultdict(float)
         self.store: dict[str, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
         self.reads: dict[str, set[str]] = defaultdict(set)
         self.frames_read: dict[str, int] = defaultdict(int)
@@ -171,6 +174,28 @@ def _cpu_besides_feeds(start: tuple[float, dict[int, float]]) -> float:
     return cpu - workers
 
 
+def _time_compiles(clock: StageClock) -> None:
+    """Count numba's compilations apart: kernels compile once per process, on first use,
+    whichever stage that is (the compiling thread's CPU, outermost compilation only)."""
+    from numba.core.dispatcher import Dispatcher
+
+    compile_for_args = Dispatcher._compile_for_args
+    depth = threading.local()
+
+    def timed(self, *args, **kwargs):
+        if getattr(depth, "value", 0):
+            return compile_for_args(self, *args, **kwargs)
+        depth.value = 1
+        start = time.thread_time()
+        try:
+            return compile_for_args(self, *args, **kwargs)
+        finally:
+            depth.value = 0
+            clock.compile[clock.stage] += time.thread_time() - start
+
+    Dispatcher._compile_for_args = timed
+
+
 def instrument(clock: StageClock, rig) -> None:
     """Put the stage markers and the bench, store and read timers in place."""
     from sassi_bench.acquire.session import Session
@@ -182,6 +207,7 @@ def instrument(clock: StageClock, rig) -> None:
         else:
             print(f"note: {module_name}.{name} not found; its time counts to its caller")
 
+    _time_compiles(clock)
     capture = importlib.import_module("sassi_bench.workflows.spectral_capture")
     run_plan = capture.run_plan
 
@@ -267,7 +293,7 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
 
     header = [
         "stage", "frames", "wall s", "CPU s", "render CPU s", "store CPU s",
-        "process CPU s", "read CPU ms", "process/read", "peak GB",
+        "compile CPU s", "process CPU s", "read CPU ms", "process/read", "peak GB",
     ]  # fmt: skip
     rows = []
     totals = defaultdict(float)
@@ -277,7 +303,8 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
         wall, cpu = clock.wall[stage], clock.cpu[stage]
         _, render, _ = clock.render[stage]
         _, store, stored = clock.store[stage]
-        process = cpu - render - store
+        compiled = clock.compile[stage]
+        process = cpu - render - store - compiled
         sessions = [s for s, st in clock.written.items() if st == stage] or sorted(
             clock.reads[stage]
         )
@@ -287,18 +314,22 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
         ratio = process / frames / read if frames and reads else float("nan")
         rows.append([
             stage, str(frames), f"{wall:.1f}", f"{cpu:.1f}", f"{render:.1f}",
-            f"{store:.1f}", f"{process:.1f}", f"{1000 * read:.1f}" if reads else "-",
-            f"{ratio:.2f}" if ratio == ratio else "-", f"{clock.peak[stage] / 1e9:.2f}",
+            f"{store:.1f}", f"{compiled:.1f}", f"{process:.1f}",
+            f"{1000 * read:.1f}" if reads else "-", f"{ratio:.2f}" if ratio == ratio else "-",
+            f"{clock.peak[stage] / 1e9:.2f}",
         ])  # fmt: skip
-        for key, value in (("wall", wall), ("cpu", cpu), ("render", render), ("store", store)):
+        for key, value in (
+            ("wall", wall), ("cpu", cpu), ("render", render), ("store", store),
+            ("compile", compiled),
+        ):  # fmt: skip
             totals[key] += value
         totals["frames"] += stored
     peak = max(clock.peak.values())
+    process = totals["cpu"] - totals["render"] - totals["store"] - totals["compile"]
     rows.append([
         "whole chain", str(int(totals["frames"])), f"{totals['wall']:.1f}",
         f"{totals['cpu']:.1f}", f"{totals['render']:.1f}", f"{totals['store']:.1f}",
-        f"{totals['cpu'] - totals['render'] - totals['store']:.1f}", "-", "-",
-        f"{peak / 1e9:.2f}",
+        f"{totals['compile']:.1f}", f"{process:.1f}", "-", "-", f"{peak / 1e9:.2f}",
     ])  # fmt: skip
     return text_table(header, rows)
 

@@ -508,12 +508,20 @@ class ScanAssembly:
         seconds = np.where(extracted, self.exposure, 1.0)[..., None]
         kept = None
         if self.keep_raw:
-            # Row blocks: the float64 quotient of the whole area would be twice the cube.
-            kept = np.empty((*self.work.shape[:2], self.n_bins + 2 * GUARD_BINS), np.float32)
+            # Row blocks (the float64 quotient of the whole area would be twice the cube),
+            # and only the pixels extracted: the others stay 0 (a thinned scan's most).
+            kept = np.zeros((*self.work.shape[:2], self.n_bins + 2 * GUARD_BINS), np.float32)
             for start in range(0, kept.shape[0], 64):
                 rows = slice(start, start + 64)
-                stacked = stack_bins(self.work[rows], self.guards[rows], GUARD_BINS)
-                kept[rows] = stacked / seconds[rows]
+                taken = extracted[rows]
+                if taken.all():
+                    stacked = stack_bins(self.work[rows], self.guards[rows], GUARD_BINS)
+                    kept[rows] = stacked / seconds[rows]
+                elif taken.any():
+                    r, c = np.nonzero(taken)
+                    r += start
+                    stacked = stack_bins(self.work[r, c], self.guards[r, c], GUARD_BINS)
+                    kept[r, c] = stacked / seconds[r, c]
         if self.model is None:
             self.work /= seconds
             return None, kept
