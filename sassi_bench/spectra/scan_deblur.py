@@ -129,7 +129,7 @@ def deblur_scan(
     rows, cols = np.nonzero(extracted)
     guard = model.guard
     judged = np.flatnonzero((good & extracted)[rows, cols])
-    judged = judged[work[rows[judged], cols[judged]].mean(axis=1) > 0]
+    judged = judged[work.mean(axis=2)[rows[judged], cols[judged]] > 0]  # no gathered cube
     if judged.size == 0:
         work[extracted] /= exposure[extracted][:, None]
         return None
@@ -158,7 +158,7 @@ def deblur_scan(
         work[r, c] = spectra[:, model.core] / exposure[r, c][:, None]
 
     run(block, list(range(0, rows.size, BLOCK_PIXELS)), "scan deblur")
-    peak = float(np.max(work[rows[judged], cols[judged]]))
+    peak = float(np.max(work.max(axis=2)[rows[judged], cols[judged]]))
     band = 10.0 * np.log10(peak**2 / np.maximum(np.mean(noise**2, axis=0), 1e-300))
     assert deblur.choice is not None
     return ScanDeblur(deblur.choice, mean.spectrum, band)

@@ -21,6 +21,7 @@ from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanAssembly, ScanCube
 from sassi_bench.workflows.frame_feed import FrameFeed
+from sassi_bench.workflows.memory import release_memory
 
 __all__ = ["capture_scan"]
 
@@ -64,4 +65,5 @@ def capture_scan(
     with FrameFeed(session, todo, assembly.read, label="scan") as feed:
         run_plan(rig, session.plan, feed.tee(), progress=progress)
         feed.finish()
+    release_memory()  # the reading pass's per-frame buffers, before the cube's work
     return assembly.finish(progress=progress)
