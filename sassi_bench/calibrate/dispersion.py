@@ -140,11 +140,6 @@ def _spectral_design(s: NDArray[np.float64], field_design: NDArray[np.float64], 
     )
 
 
-def _solve(design, values):
-    coeffs, *_ = np.linalg.lstsq(design, values, rcond=None)
-    return coeffs
-
-
 @dataclass(frozen=True)
 class _FieldSamples:
     """Every laser's measured map sampled on a grid of SLM field points."""
@@ -295,8 +290,11 @@ def fit_dispersion(
 
     def fit(keep: NDArray[np.bool_]):
         ax = samples.fit_x(lam, keep, order, x_information)
-        ay = _solve(_spectral_design(sy[keep], field_design, order), ys[keep].ravel())
-        return ax, ay.reshape(order + 1, -1)
+        # The rows' design is the Kronecker product of the powers of sy and the field
+        # terms: its least squares is pinv(powers) @ ys @ pinv(field).T (as for x).
+        powers = sy[keep][:, None] ** np.arange(order + 1)[None, :]
+        ay = np.linalg.pinv(powers) @ ys[keep] @ samples.field_pinv.T
+        return ax, ay
 
     def model_from(ax, ay) -> DispersionModel:
         return DispersionModel(

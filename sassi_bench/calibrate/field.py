@@ -13,13 +13,41 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sassi_bench.calibrate import _field_kernels
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design, legendre2d_terms
 
-__all__ = ["FieldFit", "fit_field"]
+__all__ = ["FieldFit", "evaluate_field", "fit_field"]
 
-# Samples per block when the final residual is evaluated over every sample.
-_RESIDUAL_BLOCK = 1 << 16
+
+def evaluate_field(
+    u_hat: ArrayLike, v_hat: ArrayLike, degree: int, coeffs: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``legendre2d_design(u_hat, v_hat, degree) @ coeffs`` without the design matrix.
+
+    The polynomial is ``sum_ij C[i, j] P_i(u) P_j(v)`` with ``C[i, j]`` the coefficient of
+    ``P_i(u) P_j(v)``, evaluated point by point by a compiled loop
+    (:mod:`~sassi_bench.calibrate._field_kernels`; the design of the prototype's 2 million
+    decoded pixels is 340 MB).
+
+    Examples
+    --------
+    >>> c = np.arange(1.0, 7.0)
+    >>> u, v = np.array([0.3, -0.8]), np.array([0.5, 0.1])
+    >>> bool(np.allclose(evaluate_field(u, v, 2, c), legendre2d_design(u, v, 2) @ c))
+    True
+    """
+    u_hat, v_hat = np.broadcast_arrays(
+        np.asarray(u_hat, dtype=np.float64), np.asarray(v_hat, dtype=np.float64)
+    )
+    table = np.zeros((degree + 1, degree + 1))
+    for (i, j), c in zip(legendre2d_terms(degree), coeffs, strict=True):
+        table[i, j] = c
+    out = np.empty(u_hat.size)
+    _field_kernels.legendre_field(
+        np.ascontiguousarray(u_hat).ravel(), np.ascontiguousarray(v_hat).ravel(), table, out
+    )
+    return out.reshape(u_hat.shape)
 
 
 @dataclass(frozen=True)
@@ -48,7 +76,7 @@ class FieldFit:
     def __call__(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
         """Evaluate the fit at SLM coordinates (vectorised)."""
         u_hat, v_hat = field_coordinates(u, v, self.slm_shape)
-        return legendre2d_design(u_hat, v_hat, self.degree) @ self.coeffs
+        return evaluate_field(u_hat, v_hat, self.degree, self.coeffs)
 
     @property
     def n_inliers(self) -> int:
@@ -121,24 +149,22 @@ def fit_field(
     subset = np.arange(u.size)
     if u.size > max_samples:
         subset = np.sort(np.random.default_rng(seed).choice(u.size, max_samples, replace=False))
-    # The design matrix of the solve's samples only (all samples' would be N x terms doubles).
+    # The design matrix of the solve's samples only (all samples' would be N x terms doubles),
+    # solved by its normal equations: the Legendre basis on the unit square keeps them
+    # well conditioned, and they cost a tenth of an SVD least squares each round.
     design = legendre2d_design(u_hat[subset], v_hat[subset], degree)
     sampled = values[subset]
     keep = np.ones(subset.size, dtype=bool)
     for _ in range(10):
-        coeffs, *_ = np.linalg.lstsq(design[keep], sampled[keep], rcond=None)
+        kept = design[keep]
+        coeffs = _solve_normal(kept.T @ kept, kept.T @ sampled[keep])
         resid = sampled - design @ coeffs
         scale = 1.4826 * np.median(np.abs(resid[keep] - np.median(resid[keep])))
         new_keep = np.abs(resid) <= clip_sigmas * max(scale, 1e-12)
         if np.array_equal(new_keep, keep):
             break
         keep = new_keep
-    residual = np.empty_like(values)
-    for start in range(0, u.size, _RESIDUAL_BLOCK):
-        block = slice(start, start + _RESIDUAL_BLOCK)
-        residual[block] = (
-            values[block] - legendre2d_design(u_hat[block], v_hat[block], degree) @ coeffs
-        )
+    residual = values - evaluate_field(u_hat, v_hat, degree, coeffs)
     spread = 1.4826 * np.median(np.abs(residual - np.median(residual)))
     inliers = np.abs(residual) <= clip_sigmas * max(spread, 1e-12)
     return FieldFit(
@@ -149,3 +175,12 @@ def fit_field(
         median_abs=float(np.median(np.abs(residual[inliers]))),
         inliers=inliers,
     )
+
+
+def _solve_normal(matrix: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least squares from normal equations: Cholesky, else a minimum-norm solve."""
+    try:
+        factor = np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(matrix, rhs, rcond=None)[0]
+    return np.linalg.solve(factor.T, np.linalg.solve(factor, rhs))

@@ -1,7 +1,9 @@
-"""Camera frames as the sweep decoders take them: (N, H, W) stacks and a dark level.
+"""Camera frames as the sweep decoders take them: (N, H, W) stacks, a dark level, and
+the arguments of their compiled loops.
 
-The decoders accept raw uint16 or float frames and subtract the dark frame themselves,
-converting one frame at a time to float32 so a long sweep is never held as floats.
+The decoders accept raw uint16 or float frames, one at a time or stacked, and subtract
+the dark frame themselves, pixel by pixel as they read each frame, so a sweep is never
+held as floats.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench._shared.arrays import check_shape
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["dark_level", "frame_stack", "subtract_dark"]
+__all__ = ["dark_argument", "dark_level", "frame_stack", "saturation_argument", "subtract_dark"]
 
 
 def frame_stack(frames: ArrayLike, step: str, name: str, minimum: int = 1) -> NDArray:
@@ -81,3 +83,30 @@ def subtract_dark(raw: ArrayLike, dark: NDArray[np.float32]) -> NDArray[np.float
     [[10.0, -10.0]]
     """
     return np.asarray(raw, dtype=np.float32) - dark
+
+
+def dark_argument(dark: NDArray[np.float32]) -> tuple[NDArray[np.float32], bool]:
+    """A :func:`dark_level` as the compiled decoders take it: a 2-D float32 array and
+    whether it is a map (else its ``[0, 0]`` is every pixel's level).
+
+    Examples
+    --------
+    >>> array, is_map = dark_argument(np.float32(100.0))
+    >>> array.shape, is_map
+    ((1, 1), False)
+    """
+    arr = np.asarray(dark, dtype=np.float32)
+    if arr.ndim == 0:
+        return arr.reshape(1, 1), False
+    return np.ascontiguousarray(arr), True
+
+
+def saturation_argument(level: float | None) -> float:
+    """A saturation level as the compiled decoders take it: NaN (no test) for None.
+
+    Examples
+    --------
+    >>> saturation_argument(None) != saturation_argument(None), saturation_argument(65535)
+    (True, 65535.0)
+    """
+    return float("nan") if level is None else float(level)

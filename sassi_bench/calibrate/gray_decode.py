@@ -2,7 +2,9 @@
 
 Each SLM axis is coded in blocks of ``block`` px, every bit followed by its inverse: a
 robust, coarse estimate (+-block/2) that picks the period of the phase-shifted fringes
-(:mod:`sassi_bench.calibrate.phase_decode`). Gray block ``k`` is centred on
+(:mod:`sassi_bench.calibrate.phase_decode`). :class:`GrayAccumulator` decodes the bits as
+their frames arrive (a capture, or a session read back frame by frame);
+:func:`decode_gray` takes them stacked. Gray block ``k`` is centred on
 ``block * k + (block - 1) / 2`` (pixel centres at integers).
 """
 
@@ -13,11 +15,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench._shared.arrays import check_shape_equality
-from sassi_bench.calibrate.frame_stacks import dark_level, frame_stack, subtract_dark
+from sassi_bench._shared.arrays import check_shape, check_shape_equality
+from sassi_bench.calibrate import _frame_kernels as _kernels
+from sassi_bench.calibrate.frame_stacks import (
+    dark_argument,
+    dark_level,
+    frame_stack,
+    saturation_argument,
+)
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["GrayDecode", "check_block", "decode_gray"]
+__all__ = ["GrayAccumulator", "GrayDecode", "check_block", "decode_gray"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +68,82 @@ def check_block(block: int, step: str) -> None:
         raise ProcedureError(
             step_error(step, f"block {block!r} is not a positive integer", "use e.g. block=8")
         )
+
+
+class GrayAccumulator:
+    """The Gray decode of one axis, built one bit (a frame and its inverse) at a time.
+
+    Each pair is folded into a running code word, the smallest and second-smallest bit
+    contrasts and a saturation mask, in one compiled pass over the two frames
+    (:mod:`~sassi_bench.calibrate._frame_kernels`); the bits may come in any order and
+    no frame is kept.
+
+    Parameters
+    ----------
+    shape
+        The frames' (H, W).
+    bits
+        Gray bits of the axis (bit 0 = most significant).
+    block
+        SLM pixels per code word.
+    dark
+        Dark frame (H, W) or scalar, subtracted before the contrast is formed.
+    saturation_level
+        Raw value at which the camera saturates (``None``: no test); pixels that reach it
+        in any frame are marked in :attr:`clipped`.
+    step
+        The step named in errors.
+
+    Examples
+    --------
+    >>> acc = GrayAccumulator((1, 2), bits=1, block=4)
+    >>> acc.add(0, np.array([[10, 0]]), np.array([[0, 10]]))
+    >>> acc.result().coord.tolist()
+    [[5.5, 1.5]]
+    """
+
+    def __init__(
+        self,
+        shape: tuple[int, int],
+        bits: int,
+        block: int,
+        *,
+        dark: ArrayLike | None = None,
+        saturation_level: float | None = None,
+        step: str = "Gray decoding",
+    ) -> None:
+        check_block(block, step)
+        self.shape, self.bits, self.block, self.step = tuple(shape), int(bits), block, step
+        self.dark, self._dark_map = dark_argument(dark_level(dark, self.shape, step))
+        self.saturation = saturation_argument(saturation_level)
+        self.word = np.zeros(self.shape, dtype=np.int32)
+        self.smallest = np.full(self.shape, np.inf, dtype=np.float32)
+        self.second = np.full(self.shape, np.inf, dtype=np.float32)
+        self.clipped = np.zeros(self.shape, dtype=bool)
+        self.seen: set[int] = set()
+
+    def add(self, bit: int, positive: ArrayLike, negative: ArrayLike) -> None:
+        """Fold in Gray bit ``bit`` from its frame and its inverse's (raw, (H, W))."""
+        pos, neg = np.asarray(positive), np.asarray(negative)
+        fix = "pass one frame of every bit and one of its inverse, of the frames' shape"
+        for name, frame in (("positive frame", pos), ("negative frame", neg)):
+            check_shape(frame, self.shape, step=self.step, name=name, fix=fix)
+        if not 0 <= bit < self.bits or bit in self.seen:
+            raise ProcedureError(
+                step_error(self.step, f"Gray bit {bit} given twice or not one of {self.bits}", fix)
+            )
+        self.seen.add(bit)
+        mask = np.int32(1 << (self.bits - 1 - bit))
+        _kernels.gray_pair(
+            pos, neg, self.dark, self._dark_map, mask, self.word, self.smallest, self.second,
+            self.clipped, self.saturation,
+        )  # fmt: skip
+
+    def result(self, min_margin: float = 0.2) -> GrayDecode:
+        """The decode of every bit given so far (:class:`GrayDecode`)."""
+        index = _kernels.gray_index(self.word, self.bits)
+        coord = self.block * index + (self.block - 1) / 2.0
+        return GrayDecode(coord, self.smallest, self.second, self.smallest >= min_margin)
 
 
 def decode_gray(
@@ -113,21 +197,7 @@ def decode_gray(
         names=("positive frames", "negative frames"),
         fix="pass one inverse frame per Gray bit, in the same order",
     )
-    check_block(block, step)
-    dark_arr = dark_level(dark, pos.shape[1:], step)
-    shape = pos.shape[1:]
-    index = np.zeros(shape, dtype=np.int64)
-    binary = np.zeros(shape, dtype=bool)
-    smallest = np.full(shape, np.inf, dtype=np.float32)
-    second = np.full(shape, np.inf, dtype=np.float32)
-    for pos_raw, neg_raw in zip(pos, neg, strict=True):
-        on, off = subtract_dark(pos_raw, dark_arr), subtract_dark(neg_raw, dark_arr)
-        total = on + off
-        contrast = np.abs(on - off) / np.where(total > 0, total, np.float32(np.inf))
-        # Binary bit b is the XOR of Gray bits 0..b (most significant first).
-        binary ^= on > off
-        index = (index << 1) | binary
-        second = np.minimum(second, np.maximum(smallest, contrast))
-        smallest = np.minimum(smallest, contrast)
-    coord = block * index + (block - 1) / 2.0
-    return GrayDecode(coord, smallest, second, smallest >= min_margin)
+    accumulator = GrayAccumulator(pos.shape[1:], pos.shape[0], block, dark=dark, step=step)
+    for bit, (pos_raw, neg_raw) in enumerate(zip(pos, neg, strict=True)):
+        accumulator.add(bit, pos_raw, neg_raw)
+    return accumulator.result(min_margin)

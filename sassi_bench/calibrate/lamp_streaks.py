@@ -29,6 +29,7 @@ from scipy.optimize import nnls
 from scipy.special import ndtr
 
 from sassi_bench.bundle import DispersionModel
+from sassi_bench.calibrate import _frame_kernels
 from sassi_bench.errors import ProcedureError, step_error
 
 __all__ = [
@@ -139,13 +140,17 @@ def signal_and_variance(
     >>> round(float(signal.mean())), bool(abs(variance.mean() - 125.0) < 10)  # (400/2 + 100/2) / 2
     (300, True)
     """
-    lit = np.asarray(lit, dtype=np.float64)
-    closed = np.asarray(closed, dtype=np.float64)
-    lit_mean, closed_mean = lit.mean(0), closed.mean(0)
+    lit, closed = np.asarray(lit), np.asarray(closed)
+    # Per-pixel moments in float64 from the raw frames (no float64 copy of the stacks).
+    lit_mean, lit_var = (np.empty(lit.shape[1:]) for _ in range(2))
+    closed_mean, closed_var = (np.empty(closed.shape[1:]) for _ in range(2))
+    _frame_kernels.frame_moments(lit, lit_mean, lit_var)
+    _frame_kernels.frame_moments(closed, closed_mean, closed_var)
     offset, slope = (gain_e_per_adu**-1 * read_noise_e) ** 2, 1.0 / gain_e_per_adu
     if lit.shape[0] >= 2 and closed.shape[0] >= 2:
         levels = np.concatenate([lit_mean.ravel(), closed_mean.ravel()]) - dark_adu
-        spread = np.concatenate([lit.var(0, ddof=1).ravel(), closed.var(0, ddof=1).ravel()])
+        spread = np.concatenate([lit_var.ravel(), closed_var.ravel()])
+        del lit_var, closed_var
         offset, slope = _photon_transfer(levels, spread, offset, slope)
 
     def per_frame(level):

@@ -16,10 +16,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench._shared.arrays import check_shape
-from sassi_bench.calibrate.frame_stacks import dark_level, frame_stack, subtract_dark
+from sassi_bench.calibrate import _frame_kernels as _kernels
+from sassi_bench.calibrate.frame_stacks import dark_argument, dark_level, frame_stack
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["PhaseDecode", "blur_from_modulation", "decode_phase", "unwrap"]
+__all__ = [
+    "PhaseDecode",
+    "blur_from_modulation",
+    "decode_phase",
+    "fit_fringes",
+    "phase_solver",
+    "unwrap",
+]
 
 # Joint fit of per-frame gains (see _frame_gains): pixels sampled and iterations at most.
 _GAIN_PIXELS = 50_000
@@ -126,34 +134,67 @@ def decode_phase(
         fix="pass one shift per frame",
     )
     solver = _phase_solver(shifts, float(period), step)
-    dark_arr = dark_level(dark, stack.shape[1:], step)
-    coef = _phase_coefficients(stack, dark_arr, solver)
+    return fit_fringes(stack, period, solver, dark_level(dark, stack.shape[1:], step), normalise)
+
+
+def fit_fringes(
+    stack: NDArray,
+    period: float,
+    solver: NDArray[np.float64],
+    dark: NDArray[np.float32],
+    normalise: bool = True,
+    skip: NDArray[np.bool_] | None = None,
+) -> PhaseDecode:
+    """:func:`decode_phase` on checked arguments: raw frames (S, H, W) in any dtype, the
+    least-squares solver (3, S) of their shifts and a :func:`dark_level`; ``skip`` marks
+    pixels whose position is not needed (left at 0, e.g. pixels too dark to decode).
+
+    Each pass reads every frame once per pixel (compiled): one for the frame gains'
+    pixels, one for the fit.
+
+    Examples
+    --------
+    >>> p = np.arange(16.0)
+    >>> frames = np.stack([1 + np.cos(2 * np.pi * (p - 4 * s) / 16) for s in range(4)])
+    >>> solver = phase_solver(np.arange(4) * 4.0, 16)
+    >>> fringe = fit_fringes(frames[:, None, :], 16, solver, np.float32(0.0))
+    >>> np.round(fringe.coord[0, [0, 5]], 6).tolist()
+    [0.0, 5.0]
+    """
+    count = stack.shape[0]
+    dark_arr, dark_map = dark_argument(dark)
+    shape = stack.shape[1:]
     if normalise and count > 3:
-        design = np.linalg.pinv(solver)
-        gains = _frame_gains(stack, dark_arr, coef, solver, design)
-        coef = _phase_coefficients(stack, dark_arr, solver / gains[None, :])
-    theta = np.arctan2(coef[2], coef[1])
-    coord = np.mod(theta * (period / (2.0 * np.pi)), period)
-    coord[coord >= period] = 0.0  # mod of a tiny negative number can round up to period
-    return PhaseDecode(coord, np.hypot(coef[1], coef[2]), coef[0])
+        usable = np.empty(shape, dtype=bool)
+        _kernels.phase_usable(stack, dark_arr, dark_map, solver, usable)
+        gains = _frame_gains(stack, dark, usable, solver, np.linalg.pinv(solver))
+        solver = solver / gains[None, :]
+    offset, coord, modulation = (np.empty(shape) for _ in range(3))
+    use_skip = skip is not None
+    skip = np.zeros((1, 1), dtype=bool) if skip is None else np.asarray(skip, dtype=bool)
+    _kernels.phase_fit(
+        stack, dark_arr, dark_map, solver, float(period), skip, use_skip, offset, coord,
+        modulation,
+    )  # fmt: skip
+    return PhaseDecode(coord, modulation, offset)
 
 
-def _phase_coefficients(
-    stack: NDArray, dark: NDArray[np.float32], solver: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Offset and quadrature amplitudes (3, H, W): ``solver`` applied to the frames."""
-    coef = np.zeros((3, *stack.shape[1:]), dtype=np.float64)
-    for s, raw in enumerate(stack):
-        frame = subtract_dark(raw, dark)
-        for k in range(3):
-            coef[k] += solver[k, s] * frame
-    return coef
+def phase_solver(shifts: ArrayLike, period: float, step: str = "phase decoding") -> NDArray:
+    """The least-squares solver (3, S) for the offset and quadrature amplitudes of frames
+    at pattern ``shifts`` (px) of a fringe of ``period`` px.
+
+    Examples
+    --------
+    >>> phase_solver([0, 4, 8, 12], 16).shape
+    (3, 4)
+    """
+    return _phase_solver(np.asarray(shifts, dtype=np.float64), float(period), step)
 
 
 def _frame_gains(
     stack: NDArray,
     dark: NDArray[np.float32],
-    coef: NDArray[np.float64],
+    usable: NDArray[np.bool_],
     solver: NDArray[np.float64],
     design: NDArray[np.float64],
 ) -> NDArray[np.float64]:
@@ -165,9 +206,9 @@ def _frame_gains(
     the drift that looks like a sinusoid is absorbed into its fit), but pixels at
     different phases can: the gains and every pixel's sinusoid are fitted jointly by
     alternating least squares (frames divided by the gains -> per-pixel fit -> gains
-    from all pixels) on a regular subsample of the well-modulated pixels.
+    from all pixels) on a regular subsample of the well-modulated pixels (``usable``:
+    positive offset, amplitude over a fifth of it, in a fit with equal gains).
     """
-    usable = (coef[0] > 0) & (np.hypot(coef[1], coef[2]) > 0.2 * coef[0])
     rows, cols = np.nonzero(usable)
     count = stack.shape[0]
     if rows.size < 100:
@@ -176,10 +217,15 @@ def _frame_gains(
     rows, cols = rows[::stride], cols[::stride]
     dark_at = dark if dark.ndim == 0 else dark[rows, cols]
     frames = np.stack([np.asarray(raw[rows, cols], dtype=np.float64) - dark_at for raw in stack])
+    # With F the (S, N) frames, G = F F^T and the fit's projector P = design @ solver, the
+    # model of frames divided by the gains g is M = P diag(1/g) F: each gain's update
+    # sum_n F_sn M_sn / sum_n M_sn^2 needs only G (S x S), so an iteration costs S^3.
+    gram = frames @ frames.T
+    projector = design @ solver
     gains = np.ones(count)
     for _ in range(_GAIN_ITERATIONS):
-        model = design @ (solver @ (frames / gains[:, None]))
-        new = np.sum(frames * model, axis=1) / np.sum(model * model, axis=1)
+        scaled = projector / gains[None, :]  # P diag(1/g)
+        new = np.sum(gram * scaled, axis=1) / np.einsum("st,tu,su->s", scaled, gram, scaled)
         new /= new.mean()
         converged = np.max(np.abs(new - gains)) < 1e-6
         gains = new

@@ -13,9 +13,17 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.calibrate._window_median import window_medians
+from sassi_bench.calibrate import _frame_kernels as _kernels
 
-__all__ = ["REASONS", "first_reason", "local_outliers", "noise_floor", "reason_counts", "saturated"]
+__all__ = [
+    "REASONS",
+    "first_reason",
+    "local_outliers",
+    "noise_floor",
+    "reason_counts",
+    "saturated",
+    "screen_outliers",
+]
 
 # Why a pixel is excluded, in the order the checks apply: a pixel is counted under the
 # first reason that holds (code = index; 0 = valid).
@@ -134,17 +142,36 @@ def local_outliers(
     >>> np.argwhere(local_outliers(coord, np.ones((7, 7), bool), 0.5)).tolist()
     [[3, 3]]
     """
-    out = np.zeros(coord.shape, dtype=bool)
-    rows, cols = np.nonzero(valid)
-    if rows.size < 3:
-        return out
-    design = np.stack([cols, rows, np.ones_like(rows)], axis=1).astype(np.float64)
-    plane = np.linalg.lstsq(design, coord[rows, cols], rcond=None)[0]
-    residual = np.full(coord.shape, np.inf, dtype=np.float32)
-    residual[rows, cols] = coord[rows, cols] - design @ plane
+    reason = np.where(valid, 0, 1).astype(np.uint8)
+    screen_outliers(np.asarray(coord, dtype=np.float64), reason, max_jump)
+    return reason == REASONS.index("outlier")
+
+
+def screen_outliers(coord: NDArray[np.float64], reason: NDArray[np.uint8], max_jump: float) -> int:
+    """:func:`local_outliers` in place: the pixels of ``reason`` 0 that it finds get the
+    ``outlier`` code; returns how many.
+
+    The plane is fitted by its normal equations (sums over the pixels in float64) and
+    each window is judged by a compiled loop that sorts only windows whose median could
+    lie beyond ``max_jump`` (:func:`~sassi_bench.calibrate._frame_kernels.window_outliers`).
+
+    Examples
+    --------
+    >>> coord = np.add.outer(np.zeros(7), np.arange(7.0))
+    >>> coord[3, 3] += 2.0
+    >>> reason = np.zeros((7, 7), np.uint8)
+    >>> screen_outliers(coord, reason, 0.5), int(reason[3, 3])
+    (1, 7)
+    """
+    matrix, rhs, count = _kernels.plane_sums(coord, reason)
+    if count < 3:
+        return 0
+    plane = np.linalg.lstsq(matrix, rhs, rcond=None)[0]
     half = _OUTLIER_WINDOW // 2
-    padded = np.pad(residual, half, constant_values=np.inf)
-    median, count = window_medians(padded, rows, cols, _OUTLIER_WINDOW)
-    jump = np.abs(residual[rows, cols] - median)
-    out[rows, cols] = (count - 1 >= _OUTLIER_MIN_NEIGHBOURS) & (jump > max_jump)
-    return out
+    padded = np.empty((coord.shape[0] + 2 * half, coord.shape[1] + 2 * half), dtype=np.float32)
+    _kernels.plane_residual(coord, reason, plane, padded, half)
+    return int(
+        _kernels.window_outliers(
+            padded, reason, _OUTLIER_WINDOW, float(max_jump), _OUTLIER_MIN_NEIGHBOURS
+        )
+    )

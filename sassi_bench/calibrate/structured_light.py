@@ -9,11 +9,21 @@ phase-shifted fringes give the position within a period to a small fraction of a
 (:mod:`~sassi_bench.calibrate.pixel_validity`); :func:`decode_correspondences` pairs
 the two axes.
 
+Frames can also be decoded one at a time, as they are captured or read back from a
+session: :func:`sweep_reference` takes what every axis of a sweep shares (the dark,
+blank and full frames) and an :class:`AxisDecoder` takes an axis's Gray pairs and phase
+frames in any order, folding each Gray pair into the decode at once and keeping the
+phase frames raw (their frame gains need all of them) until :meth:`AxisDecoder.finish`.
+At the prototype's scale (4.2 million pixels, 8 Gray bits and 8 phase frames an axis)
+an axis holds about 200 MB while it is decoded, where the stacks of float32 frames and
+their float64 copies held over 1 GB.
+
 Coordinates follow the workbench convention: pixel centres at integers, arrays indexed
 ``[row, col]``; SLM pixel ``p`` spans ``p - 0.5 .. p + 0.5``.
 
-Every function is vectorised over pixels (loops run over bits and phase steps only)
-and takes frames as uint16 or float, subtracting the dark frame itself.
+Every pass over the pixels is a compiled loop
+(:mod:`~sassi_bench.calibrate._frame_kernels`) that takes frames as uint16 or float,
+subtracting the dark frame itself.
 """
 
 from __future__ import annotations
@@ -26,19 +36,33 @@ from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench._shared.arrays import check_shape, check_shape_equality
 from sassi_bench.acquire.patterns import gray_bit_count
-from sassi_bench.calibrate.frame_stacks import dark_level, frame_stack, subtract_dark
-from sassi_bench.calibrate.gray_decode import check_block, decode_gray
-from sassi_bench.calibrate.phase_decode import blur_from_modulation, decode_phase, unwrap
+from sassi_bench.calibrate import _frame_kernels as _kernels
+from sassi_bench.calibrate.frame_stacks import (
+    dark_level,
+    frame_stack,
+    saturation_argument,
+    subtract_dark,
+)
+from sassi_bench.calibrate.gray_decode import GrayAccumulator, check_block
+from sassi_bench.calibrate.phase_decode import blur_from_modulation, fit_fringes, phase_solver
 from sassi_bench.calibrate.pixel_validity import (
-    first_reason,
-    local_outliers,
+    REASONS,
     noise_floor,
     reason_counts,
     saturated,
+    screen_outliers,
 )
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["AxisDecode", "Correspondences", "decode_axis", "decode_correspondences"]
+__all__ = [
+    "AxisDecode",
+    "AxisDecoder",
+    "Correspondences",
+    "SweepReference",
+    "decode_axis",
+    "decode_correspondences",
+    "sweep_reference",
+]
 
 # Default border margin, in blur sigmas (plus half a pixel): a Gaussian spot truncated
 # 2.5 sigma from its centre is pulled inwards by under 0.02 sigma.
@@ -93,6 +117,29 @@ def _median_blur(depth: NDArray[np.float64], usable: NDArray[np.bool_], period: 
     return float(blur_from_modulation(np.median(depth[usable]), period))
 
 
+def _check_geometry(length: int, block: int, period: float, tolerance: float, step: str) -> int:
+    """The Gray/phase geometry of one axis; returns its number of Gray bits."""
+    check_block(block, step)
+    if isinstance(length, bool) or not isinstance(length, (int, np.integer)) or length < 1:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"length {length!r} is not a positive integer",
+                "pass the SLM's width (axis x) or height (axis y) in pixels",
+            )
+        )
+    if not 0 <= tolerance < period / 2 or block / 2 > period / 2 - tolerance:
+        raise ProcedureError(
+            step_error(
+                step,
+                f"Gray blocks of {block} px cannot pick a period of {period} px with "
+                f"tolerance {tolerance} px",
+                "use block <= period - 2 * tolerance (e.g. block 8, period 16, tolerance 2)",
+            )
+        )
+    return gray_bit_count(length, block)
+
+
 def _check_axis_inputs(
     pos: NDArray,
     neg: NDArray,
@@ -131,14 +178,272 @@ def _check_axis_inputs(
                 "pass every bit of the sweep, and the same length and block as the plan",
             )
         )
-    if not 0 <= tolerance < period / 2 or block / 2 > period / 2 - tolerance:
-        raise ProcedureError(
-            step_error(
-                step,
-                f"Gray blocks of {block} px cannot pick a period of {period} px with "
-                f"tolerance {tolerance} px",
-                "use block <= period - 2 * tolerance (e.g. block 8, period 16, tolerance 2)",
+    _check_geometry(length, block, period, tolerance, step)
+
+
+@dataclass(frozen=True, eq=False)
+class SweepReference:
+    """What every axis of one sweep shares: the dark level and the pixels excluded before
+    any pattern is decoded.
+
+    Attributes
+    ----------
+    dark
+        The dark frame (H, W) or scalar black level, float32.
+    is_dark
+        Pixels with too little light to decode (H, W): the ``dark`` reason.
+    clipped
+        Pixels the blank or full frame saturates (H, W).
+    """
+
+    dark: NDArray[np.float32]
+    is_dark: NDArray[np.bool_]
+    clipped: NDArray[np.bool_]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """The frames' (H, W)."""
+        return self.is_dark.shape
+
+
+def sweep_reference(
+    blank: ArrayLike,
+    full: ArrayLike,
+    *,
+    dark: ArrayLike | None = None,
+    saturation_level: float | None = 65535,
+    min_signal: float | None = None,
+    min_relative_signal: float = 0.05,
+) -> SweepReference:
+    """The dark, blank and full frames of a sweep, as every axis's decode needs them.
+
+    Parameters
+    ----------
+    blank, full
+        Frames (H, W) with the SLM fully closed and fully open.
+    dark
+        Dark frame (light off) (H, W) or scalar black level.
+    saturation_level
+        Raw value at which the camera saturates; ``None`` skips the check.
+    min_signal, min_relative_signal
+        A pixel is ``dark`` when ``full - blank`` (dark-subtracted) is at most
+        ``min_signal`` (default ten times the dark frame's robust noise, 0 for a scalar
+        ``dark``) or ``min_relative_signal`` of the 99.5th percentile.
+
+    Returns
+    -------
+    SweepReference
+
+    Examples
+    --------
+    >>> ref = sweep_reference(np.full((1, 3), 10.0), np.array([[10.0, 500.0, 1000.0]]))
+    >>> ref.is_dark.tolist(), ref.clipped.tolist()
+    ([[True, False, False]], [[False, False, False]])
+    """
+    step = "structured-light decoding"
+    blank_raw, full_raw = np.asarray(blank), np.asarray(full)
+    fix = "pass frames of one camera, all of the same shape"
+    check_shape(full_raw, blank_raw.shape, step=step, name="full", expected_for="blank", fix=fix)
+    dark_arr = dark_level(dark, blank_raw.shape, step)
+    signal = subtract_dark(full_raw, dark_arr) - subtract_dark(blank_raw, dark_arr)
+    floor = noise_floor(dark_arr) if min_signal is None else float(min_signal)
+    bright = float(np.percentile(signal, 99.5)) if signal.size else 0.0
+    floor = max(floor, min_relative_signal * bright)
+    is_dark = ~(signal > floor)
+    clipped = saturated([full_raw[None], blank_raw[None]], saturation_level)
+    return SweepReference(dark_arr, is_dark, clipped)
+
+
+class AxisDecoder:
+    """Decode one SLM axis from its frames as they come: Gray pairs, then phase frames.
+
+    Each Gray bit is folded into the decode when both its frames are in (the first is
+    kept until its inverse arrives); phase frames are kept raw, in their own dtype, until
+    :meth:`finish` fits the fringes with their frame gains. Frames may come in any order.
+
+    Parameters
+    ----------
+    reference
+        The sweep's dark level and excluded pixels (:func:`sweep_reference`).
+    length, block, period, shifts, saturation_level, edge_margin, min_modulation,
+    min_margin, tolerance, max_jump
+        As for :func:`decode_axis`.
+    phase_steps
+        Phase frames of the axis (their shifts default to ``s * period // phase_steps``).
+
+    Examples
+    --------
+    >>> from sassi_bench.acquire.patterns import gray_bit_count, render_pattern
+    >>> from sassi_bench.calibrate.grey_response import sinusoid_profile
+    >>> def show(**d):  # a noiseless camera that sees the SLM pixel for pixel
+    ...     return 10.0 + 1000.0 * render_pattern(d, (2, 64)) / 255.0
+    >>> ref = sweep_reference(show(kind="blank"), show(kind="full"), dark=10.0)
+    >>> decoder = AxisDecoder(ref, length=64, phase_steps=8)
+    >>> for b in range(gray_bit_count(64, 8)):
+    ...     for inverse in (False, True):
+    ...         frame = show(kind="gray", axis="x", bit=b, block=8, inverse=inverse)
+    ...         decoder.add_gray(b, inverse, frame)
+    >>> for s in range(8):
+    ...     profile = sinusoid_profile(16)
+    ...     decoder.add_phase(s, show(kind="periodic", axis="x", profile=profile, shift=2 * s))
+    >>> axis = decoder.finish()
+    >>> bool(np.nanmax(np.abs(axis.coord - np.arange(64))) < 0.02), axis.counts["valid"]
+    (True, 124)
+    """
+
+    step = "structured-light decoding"
+
+    def __init__(
+        self,
+        reference: SweepReference,
+        *,
+        length: int,
+        phase_steps: int,
+        block: int = 8,
+        period: int = 16,
+        shifts: Sequence[float] | None = None,
+        saturation_level: float | None = 65535,
+        edge_margin: float | None = None,
+        min_modulation: float = 0.25,
+        min_margin: float = 0.2,
+        tolerance: float = 2.0,
+        max_jump: float = 0.5,
+    ) -> None:
+        self.bits = _check_geometry(length, block, period, tolerance, self.step)
+        self.reference, self.length, self.block, self.period = reference, length, block, period
+        self.edge_margin, self.min_modulation = edge_margin, min_modulation
+        self.min_margin, self.tolerance, self.max_jump = min_margin, tolerance, max_jump
+        self.saturation = saturation_argument(saturation_level)
+        if phase_steps < 3:
+            raise ProcedureError(
+                step_error(
+                    self.step,
+                    f"{phase_steps} phase frames cannot fit a fringe",
+                    "capture at least 3 phase-shifted frames per axis",
+                )
             )
+        self.phase_steps = int(phase_steps)
+        if shifts is None:
+            shifts = np.arange(self.phase_steps) * period // self.phase_steps
+        shifts = np.asarray(shifts, dtype=np.float64)
+        check_shape(
+            shifts,
+            (self.phase_steps,),
+            step="phase decoding",
+            name="shifts",
+            expected_for=f"{self.phase_steps} frames",
+            fix="pass one shift per frame",
+        )
+        self.solver = phase_solver(shifts, float(period), "phase decoding")
+        self.gray = GrayAccumulator(
+            reference.shape, self.bits, block, dark=reference.dark,
+            saturation_level=saturation_level, step=self.step,
+        )  # fmt: skip
+        self._waiting: dict[int, tuple[bool, NDArray]] = {}  # bit -> first frame of its pair
+        self._phase: NDArray | None = None
+        self._phase_seen: set[int] = set()
+
+    def _frame(self, frame: ArrayLike, name: str) -> NDArray:
+        arr = np.asarray(frame)
+        check_shape(
+            arr, self.reference.shape, step=self.step, name=name, expected_for="the frames",
+            fix="pass frames of one camera, all of the same shape",
+        )  # fmt: skip
+        return arr
+
+    def add_gray(self, bit: int, inverse: bool, frame: ArrayLike) -> None:
+        """Take Gray bit ``bit``'s frame (``inverse``: of the inverse pattern)."""
+        arr = self._frame(frame, "gray frame")
+        waiting = self._waiting.get(bit)
+        if waiting is None:
+            if bit in self.gray.seen:
+                raise ProcedureError(
+                    step_error(self.step, f"Gray bit {bit} given twice", "pass each frame once")
+                )
+            self._waiting[bit] = (bool(inverse), arr)  # kept, not copied, until its pair
+            return
+        first_inverse, first = waiting
+        if first_inverse == bool(inverse):
+            raise ProcedureError(
+                step_error(
+                    self.step,
+                    f"two {'inverse' if inverse else 'positive'} frames of Gray bit {bit}",
+                    "pass each bit's frame and its inverse's once",
+                )
+            )
+        del self._waiting[bit]
+        positive, negative = (arr, first) if first_inverse else (first, arr)
+        self.gray.add(bit, positive, negative)
+
+    def add_phase(self, step: int, frame: ArrayLike) -> None:
+        """Take the phase frame of shift number ``step`` (0 .. phase_steps - 1)."""
+        arr = self._frame(frame, "phase frame")
+        if not 0 <= step < self.phase_steps or step in self._phase_seen:
+            raise ProcedureError(
+                step_error(
+                    self.step,
+                    f"phase frame {step} given twice or not one of {self.phase_steps}",
+                    "pass each phase frame once",
+                )
+            )
+        if self._phase is None:
+            self._phase = np.empty((self.phase_steps, *arr.shape), dtype=arr.dtype)
+        self._phase[step] = arr
+        self._phase_seen.add(step)
+        if self.saturation == self.saturation:
+            _kernels.saturation_test(arr, self.saturation, self.gray.clipped)
+
+    @property
+    def complete(self) -> bool:
+        """Whether every Gray pair and phase frame is in."""
+        return len(self.gray.seen) == self.bits and len(self._phase_seen) == self.phase_steps
+
+    def finish(self) -> AxisDecode:
+        """Fit the fringes, unwrap them and test every pixel (:class:`AxisDecode`)."""
+        if not self.complete:
+            raise ProcedureError(
+                step_error(
+                    self.step,
+                    f"{len(self.gray.seen)} of {self.bits} Gray bits (with their inverses) "
+                    f"and {len(self._phase_seen)} of {self.phase_steps} phase frames given",
+                    "pass every frame of the axis before finishing it",
+                )
+            )
+        ref = self.reference
+        fringe = fit_fringes(self._phase, self.period, self.solver, ref.dark, skip=ref.is_dark)
+        self._phase = None
+        index = _kernels.gray_index(self.gray.word, self.bits)
+        shape = ref.shape
+        # The unwrapped coordinate and the modulation depth replace the fringe's position
+        # and amplitude in place (each pixel reads its own first).
+        coord, depth, coarse = fringe.coord, fringe.modulation, np.empty(shape)
+        reason = np.empty(shape, dtype=np.uint8)
+        _kernels.axis_reasons(
+            ref.is_dark, ref.clipped | self.gray.clipped, fringe.modulation, fringe.offset,
+            self.gray.second, fringe.coord, index, self.block, float(self.period),
+            float(self.min_modulation), float(self.min_margin),
+            self.period / 2 - self.tolerance, coord, coarse, depth, reason,
+        )  # fmt: skip
+        del fringe, index
+        # The blur from the pixels that are lit, unsaturated and modulated (reasons 0, 4, 5).
+        usable = (reason == 0) | (reason == REASONS.index("ambiguous_gray"))
+        usable |= reason == REASONS.index("disagreement")
+        blur = _median_blur(depth, usable, self.period)
+        del usable
+        margin = 0.5 + _EDGE_SIGMAS * blur if self.edge_margin is None else float(self.edge_margin)
+        _kernels.edge_reasons(coord, reason, margin - 0.5, self.length - 0.5 - margin)
+        screen_outliers(coord, reason, self.max_jump)
+        valid = reason == 0
+        coord[~valid] = np.nan
+        return AxisDecode(
+            coord=coord,
+            valid=valid,
+            modulation=depth,
+            counts=reason_counts(reason),
+            reason=reason,
+            coarse=coarse,
+            blur_sigma=blur,
+            edge_margin=margin,
         )
 
 
@@ -246,46 +551,22 @@ def decode_axis(
     fringes = frame_stack(phase, step, "phase", minimum=3)
     blank_raw, full_raw = np.asarray(blank), np.asarray(full)
     _check_axis_inputs(pos, neg, fringes, blank_raw, full_raw, length, block, period, tolerance)
-    shape = pos.shape[1:]
-    dark_arr = dark_level(dark, shape, step)
-
-    signal = subtract_dark(full_raw, dark_arr) - subtract_dark(blank_raw, dark_arr)
-    floor = noise_floor(dark_arr) if min_signal is None else float(min_signal)
-    bright = float(np.percentile(signal, 99.5)) if signal.size else 0.0
-    floor = max(floor, min_relative_signal * bright)
-    is_dark = ~(signal > floor)
-    clipped = saturated([full_raw[None], blank_raw[None], pos, neg, fringes], saturation_level)
-
-    gray = decode_gray(pos, neg, block, min_margin, dark=dark_arr)
-    coarse = gray.coord
-    fringe = decode_phase(fringes, period, dark=dark_arr, shifts=shifts)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        depth = np.where(fringe.offset > 0, fringe.modulation / fringe.offset, 0.0)
-    coord = unwrap(fringe.coord, coarse, period)
-    blur = _median_blur(depth, (depth >= min_modulation) & ~is_dark & ~clipped, period)
-    margin = 0.5 + _EDGE_SIGMAS * blur if edge_margin is None else float(edge_margin)
-
-    flags = [
-        is_dark,
-        clipped,
-        ~(depth >= min_modulation),
-        gray.second_margin < min_margin,
-        np.abs(coord - coarse) > period / 2 - tolerance,
-        (coord < margin - 0.5) | (coord > length - 0.5 - margin),
-    ]
-    passed = first_reason(flags) == 0
-    reason = first_reason([*flags, local_outliers(coord, passed, max_jump)])
-    valid = reason == 0
-    return AxisDecode(
-        coord=np.where(valid, coord, np.nan),
-        valid=valid,
-        modulation=depth,
-        counts=reason_counts(reason),
-        reason=reason,
-        coarse=coarse,
-        blur_sigma=blur,
-        edge_margin=margin,
-    )
+    reference = sweep_reference(
+        blank_raw, full_raw, dark=dark, saturation_level=saturation_level,
+        min_signal=min_signal, min_relative_signal=min_relative_signal,
+    )  # fmt: skip
+    decoder = AxisDecoder(
+        reference, length=length, phase_steps=fringes.shape[0], block=block, period=period,
+        shifts=shifts, saturation_level=saturation_level, edge_margin=edge_margin,
+        min_modulation=min_modulation, min_margin=min_margin, tolerance=tolerance,
+        max_jump=max_jump,
+    )  # fmt: skip
+    for bit, (positive, negative) in enumerate(zip(pos, neg, strict=True)):
+        decoder.add_gray(bit, False, positive)
+        decoder.add_gray(bit, True, negative)
+    for s, frame in enumerate(fringes):
+        decoder.add_phase(s, frame)
+    return decoder.finish()
 
 
 # -- both axes ------------------------------------------------------------------------

@@ -464,3 +464,30 @@ def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no 
             for b in range(bins):
                 if dominant[b]:
                     out[n, b] = x[s, b]
+
+
+@njit(nogil=True, error_model="numpy")
+def column_weights(x_left, x_right, width, total, square):  # pragma: no cover - compiled
+    """Per cell, ``sum w`` and ``sum w^2`` of the fractions ``w`` of its columns
+    ``[c - 0.5, c + 0.5]`` inside the bin ``[x_left, x_right]`` clipped to the camera's
+    ``width`` (the noise model's column weights, :func:`sassi_bench.spectra.noise.column_weights`).
+
+    Column by column from the bin's first, as the numpy form adds them (columns past the
+    bin add zeros there, which changes no sum).
+    """
+    pixels, bins = x_left.shape
+    for n in range(pixels):
+        for b in range(bins):
+            left = min(max(x_left[n, b], -0.5), width - 0.5)
+            right = min(max(x_right[n, b], -0.5), width - 0.5)
+            centre = math.floor(left + 0.5)
+            t = 0.0
+            q = 0.0
+            while centre - 0.5 < right:
+                w = min(centre + 0.5, right) - max(centre - 0.5, left)
+                if w > 0.0:
+                    t += w
+                    q += w * w
+                centre += 1.0
+            total[n, b] = t
+            square[n, b] = q

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from scipy.special import ndtr
 
 from sassi_bench.errors import ConfigError, step_error
+from sassi_bench.spectra import _kernels
 from sassi_bench.spectra.cells import CellLayout
 from sassi_bench.spectra.geometry import StreakGeometry
 
@@ -44,15 +45,8 @@ def column_weights(layout: CellLayout) -> tuple[NDArray[np.float64], NDArray[np.
     >>> [a.tolist() for a in column_weights(layout)]  # 0.25 of column 2, 0.75 of column 3
     [[[1.0]], [[0.625]]]
     """
-    left = np.clip(layout.x_left, -0.5, layout.shape[1] - 0.5)
-    right = np.clip(layout.x_right, -0.5, layout.shape[1] - 0.5)
-    first = np.floor(left + 0.5)
-    total, square = np.zeros_like(left), np.zeros_like(left)
-    for k in range(int(np.ceil(np.max(right - left, initial=0.0))) + 2):
-        centre = first + k
-        w = np.clip(np.minimum(centre + 0.5, right) - np.maximum(centre - 0.5, left), 0.0, None)
-        total += w
-        square += w * w
+    total, square = np.empty_like(layout.x_left), np.empty_like(layout.x_left)
+    _kernels.column_weights(layout.x_left, layout.x_right, float(layout.shape[1]), total, square)
     return total, square
 
 

@@ -71,6 +71,7 @@ from sassi_bench.spectra.scan_deblur import (
 __all__ = [
     "QUALITY_FLAGS",
     "Roi",
+    "ScanAssembly",
     "ScanCube",
     "assemble_scan",
     "check_pitch",
@@ -303,18 +304,46 @@ class _Frame:
     usable: bool
 
 
-class _Assembly:
-    """The state of one assembly: the work area of the cube and the background sums.
+class ScanAssembly:
+    """A pinhole scan being assembled: its frames taken one at a time, in any order, on any
+    thread (the reading pass), then the cube made from them (:meth:`finish`).
 
     The work area covers the ROI's columns, and rows beyond it so that the ROI's edge
     pixels are unmixed from their neighbours outside it too. Frames write disjoint SLM
     pixels (each is open in one frame), so threads fill it without locking; each thread
-    keeps its own background sums (:class:`_Scratch`), added up once all frames are read.
+    keeps its own background sums, added up once all frames are read. Every sum of the
+    reading pass is exact (integer frames summed in float64), so the cube does not depend
+    on the order the frames came in or on how they were shared among threads: frames
+    taken while the session fills (:class:`~sassi_bench.workflows.frame_feed.FrameFeed`)
+    give the cube of the finished session, read back.
+
+    Parameters
+    ----------
+    session
+        A session captured from :func:`scan_plan` (complete or not: missing frames leave
+        their pixels flagged ``not_measured``).
+    bundle, roi, deblur, keep_raw
+        As for :func:`assemble_scan`.
+
+    Examples
+    --------
+    >>> assembly = ScanAssembly(session, bundle)  # doctest: +SKIP
+    >>> for index in assembly.steps:  # doctest: +SKIP
+    ...     assembly.read(index, session.read_frame(index))
+    >>> scan = assembly.finish(progress=False)  # doctest: +SKIP
     """
 
-    def __init__(self, session: Session, bundle: CalibrationBundle, roi, deblur: bool):
+    def __init__(
+        self,
+        session: Session,
+        bundle: CalibrationBundle,
+        *,
+        roi: Sequence[int] | None = None,
+        deblur: bool = True,
+        keep_raw: bool = False,
+    ):
         rig = session.rig
-        self.session, self.bundle = session, bundle
+        self.session, self.bundle, self.keep_raw = session, bundle, keep_raw
         self.slm_shape = (int(rig["slm"]["height"]), int(rig["slm"]["width"]))
         self.camera_shape = (
             int(rig["spectral_camera"]["height"]),
@@ -330,9 +359,13 @@ class _Assembly:
                     "load the bundle of the rig the scan was taken on",
                 )
             )
+        plan = session.plan
+        self.pinholes = list(plan.select(role="pinholes"))
+        closed = plan.select(role="closed")
+        self.closed_step = closed[0] if closed else None
+        self.closed_frame: NDArray | None = None
         self.model = StreakForwardModel.from_bundle(bundle) if deblur else None
         self.noise = CountsNoise.from_camera(rig["spectral_camera"])
-        self.row_gain: NDArray[np.float64] | None = None
         self.roi = check_roi(roi, self.slm_shape)
         r0, c0, r1, c1 = self.roi
         h = self.slm_shape[0]
@@ -347,18 +380,37 @@ class _Assembly:
         # Only the camera rows that light of the SLM can reach are processed.
         self.top, bottom = reached_rows(bundle, self.camera_shape[0], guard=GUARD_BINS)
         self.box = (bottom - self.top, self.camera_shape[1])
+        self.row_gain = self._row_gain()
         self.lock = threading.Lock()
         self.scratches: list[_Scratch] = []
         self.thread = threading.local()
+        self.frames: list[_Frame] = []
         self.background_cumulative: NDArray[np.float64] | None = None
         # The frames whose every pixel chooses the deblur's regularisation, whatever the ROI
         # (scan_deblur.sample_frames), and their raw cell sums and good pixels.
-        steps = [i for i in session.plan.select(role="pinholes") if i in session.completed]
+        # Chosen among the plan's pinhole frames, not the ones stored yet: the frames come
+        # while the session fills, and a partly captured session samples what it has.
         self.sample: frozenset[int] = frozenset()
-        if deblur and steps:
-            first = open_pixels(session.plan.steps[steps[0]].pattern, self.slm_shape)[0]
-            self.sample = sample_frames(steps, first.size)
+        if deblur and self.pinholes:
+            first = open_pixels(plan.steps[self.pinholes[0]].pattern, self.slm_shape)[0]
+            self.sample = sample_frames(self.pinholes, first.size)
         self.sample_raw: dict[int, tuple[NDArray[np.float32], NDArray[np.bool_]]] = {}
+
+    @property
+    def steps(self) -> list[int]:
+        """The plan steps the assembly reads: the pinhole frames and the first closed one."""
+        return sorted(
+            [*self.pinholes, *([self.closed_step] if self.closed_step is not None else [])]
+        )
+
+    def _row_gain(self) -> NDArray[np.float64]:
+        """The row unmixing's noise gain: every frame stacks its pixels alike, so one gain
+        for the scan, from the plan's first pinhole frame (the pattern alone)."""
+        if not self.pinholes:
+            return np.ones(self.n_bins + 2 * GUARD_BINS)
+        rows, cols = open_pixels(self.session.plan.steps[self.pinholes[0]].pattern, self.slm_shape)
+        geo = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
+        return row_unmixing_gain(geo, cell_layout(geo, self.box))
 
     def _scratch(self) -> _Scratch:
         """This thread's background sums and working buffers (made on first use)."""
@@ -372,10 +424,14 @@ class _Assembly:
     def _local(self, geo: StreakGeometry) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         return geo.rows - self.w0, geo.cols - self.roi[1]
 
-    def read(self, index: int) -> _Frame:
-        """Reading pass of one frame: background samples, raw cell sums and flags."""
+    def read(self, index: int, data: NDArray) -> None:
+        """Reading pass of step ``index``'s frame: background samples, raw cell sums, their
+        noise, and flags (the closed-SLM frame is kept to check the background)."""
+        if index == self.closed_step:
+            self.closed_frame = np.asarray(data)
+            return
         problems: list[str] = []
-        data = np.asarray(self.session.read_frame(index))
+        data = np.asarray(data)
         rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
         _, c0, _, c1 = self.roi
         keep = (rows >= self.w0) & (rows < self.w1) & (cols >= c0) & (cols < c1)
@@ -384,7 +440,8 @@ class _Assembly:
                 f"frame {index}: shape {data.shape}, expected {self.camera_shape}; frame skipped"
             )
             self.quality[rows[keep] - self.w0, cols[keep] - c0] = QUALITY_FLAGS["bad_frame"]
-            return _Frame(index, rows[keep], cols[keep], problems, usable=False)
+            self.frames.append(_Frame(index, rows[keep], cols[keep], problems, usable=False))
+            return
         window = data[self.top : self.top + self.box[0]]
         everything = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
         scratch = self._scratch()
@@ -402,19 +459,22 @@ class _Assembly:
         if index in self.sample and geo is not everything:  # an ROI: the whole frame too
             self._keep_sample(index, everything, scratch.cumulative, window, bad)
         if geo.rows.size == 0:
-            return _Frame(index, geo.rows, geo.cols, problems, usable=True)
+            self.frames.append(_Frame(index, geo.rows, geo.cols, problems, usable=True))
+            return
         layout = cell_layout(geo, self.box)
         sums = cell_sums(scratch.cumulative, layout).astype(np.float32)
         local = self._local(geo)
         self.work[local] = sums[:, geo.core]
         self.guards[local] = np.concatenate([sums[:, : geo.guard], sums[:, geo.core.stop :]], 1)
+        # The noise of the raw sums (light, background and dark level), kept per pixel.
+        self.variance[local] = self.noise.variance(sums, layout, self.row_gain).mean(axis=1)
         flags = np.where(layout.off[:, geo.core].any(axis=1), QUALITY_FLAGS["off_camera"], 0)
         if bad:
             flags = flags | _pixel_flags(window, geo, self.saturation, index, problems)
         self.quality[local] = flags
         if index in self.sample and geo is everything:
             self.sample_raw[index] = (sums, flags == 0)
-        return _Frame(index, geo.rows, geo.cols, problems, usable=True)
+        self.frames.append(_Frame(index, geo.rows, geo.cols, problems, usable=True))
 
     def _keep_sample(self, index: int, geo: StreakGeometry, cumulative, window, bad) -> None:
         """Raw cell sums and good pixels of every pixel of a sample frame (as read)."""
@@ -439,7 +499,20 @@ class _Assembly:
             parts.append((unmix_rows(raw, layout, geo), rows, cols, variance, exposure, good))
         return ChoiceSample.of(parts, self.n_bins + 2 * GUARD_BINS)
 
-    def background(self) -> NDArray[np.float64]:
+    def read_stored(
+        self, indices: Sequence[int], *, progress: bool = True, workers: int | None = None
+    ) -> None:
+        """The reading pass of stored frames, read back from the session on ``workers``
+        threads (default: one per CPU)."""
+        workers = max(1, workers or os.cpu_count() or 1)
+
+        def task(index: int) -> None:
+            self.read(index, self.session.read_frame(index))
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            _run_frames(task, list(indices), "scan frames", progress, workers)
+
+    def _background(self) -> NDArray[np.float64]:
         """The background estimate on the whole camera (NaN where no light reaches)."""
         background = np.full(self.camera_shape, np.nan)
         total, count = np.zeros(self.box), np.zeros(self.box, dtype=np.int64)
@@ -454,7 +527,7 @@ class _Assembly:
         self.background_cumulative = column_cumsum(inside)
         return background
 
-    def spectra(self, frame: _Frame) -> tuple[float, int]:
+    def _spectra(self, frame: _Frame) -> tuple[float, int]:
         """Spectra pass of one frame: subtract the background's cell sums and unmix."""
         if not frame.usable or frame.rows.size == 0:
             return 0.0, 0
@@ -462,10 +535,6 @@ class _Assembly:
         layout = cell_layout(geo, self.box)
         local = self._local(geo)
         raw = stack_bins(self.work[local], self.guards[local], geo.guard)
-        with self.lock:  # every frame stacks its pixels alike: one gain for the scan
-            if self.row_gain is None:
-                self.row_gain = row_unmixing_gain(geo, layout)
-        variance = self.noise.variance(raw, layout, self.row_gain)
         raw -= cell_sums(self.background_cumulative, layout)
         amplitudes = unmix_rows(raw, layout, geo)
         self.work[local] = amplitudes[:, geo.core]
@@ -474,18 +543,30 @@ class _Assembly:
         )
         exposure = self.session.plan.steps[frame.index].exposure_s
         self.exposure[local] = exposure
-        self.variance[local] = variance.mean(axis=1)
         signal = amplitudes[:, geo.core] / exposure
         good = self.quality[local] == 0
         return float(signal[good].sum(dtype=np.float64)), int(good.sum()) * self.n_bins
 
-    def finish(self, run, keep_raw: bool) -> tuple[ScanDeblur | None, NDArray | None]:
+    def _deblur(self, run) -> tuple[ScanDeblur | None, NDArray | None]:
         """After the spectra pass: keep the column sums if asked, then deblur in place."""
         extracted = self.exposure > 0
         seconds = np.where(extracted, self.exposure, 1.0)[..., None]
         kept = None
-        if keep_raw:
-            kept = (stack_bins(self.work, self.guards, GUARD_BINS) / seconds).astype(np.float32)
+        if self.keep_raw:
+            # Row blocks (the float64 quotient of the whole area would be twice the cube),
+            # and only the pixels extracted: the others stay 0 (a thinned scan's most).
+            kept = np.zeros((*self.work.shape[:2], self.n_bins + 2 * GUARD_BINS), np.float32)
+            for start in range(0, kept.shape[0], 64):
+                rows = slice(start, start + 64)
+                taken = extracted[rows]
+                if taken.all():
+                    stacked = stack_bins(self.work[rows], self.guards[rows], GUARD_BINS)
+                    kept[rows] = stacked / seconds[rows]
+                elif taken.any():
+                    r, c = np.nonzero(taken)
+                    r += start
+                    stacked = stack_bins(self.work[r, c], self.guards[r, c], GUARD_BINS)
+                    kept[r, c] = stacked / seconds[r, c]
         if self.model is None:
             self.work /= seconds
             return None, kept
@@ -495,6 +576,63 @@ class _Assembly:
             (self.w0, c0), self.model, float(self.saturation), run,
         )  # fmt: skip
         return result, kept
+
+    def finish(self, *, progress: bool = True, workers: int | None = None) -> ScanCube:
+        """The cube of every frame read: background, spectra pass, deblur.
+
+        Parameters
+        ----------
+        progress
+            Show progress bars.
+        workers
+            Threads for the spectra pass and the deblur (default: one per CPU).
+
+        Returns
+        -------
+        ScanCube
+        """
+        workers = max(1, workers or os.cpu_count() or 1)
+        frames = sorted(self.frames, key=lambda frame: frame.index)
+        # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and
+        # BLAS's spinning threads contend with ours or with any other load (deblurring one
+        # frame took 445 ms with two BLAS threads on a busy machine, 12 ms with one;
+        # building the deblur operators took 0.65 s with two, 0.15 s with one).
+        with threadpool_limits(limits=1, user_api="blas"):
+            background = self._background()
+            signals = _run_frames(self._spectra, frames, "scan spectra", progress, workers)
+            deblurred, kept = self._deblur(
+                lambda task, items, label: _run_frames(
+                    task, items, label, progress, workers, unit="block"
+                ),
+            )
+        check = None
+        if self.closed_frame is None and self.closed_step in self.session.completed:
+            self.closed_frame = self.session.read_frame(self.closed_step)
+        if self.closed_frame is not None:
+            residual = self.closed_frame - background
+            check = float(np.sqrt(np.nanmean(residual**2)))
+        r0, c0, r1, _ = self.roi
+        crop = slice(r0 - self.w0, r1 - self.w0)
+        seconds = np.where(self.exposure > 0, self.exposure, 1.0) ** 2
+        whole = self.roi == Roi(0, 0, *self.slm_shape)
+        return ScanCube(
+            cube=self.work if whole else self.work[crop].copy(),
+            quality=self.quality if whole else self.quality[crop].copy(),
+            wavelengths_nm=np.asarray(self.bundle.wavelengths),
+            bin_edges_nm=np.asarray(self.bundle.bin_edges),
+            origin=(r0, c0),
+            background=background,
+            background_check_rms=check,
+            mean_streak_signal=sum(s for s, _ in signals) / max(sum(c for _, c in signals), 1),
+            problems=[line for frame in frames for line in frame.problems],
+            deblur=None if deblurred is None else deblurred.choice,
+            mean_spectrum=None if deblurred is None else deblurred.mean_spectrum,
+            band_noise_psnr_db=None if deblurred is None else deblurred.band_noise_psnr_db,
+            column_sums=None if kept is None else kept[crop],
+            noise_variance=(
+                (self.variance / seconds)[crop].astype(np.float32) if self.keep_raw else None
+            ),
+        )
 
 
 def assemble_scan(
@@ -511,9 +649,10 @@ def assemble_scan(
 
     Every frame is read once. The reading pass adds the frame's pixels outside the
     predicted streaks to the background estimate and keeps the raw cell sums of its open
-    pixels (linear in the frame); the spectra pass then subtracts the background's cell
-    sums and unmixes, without reading frames again. Only the camera rows that streaks can
-    reach are processed.
+    pixels (linear in the frame) and their noise; the spectra pass then subtracts the
+    background's cell sums and unmixes, without reading frames again. Only the camera rows
+    that streaks can reach are processed. (:class:`ScanAssembly` takes the frames one at a
+    time, e.g. as they are captured.)
 
     Parameters
     ----------
@@ -546,47 +685,10 @@ def assemble_scan(
     >>> scan.cube.shape  # doctest: +SKIP
     (400, 640, 68)
     """
-    workers = max(1, workers or os.cpu_count() or 1)
-    steps = [i for i in session.plan.select(role="pinholes") if i in session.completed]
-    # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and BLAS's
-    # spinning threads contend with ours or with any other load (deblurring one frame
-    # took 445 ms with two BLAS threads on a busy machine, 12 ms with one; building the
-    # deblur operators took 0.65 s with two, 0.15 s with one).
-    with threadpool_limits(limits=1, user_api="blas"):
-        assembly = _Assembly(session, bundle, roi, deblur)
-        frames = _run_frames(assembly.read, steps, "scan frames", progress, workers)
-        background = assembly.background()
-        signals = _run_frames(assembly.spectra, frames, "scan spectra", progress, workers)
-        deblurred, kept = assembly.finish(
-            lambda task, items, label: _run_frames(
-                task, items, label, progress, workers, unit="block"
-            ),
-            keep_raw,
-        )
-    check = None
-    closed = [i for i in session.plan.select(role="closed") if i in session.completed]
-    if closed:
-        residual = session.read_frame(closed[0]) - background
-        check = float(np.sqrt(np.nanmean(residual**2)))
-    r0, c0, r1, _ = assembly.roi
-    crop = slice(r0 - assembly.w0, r1 - assembly.w0)
-    seconds = np.where(assembly.exposure > 0, assembly.exposure, 1.0) ** 2
-    return ScanCube(
-        cube=assembly.work if roi is None else assembly.work[crop].copy(),
-        quality=assembly.quality if roi is None else assembly.quality[crop].copy(),
-        wavelengths_nm=np.asarray(bundle.wavelengths),
-        bin_edges_nm=np.asarray(bundle.bin_edges),
-        origin=(r0, c0),
-        background=background,
-        background_check_rms=check,
-        mean_streak_signal=sum(s for s, _ in signals) / max(sum(c for _, c in signals), 1),
-        problems=[line for frame in frames for line in frame.problems],
-        deblur=None if deblurred is None else deblurred.choice,
-        mean_spectrum=None if deblurred is None else deblurred.mean_spectrum,
-        band_noise_psnr_db=None if deblurred is None else deblurred.band_noise_psnr_db,
-        column_sums=None if kept is None else kept[crop],
-        noise_variance=(assembly.variance / seconds)[crop].astype(np.float32) if keep_raw else None,
-    )
+    assembly = ScanAssembly(session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw)
+    stored = [i for i in assembly.steps if i in session.completed]
+    assembly.read_stored(stored, progress=progress, workers=workers)
+    return assembly.finish(progress=progress, workers=workers)
 
 
 def _mean_background(total: NDArray, count: NDArray) -> NDArray[np.float64]:

@@ -240,8 +240,8 @@ def deblur_scan(
         work[r, c] = spectra[:, model.core] / exposure[r, c][:, None]
 
     run(block, list(range(0, rows.size, BLOCK_PIXELS)), "scan deblur")
-    judged = good & extracted
-    peak = float(np.max(work[judged])) if judged.any() else float(np.max(mean.band))
+    judged = good & extracted  # the peak from each pixel's maximum: no gathered cube
+    peak = float(work.max(axis=2)[judged].max()) if judged.any() else float(np.max(mean.band))
     band = 10.0 * np.log10(peak**2 / np.maximum(np.mean(noise**2, axis=0), 1e-300))
     assert deblur.choice is not None
     return ScanDeblur(deblur.choice, mean.spectrum, band)

@@ -87,7 +87,7 @@ def patch_statistics(
     """
     good = (np.asarray(quality) == 0) & (labels >= 0) & np.all(np.isfinite(cube), axis=-1)
     lab = labels[good]
-    spectra = np.asarray(cube, dtype=np.float64)[good]
+    spectra = np.asarray(cube)[good].astype(np.float64)  # the good pixels only, then float64
     count = np.bincount(lab, minlength=PATCH_COUNT)[:PATCH_COUNT]
     n = np.maximum(count, 1)[:, None]
     total = np.zeros((PATCH_COUNT, spectra.shape[1]))

@@ -4,6 +4,15 @@ and where the error comes from), and its inputs on disk (a scan cube, a user's m
 
 Pure functions on arrays and files; :func:`sassi_bench.workflows.snapshot_validation.run_snapshot`
 captures and reconstructs the snapshots and scores them here.
+
+Scores are summed over blocks of rows (and SSIM band by band), reading the reconstructions
+from their factored forms (:class:`~sassi_bench.snapshot.Rank1Cube`,
+:class:`~sassi_bench.snapshot.LowRankCube`) a block at a time, so no dense reconstruction and
+no float64 copy of a cube is made: at the prototype's scale (1080 x 1920 x 68 bins, 564 MB a
+float32 cube) scoring four snapshots held ten cubes' worth as floats (about 9 GB for the
+command); now it holds the scan and a block. The figures are those of
+:mod:`sassi_bench.snapshot.metrics` on the whole cube (the same float64 sums, added in
+another order).
 """
 
 from __future__ import annotations
@@ -11,6 +20,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -21,20 +31,22 @@ from sassi_bench.bundle import CalibrationBundle, MaskSpacing, QualityCheck
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import (
     FrameReconstruction,
-    band_psnr,
+    LowRankCube,
+    Rank1Cube,
     check_mask,
-    mean_spectral_angle_deg,
     psnr,
-    rank1_cube,
-    ssim,
+    rank1_factors,
 )
+from sassi_bench.spectra.angles import spectral_angle_deg
 from sassi_bench.spectra.cube_io import units_label
 
 __all__ = [
+    "Estimate",
     "MaskRun",
     "ScanReference",
     "Scores",
     "SnapshotValidation",
+    "cube_psnr",
     "detail_pixels",
     "frame_scores",
     "load_mask",
@@ -124,6 +136,127 @@ def load_scan_cube(path: str | os.PathLike[str], bundle: CalibrationBundle) -> S
     return ScanReference(cube, quality == 0, units)
 
 
+#: A reconstructed cube: dense (H, W, B), or in a snapshot's factored form.
+Estimate = NDArray[np.floating] | Rank1Cube | LowRankCube
+
+#: Rows of the SLM grid scored at once.
+_BLOCK_ROWS = 32
+
+
+def _rows(cube: Estimate, start: int, stop: int) -> NDArray:
+    """Rows ``start:stop`` of a cube, dense (rows, W, B)."""
+    if isinstance(cube, np.ndarray):
+        return cube[start:stop]
+    width = cube.shape[1]
+    rows = np.repeat(np.arange(start, stop), width)
+    cols = np.tile(np.arange(width), stop - start)
+    return cube.at(rows, cols).reshape(stop - start, width, -1)
+
+
+def _band(cube: Estimate, index: int) -> NDArray:
+    """Band ``index`` of a cube, (H, W)."""
+    return cube[..., index] if isinstance(cube, np.ndarray) else cube.band(index)
+
+
+def _pixels(cube: Estimate, reference: NDArray, where: NDArray[np.bool_]):
+    """The scored pixels' spectra of both cubes, float64 (n, B), a block of rows at a time."""
+    for start in range(0, where.shape[0], _BLOCK_ROWS):
+        stop = min(start + _BLOCK_ROWS, where.shape[0])
+        keep = where[start:stop]
+        if keep.any():
+            yield (
+                np.asarray(reference[start:stop][keep], dtype=np.float64),
+                np.asarray(_rows(cube, start, stop)[keep], dtype=np.float64),
+            )
+
+
+def _check(estimate: Estimate, reference: NDArray, where: NDArray[np.bool_]) -> None:
+    fix = "score a cube of the scan's shape over a mask of its pixels with at least one True"
+    if tuple(estimate.shape) != tuple(reference.shape) or where.shape != reference.shape[:2]:
+        raise ProcedureError(
+            step_error(
+                "snapshot scores",
+                f"the estimate is {tuple(estimate.shape)}, the reference "
+                f"{tuple(reference.shape)} and the mask {where.shape}",
+                fix,
+            )
+        )
+    if not where.any():
+        raise ProcedureError(step_error("snapshot scores", "the mask selects no pixel", fix))
+
+
+def _db(mse: NDArray | float, peak: float) -> NDArray[np.float64]:
+    with np.errstate(divide="ignore"):
+        return 10.0 * np.log10(peak**2 / np.asarray(mse, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class _Sums:
+    """One pass over the scored pixels: what PSNR, its affine fit and the angle need."""
+
+    pixels: int
+    peak: float
+    squared_error: NDArray[np.float64]  # per band
+    mean_estimate: float
+    mean_reference: float
+    angle_sum: float
+    angles: int
+
+    @classmethod
+    def of(cls, estimate: Estimate, reference: NDArray, where: NDArray[np.bool_]) -> _Sums:
+        pixels, peak, angle_sum, angles = 0, -np.inf, 0.0, 0
+        error = np.zeros(reference.shape[2])
+        total_e = total_r = 0.0
+        for ref, est in _pixels(estimate, reference, where):
+            pixels += ref.shape[0]
+            peak = max(peak, float(ref.max()))
+            error += np.sum((est - ref) ** 2, axis=0)
+            total_e += float(est.sum())
+            total_r += float(ref.sum())
+            angle = spectral_angle_deg(ref, est)
+            finite = np.isfinite(angle)
+            angle_sum += float(angle[finite].sum())
+            angles += int(finite.sum())
+        values = pixels * reference.shape[2]
+        return cls(pixels, peak, error, total_e / values, total_r / values, angle_sum, angles)
+
+    def affine_psnr(self, estimate: Estimate, reference: NDArray, where, peak: float) -> float:
+        """PSNR after the one least-squares ``a * estimate + b`` for the cube (two more
+        passes: the fit about the means, then its error)."""
+        variance = covariance = 0.0
+        for ref, est in _pixels(estimate, reference, where):
+            centred = est - self.mean_estimate
+            variance += float(np.sum(centred * centred))
+            covariance += float(np.sum(centred * (ref - self.mean_reference)))
+        a = covariance / variance if variance > 0 else 0.0
+        b = self.mean_reference - a * self.mean_estimate
+        error = 0.0
+        for ref, est in _pixels(estimate, reference, where):
+            error += float(np.sum((a * est + b - ref) ** 2))
+        return float(_db(error / (self.pixels * reference.shape[2]), peak))
+
+
+def _ssim(estimate: Estimate, reference: NDArray, valid: NDArray[np.bool_]) -> float:
+    """Mean SSIM over the scored pixels' bounding box (unscored pixels set to the
+    reference), band by band: scikit-image's per channel, 7 x 7 windows, ``data_range`` the
+    box's max minus min (as :func:`sassi_bench.snapshot.ssim` on the box)."""
+    from skimage.metrics import structural_similarity
+
+    rows, cols = np.nonzero(valid)
+    box = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
+    ref_box = reference[box]
+    span = float(ref_box.max() - ref_box.min()) or 1.0
+    inside = valid[box]
+    values = []
+    for index in range(reference.shape[2]):
+        ref = np.asarray(ref_box[..., index], dtype=np.float64)
+        est = np.where(inside, _band(estimate, index)[box], ref_box[..., index])
+        values.append(
+            structural_similarity(ref, est.astype(np.float64), channel_axis=None, data_range=span)
+        )
+    return float(np.mean(values))
+
+
 @dataclass(frozen=True)
 class Scores:
     """A reconstruction against the reference, over the scored pixels."""
@@ -135,19 +268,34 @@ class Scores:
     band_psnr_db: NDArray[np.float64]
 
     @classmethod
-    def of(cls, estimate: NDArray, reference: NDArray, valid: NDArray[np.bool_]) -> Scores:
+    def of(cls, estimate: Estimate, reference: NDArray, valid: NDArray[np.bool_]) -> Scores:
         """PSNR (raw, and after one affine fit for the cube), SSIM (over the scored
         pixels' bounding box, unscored pixels set to the reference), mean spectral angle
-        and per-band PSNR."""
-        rows, cols = np.nonzero(valid)
-        box = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
-        inside = np.where(valid[box][..., None], estimate[box], reference[box])
+        and per-band PSNR; the peak is the reference's maximum over the scored pixels.
+
+        ``estimate`` is a dense cube or a snapshot's factored one; it is read a block of
+        rows (SSIM: a band) at a time.
+
+        Examples
+        --------
+        >>> from sassi_bench.snapshot import psnr
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.uniform(1, 2, (12, 10, 3)).astype(np.float32)
+        >>> est = 0.5 * ref + 0.25 + rng.normal(0, 0.01, ref.shape).astype(np.float32)
+        >>> s = Scores.of(est, ref, np.ones((12, 10), bool))
+        >>> round(s.psnr_db, 9) == round(psnr(ref, est), 9), round(s.psnr_affine_db, 1)
+        (True, 40.2)
+        """
+        valid = np.asarray(valid, dtype=bool)
+        _check(estimate, reference, valid)
+        sums = _Sums.of(estimate, reference, valid)
+        bands = reference.shape[2]
         return cls(
-            psnr(reference, estimate, valid=valid),
-            psnr(reference, estimate, valid=valid, affine=True),
-            ssim(reference[box], inside),
-            mean_spectral_angle_deg(reference, estimate, valid=valid),
-            np.asarray(band_psnr(reference, estimate, valid=valid), dtype=np.float64),
+            float(_db(sums.squared_error.sum() / (sums.pixels * bands), sums.peak)),
+            sums.affine_psnr(estimate, reference, valid, sums.peak),
+            _ssim(estimate, reference, valid),
+            sums.angle_sum / sums.angles if sums.angles else float("nan"),
+            _db(sums.squared_error / sums.pixels, sums.peak),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -158,6 +306,32 @@ class Scores:
             "spectral_angle_deg": self.spectral_angle_deg,
             "band_psnr_db": self.band_psnr_db.tolist(),
         }
+
+
+def cube_psnr(
+    estimate: Estimate,
+    reference: NDArray,
+    where: NDArray[np.bool_],
+    *,
+    peak: float | None = None,
+    affine: bool = False,
+) -> float:
+    """PSNR of ``estimate`` over the pixels ``where``, block by block (see :class:`Scores`);
+    ``peak`` defaults to the reference's maximum there.
+
+    Examples
+    --------
+    >>> ref = np.ones((4, 4, 2), np.float32)
+    >>> round(cube_psnr(0.9 * ref, ref, np.ones((4, 4), bool)), 3)  # MSE 0.01, peak 1
+    20.0
+    """
+    where = np.asarray(where, dtype=bool)
+    _check(estimate, reference, where)
+    sums = _Sums.of(estimate, reference, where)
+    top = sums.peak if peak is None else float(peak)
+    if affine:
+        return sums.affine_psnr(estimate, reference, where, top)
+    return float(_db(sums.squared_error.sum() / (sums.pixels * reference.shape[2]), top))
 
 
 @dataclass
@@ -177,14 +351,25 @@ class MaskRun:
     labels: NDArray[np.int32]
     guide_slm: NDArray[np.float32]
     spectra: NDArray[np.float64]
-    rank1: NDArray[np.float32]
-    guided: NDArray[np.float32]
+    rank1_factored: Rank1Cube
+    guided_factored: LowRankCube
     scores: dict[str, Scores]
     detail_psnr_db: dict[str, float]
     error_split: dict[str, float]
     sessions: list[str]
     exposure_s: float
     low_light: float = 1.0
+
+    @cached_property
+    def rank1(self) -> NDArray[np.float32]:
+        """(H, W, B) float32 rank-1 cube, made on first use (the report draws the first
+        snapshot's; the scores read the factored form)."""
+        return self.rank1_factored.dense()
+
+    @cached_property
+    def guided(self) -> NDArray[np.float32]:
+        """(H, W, B) float32 guided-filter cube, made on first use."""
+        return self.guided_factored.dense()
 
 
 @dataclass
@@ -302,17 +487,21 @@ def frame_scores(
     --------
     >>> scores, detail, split = frame_scores(frame, reference, valid, detail)  # doctest: +SKIP
     """
-    peak = float(reference[valid].max())
+    peak = max(
+        float(reference[start : start + _BLOCK_ROWS][valid[start : start + _BLOCK_ROWS]].max())
+        for start in range(0, valid.shape[0], _BLOCK_ROWS)
+        if valid[start : start + _BLOCK_ROWS].any()
+    )
     rows, cols = np.nonzero(frame.mask)
     at_samples = reference[rows, cols].astype(np.float64)
-    from_scan = rank1_cube(frame.guide_slm, frame.labels, frame.mask, np.nan_to_num(at_samples))
+    from_scan = rank1_factors(frame.guide_slm, frame.labels, frame.mask, np.nan_to_num(at_samples))
     error_split = {
         "samples_psnr_db": psnr(at_samples, frame.spectra, valid=valid[rows, cols], peak=peak),
-        "rank1_from_scan_psnr_db": psnr(reference, from_scan, valid=valid, affine=True),
+        "rank1_from_scan_psnr_db": cube_psnr(from_scan, reference, valid, affine=True),
     }
-    cubes = {"rank1": frame.rank1, "guided": frame.guided}
+    cubes = {"rank1": frame.rank1_factored, "guided": frame.guided_factored}
     scores = {method: Scores.of(cube, reference, valid) for method, cube in cubes.items()}
     detail_psnr = {
-        method: psnr(reference, cube, valid=detail, peak=peak) for method, cube in cubes.items()
+        method: cube_psnr(cube, reference, detail, peak=peak) for method, cube in cubes.items()
     }
     return scores, detail_psnr, error_split

@@ -28,6 +28,7 @@ from sassi_bench.validate.report import render_report
 from sassi_bench.workflows.guide import run_guide_registration
 from sassi_bench.workflows.keep import KeptFrames, keep_frames
 from sassi_bench.workflows.macbeth import run_macbeth
+from sassi_bench.workflows.memory import release_memory
 from sassi_bench.workflows.procedure import load_procedure, with_changes
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import check_scan, response_source, run_response
@@ -126,6 +127,7 @@ def run_full_calibration(
         rig, spectral_proc, session_id=f"{base}-spectral", data=staging, progress=progress,
         allow_failed=True,
     )  # fmt: skip
+    release_memory()  # each stage's arrays go before the next one's come
     staged = load(
         run_response(
             rig, load(spectral.bundle_path), light=response_cfg["light"],
@@ -133,11 +135,13 @@ def run_full_calibration(
             session_id=f"{base}-response", data=staging, progress=progress, allow_failed=True,
         )
     )  # fmt: skip
+    release_memory()
     guide = run_guide_registration(
         rig, staged, guide_proc, session_id=f"{base}-guide", data=staging, progress=progress,
         allow_failed=True,
     )  # fmt: skip
     staged = load(guide.bundle_path)
+    release_memory()
     macbeth = run_macbeth(
         rig, staged, macbeth_proc, session_id=f"{base}-macbeth", data=staging,
         progress=progress,

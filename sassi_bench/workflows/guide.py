@@ -38,8 +38,9 @@ from sassi_bench.calibrate.guide_render import (
 )
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
-from sassi_bench.spectra.scan import assemble_scan, scan_plan
+from sassi_bench.spectra.scan import scan_plan
 from sassi_bench.workflows.rig_lock import drives_rig
+from sassi_bench.workflows.scan_feed import capture_scan
 
 __all__ = [
     "GuideRegistration",
@@ -258,8 +259,7 @@ def scan_reference(
     _check_resumed(
         session, {"scene": scene, "light": light, "pitch": list(pitch), "stride": list(stride)}
     )
-    run_plan(rig, session.plan, session, progress=progress)
-    scan = assemble_scan(session, bundle, progress=progress)
+    scan = capture_scan(rig, session, bundle, progress=progress)
     cube = scan.cube[:: stride[1], :: stride[0]]
     if bundle.response is not None:
         cube = cube / np.asarray(bundle.response, dtype=np.float32)

@@ -19,7 +19,6 @@ import numpy as np
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan
-from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
 from sassi_bench.bundle.derive import check_parent
@@ -32,9 +31,10 @@ from sassi_bench.calibrate.radiometry import (
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig, check_light, check_scene
 from sassi_bench.spectra.forward import StreakForwardModel
-from sassi_bench.spectra.scan import ScanCube, assemble_scan, check_pitch, check_roi, scan_plan
+from sassi_bench.spectra.scan import ScanCube, check_pitch, check_roi, scan_plan
 from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
 from sassi_bench.workflows.rig_lock import drives_rig
+from sassi_bench.workflows.scan_feed import capture_scan
 from sassi_bench.workflows.streak_pitch import check_scan_pitch
 
 __all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
@@ -297,8 +297,7 @@ def run_response(
         session_id=session_id or _stamp("response"),
         data=data,
     )
-    run_plan(rig, session.plan, session, progress=progress)
-    scan = assemble_scan(session, bundle, keep_raw=True, progress=progress)
+    scan = capture_scan(rig, session, bundle, keep_raw=True, progress=progress)
     lit = (scan.quality == 0) & (np.abs(scan.cube).sum(axis=-1) > 0)
     spectra = scan.cube[lit]
     # The white's column sums are averaged first and deblurred once, at the mean's noise:
@@ -376,9 +375,7 @@ class ScanRun:
 
         cube = self.scan
         if self.radiance:
-            cube = ScanCube(
-                **{**cube.__dict__, "cube": (cube.cube / self.bundle.response).astype(np.float32)}
-            )
+            cube = ScanCube(**{**cube.__dict__, "cube": _divided(cube.cube, self.bundle.response)})
         units = (
             "relative photon radiance per bin" if self.radiance else "camera ADU per second per bin"
         )
@@ -392,6 +389,21 @@ class ScanRun:
         }
         response = self.bundle.response if self.radiance else None
         return cube_dataset(cube, units=units, response=response, attrs=attrs)
+
+
+def _divided(cube: np.ndarray, response: np.ndarray, rows: int = 64) -> np.ndarray:
+    """``(cube / response).astype(float32)`` a block of rows at a time (the float64
+    quotient of a whole prototype cube is 1.1 GB).
+
+    Examples
+    --------
+    >>> _divided(np.ones((3, 2, 2), np.float32), np.array([2.0, 4.0]), rows=2)[2, 1].tolist()
+    [0.5, 0.25]
+    """
+    out = np.empty(cube.shape, np.float32)
+    for start in range(0, cube.shape[0], rows):
+        out[start : start + rows] = cube[start : start + rows] / response
+    return out
 
 
 @drives_rig("scan")
@@ -465,6 +477,5 @@ def run_scan(
         session_id=session_id or _stamp(f"scan-{scene}"),
         data=data,
     )
-    run_plan(rig, session.plan, session, progress=progress)
-    scan = assemble_scan(session, bundle, roi=roi, keep_raw=keep_raw, progress=progress)
+    scan = capture_scan(rig, session, bundle, roi=roi, keep_raw=keep_raw, progress=progress)
     return ScanRun(scan, bundle.response is not None, session, bundle)

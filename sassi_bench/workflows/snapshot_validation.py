@@ -82,8 +82,8 @@ def _reconstruct(
         labels=frame.labels,
         guide_slm=frame.guide_slm,
         spectra=frame.spectra,
-        rank1=frame.rank1,
-        guided=frame.guided,
+        rank1_factored=frame.rank1_factored,
+        guided_factored=frame.guided_factored,
         scores=scores,
         detail_psnr_db=detail_psnr,
         error_split=error_split,
@@ -174,10 +174,14 @@ def run_snapshot(
             progress=progress,
         )  # fmt: skip
         ds = scan_dataset = run.dataset()
-        reference = ds["radiance"].transpose("y", "x", "wavelength").values.astype(np.float32)
+        # The reference is the dataset's radiance itself (float32 already, no copy).
+        reference = np.asarray(
+            ds["radiance"].transpose("y", "x", "wavelength").values, dtype=np.float32
+        )
         valid = run.scan.quality == 0
         units = units_label(ds["radiance"])
         source = f"pinhole scan, session {run.session.id}"
+        del run  # the scan's cube before the response is no longer needed
     border = int(score_cfg["border_px"])
     if border:
         edge = np.zeros(valid.shape, bool)

@@ -245,15 +245,20 @@ def analyse_spectral_sweeps(
     desc = rig_description
     slm_shape = (desc.slm.height, desc.slm.width)
     saturation = 2**desc.spectral_camera.bit_depth - 1
-    response = measure_response(sweeps.grey, saturation) if sweeps.grey is not None else None
-    decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation)
+    response = sweeps.grey_response
+    if response is None and sweeps.grey is not None:
+        response = measure_response(sweeps.grey, saturation)
+    decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation, sweeps.decoded)
+    pinholes = sweeps.decoded.pinholes if sweeps.decoded is not None else None
     maps = [d.laser_map for d in decoded]
     shape = {
         "field_degree": int(proc["fit"].get("field_degree", 5)),
         "order": int(proc["fit"].get("dispersion_order", 2)),
     }
     if sweeps.lamps is not None:
-        anchoring = anchor_wavelengths(sweeps.sweep, sweeps.lamps, proc, desc, maps, **shape)
+        anchoring = anchor_wavelengths(
+            sweeps.sweep, sweeps.lamps, proc, desc, maps, pinholes=pinholes, **shape
+        )
         dispersion = fit_dispersion(
             maps,
             desc.prism.glass,
@@ -262,7 +267,7 @@ def analyse_spectral_sweeps(
             x_information=anchoring.fit.information,
             **shape,
         )
-        blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation)
+        blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes)
         tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
         return SpectralCalibration(
@@ -286,7 +291,7 @@ def analyse_spectral_sweeps(
         else None,
         **shape,
     )
-    blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation)
+    blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes)
     checks = grade(decoded, dispersion, blur, proc["tolerances"], lines)
     return SpectralCalibration(
         proc,

@@ -20,14 +20,16 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle.jsonio import thaw
-from sassi_bench.calibrate.grey_response import sinusoid_profile
+from sassi_bench.calibrate.grey_response import GreyResponse, sinusoid_profile
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
+from sassi_bench.workflows.frame_feed import FrameFeed
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_decode import measure_response
 from sassi_bench.workflows.spectral_lamps import capture_lamp_frames, check_lamp_pitch
 from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
+from sassi_bench.workflows.sweep_stream import DecodedSweep, SweepStream
 
 __all__ = ["SpectralSweeps", "capture_spectral_sweeps", "procedure_lasers"]
 
@@ -119,11 +121,15 @@ def _check_same_procedure(
 @dataclass(frozen=True)
 class SpectralSweeps:
     """The raw sessions of a spectral calibration: the grey-level response (structured
-    sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only)."""
+    sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only); and
+    what was measured from them as they were captured: the grey-level response and the
+    sweep's decode (None: the analysis reads them from the sessions)."""
 
     grey: Session | None
     sweep: Session
     lamps: Session | None = None
+    grey_response: GreyResponse | None = None
+    decoded: DecodedSweep | None = None
 
     @property
     def sessions(self) -> list[Session]:
@@ -161,6 +167,9 @@ def capture_spectral_sweeps(
     Returns
     -------
     SpectralSweeps
+        The sessions, the grey-level response and the sweep decoded as it was captured
+        (:mod:`~sassi_bench.workflows.sweep_stream`; the frames of a resumed session
+        stored before are read back in turn, so the decode is the same).
 
     Examples
     --------
@@ -203,9 +212,9 @@ def capture_spectral_sweeps(
             )
             grey = Session.create(rig.description, plan, session_id=f"{base}-grey", data=data)
         run_plan(rig, grey.plan, grey, progress=progress)
+    response = measure_response(grey, saturation) if grey is not None else None
     if sweep is None:
         # The sinusoids are precompensated for the SLM's measured grey-level response.
-        response = measure_response(grey, saturation) if grey is not None else None
         pitch = [int(p) for p in proc["blur"]["pinhole_pitch_px"]]
         pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
         blur_exposures = {laser: expose(laser, pinholes) for laser in lasers + extra}
@@ -213,6 +222,10 @@ def capture_spectral_sweeps(
         profile = sinusoid_profile(period, response).tolist() if response is not None else None
         plan = sweep_plan(proc, slm_shape, exposures, profile, blur_exposures)
         sweep = Session.create(rig.description, plan, session_id=f"{base}-sweep", data=data)
-    run_plan(rig, sweep.plan, sweep, progress=progress)
+    # The sweep is decoded as its frames are stored (those stored before are read back).
+    stream = SweepStream(sweep.plan, proc, slm_shape, saturation)
+    with FrameFeed(sweep, stream.steps, stream.add, label="sweep") as feed:
+        run_plan(rig, sweep.plan, feed.tee(), progress=progress)
+        feed.finish()
     lamps = capture_lamp_frames(rig, proc, f"{base}-lamps", data=data, progress=progress)
-    return SpectralSweeps(grey, sweep, lamps)
+    return SpectralSweeps(grey, sweep, lamps, response, stream.result())

@@ -23,8 +23,14 @@ from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap
 from sassi_bench.calibrate.field import fit_field
 from sassi_bench.calibrate.grey_response import GreyResponse, measure_grey_response
 from sassi_bench.calibrate.line_sweep import fit_line_axis, line_centres
-from sassi_bench.calibrate.structured_light import decode_axis
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.workflows.sweep_stream import (
+    DecodedSweep,
+    PinholeSignal,
+    SweepDecode,
+    SweepStream,
+    lit_pixels,
+)
 
 __all__ = [
     "LaserDecode",
@@ -33,34 +39,8 @@ __all__ = [
     "blur_from_pinholes",
     "excluded_regions",
     "measure_response",
+    "pinhole_signal",
 ]
-
-
-@dataclass(frozen=True, eq=False)
-class SweepDecode:
-    """One laser's decoded correspondences, before the field fit.
-
-    Attributes
-    ----------
-    camera_x, camera_y
-        Camera column and row of every decoded pixel (N,).
-    slm_u, slm_v
-        Their SLM column and row (N,).
-    valid_fraction
-        Share of the camera pixels the open SLM lights that were decoded.
-    counts
-        Decoding diagnostics, stored in the bundle's quality section: per-axis reason
-        counts (``x_valid``, ``y_dark`` ...) for structured light; skipped frames,
-        pixels outside the SLM and the line fits' RMS (``x_line_fit_rms_slm_px``) for
-        the line sweep.
-    """
-
-    camera_x: NDArray[np.float64]
-    camera_y: NDArray[np.float64]
-    slm_u: NDArray[np.float64]
-    slm_v: NDArray[np.float64]
-    valid_fraction: float
-    counts: dict[str, Any]
 
 
 @dataclass(frozen=True)
@@ -121,50 +101,24 @@ def measure_response(session: Session, saturation: float) -> GreyResponse:
     )
 
 
-def _lit(full: NDArray, blank: NDArray) -> NDArray[np.bool_]:
-    """Camera pixels the open SLM lights (the denominator of the valid fraction)."""
-    signal = full - blank
-    return signal > 0.1 * np.percentile(signal, 99.5)
-
-
 def _structured_decode(
     session: Session, proc, laser: float, slm_shape, saturation: float
 ) -> SweepDecode:
-    sweep = proc["sweep"]
-    plan = session.plan
-    dark = _one(session, role="dark", laser=laser)
-    blank = _one(session, role="blank", laser=laser)
-    full = _one(session, role="full", laser=laser)
-    axes = {}
-    for axis, length in (("x", slm_shape[1]), ("y", slm_shape[0])):
-        pos = plan.select(role="gray", laser=laser, axis=axis, inverse=False)
-        neg = plan.select(role="gray", laser=laser, axis=axis, inverse=True)
-        phase = plan.select(role="phase", laser=laser, axis=axis)
-        axes[axis] = decode_axis(
-            _frames(session, pos),
-            _frames(session, neg),
-            _frames(session, phase),
-            blank=blank,
-            full=full,
-            length=length,
-            dark=dark,
-            block=int(sweep.get("gray_block_px", 8)),
-            period=int(sweep.get("phase_period_px", 16)),
-            saturation_level=saturation,
-            min_modulation=float(sweep.get("min_modulation", 0.2)),
+    """One laser's structured sweep decoded from its session, frame by frame (as
+    :class:`~sassi_bench.workflows.sweep_stream.SweepStream` decodes it during a capture)."""
+    stream = SweepStream(session.plan, proc, slm_shape, saturation, {laser}, pinholes=False)
+    for index in stream.steps:
+        stream.add(index, session.read_frame(index))
+    decoded = stream.result().decodes.get(laser)
+    if decoded is None:
+        raise ProcedureError(
+            step_error(
+                f"sweep decoding at {laser:g} nm",
+                "the session has no complete structured sweep of this laser",
+                "re-run the capture",
+            )
         )
-    valid = axes["x"].valid & axes["y"].valid
-    lit = _lit(full, blank)
-    rows, cols = np.nonzero(valid)
-    counts = {f"{axis}_{k}": v for axis, dec in axes.items() for k, v in dec.counts.items()}
-    return SweepDecode(
-        camera_x=cols.astype(np.float64),
-        camera_y=rows.astype(np.float64),
-        slm_u=axes["x"].coord[rows, cols],
-        slm_v=axes["y"].coord[rows, cols],
-        valid_fraction=float((valid & lit).sum() / max(lit.sum(), 1)),
-        counts=counts,
-    )
+    return decoded
 
 
 def _line_decode(session: Session, proc, laser: float, slm_shape, saturation: float) -> SweepDecode:
@@ -184,7 +138,7 @@ def _line_decode(session: Session, proc, laser: float, slm_shape, saturation: fl
         )
         skipped += centres.skipped_frames
         fits[axis] = fit_line_axis(centres, camera_shape, int(proc["fit"].get("field_degree", 5)))
-    lit = _lit(full, blank)
+    lit = lit_pixels(full, blank)
     rows, cols = np.nonzero(lit)
     x, y = cols.astype(np.float64), rows.astype(np.float64)
     u, v = fits["x"](x, y), fits["y"](x, y)
@@ -224,7 +178,11 @@ def excluded_regions(
 
 
 def analyse_sweep(
-    session: Session, proc: Mapping[str, Any], slm_shape: tuple[int, int], saturation: float
+    session: Session,
+    proc: Mapping[str, Any],
+    slm_shape: tuple[int, int],
+    saturation: float,
+    decoded: DecodedSweep | None = None,
 ) -> list[LaserDecode]:
     """Decode every laser of a sweep session and fit its smooth field map.
 
@@ -239,6 +197,9 @@ def analyse_sweep(
         SLM (height, width).
     saturation
         Raw value at which the spectral camera saturates.
+    decoded
+        The lasers already decoded while the session was captured (the others are decoded
+        from the session).
 
     Returns
     -------
@@ -262,8 +223,11 @@ def analyse_sweep(
         {float(s.tags["laser"]) for s in session.plan.steps if s.tags.get("role") == "full"}
     )
     for laser in lasers:
-        decode = _structured_decode if proc["sweep"]["mode"] == "structured" else _line_decode
-        pairs = decode(session, proc, laser, slm_shape, saturation)
+        pairs = decoded.decodes.get(laser) if decoded is not None else None
+        if pairs is None:
+            structured = proc["sweep"]["mode"] == "structured"
+            decode = _structured_decode if structured else _line_decode
+            pairs = decode(session, proc, laser, slm_shape, saturation)
         counts = pairs.counts
         if pairs.camera_x.size < 1000:
             raise ProcedureError(
@@ -276,8 +240,9 @@ def analyse_sweep(
         keep = ~excluded_regions(
             pairs.slm_u, pairs.slm_v, proc["fit"].get("exclude_regions_slm_px", [])
         )
-        x, y = pairs.camera_x[keep], pairs.camera_y[keep]
-        u, v = pairs.slm_u[keep], pairs.slm_v[keep]
+        x, y, u, v = pairs.camera_x, pairs.camera_y, pairs.slm_u, pairs.slm_v
+        if not keep.all():
+            x, y, u, v = x[keep], y[keep], u[keep], v[keep]
         fx = fit_field(u, v, x, slm_shape, degree)
         fy = fit_field(u, v, y, slm_shape, degree)
         if "x_line_fit_rms_slm_px" in counts:
@@ -295,12 +260,28 @@ def analyse_sweep(
     return out
 
 
+def pinhole_signal(session: Session, laser: float, saturation: float) -> PinholeSignal:
+    """One laser's pinhole (blur) frames read from a sweep session: their mean minus the
+    blank frame's, and the pixels any of them saturates.
+
+    Examples
+    --------
+    >>> signal = pinhole_signal(sweeps.sweep, 532.0, 65535)  # doctest: +SKIP
+    """
+    frames = _frames(session, session.plan.select(role="pinholes", laser=laser))
+    return PinholeSignal(
+        frames.mean(axis=0) - _one(session, role="blur-blank", laser=laser),
+        (frames >= saturation).any(axis=0),
+    )
+
+
 def blur_from_pinholes(
     session: Session,
     proc: Mapping[str, Any],
     dispersion: DispersionFit,
     slm_shape: tuple[int, int],
     saturation: float,
+    pinholes: Mapping[float, PinholeSignal] | None = None,
 ) -> BlurFit:
     """Fit the blur model to the spot widths of the sweep session's pinhole frames.
 
@@ -320,6 +301,9 @@ def blur_from_pinholes(
         SLM (height, width).
     saturation
         Raw value at which the spectral camera saturates; saturated pixels are left out.
+    pinholes
+        Each laser's pinhole signal, averaged while the session was captured (the others
+        are read from the session).
 
     Returns
     -------
@@ -336,17 +320,15 @@ def blur_from_pinholes(
     )
     sigmas = []
     for laser in lasers:
-        indices = plan.select(role="pinholes", laser=laser)
-        frames = _frames(session, indices)
-        signal = frames.mean(axis=0) - _one(session, role="blur-blank", laser=laser)
+        known = (pinholes or {}).get(laser)
+        if known is None:
+            known = pinhole_signal(session, laser, saturation)
         pattern_rows, pattern_cols = np.mgrid[
             pitch[1] // 2 : slm_shape[0] : pitch[1], pitch[0] // 2 : slm_shape[1] : pitch[0]
         ]
         wavelength = dispersion.wavelengths_nm.get(laser, laser)
         x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), wavelength)
-        widths = measure_spot_widths(
-            signal, x, y, 1.5, saturated=(frames >= saturation).any(axis=0)
-        )
+        widths = measure_spot_widths(known.signal, x, y, 1.5, saturated=known.saturated)
         sigmas.append(widths.median_sigma_y)
     wavelengths = [dispersion.wavelengths_nm.get(laser, laser) for laser in lasers]
     return fit_blur(wavelengths, sigmas, float(proc["blur"].get("window_sigmas", 3.0)))

@@ -44,6 +44,7 @@ from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_decode import blur_from_pinholes
 from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
+from sassi_bench.workflows.sweep_stream import PinholeSignal
 
 __all__ = [
     "HELD_LABEL_NM",
@@ -429,6 +430,7 @@ def anchor_wavelengths(
     *,
     field_degree: int = 5,
     order: int = 2,
+    pinholes: Mapping[float, PinholeSignal] | None = None,
 ) -> LampAnchoring:
     """Fit every laser's wavelength and the column model to the laser maps and lamp lines.
 
@@ -452,6 +454,8 @@ def anchor_wavelengths(
         Every laser's decoded map, labelled with its label.
     field_degree, order
         The dispersion model's shape.
+    pinholes
+        The sweep's pinhole signals, if averaged while it was captured.
 
     Returns
     -------
@@ -467,7 +471,7 @@ def anchor_wavelengths(
     saturation = 2**desc.spectral_camera.bit_depth - 1
     shape = {"field_degree": field_degree, "order": order}
     start = fit_dispersion(maps, desc.prism.glass, slm_shape, **shape)
-    blur = blur_from_pinholes(sweep, procedure, start, slm_shape, saturation)
+    blur = blur_from_pinholes(sweep, procedure, start, slm_shape, saturation, pinholes)
     streaks = lamp_streaks(lamps, procedure, desc, start.model, blur.model)
     tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
     glass = get_glass(desc.prism.glass)

@@ -72,3 +72,24 @@ def test_reading_a_window_sums_free_pixels_cumulates_and_counts_bad_ones(dtype):
     assert np.array_equal(cumulative, np.vstack([np.zeros((1, w)), np.cumsum(values, axis=0)]))
     assert bad == 2 + (~finite).sum()
     assert not marks.any()  # left clean for the next frame
+
+
+def test_column_weights_are_the_numpy_loop_s():
+    """The compiled column weights against the whole-array loop they replaced."""
+    rng = np.random.default_rng(5)
+    width = 40
+    x_left = rng.uniform(-3.0, width + 1.0, (50, 9))
+    x_right = x_left + rng.uniform(0.0, 12.0, x_left.shape)
+    x_right[0, 0] = x_left[0, 0]  # an empty bin
+    total, square = np.empty_like(x_left), np.empty_like(x_left)
+    _kernels.column_weights(x_left, x_right, float(width), total, square)
+    left = np.clip(x_left, -0.5, width - 0.5)
+    right = np.clip(x_right, -0.5, width - 0.5)
+    first = np.floor(left + 0.5)
+    expected_total, expected_square = np.zeros_like(left), np.zeros_like(left)
+    for k in range(int(np.ceil(np.max(right - left))) + 2):
+        centre = first + k
+        w = np.clip(np.minimum(centre + 0.5, right) - np.maximum(centre - 0.5, left), 0.0, None)
+        expected_total += w
+        expected_square += w * w
+    assert np.array_equal(total, expected_total) and np.array_equal(square, expected_square)

@@ -1,0 +1,363 @@
+"""Compiled per-pixel loops over camera frames (numba): the sweep decoders (one pass
+per frame, one per axis), running sums of frames, and the lamp frames' moments.
+
+Why compiled: a prototype frame is 4.2 million pixels. The Gray and phase decoders did
+a handful of whole-frame numpy passes per frame (dark subtraction, contrast, running
+minima, the saturation test), each a temporary of 16 MB, and then held an axis's frames
+as float32 stacks; fused, each frame is read once, pixel by pixel, with no temporary
+(as numpy the Gray pair of one bit took 95 ms of CPU on a prototype frame; compiled it
+takes 9 ms). The outlier screen needs, per valid pixel, whether the median of its 5 x 5
+window lies within ``max_jump`` of it: where more than half the window lies within
+half that distance, the median does too and no sort is needed (nearly every pixel of a
+smooth map); only the others are sorted (:func:`window_outliers`).
+
+Every function works on plain arrays, releases the GIL, and gives the same numbers as
+the numpy expressions it replaces (the same float32 and float64 operations in the same
+order; a test holds each to its numpy form). Compiled on first use in a process (about
+two seconds for all of them); numba's on-disk cache is not used, since it pickles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(nogil=True, inline="always")
+def _min_nan(a, b):  # pragma: no cover - compiled
+    """``np.minimum``: NaN if either is NaN."""
+    if a != a or b != b:
+        return a + b
+    return a if a < b else b
+
+
+@njit(nogil=True, inline="always")
+def _max_nan(a, b):  # pragma: no cover - compiled
+    """``np.maximum``: NaN if either is NaN."""
+    if a != a or b != b:
+        return a + b
+    return a if a > b else b
+
+
+@njit(nogil=True)
+def gray_pair(
+    positive, negative, dark, dark_map, mask, word, smallest, second, clipped, saturation
+):  # pragma: no cover - compiled
+    """One Gray bit and its inverse, folded into the running decode of every pixel.
+
+    ``on = float32(positive) - dark``, ``off`` likewise; the bit's contrast
+    ``|on - off| / (on + off)`` (0 where the sum is not positive) updates the smallest and
+    second-smallest contrasts, ``on > off`` sets ``mask`` in the pixel's Gray ``word``, and
+    a raw value ``>= saturation`` (NaN: no test) sets ``clipped``. ``dark`` is (H, W)
+    float32 when ``dark_map``, else its [0, 0] is the level of every pixel. Every update is
+    a minimum, a maximum or an OR, so the bits may come in any order.
+    """
+    height, width = positive.shape
+    inf = np.float32(np.inf)
+    test = saturation == saturation
+    for r in range(height):
+        for c in range(width):
+            level = dark[r, c] if dark_map else dark[0, 0]
+            p = positive[r, c]
+            n = negative[r, c]
+            on = np.float32(p) - level
+            off = np.float32(n) - level
+            total = on + off
+            contrast = abs(on - off) / (total if total > 0 else inf)
+            if on > off:
+                word[r, c] |= mask
+            low = smallest[r, c]
+            second[r, c] = _min_nan(second[r, c], _max_nan(low, contrast))
+            smallest[r, c] = _min_nan(low, contrast)
+            if test and (p >= saturation or n >= saturation):
+                clipped[r, c] = True
+
+
+@njit(nogil=True)
+def gray_index(word, bits):  # pragma: no cover - compiled
+    """Binary block index of every Gray word of ``bits`` bits (bit 0 the most significant)."""
+    out = np.empty(word.shape, dtype=np.int64)
+    height, width = word.shape
+    for r in range(height):
+        for c in range(width):
+            gray = word[r, c]
+            binary = 0
+            index = 0
+            for b in range(bits - 1, -1, -1):
+                binary ^= (gray >> b) & 1
+                index = (index << 1) | binary
+            out[r, c] = index
+    return out
+
+
+@njit(nogil=True)
+def saturation_test(frame, saturation, clipped):  # pragma: no cover - compiled
+    """``clipped |= frame >= saturation``."""
+    height, width = frame.shape
+    for r in range(height):
+        for c in range(width):
+            if frame[r, c] >= saturation:
+                clipped[r, c] = True
+
+
+@njit(nogil=True)
+def _phase_row(frames, dark, dark_map, solver, r, a0, a1, a2):  # pragma: no cover - compiled
+    """``a_k = sum_s solver[k, s] * (float32(frames[s, r]) - dark)`` over row ``r``, in
+    float64, frames in order (as numpy accumulating one float32 frame at a time)."""
+    a0[:] = 0.0
+    a1[:] = 0.0
+    a2[:] = 0.0
+    width = a0.size
+    for s in range(frames.shape[0]):
+        w0, w1, w2 = solver[0, s], solver[1, s], solver[2, s]
+        if dark_map:
+            for c in range(width):
+                value = np.float64(np.float32(frames[s, r, c]) - dark[r, c])
+                a0[c] += w0 * value
+                a1[c] += w1 * value
+                a2[c] += w2 * value
+        else:
+            level = dark[0, 0]
+            for c in range(width):
+                value = np.float64(np.float32(frames[s, r, c]) - level)
+                a0[c] += w0 * value
+                a1[c] += w1 * value
+                a2[c] += w2 * value
+
+
+@njit(nogil=True)
+def phase_usable(frames, dark, dark_map, solver, usable):  # pragma: no cover - compiled
+    """Pixels whose fitted fringe has a positive offset ``A`` and an amplitude
+    ``hypot(a, b) > 0.2 A`` (those the frame gains are fitted on)."""
+    height, width = usable.shape
+    a0, a1, a2 = np.empty(width), np.empty(width), np.empty(width)
+    for r in range(height):
+        _phase_row(frames, dark, dark_map, solver, r, a0, a1, a2)
+        for c in range(width):
+            usable[r, c] = a0[c] > 0 and np.hypot(a1[c], a2[c]) > 0.2 * a0[c]
+
+
+@njit(nogil=True)
+def phase_fit(
+    frames, dark, dark_map, solver, period, skip, use_skip, offset, coord, modulation
+):  # pragma: no cover - compiled
+    """Every pixel's fringe: offset ``A``, position in the period
+    ``mod(atan2(b, a) * period / 2 pi, period)`` (0 where that rounds up to the period)
+    and amplitude ``hypot(a, b)``. With ``use_skip``, the position is left at 0 where
+    ``skip``: the arc tangent is most of the cost, and a pixel too dark to decode does not
+    need it."""
+    height, width = coord.shape
+    scale = period / (2.0 * np.pi)
+    a0, a1, a2 = np.empty(width), np.empty(width), np.empty(width)
+    for r in range(height):
+        _phase_row(frames, dark, dark_map, solver, r, a0, a1, a2)
+        for c in range(width):
+            offset[r, c] = a0[c]
+            modulation[r, c] = np.hypot(a1[c], a2[c])
+            if use_skip and skip[r, c]:
+                coord[r, c] = 0.0
+                continue
+            value = np.arctan2(a2[c], a1[c]) * scale
+            rest = np.fmod(value, period)  # numpy's modulo: the sign of the divisor
+            if rest != 0.0 and (rest < 0.0) != (period < 0.0):
+                rest += period
+            coord[r, c] = 0.0 if rest >= period else rest
+
+
+@njit(nogil=True)
+def axis_reasons(
+    is_dark,
+    clipped,
+    modulation,
+    offset,
+    second_margin,
+    phase,
+    index,
+    block,
+    period,
+    min_modulation,
+    min_margin,
+    limit,
+    coord,
+    coarse,
+    depth,
+    reason,
+):  # pragma: no cover - compiled
+    """Unwrapped coordinate, Gray block centre, modulation depth and the first of the
+    per-pixel reasons 1-5 of ``pixel_validity.REASONS`` (0: none) of every pixel.
+
+    ``depth = modulation / offset`` (0 where the offset is not positive); ``coord`` is the
+    phase unwrapped to the block centre ``block * index + (block - 1) / 2``; the tests in
+    order: dark, clipped, ``depth < min_modulation``, ``second_margin < min_margin``,
+    ``|coord - coarse| > limit``. ``coord`` may be ``phase`` and ``depth`` may be
+    ``modulation`` (computed in place).
+    """
+    height, width = coord.shape
+    half = (block - 1) / 2.0
+    for r in range(height):
+        for c in range(width):
+            centre = block * index[r, c] + half
+            p = phase[r, c]  # read before coord, which may be the same array
+            value = p + period * np.rint((centre - p) / period)
+            o = offset[r, c]
+            d = modulation[r, c] / o if o > 0 else 0.0  # likewise depth
+            coarse[r, c] = centre
+            coord[r, c] = value
+            depth[r, c] = d
+            code = 0
+            if is_dark[r, c]:
+                code = 1
+            elif clipped[r, c]:
+                code = 2
+            elif not d >= min_modulation:
+                code = 3
+            elif second_margin[r, c] < min_margin:
+                code = 4
+            elif abs(value - centre) > limit:
+                code = 5
+            reason[r, c] = code
+
+
+@njit(nogil=True)
+def edge_reasons(coord, reason, low, high):  # pragma: no cover - compiled
+    """Reason 6 (``edge``) where a pixel without another reason lies outside
+    ``[low, high]``."""
+    height, width = coord.shape
+    for r in range(height):
+        for c in range(width):
+            if reason[r, c] == 0:
+                value = coord[r, c]
+                if value < low or value > high:
+                    reason[r, c] = 6
+
+
+@njit(nogil=True)
+def plane_sums(coord, reason):  # pragma: no cover - compiled
+    """Normal equations of a plane ``a col + b row + c`` through ``coord`` where ``reason``
+    is 0: the (3, 3) matrix and (3,) right side, in float64, and the pixel count."""
+    matrix = np.zeros((3, 3))
+    rhs = np.zeros(3)
+    count = 0
+    height, width = coord.shape
+    for r in range(height):
+        sx = 0.0
+        sxx = 0.0
+        sv = 0.0
+        sxv = 0.0
+        n = 0
+        for c in range(width):
+            if reason[r, c] == 0:
+                x = float(c)
+                v = coord[r, c]
+                sx += x
+                sxx += x * x
+                sv += v
+                sxv += x * v
+                n += 1
+        if n:
+            y = float(r)
+            matrix[0, 0] += sxx
+            matrix[0, 1] += y * sx
+            matrix[0, 2] += sx
+            matrix[1, 1] += y * y * n
+            matrix[1, 2] += y * n
+            matrix[2, 2] += n
+            rhs[0] += sxv
+            rhs[1] += y * sv
+            rhs[2] += sv
+            count += n
+    matrix[1, 0] = matrix[0, 1]
+    matrix[2, 0] = matrix[0, 2]
+    matrix[2, 1] = matrix[1, 2]
+    return matrix, rhs, count
+
+
+@njit(nogil=True)
+def plane_residual(coord, reason, plane, padded, half):  # pragma: no cover - compiled
+    """``padded[r + half, c + half] = float32(coord - plane)`` where ``reason`` is 0,
+    ``inf`` elsewhere and in the border of ``half`` pixels."""
+    height, width = coord.shape
+    padded[:, :] = np.inf
+    a, b, k = plane[0], plane[1], plane[2]
+    for r in range(height):
+        for c in range(width):
+            if reason[r, c] == 0:
+                padded[r + half, c + half] = np.float32(coord[r, c] - (c * a + r * b + k))
+
+
+@njit(nogil=True)
+def window_outliers(padded, reason, size, max_jump, min_neighbours):  # pragma: no cover
+    """Set ``reason`` to 7 where a passed pixel lies more than ``max_jump`` from the median
+    of the finite values of its ``size`` x ``size`` window (itself included), judged only
+    with at least ``min_neighbours`` others; returns how many.
+
+    The median is float32 ``0.5 * (lower + upper middle value)``, as a sort gives it. When
+    more than half of the window's k values lie within ``max_jump / 2`` of the pixel, both
+    middle values do (fewer than half lie on either side of that interval), so the pixel
+    is kept without sorting; otherwise the window is sorted.
+    """
+    height, width = reason.shape
+    half = size // 2
+    buffer = np.empty(size * size, dtype=np.float32)
+    near = 0.5 * max_jump
+    found = 0
+    for r in range(height):
+        for c in range(width):
+            if reason[r, c] != 0:
+                continue
+            own = padded[r + half, c + half]
+            k = 0
+            close = 0
+            for i in range(size):
+                for j in range(size):
+                    value = padded[r + i, c + j]
+                    if abs(value) < np.inf:
+                        k += 1
+                        close += abs(np.float64(value) - np.float64(own)) <= near
+            if k - 1 < min_neighbours or 2 * close > k:
+                continue
+            k = 0
+            for i in range(size):
+                for j in range(size):
+                    value = padded[r + i, c + j]
+                    if abs(value) < np.inf:
+                        m = k  # insertion sort
+                        while m > 0 and buffer[m - 1] > value:
+                            buffer[m] = buffer[m - 1]
+                            m -= 1
+                        buffer[m] = value
+                        k += 1
+            median = np.float32(0.5) * (buffer[(k - 1) // 2] + buffer[k // 2])
+            if abs(own - median) > max_jump:
+                reason[r, c] = 7
+                found += 1
+    return found
+
+
+@njit(nogil=True)
+def accumulate(frame, total):  # pragma: no cover - compiled
+    """``total += float32(frame)`` (a float32 running sum, as numpy's along a stack)."""
+    height, width = frame.shape
+    for r in range(height):
+        for c in range(width):
+            total[r, c] += np.float32(frame[r, c])
+
+
+@njit(nogil=True)
+def frame_moments(frames, mean, variance):  # pragma: no cover - compiled
+    """Per pixel, the mean and the variance (ddof 1; 0 for one frame) of (F, H, W) frames
+    in float64, as numpy's ``mean(0)`` and ``var(0, ddof=1)`` of the float64 stack (sums
+    in frame order, the variance about the mean), without that stack."""
+    count, height, width = frames.shape
+    for r in range(height):
+        for c in range(width):
+            total = 0.0
+            for f in range(count):
+                total += np.float64(frames[f, r, c])
+            centre = total / count
+            square = 0.0
+            for f in range(count):
+                d = np.float64(frames[f, r, c]) - centre
+                square += d * d
+            mean[r, c] = centre
+            variance[r, c] = square / (count - 1) if count > 1 else 0.0
