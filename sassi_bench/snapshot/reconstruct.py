@@ -42,7 +42,12 @@ from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write
 from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.extract import extract_spectra, extract_with_background
 from sassi_bench.spectra.geometry import reached_rows, streak_geometry
-from sassi_bench.spectra.offset import Background, estimate_background, streak_footprint
+from sassi_bench.spectra.offset import (
+    Background,
+    BlockBackground,
+    estimate_background,
+    streak_footprint,
+)
 
 __all__ = [
     "guide_intensity",
@@ -170,8 +175,8 @@ def measure_with_background(
     full_scale: float = 65535.0,
     background_block: tuple[int, int] = (8, 16),
     background_passes: int | None = None,
-    background_start: NDArray[np.floating] | None = None,
-) -> tuple[NDArray[np.float64], str, Background]:
+    background_start: BlockBackground | NDArray[np.floating] | None = None,
+) -> tuple[NDArray[np.float64], str, Background | BlockBackground]:
     """:func:`measure_samples`, also returning the background it removed, and starting its
     refinements from ``background_start`` when given (video: the previous frame's
     background, so a few passes follow a slowly changing scene).
@@ -181,9 +186,9 @@ def measure_with_background(
     frame, pixels, bundle, exposure_s, deblur, full_scale, background_block, background_passes
         As :func:`measure_samples`.
     background_start
-        The background image of the reached camera rows (the ``image`` of a returned
-        :class:`~sassi_bench.spectra.offset.Background`) to refine when the mask is dense,
-        by :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
+        The background of the reached camera rows to refine when the mask is dense (a
+        returned :class:`~sassi_bench.spectra.offset.BlockBackground`, or an image), by
+        :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
         estimated from the pixels outside the footprints.
 
     Returns
@@ -192,8 +197,9 @@ def measure_with_background(
         (N, B) float64 at ``bundle.wavelengths``.
     units : str
         As :func:`measure_samples`.
-    background : Background
-        The background of the reached camera rows.
+    background : Background or BlockBackground
+        The background of the reached camera rows (a
+        :class:`~sassi_bench.spectra.offset.BlockBackground` when the mask is dense).
 
     Examples
     --------
@@ -201,7 +207,7 @@ def measure_with_background(
     ...     frame.data, mask, bundle, exposure_s=0.05)  # doctest: +SKIP
     >>> spectra, units, background = measure_with_background(
     ...     next_frame.data, next_mask, bundle, exposure_s=0.05, background_passes=2,
-    ...     background_start=background.image)  # doctest: +SKIP
+    ...     background_start=background)  # doctest: +SKIP
     """
     step = "snapshot spectra"
     image = np.asarray(frame)
@@ -221,6 +227,8 @@ def measure_with_background(
     if background_passes is None and columns_interact(geometry):
         warm = background_start is not None
         background_passes = WARM_BACKGROUND_PASSES if warm else DENSE_BACKGROUND_PASSES
+    if isinstance(background_start, Background):
+        background_start = background_start.image
     if background_passes:
         spectra, _, background = extract_with_background(
             window, geometry, deblur, block=background_block, passes=background_passes,

@@ -31,6 +31,7 @@ from sassi_bench.snapshot.factored import Rank1Cube
 from sassi_bench.snapshot.reconstruct import measure_with_background, rank1_factors
 from sassi_bench.snapshot.superpixels import VIDEO_SHRINK, guide_on_slm, superpixels
 from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.spectra.offset import Background, BlockBackground
 
 __all__ = ["STEPS", "VideoFrame", "VideoPipeline"]
 
@@ -135,7 +136,7 @@ class VideoPipeline:
         self.deblur = deblur if deblur is not None else SpectralDeblur.from_bundle(bundle)
         self.background_passes = background_passes
         self._pool = ThreadPoolExecutor(max_workers=1) if threads >= 2 else None
-        self._background: NDArray[np.float64] | None = None
+        self._background: Background | BlockBackground | None = None
 
     def close(self) -> None:
         """Stop the spectra thread."""
@@ -230,7 +231,7 @@ class VideoPipeline:
         else:
             spectra, units, background = self._spectra(spectral, mask, exposure_s, times)
             guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
-        self._background = background.image
+        self._background = background
         rank1 = _timed(times, "rank1", rank1_factors, guide_slm, labels, mask, spectra)
         times[0]["total"] = time.perf_counter() - start
         return VideoFrame(
