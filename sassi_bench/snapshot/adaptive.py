@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from sassi_bench._shared.arrays import check_shape
 from sassi_bench.bundle import MaskSpacing
@@ -181,22 +181,19 @@ def segment_around_samples(
     labels = np.full((h, w), -1, np.int32)
     distance = np.full((h, w), np.inf, np.float32)
     _kernels.assign_to_samples(
-        np.ascontiguousarray(feats),
+        _kernels.planes(np.ascontiguousarray(feats.reshape(h, w, -1))),
         points,
         int(np.ceil(side)),
-        (compactness / side) ** 2,
+        np.float32((compactness / side) ** 2),
         labels,
         distance,
     )
-    missing = labels < 0
-    if missing.any():
-        # Nearest sample for pixels beyond every sample's reach (sparse or uneven samples).
-        seeds = np.full((h, w), True)
-        seeds[points[:, 0], points[:, 1]] = False
-        index = np.full((h, w), -1, np.int32)
-        index[points[:, 0], points[:, 1]] = np.arange(points.shape[0], dtype=np.int32)
-        _, (nr, nc) = ndimage.distance_transform_edt(seeds, return_indices=True)
-        labels[missing] = index[nr[missing], nc[missing]]
+    missing = np.nonzero(labels < 0)
+    if missing[0].size:
+        # Nearest sample for pixels beyond every sample's reach (sparse or uneven samples);
+        # of equally near samples, any one.
+        _, nearest = cKDTree(points).query(np.stack(missing, axis=1))
+        labels[missing] = nearest
     return labels
 
 

@@ -28,7 +28,11 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.snapshot.adaptive import default_segments, place_samples, segment_around_samples
 from sassi_bench.snapshot.factored import Rank1Cube
-from sassi_bench.snapshot.reconstruct import measure_with_background, rank1_factors
+from sassi_bench.snapshot.reconstruct import (
+    guide_intensity,
+    measure_with_background,
+    rank1_factors,
+)
 from sassi_bench.snapshot.superpixels import VIDEO_SHRINK, guide_on_slm, superpixels
 from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.offset import Background, BlockBackground
@@ -150,8 +154,18 @@ class VideoPipeline:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _warp(self, guide: ArrayLike):
+        guide_slm = guide_on_slm(self.bundle, guide)
+        return guide_slm, guide_intensity(guide_slm)
+
+    def _resegment(self, guide_slm, samples, features):
+        labels = segment_around_samples(
+            guide_slm, samples, compactness=self.compactness, features=features
+        )
+        return labels.astype(np.intp)  # the rank-1 cube's labels, made here, off the join
+
     def _segment(self, guide: ArrayLike, samples: NDArray[np.int32], times):
-        guide_slm = _timed(times, "warp", guide_on_slm, self.bundle, guide)
+        guide_slm, intensity = _timed(times, "warp", self._warp, guide)
         segments = _timed(
             times, "superpixels", superpixels, guide_slm, self.n_segments,
             compactness=self.compactness, shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
@@ -159,19 +173,20 @@ class VideoPipeline:
         next_mask, next_samples = _timed(
             times, "mask", place_samples, segments.labels, self.spacing
         )
-        labels = _timed(
-            times, "resegment", segment_around_samples, guide_slm, samples,
-            compactness=self.compactness, features=segments.features,
-        )  # fmt: skip
-        return guide_slm, labels, next_mask, next_samples
+        labels = _timed(times, "resegment", self._resegment, guide_slm, samples, segments.features)
+        return guide_slm, intensity, labels, next_mask, next_samples
 
-    def _spectra(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float, times):
-        return _timed(
-            times, "spectra", measure_with_background,
-            spectral, mask, self.bundle, exposure_s=exposure_s, deblur=self.deblur,
+    def _measure(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float):
+        pixels = np.argwhere(mask)  # row-major, as the mask's spectra are ordered
+        spectra, units, background = measure_with_background(
+            spectral, pixels, self.bundle, exposure_s=exposure_s, deblur=self.deblur,
             background_passes=self.background_passes if self._background is not None else None,
             background_start=self._background,
         )  # fmt: skip
+        return pixels, spectra, units, background
+
+    def _spectra(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float, times):
+        return _timed(times, "spectra", self._measure, spectral, mask, exposure_s)
 
     def plan(self, guide: ArrayLike) -> tuple[NDArray[np.bool_], NDArray[np.int32]]:
         """The first frame's mask and samples, from a preview guide image.
@@ -226,13 +241,14 @@ class VideoPipeline:
         samples = np.asarray(samples, dtype=np.int32)
         if self._pool is not None:
             future = self._pool.submit(self._spectra, spectral, mask, exposure_s, times)
-            guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
-            spectra, units, background = future.result()
+            segmented = self._segment(guide, samples, times)
+            pixels, spectra, units, background = future.result()
         else:
-            spectra, units, background = self._spectra(spectral, mask, exposure_s, times)
-            guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
+            pixels, spectra, units, background = self._spectra(spectral, mask, exposure_s, times)
+            segmented = self._segment(guide, samples, times)
+        guide_slm, intensity, labels, next_mask, next_samples = segmented
         self._background = background
-        rank1 = _timed(times, "rank1", rank1_factors, guide_slm, labels, mask, spectra)
+        rank1 = _timed(times, "rank1", rank1_factors, intensity, labels, pixels, spectra)
         times[0]["total"] = time.perf_counter() - start
         return VideoFrame(
             mask, samples, guide_slm, spectra, units, rank1, next_mask, next_samples, *times

@@ -297,12 +297,36 @@ def basis_sums(
     for i in range(slots):
         base = out_start[i] - first[i]
         p = prof_start[i]
+        if degree != 4:  # a lattice of fewer than four blocks a side
+            for r in range(top[i], bottom[i] + 1):
+                share = prof[p]
+                p += 1
+                for q in range(degree):
+                    out[base + row_index[r] + q] += share * row_basis[r, q]
+            continue
+        # Cubic: rows share their first basis function a block at a time, so sum in
+        # four scalars along such a run and add them to the output when it ends.
+        current = row_index[top[i]]
+        s0 = s1 = s2 = s3 = 0.0
         for r in range(top[i], bottom[i] + 1):
+            k = row_index[r]
+            if k != current:
+                out[base + current] += s0
+                out[base + current + 1] += s1
+                out[base + current + 2] += s2
+                out[base + current + 3] += s3
+                s0 = s1 = s2 = s3 = 0.0
+                current = k
             share = prof[p]
             p += 1
-            k = base + row_index[r]
-            for q in range(degree):
-                out[k + q] += share * row_basis[r, q]
+            s0 += share * row_basis[r, 0]
+            s1 += share * row_basis[r, 1]
+            s2 += share * row_basis[r, 2]
+            s3 += share * row_basis[r, 3]
+        out[base + current] += s0
+        out[base + current + 1] += s1
+        out[base + current + 2] += s2
+        out[base + current + 3] += s3
     return out
 
 
