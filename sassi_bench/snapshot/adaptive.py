@@ -125,6 +125,7 @@ def segment_around_samples(
     *,
     compactness: float = 10.0,
     features: ArrayLike | None = None,
+    planes: NDArray[np.float32] | None = None,
 ) -> NDArray[np.int32]:
     """Step 3: give every SLM pixel to a sample, by one SLIC assignment pass.
 
@@ -144,6 +145,9 @@ def segment_around_samples(
         SLIC's weight of space against colour.
     features
         Precomputed :func:`guide_features` of ``guide_slm`` (skips the conversion).
+    planes
+        The same features as (C, H, W) float32 planes (:attr:`Superpixels.planes`; skips
+        the rearrangement).
 
     Returns
     -------
@@ -180,8 +184,10 @@ def segment_around_samples(
     side = max(1.0, float(np.sqrt(h * w / points.shape[0])))
     labels = np.full((h, w), -1, np.int32)
     distance = np.full((h, w), np.inf, np.float32)
+    if planes is None or planes.shape[1:] != (h, w):
+        planes = _kernels.planes(np.ascontiguousarray(feats.reshape(h, w, -1)))
     _kernels.assign_to_samples(
-        _kernels.planes(np.ascontiguousarray(feats.reshape(h, w, -1))),
+        planes,
         points,
         int(np.ceil(side)),
         np.float32((compactness / side) ** 2),
@@ -261,7 +267,9 @@ def adaptive_mask(
             step_error("adaptive mask", "no superpixel could be sampled", "pass a guide image")
         )
     features = segments.features
-    labels = segment_around_samples(guide_slm, samples, compactness=compactness, features=features)
+    labels = segment_around_samples(
+        guide_slm, samples, compactness=compactness, features=features, planes=segments.planes
+    )
     if fill is not None:
         builder = MaskBuilder.empty(spacing)
         builder.fill(np.ravel_multi_index((samples[:, 0], samples[:, 1]), (h, w)))

@@ -141,6 +141,7 @@ class VideoPipeline:
         self.background_passes = background_passes
         self._pool = ThreadPoolExecutor(max_workers=1) if threads >= 2 else None
         self._background: Background | BlockBackground | None = None
+        self._centres: NDArray[np.float32] | None = None  # the last superpixels' centres
 
     def close(self) -> None:
         """Stop the spectra thread."""
@@ -158,22 +159,28 @@ class VideoPipeline:
         guide_slm = guide_on_slm(self.bundle, guide)
         return guide_slm, guide_intensity(guide_slm)
 
-    def _resegment(self, guide_slm, samples, features):
+    def _superpixels(self, guide_slm):
+        segments = superpixels(
+            guide_slm, self.n_segments, compactness=self.compactness,
+            shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK, seeds=self._centres,
+        )  # fmt: skip
+        self._centres = segments.centres
+        return segments
+
+    def _resegment(self, guide_slm, samples, segments):
         labels = segment_around_samples(
-            guide_slm, samples, compactness=self.compactness, features=features
-        )
+            guide_slm, samples, compactness=self.compactness, features=segments.features,
+            planes=segments.planes,
+        )  # fmt: skip
         return labels.astype(np.intp)  # the rank-1 cube's labels, made here, off the join
 
     def _segment(self, guide: ArrayLike, samples: NDArray[np.int32], times):
         guide_slm, intensity = _timed(times, "warp", self._warp, guide)
-        segments = _timed(
-            times, "superpixels", superpixels, guide_slm, self.n_segments,
-            compactness=self.compactness, shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
-        )  # fmt: skip
+        segments = _timed(times, "superpixels", self._superpixels, guide_slm)
         next_mask, next_samples = _timed(
             times, "mask", place_samples, segments.labels, self.spacing
         )
-        labels = _timed(times, "resegment", self._resegment, guide_slm, samples, segments.features)
+        labels = _timed(times, "resegment", self._resegment, guide_slm, samples, segments)
         return guide_slm, intensity, labels, next_mask, next_samples
 
     def _measure(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float):
@@ -204,11 +211,7 @@ class VideoPipeline:
             (N, 2) int32.
         """
         guide_slm = guide_on_slm(self.bundle, guide)
-        segments = superpixels(
-            guide_slm, self.n_segments, compactness=self.compactness,
-            shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
-        )  # fmt: skip
-        return place_samples(segments.labels, self.spacing)
+        return place_samples(self._superpixels(guide_slm).labels, self.spacing)
 
     def process(
         self,
