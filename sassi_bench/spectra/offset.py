@@ -333,7 +333,7 @@ class BlockBackground:
         some are NaN)."""
         shape = (int(shape[0]), int(shape[1]))
         block = (int(block[0]), int(block[1]))
-        grid = np.asarray(values, dtype=np.float64)
+        grid = np.array(values, dtype=np.float64)  # a copy: the caller may refine its grid
         expected = (-(-shape[0] // block[0]), -(-shape[1] // block[1]))
         if grid.shape != expected:
             raise ProcedureError(

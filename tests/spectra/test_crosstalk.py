@@ -164,3 +164,26 @@ def test_background_refinement_recovers_the_leakage_under_dense_streaks():
     error_background = np.abs(background.image - leakage)[under]
     assert np.median(error_background) < 1.5e-3
     assert error_background.max() < 6e-3
+
+
+def test_a_carried_background_follows_a_sudden_change_of_the_leakage():
+    rng = np.random.default_rng(6)
+    frame, geometry, _, window_sum = _staggered_frame(1.5, rng, pitch=5, height=120)
+    yy, xx = np.mgrid[:120, :200]
+    leakage = 0.5 + 0.4 * np.exp(-((xx - 80.0) ** 2 + (yy - 40.0) ** 2) / (2 * 25.0**2))
+    _, _, carried = extract_with_background(frame + leakage, geometry, block=(8, 8), passes=24)
+    switched = frame + 1.2 * leakage  # a light switched on between the frames
+    cold, _, _ = extract_with_background(switched, geometry, block=(8, 8), passes=24)
+    one, _, _ = extract_with_background(switched, geometry, block=(8, 8), passes=1, start=carried)
+    settled, _, _ = extract_with_background(
+        switched, geometry, block=(8, 8), passes=1, start=carried, settle=24
+    )
+
+    def error(spectra):
+        return np.median(np.abs(spectra - window_sum))
+
+    # One pass from the last background leaves much of the jump in the spectra; the jump
+    # of the pure background around the streaks sends it on to as many passes as a cold
+    # start, which then does as well.
+    assert error(one) > 2 * error(cold)
+    assert error(settled) < 1.2 * error(cold)
