@@ -517,12 +517,14 @@ def spread_regions(ratio, regions, scale, out):  # pragma: no cover
 
 
 @numba.njit(**_JIT)
-def weighted_lines(mean_p, mean_pi, n, mean_i, denominator, present, a, b):  # pragma: no cover
+def weighted_lines(sum_p, sum_pi, safe, n, mean_i, denominator, present, a, b):  # pragma: no cover
     """Per window, the guided filter's line ``a I + b`` times the window's measured share
-    ``n`` (zero where no pixel is measured): ``a = (mean_pi - mean_i mean_p) / denominator``,
+    ``n`` (zero where no pixel is measured): with ``mean_p = sum_p / safe`` and
+    ``mean_pi = sum_pi / safe`` (the box means of the measured values, and of their
+    products with the guide), ``a = (mean_pi - mean_i mean_p) / denominator``,
     ``b = mean_p - a mean_i``. Arrays (H, W[, K]) float32; one pass instead of a dozen
     numpy temporaries."""
-    h, w, k = mean_p.shape
+    h, w, k = sum_p.shape
     for r in range(h):
         for c in range(w):
             if not present[r, c]:
@@ -530,10 +532,12 @@ def weighted_lines(mean_p, mean_pi, n, mean_i, denominator, present, a, b):  # p
                     a[r, c, j] = 0.0
                     b[r, c, j] = 0.0
                 continue
+            share = safe[r, c]
             for j in range(k):
-                slope = (mean_pi[r, c, j] - mean_i[r, c] * mean_p[r, c, j]) / denominator[r, c]
+                mean_p = sum_p[r, c, j] / share
+                slope = (sum_pi[r, c, j] / share - mean_i[r, c] * mean_p) / denominator[r, c]
                 a[r, c, j] = n[r, c] * slope
-                b[r, c, j] = n[r, c] * (mean_p[r, c, j] - slope * mean_i[r, c])
+                b[r, c, j] = n[r, c] * (mean_p - slope * mean_i[r, c])
 
 
 @numba.njit(**_JIT)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import ThreadpoolController
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
@@ -24,6 +25,13 @@ from sassi_bench.snapshot.factored import LowRankCube, spectral_basis
 from sassi_bench.snapshot.reconstruct import _check_samples, _open_pixels, guide_intensity
 
 __all__ = ["GUIDED_RANK", "guided_cube", "guided_factors"]
+
+_BLAS = ThreadpoolController()
+
+
+def _one_blas_thread():
+    return _BLAS.limit(limits=1, user_api="blas")
+
 
 #: Spectral basis of the guided filter (the SASSI authors' rank).
 GUIDED_RANK = 6
@@ -130,8 +138,9 @@ def guided_factors(
     if rank is None:
         basis = np.eye(values.shape[1])
     else:
-        basis = spectral_basis(values, rank)
-        values = values @ basis.T
+        with _one_blas_thread():  # tiny products: BLAS's threads only spin against the video's
+            basis = spectral_basis(values, rank)
+            values = values @ basis.T
     h, w = intensity.shape
     peak = float(intensity.max())
     guide = intensity / peak if peak > 0 else intensity
@@ -147,7 +156,7 @@ def guided_factors(
     g_at = guide[rows, cols]
     n = box(weight)
     present = n > 0.5 / (size[0] * size[1])  # at least one measured pixel in the window
-    safe = np.where(present, n, 1.0)
+    safe = np.where(present, n, np.float32(1.0))
     sparse = np.zeros((h, w), np.float32)
     sparse[rows, cols] = g_at
     mean_i = box(sparse) / safe
@@ -155,30 +164,22 @@ def guided_factors(
     var_i = np.maximum(box(sparse) / safe - mean_i * mean_i, 0.0)
     denominator = var_i + np.float32(eps)
     norm = box(n)
-    norm_safe = np.where(norm > 0, norm, 1.0)
+    norm_safe = np.where(norm > 0, norm, np.float32(1.0))
     cube = np.empty((h, w, values.shape[1]), np.float32)
-    mean_i = mean_i.astype(np.float32)
-    denominator = denominator.astype(np.float32)
-    n = n.astype(np.float32)
-    guide = guide.astype(np.float32)
-    norm_safe = norm_safe.astype(np.float32)
     # Four bands at a time (OpenCV filters up to four channels in one pass); the arithmetic
-    # between the filters is compiled (numpy's temporaries took three quarters of the time).
-    sparse = np.zeros((h, w, 4), np.float32)
-    a, b = np.empty((h, w, 4), np.float32), np.empty((h, w, 4), np.float32)
+    # between the filters is one compiled pass (numpy's temporaries and copies took most
+    # of the time).
     for start in range(0, values.shape[1], 4):
         chunk = values[:, start : start + 4].astype(np.float32)
         k = chunk.shape[1]
-        sparse[rows, cols, :k] = chunk
-        mean_p = box(np.ascontiguousarray(sparse[..., :k])).reshape(h, w, k) / safe[..., None]
-        sparse[rows, cols, :k] = chunk * g_at[:, None]
-        mean_pi = box(np.ascontiguousarray(sparse[..., :k])).reshape(h, w, k) / safe[..., None]
-        a_k, b_k = np.ascontiguousarray(a[..., :k]), np.ascontiguousarray(b[..., :k])
-        _kernels.weighted_lines(
-            mean_p.astype(np.float32), mean_pi.astype(np.float32), n, mean_i, denominator,
-            present, a_k, b_k,
-        )  # fmt: skip
+        sparse = np.zeros((h, w, k), np.float32)
+        sparse[rows, cols] = chunk
+        sum_p = box(sparse).reshape(h, w, k)
+        sparse[rows, cols] = chunk * g_at[:, None]
+        sum_pi = box(sparse).reshape(h, w, k)
+        a, b = np.empty((h, w, k), np.float32), np.empty((h, w, k), np.float32)
+        _kernels.weighted_lines(sum_p, sum_pi, safe, n, mean_i, denominator, present, a, b)
         _kernels.apply_lines(
-            box(a_k).reshape(h, w, k), box(b_k).reshape(h, w, k), guide, norm_safe, cube, start
+            box(a).reshape(h, w, k), box(b).reshape(h, w, k), guide, norm_safe, cube, start
         )
     return LowRankCube(cube, basis.astype(np.float32))

@@ -177,6 +177,7 @@ def measure_with_background(
     background_block: tuple[int, int] = (8, 16),
     background_passes: int | None = None,
     background_start: BlockBackground | NDArray[np.floating] | None = None,
+    camera_rows: tuple[int, int] | None = None,
 ) -> tuple[NDArray[np.float64], str, Background | BlockBackground]:
     """:func:`measure_samples`, also returning the background it removed, and starting its
     refinements from ``background_start`` when given (video: the previous frame's
@@ -191,6 +192,9 @@ def measure_with_background(
         returned :class:`~sassi_bench.spectra.offset.BlockBackground`, or an image), by
         :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
         estimated from the pixels outside the footprints.
+    camera_rows
+        The camera rows light of the SLM can reach, ``reached_rows(bundle, H)`` (video:
+        computed once); None: computed here.
 
     Returns
     -------
@@ -222,7 +226,7 @@ def measure_with_background(
     if deblur is None:
         deblur = SpectralDeblur.from_bundle(bundle, full_scale=full_scale)
     # Only the camera rows that light of the SLM can reach take part.
-    top, bottom = reached_rows(bundle, image.shape[0])
+    top, bottom = camera_rows if camera_rows else reached_rows(bundle, image.shape[0])
     window = image[top:bottom]
     geometry = streak_geometry(bundle, rows, cols).shifted(top)
     if background_passes is None and columns_interact(geometry):

@@ -29,12 +29,14 @@ from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.snapshot.adaptive import default_segments, place_samples, segment_around_samples
 from sassi_bench.snapshot.factored import Rank1Cube
 from sassi_bench.snapshot.reconstruct import (
+    WARM_BACKGROUND_PASSES,
     guide_intensity,
     measure_with_background,
     rank1_factors,
 )
 from sassi_bench.snapshot.superpixels import VIDEO_SHRINK, guide_on_slm, superpixels
 from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.spectra.geometry import reached_rows
 from sassi_bench.spectra.offset import Background, BlockBackground
 
 __all__ = ["STEPS", "VideoFrame", "VideoPipeline"]
@@ -142,6 +144,7 @@ class VideoPipeline:
         self._pool = ThreadPoolExecutor(max_workers=1) if threads >= 2 else None
         self._background: Background | BlockBackground | None = None
         self._centres: NDArray[np.float32] | None = None  # the last superpixels' centres
+        self._rows: tuple[int, tuple[int, int]] | None = None  # camera height, reached rows
 
     def close(self) -> None:
         """Stop the spectra thread."""
@@ -185,10 +188,18 @@ class VideoPipeline:
 
     def _measure(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float):
         pixels = np.argwhere(mask)  # row-major, as the mask's spectra are ordered
+        height = np.shape(spectral)[0]
+        if self._rows is None or self._rows[0] != height:
+            self._rows = (height, reached_rows(self.bundle, height))
+        passes = None  # the first frame, or a sparse mask: as a single snapshot
+        if isinstance(self._background, BlockBackground):  # a dense mask's, carried over
+            passes = self.background_passes
+            if passes is None:
+                passes = WARM_BACKGROUND_PASSES
         spectra, units, background = measure_with_background(
             spectral, pixels, self.bundle, exposure_s=exposure_s, deblur=self.deblur,
-            background_passes=self.background_passes if self._background is not None else None,
-            background_start=self._background,
+            background_passes=passes, background_start=self._background,
+            camera_rows=self._rows[1],
         )  # fmt: skip
         return pixels, spectra, units, background
 

@@ -266,10 +266,10 @@ def profile_sums(image, col_start, top, bottom, prof_start, prof, sums):  # prag
             for c in range(c0, c1):
                 strip[c - c0, r] = image[r, c]
         for c in range(c0, c1):
+            column = strip[c - c0]
             for i in range(col_start[c], col_start[c + 1]):
                 pa = _U(prof_start[i])
                 pb = _U(top[i])
-                column = strip[c - c0]
                 acc = 0.0
                 for q in range(_U(bottom[i] - top[i] + 1)):
                     acc += prof[pa + q] * column[pb + q]
@@ -277,97 +277,51 @@ def profile_sums(image, col_start, top, bottom, prof_start, prof, sums):  # prag
 
 
 @njit(**_SUMS)
-def basis_sums(
-    top, bottom, prof_start, prof, row_index, row_basis, first, out_start
-):  # pragma: no cover
-    """Every slot's profile against the row basis functions of a background spline that
-    its rows meet: slot ``i`` meets functions ``first[i] ..`` (``out_start[i + 1] -
-    out_start[i]`` of them); returns their sums, flat. With them a background's share of
-    a slot's right-hand side is a handful of products (:func:`solve_columns`), not a sum
-    over its rows."""
-    slots = top.size
-    degree = row_basis.shape[1]
-    total = 0
-    for i in range(slots):
-        first[i] = row_index[top[i]]
-        out_start[i] = total
-        total += row_index[bottom[i]] + degree - first[i]
-    out_start[slots] = total
-    out = np.zeros(total)
-    for i in range(slots):
-        base = out_start[i] - first[i]
-        p = prof_start[i]
-        if degree != 4:  # a lattice of fewer than four blocks a side
-            for r in range(top[i], bottom[i] + 1):
-                share = prof[p]
-                p += 1
-                for q in range(degree):
-                    out[base + row_index[r] + q] += share * row_basis[r, q]
-            continue
-        # Cubic: rows share their first basis function a block at a time, so sum in
-        # four scalars along such a run and add them to the output when it ends.
-        current = row_index[top[i]]
-        s0 = s1 = s2 = s3 = 0.0
-        for r in range(top[i], bottom[i] + 1):
-            k = row_index[r]
-            if k != current:
-                out[base + current] += s0
-                out[base + current + 1] += s1
-                out[base + current + 2] += s2
-                out[base + current + 3] += s3
-                s0 = s1 = s2 = s3 = 0.0
-                current = k
-            share = prof[p]
-            p += 1
-            s0 += share * row_basis[r, 0]
-            s1 += share * row_basis[r, 1]
-            s2 += share * row_basis[r, 2]
-            s3 += share * row_basis[r, 3]
-        out[base + current] += s0
-        out[base + current + 1] += s1
-        out[base + current + 2] += s2
-        out[base + current + 3] += s3
-    return out
-
-
-@njit(**_SUMS)
 def solve_columns(
-    sums, col_start, envelope, factor_start, factor, has_background, coefficients,
-    col_index, col_basis, first, basis_start, basis, light,
+    sums, col_start, top, bottom, prof_start, prof, envelope, factor_start, factor,
+    has_background, coefficients, row_index, row_basis, col_index, col_basis, light,
 ):  # fmt: skip  # pragma: no cover
     """The slots' light (into ``light``) from their right-hand sides ``sums``
     (:func:`profile_sums`) minus the background's (when ``has_background``: the tensor
-    spline ``coefficients`` with the columns' basis, against the slots'
-    :func:`basis_sums`), by the two triangular solves with the skyline factor of every
-    camera column."""
+    spline ``coefficients`` with the rows' and columns' bases, evaluated from the column's
+    first to its last slot's row), by the two triangular solves with the skyline factor of
+    every camera column."""
+    height = row_index.size
     width = col_start.size - 1
     line = np.empty(coefficients.shape[0])
+    column = np.empty(height)
+    degree = row_basis.shape[1]
     for c in range(width):
         lo, hi = col_start[c], col_start[c + 1]
         if lo == hi:
             continue
+        for i in range(lo, hi):
+            light[i] = sums[i]
         if has_background:
-            # The spline's coefficients summed along this column: one value per row basis.
-            i0, i1 = coefficients.shape[0], 0
+            first_row, last_row = height, -1
             for i in range(lo, hi):
-                i0 = min(i0, first[i])
-                i1 = max(i1, first[i] + basis_start[i + 1] - basis_start[i])
+                first_row = min(first_row, top[i])
+                last_row = max(last_row, bottom[i])
+            # The spline's coefficients summed along this column: one value per row basis.
             j0 = col_index[c]
-            for k in range(i0, i1):
+            for k in range(row_index[first_row], row_index[last_row] + degree):
                 v = 0.0
                 for q in range(col_basis.shape[1]):
                     v += coefficients[k, j0 + q] * col_basis[c, q]
                 line[k] = v
+            for r in range(first_row, last_row + 1):
+                k = _U(row_index[r])
+                v = 0.0
+                for p in range(degree):
+                    v += row_basis[r, p] * line[k + _U(p)]
+                column[r] = v
             for i in range(lo, hi):
-                acc = sums[i]
-                pa = _U(basis_start[i])
-                pb = _U(first[i])
-                for q in range(_U(basis_start[i + 1] - basis_start[i])):
-                    acc -= basis[pa + q] * line[pb + q]
-                light[i] = acc
-        else:
-            for i in range(lo, hi):
-                light[i] = sums[i]
+                pa = _U(prof_start[i])
+                pb = _U(top[i])
+                acc = 0.0
+                for q in range(_U(bottom[i] - top[i] + 1)):
+                    acc += prof[pa + q] * column[pb + q]
+                light[i] -= acc
         # Forward: L z = rhs (rows stored left to right, 1 / diagonal last).
         for i in range(lo, hi):
             ei = envelope[i]
@@ -470,10 +424,10 @@ def residual_blocks(
             column = strip[c - c0]
             for s in range(col_start[c], col_start[c + 1]):
                 x = light[s]
-                a = prof[prof_start[s] : prof_start[s + 1]]
-                b = column[top[s] : bottom[s] + 1]
-                for q in range(a.size):
-                    b[q] -= x * a[q]
+                pa = _U(prof_start[s])
+                pb = _U(top[s])
+                for q in range(_U(bottom[s] - top[s] + 1)):
+                    column[pb + q] -= x * prof[pa + q]
         for i in range(i0, i1 + 1):
             if not wanted[i, j]:
                 continue

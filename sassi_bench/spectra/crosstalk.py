@@ -39,12 +39,12 @@ from sassi_bench.spectra.offset import BlockBackground
 __all__ = ["StreakModel", "columns_interact"]
 
 #: Rows of a streak's profile in a camera column, above and below its centre, in blur sigmas.
-PROFILE_SIGMAS = 6.0
+PROFILE_SIGMAS = 4.0
 
 #: Stand-ins for the background's arrays when there is none (typed like them).
 _NO_BACKGROUND = (
-    np.zeros((1, 1)), np.zeros(1, np.int64), np.zeros((1, 1)),
-    np.zeros(1, np.int64), np.zeros(2, np.int64), np.zeros(1),
+    np.zeros((1, 1)), np.zeros(1, np.int64), np.zeros((1, 1)), np.zeros(1, np.int64),
+    np.zeros((1, 1)),
 )  # fmt: skip
 
 
@@ -133,8 +133,6 @@ class StreakModel:
         self._slot_unit = slot_unit
         self._layout = (col_start, slot_top, slot_bottom, prof_start, prof)
         self._factor = (envelope, factor_start, factor)
-        self._basis_key: tuple | None = None
-        self._basis: tuple = ()
 
     def sums(self, image: NDArray[np.floating]) -> NDArray[np.float64]:
         """The right-hand sides of the normal equations for ``image`` (H, W): every slot's
@@ -153,26 +151,15 @@ class StreakModel:
     def solve(
         self, sums: NDArray[np.float64], background: BlockBackground | None = None
     ) -> NDArray[np.float64]:
-        """The units' light (U,) from an image's :meth:`sums`, minus ``background``
-        (its share of each unit's sum comes from the unit's sums against the spline's row
-        basis, computed once per model and lattice). Units whose light reaches no camera
-        pixel are zero."""
+        """The units' light (U,) from an image's :meth:`sums`, minus ``background`` (its
+        share of each unit's sum evaluated on the units' rows only). Units whose light
+        reaches no camera pixel are zero."""
         if background is None:
             arrays = (False, *_NO_BACKGROUND)
         else:
-            coefficients, row_index, row_basis, col_index, col_basis = background.kernel_arrays()
-            key = (background.shape, background.block)
-            if self._basis_key != key:
-                _, top, bottom, prof_start, prof = self._layout
-                first = np.empty(top.size, np.int64)
-                start = np.empty(top.size + 1, np.int64)
-                values = _kernels.basis_sums(
-                    top, bottom, prof_start, prof, row_index, row_basis, first, start
-                )
-                self._basis, self._basis_key = (first, start, values), key
-            arrays = (True, coefficients, col_index, col_basis, *self._basis)
+            arrays = (True, *background.kernel_arrays())
         slots = np.empty(self._slot_unit.size)
-        _kernels.solve_columns(sums, self._layout[0], *self._factor, *arrays, slots)
+        _kernels.solve_columns(sums, *self._layout, *self._factor, *arrays, slots)
         light = np.zeros(self.units)
         light[self._slot_unit] = slots
         return light
