@@ -532,12 +532,15 @@ def weighted_lines(sum_p, sum_pi, safe, n, mean_i, denominator, present, a, b): 
                     a[r, c, j] = 0.0
                     b[r, c, j] = 0.0
                 continue
-            share = safe[r, c]
+            # Two divisions a pixel, not two a band (they were most of the time).
+            inv_share = np.float32(1.0) / safe[r, c]
+            inv_den = np.float32(1.0) / denominator[r, c]
+            weight, centre = n[r, c], mean_i[r, c]
             for j in range(k):
-                mean_p = sum_p[r, c, j] / share
-                slope = (sum_pi[r, c, j] / share - mean_i[r, c] * mean_p) / denominator[r, c]
-                a[r, c, j] = n[r, c] * slope
-                b[r, c, j] = n[r, c] * (mean_p - slope * mean_i[r, c])
+                mean_p = sum_p[r, c, j] * inv_share
+                slope = (sum_pi[r, c, j] * inv_share - centre * mean_p) * inv_den
+                a[r, c, j] = weight * slope
+                b[r, c, j] = weight * (mean_p - slope * centre)
 
 
 @numba.njit(**_JIT)
@@ -546,5 +549,7 @@ def apply_lines(sum_a, sum_b, guide, norm, out, start):  # pragma: no cover
     h, w, k = sum_a.shape
     for r in range(h):
         for c in range(w):
+            inv = np.float32(1.0) / norm[r, c]
+            g = guide[r, c]
             for j in range(k):
-                out[r, c, start + j] = (sum_a[r, c, j] * guide[r, c] + sum_b[r, c, j]) / norm[r, c]
+                out[r, c, start + j] = (sum_a[r, c, j] * g + sum_b[r, c, j]) * inv

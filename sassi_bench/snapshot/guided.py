@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from threadpoolctl import ThreadpoolController
 
+from sassi_bench._shared.arrays import check_ndim
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
 from sassi_bench.snapshot.factored import LowRankCube, spectral_basis
@@ -126,10 +127,11 @@ def guided_factors(
     >>> cube.coefficients.shape, cube.basis.shape
     ((6, 8, 1), (1, 3))
     """
-    intensity = guide_intensity(guide_slm)
     step = "snapshot guided filter"
+    check_ndim(guide_slm, (2, 3), step=step, name="the guide", fix="pass (H, W[, C])")
+    intensity = guide_intensity(guide_slm)
     rows, cols = _open_pixels(pixels, intensity.shape, step)
-    intensity, values = _check_samples(guide_slm, rows, cols, spectra, step)
+    intensity, values = _check_samples(intensity, rows, cols, spectra, step)
     if not (np.isfinite(eps) and eps >= 0):
         raise ProcedureError(step_error(step, f"eps is {eps}", "pass a number >= 0"))
     if rank is not None and not (isinstance(rank, (int, np.integer)) and rank >= 1):
@@ -148,8 +150,18 @@ def guided_factors(
         radius = round(1.5 * float(np.sqrt(h * w / rows.size)))
     size = (2 * int(radius) + 1,) * 2
 
-    def box(image):
-        return cv2.boxFilter(image, cv2.CV_32F, size, normalize=True, borderType=cv2.BORDER_REFLECT)
+    def box(image, out=None):
+        """The box mean of ``image`` (into ``out`` when given, of its shape)."""
+        if out is None:
+            return cv2.boxFilter(
+                image, cv2.CV_32F, size, normalize=True, borderType=cv2.BORDER_REFLECT
+            )
+        target = out if out.ndim == 2 or out.shape[2] > 1 else out[..., 0]
+        cv2.boxFilter(
+            image if image.ndim == 2 or image.shape[2] > 1 else image[..., 0],
+            cv2.CV_32F, size, dst=target, normalize=True, borderType=cv2.BORDER_REFLECT,
+        )  # fmt: skip
+        return out
 
     weight = np.zeros((h, w), np.float32)
     weight[rows, cols] = 1.0
@@ -166,20 +178,23 @@ def guided_factors(
     norm = box(n)
     norm_safe = np.where(norm > 0, norm, np.float32(1.0))
     cube = np.empty((h, w, values.shape[1]), np.float32)
-    # Four bands at a time (OpenCV filters up to four channels in one pass); the arithmetic
-    # between the filters is one compiled pass (numpy's temporaries and copies took most
-    # of the time).
+    # Four bands at a time (OpenCV filters up to four channels in one pass) in buffers
+    # kept for every chunk (fresh ones cost their page faults each time: at the full SLM a
+    # four-band image is 33 MB); the arithmetic between the filters is one compiled pass.
+    chunk_width = min(4, values.shape[1])
+    buffers = [np.empty(h * w * chunk_width, np.float32) for _ in range(6)]
+    sparse = np.zeros(h * w * chunk_width, np.float32)
     for start in range(0, values.shape[1], 4):
         chunk = values[:, start : start + 4].astype(np.float32)
         k = chunk.shape[1]
-        sparse = np.zeros((h, w, k), np.float32)
-        sparse[rows, cols] = chunk
-        sum_p = box(sparse).reshape(h, w, k)
-        sparse[rows, cols] = chunk * g_at[:, None]
-        sum_pi = box(sparse).reshape(h, w, k)
-        a, b = np.empty((h, w, k), np.float32), np.empty((h, w, k), np.float32)
+        shaped = [buffer[: h * w * k].reshape(h, w, k) for buffer in buffers]
+        sum_p, sum_pi, a, b, box_a, box_b = shaped
+        image = sparse[: h * w * k].reshape(h, w, k)
+        image[rows, cols] = chunk
+        box(image, sum_p)
+        image[rows, cols] = chunk * g_at[:, None]
+        box(image, sum_pi)
+        image[rows, cols] = 0.0
         _kernels.weighted_lines(sum_p, sum_pi, safe, n, mean_i, denominator, present, a, b)
-        _kernels.apply_lines(
-            box(a).reshape(h, w, k), box(b).reshape(h, w, k), guide, norm_safe, cube, start
-        )
+        _kernels.apply_lines(box(a, box_a), box(b, box_b), guide, norm_safe, cube, start)
     return LowRankCube(cube, basis.astype(np.float32))
