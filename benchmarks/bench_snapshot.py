@@ -16,8 +16,9 @@ previous frame's). In each of ``--rounds`` rounds it times:
   touching a dense cube once);
 * each step of a frame (wall clock and the CPU time of the thread that ran it, which the
   machine's other work inflates less): guide -> SLM warp, superpixels, the next frame's
-  mask, the re-segmentation around the samples, the spectra at the open pixels (offset
-  removal, extraction, deblur), the rank-1 cube in factored form; the frame's wall-clock
+  mask and its streak model (built beside this frame's spectra), the re-segmentation
+  around the samples, the spectra at the open pixels (offset removal, extraction,
+  deblur), the rank-1 cube in factored form; the frame's wall-clock
   total (spectra on one thread beside the segmentation on another: two cores) and the CPU
   time of the whole process over the frame (both threads, and the helper threads OpenCV
   runs some conversions on: what two cores must supply);
@@ -118,6 +119,7 @@ STEPS_PRINTED = (
     ("warp", "guide -> SLM warp"),
     ("superpixels", "superpixels (SLIC at half size)"),
     ("mask", "next frame's mask given superpixels"),
+    ("model", "next frame's streak model (from its mask)"),
     ("resegment", "re-segmentation around samples"),
     ("spectra", "spectra (offset, extraction, deblur)"),
     ("rank1", "rank-1 cube, factored"),

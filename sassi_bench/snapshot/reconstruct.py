@@ -21,6 +21,7 @@ like scan cubes (NetCDF and ENVI, :mod:`sassi_bench.spectra.cube_io`).
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -40,8 +41,13 @@ from sassi_bench.snapshot.factored import Rank1Cube
 from sassi_bench.spectra.crosstalk import columns_interact
 from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write_netcdf
 from sassi_bench.spectra.deblur import SpectralDeblur
-from sassi_bench.spectra.extract import extract_spectra, extract_with_background
-from sassi_bench.spectra.geometry import reached_rows, streak_geometry
+from sassi_bench.spectra.extract import (
+    DenseModel,
+    dense_model,
+    extract_spectra,
+    extract_with_background,
+)
+from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.offset import (
     Background,
     BlockBackground,
@@ -50,7 +56,9 @@ from sassi_bench.spectra.offset import (
 )
 
 __all__ = [
+    "MaskModel",
     "guide_intensity",
+    "mask_model",
     "measure_samples",
     "measure_with_background",
     "rank1_cube",
@@ -102,6 +110,53 @@ def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
             step_error(step, f"open pixels lie outside the {h} x {w} SLM", "pass SLM pixels")
         )
     return rows, cols
+
+
+@dataclass(frozen=True)
+class MaskModel:
+    """What the spectra of a mask's frame need from the mask alone: its open pixels, the
+    camera rows they reach, their streak geometry there and, when streaks of different SLM
+    columns meet (a dense mask), the factorised streak model
+    (:class:`~sassi_bench.spectra.extract.DenseModel`). A video builds the next frame's on
+    the segmentation thread as soon as the mask is planned (:func:`mask_model`), so the
+    spectra thread starts from the frame.
+
+    Examples
+    --------
+    >>> prepared = mask_model(bundle, mask, (2048, 2048))  # doctest: +SKIP
+    >>> spectra, units, bg = measure_with_background(
+    ...     frame, mask, bundle, exposure_s=0.05, prepared=prepared)  # doctest: +SKIP
+    """
+
+    rows: NDArray[np.intp]
+    cols: NDArray[np.intp]
+    camera_shape: tuple[int, int]
+    camera_rows: tuple[int, int]
+    geometry: StreakGeometry
+    dense: DenseModel | None
+    block: tuple[int, int]
+
+
+def mask_model(
+    bundle: CalibrationBundle,
+    pixels: ArrayLike,
+    camera_shape: tuple[int, int],
+    *,
+    camera_rows: tuple[int, int] | None = None,
+    background_block: tuple[int, int] = (8, 16),
+) -> MaskModel:
+    """The :class:`MaskModel` of the open ``pixels`` (a mask or (N, 2) (row, column)) on a
+    camera of ``camera_shape`` (H, W) (``camera_rows``: its :func:`reached_rows`, when
+    known), with background blocks of ``background_block``."""
+    rows, cols = _open_pixels(pixels, bundle.slm_shape, "snapshot spectra")
+    height, width = (int(v) for v in camera_shape)
+    top, bottom = camera_rows if camera_rows else reached_rows(bundle, height)
+    geometry = streak_geometry(bundle, rows, cols).shifted(top)
+    block = (int(background_block[0]), int(background_block[1]))
+    dense = None
+    if rows.size and columns_interact(geometry):
+        dense = dense_model(geometry, (bottom - top, width), block)
+    return MaskModel(rows, cols, (height, width), (int(top), int(bottom)), geometry, dense, block)
 
 
 def measure_samples(
@@ -177,7 +232,7 @@ def measure_with_background(
     background_block: tuple[int, int] = (8, 16),
     background_passes: int | None = None,
     background_start: BlockBackground | NDArray[np.floating] | None = None,
-    camera_rows: tuple[int, int] | None = None,
+    prepared: MaskModel | None = None,
 ) -> tuple[NDArray[np.float64], str, Background | BlockBackground]:
     """:func:`measure_samples`, also returning the background it removed, and starting its
     refinements from ``background_start`` when given (video: the previous frame's
@@ -192,9 +247,9 @@ def measure_with_background(
         returned :class:`~sassi_bench.spectra.offset.BlockBackground`, or an image), by
         :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
         estimated from the pixels outside the footprints.
-    camera_rows
-        The camera rows light of the SLM can reach, ``reached_rows(bundle, H)`` (video:
-        computed once); None: computed here.
+    prepared
+        The :func:`mask_model` of ``pixels`` on this camera, built before the frame
+        (video); None: built here.
 
     Returns
     -------
@@ -222,14 +277,24 @@ def measure_with_background(
     )
     if not (np.isfinite(exposure_s) and exposure_s > 0):
         raise ProcedureError(step_error(step, f"exposure_s is {exposure_s}", "pass seconds > 0"))
-    rows, cols = _open_pixels(pixels, bundle.slm_shape, step)
     if deblur is None:
         deblur = SpectralDeblur.from_bundle(bundle, full_scale=full_scale)
+    if prepared is None:
+        prepared = mask_model(bundle, pixels, image.shape, background_block=background_block)
+    elif prepared.camera_shape != image.shape or prepared.block != tuple(background_block):
+        raise ProcedureError(
+            step_error(
+                step,
+                f"the mask's model was prepared for a {prepared.camera_shape} camera in "
+                f"{prepared.block} blocks, the frame is {image.shape} in {background_block}",
+                "prepare it with the camera's frame shape and the same blocks",
+            )
+        )
     # Only the camera rows that light of the SLM can reach take part.
-    top, bottom = camera_rows if camera_rows else reached_rows(bundle, image.shape[0])
+    top, bottom = prepared.camera_rows
     window = image[top:bottom]
-    geometry = streak_geometry(bundle, rows, cols).shifted(top)
-    if background_passes is None and columns_interact(geometry):
+    geometry = prepared.geometry
+    if background_passes is None and prepared.dense is not None:
         warm = background_start is not None
         background_passes = WARM_BACKGROUND_PASSES if warm else DENSE_BACKGROUND_PASSES
     if isinstance(background_start, Background):
@@ -237,7 +302,7 @@ def measure_with_background(
     if background_passes:
         spectra, _, background = extract_with_background(
             window, geometry, deblur, block=background_block, passes=background_passes,
-            start=background_start, settle=DENSE_BACKGROUND_PASSES,
+            start=background_start, settle=DENSE_BACKGROUND_PASSES, prepared=prepared.dense,
         )  # fmt: skip
     else:
         background = estimate_background(

@@ -19,6 +19,8 @@ residual (:mod:`sassi_bench.spectra.offset`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
@@ -41,7 +43,7 @@ from sassi_bench.spectra.offset import (
     first_block_estimate,
 )
 
-__all__ = ["extract_spectra", "extract_with_background"]
+__all__ = ["DenseModel", "dense_model", "extract_spectra", "extract_with_background"]
 
 
 def extract_spectra(
@@ -109,6 +111,41 @@ RING_BLOCKS = 2
 JUMP = 0.01
 
 
+@dataclass(frozen=True)
+class DenseModel:
+    """What :func:`extract_with_background` builds from the open pixels alone, before any
+    frame: the streak model (factorised) and the blocks its streaks reach (``touched``)
+    and those with a ring of :data:`RING_BLOCKS` around them (``around``). A video builds
+    the next frame's as soon as its mask is planned (:func:`dense_model`).
+
+    Examples
+    --------
+    >>> prepared = dense_model(geometry, window.shape)  # doctest: +SKIP
+    >>> spectra, off, bg = extract_with_background(
+    ...     window, geometry, prepared=prepared)  # doctest: +SKIP
+    """
+
+    model: StreakModel
+    block: tuple[int, int]
+    touched: NDArray[np.bool_]
+    around: NDArray[np.bool_]
+
+
+def dense_model(
+    geometry: StreakGeometry, shape: tuple[int, int], block: tuple[int, int] = (8, 16)
+) -> DenseModel:
+    """The :class:`DenseModel` of the open pixels of ``geometry`` on a camera window of
+    ``shape`` (H, W), with background blocks of ``block`` camera rows x columns."""
+    shape = (int(shape[0]), int(shape[1]))
+    block = (int(block[0]), int(block[1]))
+    model = StreakModel(geometry, shape)
+    touched = model.touched_blocks(block)
+    around = ndimage.binary_dilation(
+        touched, structure=np.ones((3, 3), bool), iterations=RING_BLOCKS
+    )
+    return DenseModel(model, block, touched, around)
+
+
 def extract_with_background(
     window: NDArray[np.floating] | NDArray[np.integer],
     geometry: StreakGeometry,
@@ -118,6 +155,7 @@ def extract_with_background(
     passes: int = 2,
     start: BlockBackground | NDArray[np.floating] | None = None,
     settle: int = 0,
+    prepared: DenseModel | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_], BlockBackground]:
     """Spectra of a raw frame's open pixels with the background refined from the residual.
 
@@ -158,6 +196,9 @@ def extract_with_background(
         With ``start``: refine up to this many passes in all (instead of ``passes``) when
         the first pass finds the pure-background blocks around the streaks moved by more
         than :data:`JUMP` of the level since ``start`` (a sudden change of the leakage).
+    prepared
+        The :func:`dense_model` of ``geometry`` on this window and ``block``, built
+        before (else built here).
 
     Returns
     -------
@@ -178,11 +219,18 @@ def extract_with_background(
         image = np.ascontiguousarray(image, dtype=np.float64)
     shape = (int(image.shape[0]), int(image.shape[1]))
     block = (int(block[0]), int(block[1]))
-    model = StreakModel(geometry, shape)
-    touched = model.touched_blocks(block)
-    around = ndimage.binary_dilation(
-        touched, structure=np.ones((3, 3), bool), iterations=RING_BLOCKS
-    )
+    if prepared is None:
+        prepared = dense_model(geometry, shape, block)
+    elif prepared.model.shape != shape or prepared.block != block:
+        raise ProcedureError(
+            step_error(
+                "spectrum extraction",
+                f"the prepared streak model is of a {prepared.model.shape} window in "
+                f"{prepared.block} blocks, the frame's window is {shape} in {block} blocks",
+                "prepare the model for this camera window and blocks",
+            )
+        )
+    model, touched, around = prepared.model, prepared.touched, prepared.around
     if start is None:
         measured = first_block_estimate(image, geometry, block, around)
     elif isinstance(start, BlockBackground):
