@@ -40,19 +40,6 @@ def scaled_by_peak(image):  # pragma: no cover
 
 
 @numba.njit(**_JIT)
-def planes(features):  # pragma: no cover
-    """(H, W, C) features as (C, H, W) float32 planes: a row of one channel is contiguous,
-    so the distance loops run on vectors."""
-    h, w, nc = features.shape
-    out = np.empty((nc, h, w), np.float32)
-    for r in range(h):
-        for c in range(w):
-            for ch in range(nc):
-                out[ch, r, c] = features[r, c, ch]
-    return out
-
-
-@numba.njit(**_JIT)
 def halve(planes):  # pragma: no cover
     """(C, H, W) planes shrunk by 2 (the mean of every 2 x 2 block; an odd last row or
     column is dropped, as OpenCV's area resize to ``W // 2`` x ``H // 2`` does)."""

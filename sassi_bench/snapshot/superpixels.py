@@ -56,7 +56,7 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench._shared.arrays import check_shape
 from sassi_bench.bundle import BundleError, CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.snapshot import _slic
+from sassi_bench.snapshot import _kernels, _slic
 
 __all__ = ["Superpixels", "guide_features", "guide_on_slm", "superpixels"]
 
@@ -246,7 +246,7 @@ def superpixels(
         raise ProcedureError(step_error(step, f"iterations is {iterations!r}", "pass 1 or more"))
     region = max(2, round(float(np.sqrt(h * w / n_segments))))
     factor = int(shrink) if region >= 4 * int(shrink) and int(shrink) > 1 else 1
-    planes = _slic.planes(features)
+    planes = _kernels.planes(features)
     small = _slic.halve(planes) if factor == 2 else planes
     if factor > 2:
         small = np.stack(
