@@ -422,7 +422,7 @@ def first_block_estimate(
     --------
     >>> geo = StreakGeometry(np.array([0]), np.array([0]), np.array([[10.0]]),
     ...                      np.array([[20.0]]), np.array([[12.0]]), np.array([1.0]), guard=0)
-    >>> wanted = np.zeros((3, 2), bool); wanted[1] = True
+    >>> wanted = np.zeros((3, 2), bool); wanted[1, 0] = True
     >>> first_block_estimate(np.ones((24, 32)), geo, (8, 16), wanted).tolist()
     [[nan, nan], [1.0, nan], [nan, nan]]
     """

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sassi_bench.spectra.crosstalk import StreakModel, columns_interact
+from sassi_bench.spectra.crosstalk import PROFILE_SIGMAS, StreakModel, columns_interact
 from sassi_bench.spectra.extract import extract_spectra, extract_with_background
 from sassi_bench.spectra.geometry import StreakGeometry
 from sassi_bench.spectra.offset import BlockBackground, streak_footprint
@@ -77,8 +77,9 @@ def test_streaks_far_apart_do_not_interact():
 
 def _brute_force_render(geometry, light, shape):
     """Each pixel's light per camera column as a Gaussian across the rows (its bins' mean
-    centre and sigma in that column, weighted by their fractions there), pixel by pixel;
-    and which (pixel, column) paint anything."""
+    centre and sigma in that column, weighted by their fractions there, cut
+    ``PROFILE_SIGMAS`` from the centre), pixel by pixel; and which (pixel, column) paint
+    anything."""
     height, width = shape
     image = np.zeros(shape)
     painted = np.zeros(light.shape, dtype=bool)
@@ -97,7 +98,12 @@ def _brute_force_render(geometry, light, shape):
             painted[n, k] = True
             y = cover @ geometry.y[n] / cover.sum()
             s = cover @ geometry.sigma / cover.sum()
-            image[:, c] += light[n, k] * (ndtr((rows + 0.5 - y) / s) - ndtr((rows - 0.5 - y) / s))
+            # Rows within the model's reach of the centre (its profiles stop there).
+            reach = (rows >= np.floor(y - PROFILE_SIGMAS * s - 0.5)) & (
+                rows <= np.ceil(y + PROFILE_SIGMAS * s + 0.5)
+            )
+            share = ndtr((rows + 0.5 - y) / s) - ndtr((rows - 0.5 - y) / s)
+            image[:, c] += light[n, k] * np.where(reach, share, 0.0)
     return image, painted
 
 
