@@ -15,10 +15,13 @@ previous frame's). In each of ``--rounds`` rounds it times:
   copying one dense float32 cube of the SLM at the bundle's 68 bins (the cost of merely
   touching a dense cube once);
 * each step of a frame (wall clock and the CPU time of the thread that ran it, which the
-  machine's other work inflates less): guide -> SLM warp, superpixels, the next frame's mask, the
-  re-segmentation around the samples, the spectra at the open pixels (offset removal,
-  extraction, deblur), the rank-1 cube in factored form; and the frame's wall-clock
-  total (spectra on one thread beside the segmentation on another: two cores);
+  machine's other work inflates less): guide -> SLM warp, superpixels, the next frame's
+  mask and its streak model (built beside this frame's spectra), the re-segmentation
+  around the samples, the spectra at the open pixels (offset removal, extraction,
+  deblur), the rank-1 cube in factored form; the frame's wall-clock
+  total (spectra on one thread beside the segmentation on another: two cores) and the CPU
+  time of the whole process over the frame (both threads, and the helper threads OpenCV
+  runs some conversions on: what two cores must supply);
 * outside the total: materialising the dense rank-1 cube (on demand only), and the masked
   guided filter in a rank-6 spectral basis (factored; and dense).
 
@@ -116,6 +119,7 @@ STEPS_PRINTED = (
     ("warp", "guide -> SLM warp"),
     ("superpixels", "superpixels (SLIC at half size)"),
     ("mask", "next frame's mask given superpixels"),
+    ("model", "next frame's streak model (from its mask)"),
     ("resegment", "re-segmentation around samples"),
     ("spectra", "spectra (offset, extraction, deblur)"),
     ("rank1", "rank-1 cube, factored"),
@@ -137,7 +141,9 @@ def run_density(name, bundle, spacing, session, guide, rounds, cube, copy_of):
         raw, read = timed(session.read_frame, r % 3)
         _, copy = timed(np.copyto, cube, copy_of)
         mask, samples = frame.next_mask, frame.next_samples
+        process = time.process_time()
         frame = pipeline.process(guide, raw, mask, samples, exposure_s=0.1)
+        process = time.process_time() - process
         _, dense = timed(frame.rank1.dense, cube)
         guided, guided_s = timed(guided_factors, frame.guide_slm, mask, frame.spectra)
         _, guided_dense = timed(guided.dense, cube)
@@ -146,6 +152,7 @@ def run_density(name, bundle, spacing, session, guide, rounds, cube, copy_of):
         row = {key: (wall[key], cpu[key]) for key in steps}
         row["steps"] = (sum(wall[k] for k in steps), sum(cpu[k] for k in steps))
         row["total"] = (wall["total"], float("nan"))
+        row["process"] = (process, process)
         rows.append(
             dict(row, read=read, copy=copy, dense=dense, guided=guided_s, guided_dense=guided_dense)
         )
@@ -163,6 +170,7 @@ def run_density(name, bundle, spacing, session, guide, rounds, cube, copy_of):
     table += [
         ("steps", "sum of the steps (one core)"),
         ("total", "per frame total, wall clock (two threads)"),
+        ("process", "per frame, CPU of every thread of the process"),
         ("dense", "rank-1 dense cube, on demand (not in total)"),
         ("guided", "guided filter, rank 6, factored (not in total)"),
         ("guided_dense", "guided filter dense cube, on demand"),

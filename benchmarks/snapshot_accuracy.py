@@ -64,6 +64,7 @@ def measure(
     r, g = main.scores["rank1"], main.scores["guided"]
     lr, lg = low.scores["rank1"], low.scores["guided"]
     h, w = bundle.slm_shape
+    samples = main.error_split["samples_psnr_db"]
     if result.scan_dataset is not None:  # keep the scan for later runs (--scan)
         from sassi_bench.spectra.cube_io import write_netcdf
 
@@ -75,11 +76,12 @@ def measure(
         f"{result.spacing['uniform_step']}",
         "open pixels (SLM px per open px)": f"{int(main.mask.sum())} "
         f"({h * w / max(int(main.mask.sum()), 1):.0f})",
-        "rank-1 PSNR raw / affine": f"{r.psnr_db:.1f} / {r.psnr_affine_db:.1f} dB",
-        "guided PSNR raw / affine": f"{g.psnr_db:.1f} / {g.psnr_affine_db:.1f} dB",
-        "rank-1 SSIM / spectral angle": f"{r.ssim:.3f} / {r.spectral_angle_deg:.1f} deg",
-        "low light (0.02x): rank-1 / guided affine": f"{lr.psnr_affine_db:.1f} / "
-        f"{lg.psnr_affine_db:.1f} dB",
+        "rank-1 PSNR raw / affine": f"{r.psnr_db:.2f} / {r.psnr_affine_db:.2f} dB",
+        "guided PSNR raw / affine": f"{g.psnr_db:.2f} / {g.psnr_affine_db:.2f} dB",
+        "rank-1 SSIM / spectral angle": f"{r.ssim:.3f} / {r.spectral_angle_deg:.2f} deg",
+        "spectra at the open pixels against the scan": f"{samples:.2f} dB",
+        "low light (0.02x): rank-1 / guided affine": f"{lr.psnr_affine_db:.2f} / "
+        f"{lg.psnr_affine_db:.2f} dB",
         "all checks pass": "yes" if result.passed else "no",
         "validation time (scan included)": f"{elapsed / 60:.1f} min",
         "scan pixels scored": f"{int(np.count_nonzero(result.valid))}",

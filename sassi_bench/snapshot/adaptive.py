@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from sassi_bench._shared.arrays import check_shape
 from sassi_bench.bundle import MaskSpacing
@@ -125,6 +125,7 @@ def segment_around_samples(
     *,
     compactness: float = 10.0,
     features: ArrayLike | None = None,
+    planes: NDArray[np.float32] | None = None,
 ) -> NDArray[np.int32]:
     """Step 3: give every SLM pixel to a sample, by one SLIC assignment pass.
 
@@ -144,6 +145,9 @@ def segment_around_samples(
         SLIC's weight of space against colour.
     features
         Precomputed :func:`guide_features` of ``guide_slm`` (skips the conversion).
+    planes
+        The same features as (C, H, W) float32 planes (:attr:`Superpixels.planes`; skips
+        the rearrangement).
 
     Returns
     -------
@@ -180,23 +184,22 @@ def segment_around_samples(
     side = max(1.0, float(np.sqrt(h * w / points.shape[0])))
     labels = np.full((h, w), -1, np.int32)
     distance = np.full((h, w), np.inf, np.float32)
+    if planes is None or planes.shape[1:] != (h, w):
+        planes = _kernels.planes(np.ascontiguousarray(feats.reshape(h, w, -1)))
     _kernels.assign_to_samples(
-        np.ascontiguousarray(feats),
+        planes,
         points,
         int(np.ceil(side)),
-        (compactness / side) ** 2,
+        np.float32((compactness / side) ** 2),
         labels,
         distance,
     )
-    missing = labels < 0
-    if missing.any():
-        # Nearest sample for pixels beyond every sample's reach (sparse or uneven samples).
-        seeds = np.full((h, w), True)
-        seeds[points[:, 0], points[:, 1]] = False
-        index = np.full((h, w), -1, np.int32)
-        index[points[:, 0], points[:, 1]] = np.arange(points.shape[0], dtype=np.int32)
-        _, (nr, nc) = ndimage.distance_transform_edt(seeds, return_indices=True)
-        labels[missing] = index[nr[missing], nc[missing]]
+    missing = np.nonzero(labels < 0)
+    if missing[0].size:
+        # Nearest sample for pixels beyond every sample's reach (sparse or uneven samples);
+        # of equally near samples, any one.
+        _, nearest = cKDTree(points).query(np.stack(missing, axis=1))
+        labels[missing] = nearest
     return labels
 
 
@@ -264,7 +267,9 @@ def adaptive_mask(
             step_error("adaptive mask", "no superpixel could be sampled", "pass a guide image")
         )
     features = segments.features
-    labels = segment_around_samples(guide_slm, samples, compactness=compactness, features=features)
+    labels = segment_around_samples(
+        guide_slm, samples, compactness=compactness, features=features, planes=segments.planes
+    )
     if fill is not None:
         builder = MaskBuilder.empty(spacing)
         builder.fill(np.ravel_multi_index((samples[:, 0], samples[:, 1]), (h, w)))

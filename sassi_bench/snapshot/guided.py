@@ -17,13 +17,22 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import ThreadpoolController
 
+from sassi_bench._shared.arrays import check_ndim
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.snapshot import _kernels
 from sassi_bench.snapshot.factored import LowRankCube, spectral_basis
 from sassi_bench.snapshot.reconstruct import _check_samples, _open_pixels, guide_intensity
 
 __all__ = ["GUIDED_RANK", "guided_cube", "guided_factors"]
+
+_BLAS = ThreadpoolController()
+
+
+def _one_blas_thread():
+    return _BLAS.limit(limits=1, user_api="blas")
+
 
 #: Spectral basis of the guided filter (the SASSI authors' rank).
 GUIDED_RANK = 6
@@ -118,10 +127,11 @@ def guided_factors(
     >>> cube.coefficients.shape, cube.basis.shape
     ((6, 8, 1), (1, 3))
     """
-    intensity = guide_intensity(guide_slm)
     step = "snapshot guided filter"
+    check_ndim(guide_slm, (2, 3), step=step, name="the guide", fix="pass (H, W[, C])")
+    intensity = guide_intensity(guide_slm)
     rows, cols = _open_pixels(pixels, intensity.shape, step)
-    intensity, values = _check_samples(guide_slm, rows, cols, spectra, step)
+    intensity, values = _check_samples(intensity, rows, cols, spectra, step)
     if not (np.isfinite(eps) and eps >= 0):
         raise ProcedureError(step_error(step, f"eps is {eps}", "pass a number >= 0"))
     if rank is not None and not (isinstance(rank, (int, np.integer)) and rank >= 1):
@@ -130,8 +140,9 @@ def guided_factors(
     if rank is None:
         basis = np.eye(values.shape[1])
     else:
-        basis = spectral_basis(values, rank)
-        values = values @ basis.T
+        with _one_blas_thread():  # tiny products: BLAS's threads only spin against the video's
+            basis = spectral_basis(values, rank)
+            values = values @ basis.T
     h, w = intensity.shape
     peak = float(intensity.max())
     guide = intensity / peak if peak > 0 else intensity
@@ -139,15 +150,25 @@ def guided_factors(
         radius = round(1.5 * float(np.sqrt(h * w / rows.size)))
     size = (2 * int(radius) + 1,) * 2
 
-    def box(image):
-        return cv2.boxFilter(image, cv2.CV_32F, size, normalize=True, borderType=cv2.BORDER_REFLECT)
+    def box(image, out=None):
+        """The box mean of ``image`` (into ``out`` when given, of its shape)."""
+        if out is None:
+            return cv2.boxFilter(
+                image, cv2.CV_32F, size, normalize=True, borderType=cv2.BORDER_REFLECT
+            )
+        target = out if out.ndim == 2 or out.shape[2] > 1 else out[..., 0]
+        cv2.boxFilter(
+            image if image.ndim == 2 or image.shape[2] > 1 else image[..., 0],
+            cv2.CV_32F, size, dst=target, normalize=True, borderType=cv2.BORDER_REFLECT,
+        )  # fmt: skip
+        return out
 
     weight = np.zeros((h, w), np.float32)
     weight[rows, cols] = 1.0
     g_at = guide[rows, cols]
     n = box(weight)
     present = n > 0.5 / (size[0] * size[1])  # at least one measured pixel in the window
-    safe = np.where(present, n, 1.0)
+    safe = np.where(present, n, np.float32(1.0))
     sparse = np.zeros((h, w), np.float32)
     sparse[rows, cols] = g_at
     mean_i = box(sparse) / safe
@@ -155,30 +176,25 @@ def guided_factors(
     var_i = np.maximum(box(sparse) / safe - mean_i * mean_i, 0.0)
     denominator = var_i + np.float32(eps)
     norm = box(n)
-    norm_safe = np.where(norm > 0, norm, 1.0)
+    norm_safe = np.where(norm > 0, norm, np.float32(1.0))
     cube = np.empty((h, w, values.shape[1]), np.float32)
-    mean_i = mean_i.astype(np.float32)
-    denominator = denominator.astype(np.float32)
-    n = n.astype(np.float32)
-    guide = guide.astype(np.float32)
-    norm_safe = norm_safe.astype(np.float32)
-    # Four bands at a time (OpenCV filters up to four channels in one pass); the arithmetic
-    # between the filters is compiled (numpy's temporaries took three quarters of the time).
-    sparse = np.zeros((h, w, 4), np.float32)
-    a, b = np.empty((h, w, 4), np.float32), np.empty((h, w, 4), np.float32)
+    # Four bands at a time (OpenCV filters up to four channels in one pass) in buffers
+    # kept for every chunk (fresh ones cost their page faults each time: at the full SLM a
+    # four-band image is 33 MB); the arithmetic between the filters is one compiled pass.
+    chunk_width = min(4, values.shape[1])
+    buffers = [np.empty(h * w * chunk_width, np.float32) for _ in range(6)]
+    sparse = np.zeros(h * w * chunk_width, np.float32)
     for start in range(0, values.shape[1], 4):
         chunk = values[:, start : start + 4].astype(np.float32)
         k = chunk.shape[1]
-        sparse[rows, cols, :k] = chunk
-        mean_p = box(np.ascontiguousarray(sparse[..., :k])).reshape(h, w, k) / safe[..., None]
-        sparse[rows, cols, :k] = chunk * g_at[:, None]
-        mean_pi = box(np.ascontiguousarray(sparse[..., :k])).reshape(h, w, k) / safe[..., None]
-        a_k, b_k = np.ascontiguousarray(a[..., :k]), np.ascontiguousarray(b[..., :k])
-        _kernels.weighted_lines(
-            mean_p.astype(np.float32), mean_pi.astype(np.float32), n, mean_i, denominator,
-            present, a_k, b_k,
-        )  # fmt: skip
-        _kernels.apply_lines(
-            box(a_k).reshape(h, w, k), box(b_k).reshape(h, w, k), guide, norm_safe, cube, start
-        )
+        shaped = [buffer[: h * w * k].reshape(h, w, k) for buffer in buffers]
+        sum_p, sum_pi, a, b, box_a, box_b = shaped
+        image = sparse[: h * w * k].reshape(h, w, k)
+        image[rows, cols] = chunk
+        box(image, sum_p)
+        image[rows, cols] = chunk * g_at[:, None]
+        box(image, sum_pi)
+        image[rows, cols] = 0.0
+        _kernels.weighted_lines(sum_p, sum_pi, safe, n, mean_i, denominator, present, a, b)
+        _kernels.apply_lines(box(a, box_a), box(b, box_b), guide, norm_safe, cube, start)
     return LowRankCube(cube, basis.astype(np.float32))

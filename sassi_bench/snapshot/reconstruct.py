@@ -21,6 +21,7 @@ like scan cubes (NetCDF and ENVI, :mod:`sassi_bench.spectra.cube_io`).
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -40,12 +41,24 @@ from sassi_bench.snapshot.factored import Rank1Cube
 from sassi_bench.spectra.crosstalk import columns_interact
 from sassi_bench.spectra.cube_io import spectral_cube_dataset, write_envi, write_netcdf
 from sassi_bench.spectra.deblur import SpectralDeblur
-from sassi_bench.spectra.extract import extract_spectra, extract_with_background
-from sassi_bench.spectra.geometry import reached_rows, streak_geometry
-from sassi_bench.spectra.offset import Background, estimate_background, streak_footprint
+from sassi_bench.spectra.extract import (
+    DenseModel,
+    dense_model,
+    extract_spectra,
+    extract_with_background,
+)
+from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
+from sassi_bench.spectra.offset import (
+    Background,
+    BlockBackground,
+    estimate_background,
+    streak_footprint,
+)
 
 __all__ = [
+    "MaskModel",
     "guide_intensity",
+    "mask_model",
     "measure_samples",
     "measure_with_background",
     "rank1_cube",
@@ -60,17 +73,19 @@ RADIANCE_UNITS = "relative photon radiance per bin"
 #: Background refinements for dense masks. On the sim rig (natural scene, LED, adaptive mask
 #: at a 6 px row pitch, 380 open pixels) the spectra at the open pixels agreed with the scan
 #: to 22.3 dB after none, 34.5 after 2, 40.2 after 8, 42.0 after 24 and 42.1 after 32; at a
-#: 5 px pitch 41.1 after 24. Each pass costs about 15 ms there (the streak model is
-#: factorised once), so the frame takes about 0.4 s.
+#: 5 px pitch 41.1 after 24. Each pass costs about 4 ms there (the streak model is
+#: factorised once, the medians taken on the streaks' blocks), so the frame takes about
+#: 0.13 s of CPU (an 8-row pitch, 301 open pixels).
 DENSE_BACKGROUND_PASSES = 24
 #: Background refinements of a dense mask started from the previous video frame's background
-#: (:func:`measure_with_background`). On the sim rig (natural scene moving 2 px and 0.25
-#: degrees a frame, 8-row pitch, about 290 open pixels) the spectra after 1, 2, 4 and 8 such
-#: passes agreed with 24 passes from scratch to 54-55, 56-58, 58-62 and 59-67 dB, at 0.08,
-#: 0.09, 0.11 and 0.16 s of CPU against 0.40 s. A sudden change of the leakage (a light
-#: switched) needs more: on a synthetic frame whose background rose 4-6 % the spectra were
-#: 2.9 % off after 2 passes, 2.0 % after 24 from scratch.
-WARM_BACKGROUND_PASSES = 2
+#: (:func:`measure_with_background`). On the sim rig (natural scene moving 2 px, 1 px and
+#: 0.25 degrees a frame, 8-row pitch, about 300 open pixels, 12 frames;
+#: ``benchmarks/video_spectra_accuracy.py``) the spectra against the bench's truth: 37.53 dB
+#: after 1 such pass, 37.51 after 2, 37.45 after 4, and 37.36 after 24 from scratch each
+#: frame. A sudden change of the leakage (a light switched) is caught by the first pass
+#: (:data:`~sassi_bench.spectra.extract.JUMP`), which then goes on to
+#: :data:`DENSE_BACKGROUND_PASSES`.
+WARM_BACKGROUND_PASSES = 1
 
 
 def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
@@ -96,6 +111,53 @@ def _open_pixels(pixels: ArrayLike, shape: tuple[int, int], step: str):
             step_error(step, f"open pixels lie outside the {h} x {w} SLM", "pass SLM pixels")
         )
     return rows, cols
+
+
+@dataclass(frozen=True)
+class MaskModel:
+    """What the spectra of a mask's frame need from the mask alone: its open pixels, the
+    camera rows they reach, their streak geometry there and, when streaks of different SLM
+    columns meet (a dense mask), the factorised streak model
+    (:class:`~sassi_bench.spectra.extract.DenseModel`). A video builds the next frame's on
+    the segmentation thread as soon as the mask is planned (:func:`mask_model`), so the
+    spectra thread starts from the frame.
+
+    Examples
+    --------
+    >>> prepared = mask_model(bundle, mask, (2048, 2048))  # doctest: +SKIP
+    >>> spectra, units, bg = measure_with_background(
+    ...     frame, mask, bundle, exposure_s=0.05, prepared=prepared)  # doctest: +SKIP
+    """
+
+    rows: NDArray[np.intp]
+    cols: NDArray[np.intp]
+    camera_shape: tuple[int, int]
+    camera_rows: tuple[int, int]
+    geometry: StreakGeometry
+    dense: DenseModel | None
+    block: tuple[int, int]
+
+
+def mask_model(
+    bundle: CalibrationBundle,
+    pixels: ArrayLike,
+    camera_shape: tuple[int, int],
+    *,
+    camera_rows: tuple[int, int] | None = None,
+    background_block: tuple[int, int] = (8, 16),
+) -> MaskModel:
+    """The :class:`MaskModel` of the open ``pixels`` (a mask or (N, 2) (row, column)) on a
+    camera of ``camera_shape`` (H, W) (``camera_rows``: its :func:`reached_rows`, when
+    known), with background blocks of ``background_block``."""
+    rows, cols = _open_pixels(pixels, bundle.slm_shape, "snapshot spectra")
+    height, width = (int(v) for v in camera_shape)
+    top, bottom = camera_rows if camera_rows else reached_rows(bundle, height)
+    geometry = streak_geometry(bundle, rows, cols).shifted(top)
+    block = (int(background_block[0]), int(background_block[1]))
+    dense = None
+    if rows.size and columns_interact(geometry):
+        dense = dense_model(geometry, (bottom - top, width), block)
+    return MaskModel(rows, cols, (height, width), (int(top), int(bottom)), geometry, dense, block)
 
 
 def measure_samples(
@@ -170,8 +232,9 @@ def measure_with_background(
     full_scale: float = 65535.0,
     background_block: tuple[int, int] = (8, 16),
     background_passes: int | None = None,
-    background_start: NDArray[np.floating] | None = None,
-) -> tuple[NDArray[np.float64], str, Background]:
+    background_start: BlockBackground | NDArray[np.floating] | None = None,
+    prepared: MaskModel | None = None,
+) -> tuple[NDArray[np.float64], str, Background | BlockBackground]:
     """:func:`measure_samples`, also returning the background it removed, and starting its
     refinements from ``background_start`` when given (video: the previous frame's
     background, so a few passes follow a slowly changing scene).
@@ -181,10 +244,13 @@ def measure_with_background(
     frame, pixels, bundle, exposure_s, deblur, full_scale, background_block, background_passes
         As :func:`measure_samples`.
     background_start
-        The background image of the reached camera rows (the ``image`` of a returned
-        :class:`~sassi_bench.spectra.offset.Background`) to refine when the mask is dense,
-        by :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
+        The background of the reached camera rows to refine when the mask is dense (a
+        returned :class:`~sassi_bench.spectra.offset.BlockBackground`, or an image), by
+        :data:`WARM_BACKGROUND_PASSES` passes unless ``background_passes`` says; None:
         estimated from the pixels outside the footprints.
+    prepared
+        The :func:`mask_model` of ``pixels`` on this camera, built before the frame
+        (video); None: built here.
 
     Returns
     -------
@@ -192,8 +258,9 @@ def measure_with_background(
         (N, B) float64 at ``bundle.wavelengths``.
     units : str
         As :func:`measure_samples`.
-    background : Background
-        The background of the reached camera rows.
+    background : Background or BlockBackground
+        The background of the reached camera rows (a
+        :class:`~sassi_bench.spectra.offset.BlockBackground` when the mask is dense).
 
     Examples
     --------
@@ -201,7 +268,7 @@ def measure_with_background(
     ...     frame.data, mask, bundle, exposure_s=0.05)  # doctest: +SKIP
     >>> spectra, units, background = measure_with_background(
     ...     next_frame.data, next_mask, bundle, exposure_s=0.05, background_passes=2,
-    ...     background_start=background.image)  # doctest: +SKIP
+    ...     background_start=background)  # doctest: +SKIP
     """
     step = "snapshot spectra"
     image = np.asarray(frame)
@@ -211,20 +278,32 @@ def measure_with_background(
     )
     if not (np.isfinite(exposure_s) and exposure_s > 0):
         raise ProcedureError(step_error(step, f"exposure_s is {exposure_s}", "pass seconds > 0"))
-    rows, cols = _open_pixels(pixels, bundle.slm_shape, step)
     if deblur is None:
         deblur = SpectralDeblur.from_bundle(bundle, full_scale=full_scale)
+    if prepared is None:
+        prepared = mask_model(bundle, pixels, image.shape, background_block=background_block)
+    elif prepared.camera_shape != image.shape or prepared.block != tuple(background_block):
+        raise ProcedureError(
+            step_error(
+                step,
+                f"the mask's model was prepared for a {prepared.camera_shape} camera in "
+                f"{prepared.block} blocks, the frame is {image.shape} in {background_block}",
+                "prepare it with the camera's frame shape and the same blocks",
+            )
+        )
     # Only the camera rows that light of the SLM can reach take part.
-    top, bottom = reached_rows(bundle, image.shape[0])
+    top, bottom = prepared.camera_rows
     window = image[top:bottom]
-    geometry = streak_geometry(bundle, rows, cols).shifted(top)
-    if background_passes is None and columns_interact(geometry):
+    geometry = prepared.geometry
+    if background_passes is None and prepared.dense is not None:
         warm = background_start is not None
         background_passes = WARM_BACKGROUND_PASSES if warm else DENSE_BACKGROUND_PASSES
+    if isinstance(background_start, Background):
+        background_start = background_start.image
     if background_passes:
         spectra, _, background = extract_with_background(
             window, geometry, deblur, block=background_block, passes=background_passes,
-            start=background_start,
+            start=background_start, settle=DENSE_BACKGROUND_PASSES, prepared=prepared.dense,
         )  # fmt: skip
     else:
         background = estimate_background(
@@ -246,7 +325,14 @@ def guide_intensity(guide_slm: ArrayLike) -> NDArray[np.float32]:
     [3.0, 3.0, 3.0]
     """
     array = np.asarray(guide_slm, dtype=np.float32)
-    return array.sum(axis=2, dtype=np.float32) if array.ndim == 3 else array
+    if array.ndim != 3:
+        return array
+    # Channel by channel: numpy's reduction over a short last axis is 4x slower, and the
+    # sum is the same (left to right, float32).
+    total = array[..., 0].copy()
+    for channel in range(1, array.shape[2]):
+        total += array[..., channel]
+    return total
 
 
 def _check_samples(guide, rows, cols, spectra, step):
@@ -282,9 +368,11 @@ def rank1_factors(
     Parameters
     ----------
     guide_slm
-        (H, W) or (H, W, C) guide image on the SLM grid (intensity = sum of channels).
+        (H, W) or (H, W, C) guide image on the SLM grid (intensity = sum of channels; an
+        (H, W) float32 intensity is kept as the cube's scale, not copied).
     labels
-        (H, W) int region of every SLM pixel (e.g. :attr:`AdaptiveMask.labels`).
+        (H, W) int region of every SLM pixel (e.g. :attr:`AdaptiveMask.labels`; intp
+        labels are kept, not copied).
     pixels
         The mask or (N, 2) (row, column) of the measured pixels, as given to
         :func:`measure_samples`.
@@ -327,10 +415,10 @@ def rank1_factors(
     dark = ~bright & (counts > 0)
     ratio[dark] = summed[dark] / counts[dark, None]
     regions = np.ascontiguousarray(regions, np.intp)
-    scale = intensity.astype(np.float32)
+    scale = np.ascontiguousarray(intensity, np.float32)  # shared with an (H, W) guide passed in
     if dark.any():
         scale = np.where(dark[regions], np.float32(1.0), scale)
-    return Rank1Cube(regions, np.ascontiguousarray(scale), ratio.astype(np.float32))
+    return Rank1Cube(regions, scale, ratio.astype(np.float32))
 
 
 def rank1_cube(

@@ -4,22 +4,29 @@ Frame ``t`` was taken with the mask planned on guide image ``t - 1`` (its sample
 regions' centres). :meth:`VideoPipeline.process` then, for frame ``t``:
 
 * on one thread, the spectra of the open pixels (:func:`measure_with_background`), the
-  dense mask's background refined from frame ``t - 1``'s instead of from scratch;
-* on another, at the same time: guide ``t`` warped onto the SLM grid, its superpixels (SLIC
-  on the features shrunk by 2: see :mod:`~sassi_bench.snapshot.superpixels`), the
-  mask of frame ``t + 1`` (:func:`~sassi_bench.snapshot.adaptive.place_samples`, the row-order
-  fill) and the re-segmentation of guide ``t`` around frame ``t``'s samples;
-* then the rank-1 cube, kept factored (:class:`~sassi_bench.snapshot.factored.Rank1Cube`).
+  dense mask's background refined once from frame ``t - 1``'s instead of from scratch,
+  starting from the streak model of frame ``t``'s mask that was built during frame
+  ``t - 1`` (:func:`~sassi_bench.snapshot.reconstruct.mask_model`); then the streak model
+  of frame ``t + 1``'s mask, as soon as the other thread has planned it;
+* on the other, at the same time: guide ``t`` warped onto the SLM grid, its superpixels
+  (SLIC on the features shrunk by 2, starting from frame ``t - 1``'s centres: see
+  :mod:`~sassi_bench.snapshot.superpixels`), the mask of frame ``t + 1``
+  (:func:`~sassi_bench.snapshot.adaptive.place_samples`, the row-order fill), handed to
+  the first thread, and the re-segmentation of guide ``t`` around frame ``t``'s samples;
+* then the rank-1 cube, kept factored (:class:`~sassi_bench.snapshot.factored.Rank1Cube`),
+  from the region sums of the few open pixels (the per-pixel scale and labels are made on
+  the second thread).
 
-The two threads run compiled code that releases the GIL (numba, OpenCV, SuperLU), so two
-cores work at once. Each step's seconds are kept, for the benchmark and the live mode's
-progress line.
+The two threads run compiled code that releases the GIL (numba, OpenCV), so two cores work
+at once; the streak model moves to the first thread so that the two take about as long (at
+698 x 931 and a 5-row pitch, 38 and 28 ms of CPU on a quiet machine). Each step's seconds
+are kept, for the benchmark and the live mode's progress line.
 """
 
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,14 +35,23 @@ from numpy.typing import ArrayLike, NDArray
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
 from sassi_bench.snapshot.adaptive import default_segments, place_samples, segment_around_samples
 from sassi_bench.snapshot.factored import Rank1Cube
-from sassi_bench.snapshot.reconstruct import measure_with_background, rank1_factors
+from sassi_bench.snapshot.reconstruct import (
+    WARM_BACKGROUND_PASSES,
+    MaskModel,
+    guide_intensity,
+    mask_model,
+    measure_with_background,
+    rank1_factors,
+)
 from sassi_bench.snapshot.superpixels import VIDEO_SHRINK, guide_on_slm, superpixels
 from sassi_bench.spectra.deblur import SpectralDeblur
+from sassi_bench.spectra.geometry import reached_rows
+from sassi_bench.spectra.offset import Background, BlockBackground
 
 __all__ = ["STEPS", "VideoFrame", "VideoPipeline"]
 
 #: The timed steps of a frame, in pipeline order.
-STEPS = ("warp", "superpixels", "mask", "resegment", "spectra", "rank1")
+STEPS = ("warp", "superpixels", "mask", "model", "resegment", "spectra", "rank1")
 
 
 @dataclass(frozen=True)
@@ -135,7 +151,12 @@ class VideoPipeline:
         self.deblur = deblur if deblur is not None else SpectralDeblur.from_bundle(bundle)
         self.background_passes = background_passes
         self._pool = ThreadPoolExecutor(max_workers=1) if threads >= 2 else None
-        self._background: NDArray[np.float64] | None = None
+        self._background: Background | BlockBackground | None = None
+        self._centres: NDArray[np.float32] | None = None  # the last superpixels' centres
+        # The camera's frame shape and the rows the SLM's light reaches there (first frame).
+        self._camera: tuple[tuple[int, int], tuple[int, int]] | None = None
+        # The next frame's mask and its model, prepared on the segmentation thread.
+        self._prepared: tuple[NDArray[np.bool_], MaskModel] | None = None
 
     def close(self) -> None:
         """Stop the spectra thread."""
@@ -149,28 +170,78 @@ class VideoPipeline:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _segment(self, guide: ArrayLike, samples: NDArray[np.int32], times):
-        guide_slm = _timed(times, "warp", guide_on_slm, self.bundle, guide)
-        segments = _timed(
-            times, "superpixels", superpixels, guide_slm, self.n_segments,
-            compactness=self.compactness, shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
+    def _warp(self, guide: ArrayLike):
+        guide_slm = guide_on_slm(self.bundle, guide)
+        return guide_slm, guide_intensity(guide_slm)
+
+    def _superpixels(self, guide_slm):
+        segments = superpixels(
+            guide_slm, self.n_segments, compactness=self.compactness,
+            shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK, seeds=self._centres,
         )  # fmt: skip
+        self._centres = segments.centres
+        return segments
+
+    def _resegment(self, guide_slm, samples, segments):
+        labels = segment_around_samples(
+            guide_slm, samples, compactness=self.compactness, features=segments.features,
+            planes=segments.planes,
+        )  # fmt: skip
+        return labels.astype(np.intp)  # the rank-1 cube's labels, made here, off the join
+
+    def _prepare(self, mask: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], MaskModel] | None:
+        """The next frame's :class:`MaskModel` (once the camera's frame size is known)."""
+        if self._camera is None:
+            return None
+        shape, rows = self._camera
+        return mask, mask_model(self.bundle, mask, shape, camera_rows=rows)
+
+    def _segment(self, guide: ArrayLike, samples: NDArray[np.int32], times, handoff: Future):
+        guide_slm, intensity = _timed(times, "warp", self._warp, guide)
+        segments = _timed(times, "superpixels", self._superpixels, guide_slm)
         next_mask, next_samples = _timed(
             times, "mask", place_samples, segments.labels, self.spacing
         )
-        labels = _timed(
-            times, "resegment", segment_around_samples, guide_slm, samples,
-            compactness=self.compactness, features=segments.features,
-        )  # fmt: skip
-        return guide_slm, labels, next_mask, next_samples
+        handoff.set_result(next_mask)  # the spectra thread builds its model next
+        labels = _timed(times, "resegment", self._resegment, guide_slm, samples, segments)
+        return guide_slm, intensity, labels, next_mask, next_samples
 
-    def _spectra(self, spectral: ArrayLike, mask: NDArray[np.bool_], exposure_s: float, times):
-        return _timed(
-            times, "spectra", measure_with_background,
+    def _spectra_then_model(self, spectral, mask, exposure_s, prepared, times, handoff):
+        """This frame's spectra, then the next frame's streak model from its mask alone
+        (handed over by the segmentation thread as soon as it is planned): the model is
+        built before its frame comes, on the thread that has time for it."""
+        measured = self._spectra(spectral, mask, exposure_s, prepared, times)
+        try:
+            next_mask = handoff.result()
+        except BaseException:  # the segmentation failed: it raises in the caller
+            return measured, None
+        return measured, _timed(times, "model", self._prepare, next_mask)
+
+    def _measure(self, spectral, mask: NDArray[np.bool_], exposure_s: float, prepared):
+        shape = tuple(np.shape(spectral))
+        if self._camera is None or self._camera[0] != shape:
+            self._camera = (shape, reached_rows(self.bundle, shape[0]))
+        if (
+            prepared is None
+            or prepared[1].camera_shape != shape
+            or (prepared[0] is not mask and not np.array_equal(prepared[0], mask))
+        ):
+            prepared = self._prepare(mask)  # the first frame, or a mask of the caller's
+        model = prepared[1]
+        passes = None  # the first frame, or a sparse mask: as a single snapshot
+        if isinstance(self._background, BlockBackground):  # a dense mask's, carried over
+            passes = self.background_passes
+            if passes is None:
+                passes = WARM_BACKGROUND_PASSES
+        spectra, units, background = measure_with_background(
             spectral, mask, self.bundle, exposure_s=exposure_s, deblur=self.deblur,
-            background_passes=self.background_passes if self._background is not None else None,
-            background_start=self._background,
+            background_passes=passes, background_start=self._background, prepared=model,
         )  # fmt: skip
+        pixels = np.stack([model.rows, model.cols], axis=1)  # the spectra's order
+        return pixels, spectra, units, background
+
+    def _spectra(self, spectral, mask, exposure_s: float, prepared, times):
+        return _timed(times, "spectra", self._measure, spectral, mask, exposure_s, prepared)
 
     def plan(self, guide: ArrayLike) -> tuple[NDArray[np.bool_], NDArray[np.int32]]:
         """The first frame's mask and samples, from a preview guide image.
@@ -188,11 +259,7 @@ class VideoPipeline:
             (N, 2) int32.
         """
         guide_slm = guide_on_slm(self.bundle, guide)
-        segments = superpixels(
-            guide_slm, self.n_segments, compactness=self.compactness,
-            shape=self.spacing.slm_shape, shrink=VIDEO_SHRINK,
-        )  # fmt: skip
-        return place_samples(segments.labels, self.spacing)
+        return place_samples(self._superpixels(guide_slm).labels, self.spacing)
 
     def process(
         self,
@@ -223,15 +290,28 @@ class VideoPipeline:
         times: tuple[dict[str, float], dict[str, float]] = ({}, {})
         mask = np.asarray(mask, dtype=bool)
         samples = np.asarray(samples, dtype=np.int32)
+        prepared, self._prepared = self._prepared, None
+        handoff: Future = Future()
+        arguments = (spectral, mask, exposure_s, prepared, times, handoff)
         if self._pool is not None:
-            future = self._pool.submit(self._spectra, spectral, mask, exposure_s, times)
-            guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
-            spectra, units, background = future.result()
+            future = self._pool.submit(self._spectra_then_model, *arguments)
+            try:
+                segmented = self._segment(guide, samples, times, handoff)
+            except BaseException as exc:
+                if not handoff.done():
+                    handoff.set_exception(exc)
+                wait([future])  # let the spectra thread finish before raising
+                raise
+            measured, next_prepared = future.result()
         else:
-            spectra, units, background = self._spectra(spectral, mask, exposure_s, times)
-            guide_slm, labels, next_mask, next_samples = self._segment(guide, samples, times)
-        self._background = background.image
-        rank1 = _timed(times, "rank1", rank1_factors, guide_slm, labels, mask, spectra)
+            measured = self._spectra(spectral, mask, exposure_s, prepared, times)
+            segmented = self._segment(guide, samples, times, handoff)
+            next_prepared = _timed(times, "model", self._prepare, segmented[3])
+        pixels, spectra, units, background = measured
+        guide_slm, intensity, labels, next_mask, next_samples = segmented
+        self._prepared = next_prepared
+        self._background = background
+        rank1 = _timed(times, "rank1", rank1_factors, intensity, labels, pixels, spectra)
         times[0]["total"] = time.perf_counter() - start
         return VideoFrame(
             mask, samples, guide_slm, spectra, units, rank1, next_mask, next_samples, *times

@@ -10,16 +10,25 @@ Grouping by *camera* column does: within one camera column every open pixel's li
 one blurred line across the rows, centred on its streak there, and nothing else
 (:class:`StreakModel`). So the unknowns are each pixel's light in each camera column its
 streak crosses, and the frame is fitted by least squares over every camera pixel the
-streaks reach. The normal equations couple only pixels that meet in a camera column (a
-banded system per column), are factorised once per mask (SuperLU) and solved again for
-each background refinement in milliseconds. Each bin's light is then the sum over its own
-columns (fractional end columns), exactly the quantity the row unmixing gives, so the
-within-streak deblur applies unchanged.
+streaks reach. The normal equations split into one small system per camera column,
+coupling only the pixels that meet there; sorted by first row each is a narrow skyline
+matrix, built and Cholesky-factorised once per mask in compiled loops
+(:mod:`sassi_bench.spectra._crosstalk_kernels`) and solved again for each background
+refinement. Each bin's light is then the sum over its own columns (fractional end
+columns), exactly the quantity the row unmixing gives, so the within-streak deblur
+applies unchanged. A unit's profile is cut 4 sigmas from its centre: beyond, 6e-5 of its
+light; the spectra moved by under 1e-4 of their noise (RMS, 1.3 % at worst) against the
+former 6-sigma profiles on a moving ``sim`` scene.
 
-On the sim rig (380 open pixels at a 6 px row pitch, a 512 x 800 window) a frame with 24
-background refinements takes about 0.4 s and its spectra agree with the pinhole scan to
-42.0 dB. The former solve (GMRES on the cell sums of a bin model painted uniformly over
-each bin's columns, preconditioned per SLM column) took 120 s with 8 refinements for
+On the sim rig (301 open pixels at an 8-row pitch, a 512 x 800 window) a frame with 24
+background refinements from scratch takes 0.13 s of CPU and one refinement from the
+previous frame's background 14 ms, against 0.36 s and 59 ms with the former scipy sparse
+design and SuperLU factors (and the background refined over the whole window), with the
+same spectra (see above); they agree with the pinhole scan to 42.4 dB. At the SASSI
+paper's 698 x 931 crop (a 2048-column camera, 1096 open pixels at a 5-row pitch) a video
+frame's streak model takes 16 ms and its spectra 23 ms (``benchmarks/bench_snapshot.py``).
+The solve before the scipy one (GMRES on the cell sums of a bin model painted uniformly
+over each bin's columns, preconditioned per SLM column) took 120 s with 8 refinements for
 35.4 dB: its model also tried to undo the camera columns that neighbouring bins share,
 whose inverse amplifies noise (the deblur's job, with regularisation), and solved exactly
 it diverged at a 5 px pitch.
@@ -27,101 +36,25 @@ it diverged at a 5 px pitch.
 
 from __future__ import annotations
 
-import math
-from functools import cached_property
-
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
-from scipy.sparse import csc_array, csr_array, diags_array
-from scipy.sparse.linalg import splu
 
+from sassi_bench._shared.arrays import check_shape
+from sassi_bench.spectra import _crosstalk_kernels as _kernels
+from sassi_bench.spectra._kernels import CDF_TABLE
 from sassi_bench.spectra.geometry import StreakGeometry
+from sassi_bench.spectra.offset import BlockBackground
 
 __all__ = ["StreakModel", "columns_interact"]
 
 #: Rows of a streak's profile in a camera column, above and below its centre, in blur sigmas.
-PROFILE_SIGMAS = 6.0
+PROFILE_SIGMAS = 4.0
 
-
-@njit(nogil=True, error_model="numpy")
-def _column_profiles(x_left, x_right, y, sigma, first, weight, centre, spread):  # pragma: no cover
-    """Per pixel and camera column ``first[n] + k``: the summed fractions of the bins in
-    it (``weight``) and their weighted mean centre row and blur sigma."""
-    pixels, bins = y.shape
-    for n in range(pixels):
-        for b in range(bins):
-            left, right = x_left[n, b], x_right[n, b]
-            for c in range(math.floor(left + 0.5), math.floor(right + 0.5) + 1):
-                overlap = min(c + 0.5, right) - max(c - 0.5, left)
-                if overlap > 0.0:
-                    k = c - first[n]
-                    weight[n, k] += overlap
-                    centre[n, k] += overlap * y[n, b]
-                    spread[n, k] += overlap * sigma[b]
-        for k in range(weight.shape[1]):
-            if weight[n, k] > 0.0:
-                centre[n, k] /= weight[n, k]
-                spread[n, k] /= weight[n, k]
-
-
-@njit(nogil=True, error_model="numpy")
-def _design_entries(
-    first, weight, centre, spread, reach, height, width, fill, pixel, unit, value
-):  # pragma: no cover - compiled
-    """Entries of the design matrix: camera pixel ``r * width + c`` holds ``value`` of
-    unit ``n * K + k`` (pixel n's light in camera column ``c = first[n] + k``), the share
-    of a Gaussian of the unit's sigma in row r. Written unit by unit, rows ascending: the
-    order of a CSC matrix, so no sort is needed. Returns their number; when ``fill`` is
-    False only a bound on it (no erf evaluated)."""
-    pixels, columns = weight.shape
-    count = 0
-    for n in range(pixels):
-        for k in range(columns):
-            c = first[n] + k
-            if not weight[n, k] > 0.0 or c < 0 or c >= width:
-                continue
-            s, y = spread[n, k], centre[n, k]
-            scale = 1.0 / (s * math.sqrt(2.0))
-            r0 = max(math.floor(y - reach * s - 0.5), 0)
-            r1 = min(math.ceil(y + reach * s + 0.5), height - 1)
-            if not fill:  # a bound: the tiny shares skipped below are counted too
-                count += r1 - r0 + 1
-                continue
-            low = math.erf((r0 - 0.5 - y) * scale)
-            for r in range(r0, r1 + 1):
-                high = math.erf((r + 0.5 - y) * scale)  # each edge's erf once
-                share = 0.5 * (high - low)
-                low = high
-                if share < 1e-9:
-                    continue
-                pixel[count] = r * width + c
-                unit[count] = n * columns + k
-                value[count] = share
-                count += 1
-    return count
-
-
-@njit(nogil=True, error_model="numpy")
-def _bin_entries(
-    x_left, x_right, first, columns, width, fill, row, unit, value
-):  # pragma: no cover
-    """Entries of the bin sums: bin ``n * B' + b`` takes ``value`` (the column's fraction
-    inside the bin) of unit ``n * columns + k``. Counts them only when ``fill`` is False."""
-    pixels, bins = x_left.shape
-    count = 0
-    for n in range(pixels):
-        for b in range(bins):
-            left, right = x_left[n, b], x_right[n, b]
-            for c in range(math.floor(left + 0.5), math.floor(right + 0.5) + 1):
-                overlap = min(c + 0.5, right) - max(c - 0.5, left)
-                if overlap > 0.0 and 0 <= c < width:
-                    if fill:
-                        row[count] = n * bins + b
-                        unit[count] = n * columns + c - first[n]
-                        value[count] = overlap
-                    count += 1
-    return count
+#: Stand-ins for the background's arrays when there is none (typed like them).
+_NO_BACKGROUND = (
+    np.zeros((1, 1)), np.zeros(1, np.int64), np.zeros((1, 1)), np.zeros(1, np.int64),
+    np.zeros((1, 1)),
+)  # fmt: skip
 
 
 class StreakModel:
@@ -130,10 +63,16 @@ class StreakModel:
     Unit ``(n, k)`` is pixel ``n``'s light in camera column ``first[n] + k``; it spreads
     over the rows as a Gaussian of the blur sigma at that column, centred on the streak
     (both the mean of the bins crossing the column, weighted by their fractions in it).
-    :meth:`fit` finds the units by least squares over the camera pixels (normal equations
-    factorised once, on first use), :meth:`render` paints them back, :meth:`bins` sums
-    each bin's columns (the amplitudes :func:`~sassi_bench.spectra.cells.unmix_rows`
-    gives, which the within-streak deblur takes).
+    :meth:`fit` finds the units by least squares over the camera pixels, :meth:`render`
+    paints them back, :meth:`bins` sums each bin's columns (the amplitudes
+    :func:`~sassi_bench.spectra.cells.unmix_rows` gives, which the within-streak deblur
+    takes), :meth:`residual_medians` gives the block medians of what the fitted light
+    leaves, for the background's refinement.
+
+    A unit lies in one camera column, so the normal equations are one small banded system
+    per camera column; they are factorised when the model is built
+    (:mod:`sassi_bench.spectra._crosstalk_kernels`), and the model holds each unit's
+    profile over its rows, nothing of the frame's size.
 
     Parameters
     ----------
@@ -168,51 +107,140 @@ class StreakModel:
         columns = int((np.floor(high + 0.5) - first).max(initial=0)) + 1
         pixels = geometry.y.shape[0]
         weight, centre, spread = (np.zeros((pixels, columns)) for _ in range(3))
-        _column_profiles(
+        _kernels.column_profiles(
             x_left, x_right, np.ascontiguousarray(geometry.y, dtype=np.float64),
             np.ascontiguousarray(geometry.sigma, dtype=np.float64), first, weight,
             centre, spread,
         )  # fmt: skip
         self.units = pixels * columns
-        arguments = (first, weight, centre, spread, PROFILE_SIGMAS, height, width)
-        none_i, none_f = np.empty(0, np.int64), np.empty(0)
-        bound = _design_entries(*arguments, False, none_i, none_i, none_f)
-        pixel, unit, value = np.empty(bound, np.int64), np.empty(bound, np.int64), np.empty(bound)
-        count = _design_entries(*arguments, True, pixel, unit, value)
-        starts = np.concatenate([[0], np.cumsum(np.bincount(unit[:count], minlength=self.units))])
-        self.design = csc_array(
-            (value[:count], pixel[:count], starts), shape=(height * width, self.units)
+        self._x_left, self._x_right, self._first, self._columns = x_left, x_right, first, columns
+        top = np.empty(self.units, np.int64)
+        bottom = np.empty(self.units, np.int64)
+        count = np.zeros(width, np.int64)
+        placed = _kernels.unit_rows(
+            first, weight, centre, spread, PROFILE_SIGMAS, height, width, top, bottom, count
         )
-        arguments = (x_left, x_right, first, columns, width)
-        count = _bin_entries(*arguments, False, none_i, none_i, none_f)
-        row, unit, value = np.empty(count, np.int64), np.empty(count, np.int64), np.empty(count)
-        _bin_entries(*arguments, True, row, unit, value)
-        # Entries come bin by bin, columns ascending: already the order of a CSR matrix.
-        starts = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=x_left.size))])
-        self.to_bins = csr_array((value, unit, starts), shape=(x_left.size, self.units))
+        col_start = np.zeros(width + 1, np.int64)
+        np.cumsum(count, out=col_start[1:])
+        slot_unit = np.empty(placed, np.int64)
+        slot_top, slot_bottom = np.empty(placed, np.int64), np.empty(placed, np.int64)
+        prof_start = np.empty(placed + 1, np.int64)
+        total = _kernels.sort_units(
+            first, columns, top, bottom, col_start, slot_unit, slot_top, slot_bottom, prof_start
+        )
+        prof = np.empty(total)
+        _kernels.fill_profiles(
+            slot_unit, slot_top, slot_bottom, centre.ravel(), spread.ravel(), prof_start,
+            CDF_TABLE, prof,
+        )  # fmt: skip
+        envelope = np.empty(placed, np.int64)
+        factor_start = np.empty(placed, np.int64)
+        factor = _kernels.factor_columns(
+            col_start, slot_top, slot_bottom, prof_start, prof, envelope, factor_start
+        )
+        # Everything per slot (camera column by column), so the loops read it in order.
+        self._slot_unit = slot_unit
+        self._layout = (col_start, slot_top, slot_bottom, prof_start, prof)
+        self._factor = (envelope, factor_start, factor)
 
-    @cached_property
-    def _solver(self):
-        """LU factors of the normal equations; units that reach no camera pixel are
-        pinned to zero (a one on their diagonal)."""
-        gram = (self.design.T @ self.design).tocsc()
-        unseen = ~(gram.diagonal() > 0.0)
-        return splu(csc_array(gram + diags_array(unseen.astype(np.float64)))), unseen
+    def sums(self, image: NDArray[np.floating]) -> NDArray[np.float64]:
+        """The right-hand sides of the normal equations for ``image`` (H, W): every slot's
+        profile against the pixels (:meth:`solve` them; one image, many backgrounds)."""
+        pixels = np.asarray(image)
+        if pixels.dtype.kind not in "iuf" or not pixels.flags.c_contiguous:
+            pixels = np.ascontiguousarray(pixels, dtype=np.float64)
+        check_shape(
+            pixels, self.shape, step="spectrum extraction", name="the frame",
+            expected_for="the streak model", fix="pass the camera window the model was built for",
+        )  # fmt: skip
+        out = np.empty(self._slot_unit.size)
+        _kernels.profile_sums(pixels, *self._layout, out)
+        return out
 
-    def fit(self, image: NDArray[np.floating]) -> NDArray[np.float64]:
-        """The units' light (U,) that best explains ``image`` (H, W), least squares."""
-        lu, unseen = self._solver
-        rhs = self.design.T @ np.asarray(image, dtype=np.float64).ravel()
-        rhs[unseen] = 0.0
-        return lu.solve(rhs)
+    def solve(
+        self, sums: NDArray[np.float64], background: BlockBackground | None = None
+    ) -> NDArray[np.float64]:
+        """The units' light (U,) from an image's :meth:`sums`, minus ``background`` (its
+        share of each unit's sum evaluated on the units' rows only). Units whose light
+        reaches no camera pixel are zero."""
+        if background is None:
+            arrays = (False, *_NO_BACKGROUND)
+        else:
+            arrays = (True, *background.kernel_arrays())
+        slots = np.empty(self._slot_unit.size)
+        _kernels.solve_columns(sums, *self._layout, *self._factor, *arrays, slots)
+        light = np.zeros(self.units)
+        light[self._slot_unit] = slots
+        return light
+
+    def fit(
+        self, image: NDArray[np.floating], background: BlockBackground | None = None
+    ) -> NDArray[np.float64]:
+        """The units' light (U,) that best explains ``image`` (H, W) minus ``background``
+        (evaluated at the units' pixels only), least squares. Units whose light reaches no
+        camera pixel are zero."""
+        return self.solve(self.sums(image), background)
 
     def render(self, light: NDArray[np.float64]) -> NDArray[np.float64]:
         """The camera image (H, W) of the units' light (U,)."""
-        return (self.design @ light).reshape(self.shape)
+        out = np.zeros(self.shape)
+        slots = np.asarray(light, dtype=np.float64)[self._slot_unit]
+        _kernels.render_columns(*self._layout, slots, out)
+        return out
 
     def bins(self, light: NDArray[np.float64]) -> NDArray[np.float64]:
         """Each (pixel, bin)'s light summed over the bin's columns, (N, B')."""
-        return (self.to_bins @ light).reshape(self.bin_shape)
+        out = np.empty(self.bin_shape)
+        _kernels.bin_sums(
+            self._x_left, self._x_right, self._first, self._columns, self.shape[1],
+            np.ascontiguousarray(light, dtype=np.float64), out,
+        )  # fmt: skip
+        return out
+
+    def touched_blocks(self, block: tuple[int, int]) -> NDArray[np.bool_]:
+        """The blocks (of ``block`` camera rows x columns) that some unit's rows reach."""
+        by, bx = block
+        touched = np.zeros((-(-self.shape[0] // by), -(-self.shape[1] // bx)), dtype=bool)
+        col_start, top, bottom = self._layout[:3]
+        _kernels.touched_blocks(col_start, top, bottom, by, bx, touched)
+        return touched
+
+    def residual_medians(
+        self,
+        image: NDArray[np.floating],
+        light: NDArray[np.float64],
+        block: tuple[int, int],
+        wanted: NDArray[np.bool_],
+        out: NDArray[np.float64],
+    ) -> None:
+        """Write into ``out`` the median of ``image`` minus the rendered ``light`` over
+        every block (of ``block`` camera rows x columns) marked in ``wanted``.
+
+        The residual of the whole blocks is gathered block by block (float32) and sorted
+        in one call: numpy's vectorised sort orders 5752 rows of 128 values in 0.7 ms,
+        where a compiled quickselect per block took 6.8 ms."""
+        pixels = np.asarray(image)
+        if pixels.dtype.kind not in "iuf" or not pixels.flags.c_contiguous:
+            pixels = np.ascontiguousarray(pixels, dtype=np.float64)
+        by, bx = (int(v) for v in block)
+        wanted = np.ascontiguousarray(wanted, dtype=bool)
+        whole = np.zeros(wanted.shape, dtype=bool)
+        whole[: self.shape[0] // by, : self.shape[1] // bx] = True
+        whole &= wanted
+        index = np.flatnonzero(whole)
+        row_of = np.full(wanted.shape, -1, np.int64)
+        row_of.flat[index] = np.arange(index.size)
+        full = np.empty((index.size, by * bx), np.float32)
+        _kernels.residual_blocks(
+            pixels, *self._layout, np.asarray(light, dtype=np.float64)[self._slot_unit],
+            by, bx, wanted, row_of, full, out,
+        )  # fmt: skip
+        full.sort(axis=1)
+        middle = by * bx // 2
+        if by * bx % 2:
+            out.flat[index] = full[:, middle]
+        else:
+            out.flat[index] = 0.5 * (full[:, middle - 1].astype(np.float64) + full[:, middle])
 
 
 def columns_interact(geometry: StreakGeometry, reach_sigmas: float = 3.0) -> bool:
@@ -241,24 +269,5 @@ def columns_interact(geometry: StreakGeometry, reach_sigmas: float = 3.0) -> boo
     left = np.floor(geometry.x_left).astype(np.int64)
     right = np.ceil(geometry.x_right).astype(np.int64)
     return bool(
-        _meet(top, bottom, left, right, np.ascontiguousarray(geometry.cols, dtype=np.int64))
+        _kernels.meet(top, bottom, left, right, np.ascontiguousarray(geometry.cols, dtype=np.int64))
     )
-
-
-@njit(nogil=True)
-def _meet(top, bottom, left, right, cols):  # pragma: no cover - compiled
-    r0 = top.min()
-    c0 = left.min()
-    height = bottom.max() - r0 + 1
-    width = right.max() - c0 + 1
-    owner = np.full((height, width), -1, np.int64)
-    for n in range(top.shape[0]):
-        for b in range(top.shape[1]):
-            for r in range(top[n, b] - r0, bottom[n, b] - r0 + 1):
-                for c in range(left[n, b] - c0, right[n, b] - c0 + 1):
-                    o = owner[r, c]
-                    if o < 0:
-                        owner[r, c] = cols[n]
-                    elif o != cols[n]:
-                        return True
-    return False

@@ -10,16 +10,27 @@ subtracted. No all-closed frame is needed, so it works while the scene moves.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import BSpline, RectBivariateSpline
+from scipy.interpolate import BSpline, RectBivariateSpline, make_interp_spline
+from scipy.sparse import csr_array
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels, _offset_kernels
 from sassi_bench.spectra.geometry import StreakGeometry
 
-__all__ = ["Background", "estimate_background", "footprint_rectangles", "streak_footprint"]
+__all__ = [
+    "Background",
+    "BlockBackground",
+    "block_values",
+    "estimate_background",
+    "fill_block_grid",
+    "first_block_estimate",
+    "footprint_rectangles",
+    "streak_footprint",
+]
 
 
 def footprint_rectangles(
@@ -196,3 +207,242 @@ def _spline_surface(cy, cx, values, h: int, w: int) -> NDArray[np.float64]:
     rows = BSpline.design_matrix(np.arange(h, dtype=np.float64), tx, kx)
     columns = BSpline.design_matrix(np.arange(w, dtype=np.float64), ty, ky)
     return np.ascontiguousarray(rows @ (columns @ coefficients.T).T)
+
+
+@dataclass(frozen=True)
+class _Axis:
+    """The interpolating spline along one axis of a block lattice: its degree, the banded
+    LU factors of its collocation matrix (values at the extended block centres ->
+    coefficients) and, for every pixel, the first of its ``degree + 1`` basis functions
+    and their values."""
+
+    degree: int
+    lu: NDArray[np.float64]
+    lower: int
+    upper: int
+    index: NDArray[np.int64]
+    basis: NDArray[np.float64]
+    design: object  # the pixels' sparse basis matrix (dense evaluation)
+    first: bool  # an extrapolated sample was added before the first block centre
+    last: bool
+
+
+@lru_cache(maxsize=16)
+def _axis(pixels: int, block: int) -> _Axis:
+    """The spline axis of ``pixels`` pixels in blocks of ``block`` (see
+    :func:`estimate_background`: block centres, extended linearly to the edges)."""
+    count = -(-pixels // block)
+    centres = (np.arange(count) + 0.5) * block - 0.5
+    points = centres
+    first = last = False
+    if count >= 2:
+        first, last = bool(centres[0] > 0), bool(pixels - 1 > centres[-1])
+        points = np.concatenate([[0.0] if first else [], centres, [pixels - 1.0] if last else []])
+    degree = min(3, points.size - 1)
+    x = np.arange(pixels, dtype=np.float64)
+    if degree == 0:  # one block: constant
+        ones = np.ones((pixels, 1))
+        design = csr_array(ones)
+        return _Axis(
+            0, np.ones((1, 1)), 0, 0, np.zeros(pixels, np.int64), ones, design, first, last
+        )
+    knots = make_interp_spline(points, np.zeros(points.size), k=degree).t
+    collocation = BSpline.design_matrix(points, knots, degree).toarray()
+    design = BSpline.design_matrix(np.clip(x, points[0], points[-1]), knots, degree).tocsr()
+    design.sort_indices()
+    index = design.indices.reshape(pixels, degree + 1)[:, 0].astype(np.int64)
+    basis = design.data.reshape(pixels, degree + 1).copy()
+    rows, cols = np.nonzero(collocation)
+    lower, upper = int((rows - cols).max()), int((cols - rows).max())
+    _offset_kernels.banded_lu(collocation, lower, upper)
+    for array in (collocation, index, basis):
+        array.flags.writeable = False
+    return _Axis(degree, collocation, lower, upper, index, basis, design, first, last)
+
+
+def _extended(values: NDArray[np.float64], axis: _Axis, block: int, along: int):
+    """``values`` with the linear extrapolations to the edges of :func:`_extend`."""
+    v = np.moveaxis(values, along, 0)
+    parts = [v]
+    if axis.first:  # at pixel 0, block centres at (i + 0.5) * block - 0.5
+        parts.insert(0, (v[0] + (v[0] - v[1]) * ((block - 1) / 2) / block)[None])
+    if axis.last:
+        pixels = axis.index.size
+        last_centre = (v.shape[0] - 0.5) * block - 0.5
+        parts.append((v[-1] + (v[-1] - v[-2]) * (pixels - 1 - last_centre) / block)[None])
+    return np.moveaxis(np.concatenate(parts), 0, along)
+
+
+def fill_block_grid(values: NDArray[np.float64], block: tuple[int, int]) -> NDArray[np.float64]:
+    """A copy of a block grid with its NaN filled from the known blocks along its rows and
+    columns (as :func:`estimate_background` fills blocks with too few free pixels).
+
+    Examples
+    --------
+    >>> fill_block_grid(np.array([[1.0, np.nan, 3.0]]), (8, 16)).tolist()
+    [[1.0, 2.0, 3.0]]
+    """
+    filled = np.array(values, dtype=np.float64)
+    if not np.isfinite(filled).any():
+        raise ProcedureError(
+            step_error(
+                "offset removal",
+                "no block of the frame gave a background value",
+                "open fewer SLM pixels per frame (a wider pinhole pitch)",
+            )
+        )
+    while not np.isfinite(filled).all():  # twice at most: each pass fills some rows
+        _offset_kernels.fill_holes(filled, block[0], block[1])
+    return filled
+
+
+@dataclass(frozen=True)
+class BlockBackground:
+    """A smooth background of a camera window: one value per block of a fixed lattice
+    (the blocks' medians) and the interpolating cubic spline surface through them, as
+    :func:`estimate_background` builds it, kept as coefficients: the extraction evaluates
+    it at the streaks' pixels only (the whole ``image`` is made on demand).
+
+    Attributes
+    ----------
+    shape
+        The window (H, W).
+    block
+        Block (rows, columns).
+    values
+        (ceil(H / rows), ceil(W / columns)) finite block values.
+
+    Examples
+    --------
+    >>> plane = np.add.outer(np.arange(40.0), 2 * np.arange(64.0))
+    >>> grid = plane.reshape(5, 8, 4, 16).mean(axis=(1, 3))  # block means of a plane
+    >>> background = BlockBackground.from_values(grid, (40, 64), (8, 16))
+    >>> bool(np.allclose(background.image, plane))
+    True
+    """
+
+    shape: tuple[int, int]
+    block: tuple[int, int]
+    values: NDArray[np.float64]
+
+    @classmethod
+    def from_values(
+        cls, values: ArrayLike, shape: tuple[int, int], block: tuple[int, int]
+    ) -> BlockBackground:
+        """The surface through finite block ``values`` (:func:`fill_block_grid` first when
+        some are NaN)."""
+        shape = (int(shape[0]), int(shape[1]))
+        block = (int(block[0]), int(block[1]))
+        grid = np.array(values, dtype=np.float64)  # a copy: the caller may refine its grid
+        expected = (-(-shape[0] // block[0]), -(-shape[1] // block[1]))
+        if grid.shape != expected:
+            raise ProcedureError(
+                step_error(
+                    "offset removal",
+                    f"a background grid of shape {grid.shape} for a {shape[0]} x {shape[1]} "
+                    f"window in {block[0]} x {block[1]} blocks (expected {expected})",
+                    "pass the background of a frame of the same camera window and blocks",
+                )
+            )
+        if not np.isfinite(grid).all():
+            grid = fill_block_grid(grid, block)
+        return cls(shape, block, grid)
+
+    @cached_property
+    def _axes(self) -> tuple[_Axis, _Axis]:
+        return _axis(self.shape[0], self.block[0]), _axis(self.shape[1], self.block[1])
+
+    @cached_property
+    def coefficients(self) -> NDArray[np.float64]:
+        """The tensor spline's coefficients (rows' basis, columns' basis)."""
+        rows, columns = self._axes
+        values = _extended(self.values, rows, self.block[0], 0)
+        values = _extended(values, columns, self.block[1], 1)
+        # Interpolation along the rows, then along the columns: two banded solves (no
+        # BLAS, whose threads spin against the video pipeline's other thread).
+        _offset_kernels.banded_solve(rows.lu, rows.lower, rows.upper, values)
+        values = np.ascontiguousarray(values.T)
+        _offset_kernels.banded_solve(columns.lu, columns.lower, columns.upper, values)
+        return np.ascontiguousarray(values.T)
+
+    def kernel_arrays(self):
+        """``coefficients, row_index, row_basis, col_index, col_basis`` for the compiled
+        loops that evaluate the surface at chosen pixels:
+        ``sum_p sum_q C[row_index[r] + p, col_index[c] + q] row_basis[r, p] col_basis[c, q]``.
+        """
+        rows, columns = self._axes
+        return self.coefficients, rows.index, rows.basis, columns.index, columns.basis
+
+    @cached_property
+    def image(self) -> NDArray[np.float64]:
+        """The surface on every pixel of the window, (H, W) (made on first use)."""
+        rows, columns = self._axes
+        coefficients = self.coefficients
+        return np.ascontiguousarray(rows.design @ (columns.design @ coefficients.T).T)
+
+
+def block_values(
+    image: NDArray[np.floating],
+    block: tuple[int, int],
+    footprint: NDArray[np.bool_] | None = None,
+    min_free: float = 0.05,
+) -> NDArray[np.float64]:
+    """The median of every block of ``image`` outside ``footprint`` (all pixels when None),
+    NaN where less than ``min_free`` of a block's pixels are free.
+
+    Examples
+    --------
+    >>> block_values(np.arange(32.0).reshape(4, 8), (2, 4)).tolist()
+    [[5.5, 9.5], [21.5, 25.5]]
+    """
+    data = np.asarray(image)
+    if data.dtype.kind not in "iuf" or data.dtype.itemsize > 8 or not data.flags.c_contiguous:
+        data = np.ascontiguousarray(data, dtype=np.float64)
+    mask = np.zeros(data.shape, bool) if footprint is None else np.ascontiguousarray(footprint)
+    by, bx = block
+    medians = np.empty((-(-data.shape[0] // by), -(-data.shape[1] // bx)))
+    free = np.empty_like(medians)
+    _offset_kernels.block_medians(data, mask, by, bx, float(min_free), medians, free)
+    return medians
+
+
+def first_block_estimate(
+    image: NDArray[np.floating],
+    geometry: StreakGeometry,
+    block: tuple[int, int],
+    wanted: NDArray[np.bool_],
+    min_free: float = 0.05,
+) -> NDArray[np.float64]:
+    """The first background estimate of a window's ``wanted`` blocks, as
+    :func:`estimate_background` makes it (block medians of the pixels outside the streaks'
+    :func:`footprint_rectangles`), on the rectangle of blocks that holds them only; NaN
+    elsewhere and where too few pixels are free.
+
+    Examples
+    --------
+    >>> geo = StreakGeometry(np.array([0]), np.array([0]), np.array([[10.0]]),
+    ...                      np.array([[20.0]]), np.array([[12.0]]), np.array([1.0]), guard=0)
+    >>> wanted = np.zeros((3, 2), bool); wanted[1, 0] = True
+    >>> first_block_estimate(np.ones((24, 32)), geo, (8, 16), wanted).tolist()
+    [[nan, nan], [1.0, nan], [nan, nan]]
+    """
+    by, bx = block
+    h, w = image.shape
+    grid = np.full(wanted.shape, np.nan)
+    rows, cols = np.nonzero(wanted)
+    if rows.size == 0:
+        return grid
+    i0, i1, j0, j1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+    r0, c0 = i0 * by, j0 * bx
+    crop = image[r0 : min(h, i1 * by), c0 : min(w, j1 * bx)]
+    top, bottom, left, right = footprint_rectangles(geometry, (h, w))
+    footprint = np.zeros(crop.shape, dtype=np.bool_)
+    _kernels.paint_rectangles(
+        np.clip(top - r0, 0, crop.shape[0]), np.clip(bottom - r0, 0, crop.shape[0]),
+        np.clip(left - c0, 0, crop.shape[1]), np.clip(right - c0, 0, crop.shape[1]), footprint,
+    )  # fmt: skip
+    values = block_values(crop, block, footprint, min_free)
+    part = grid[i0:i1, j0:j1]
+    inside = wanted[i0:i1, j0:j1]
+    part[inside] = values[inside]
+    return grid

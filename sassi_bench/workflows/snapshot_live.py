@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.acquire.snapshots import snapshot_exposures
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
@@ -248,14 +249,17 @@ def run_live(
             item.guide, item.spectral, item.mask, item.samples, exposure_s=exposures.spectral_s
         )
         capture.set_plan(frame.next_mask, frame.next_samples)
-        if store is None:
-            store = VideoStore(
-                store_path, bundle, units=frame.units,
-                attrs={"started": started, "rig": rig.description.name, "scene": scene,
-                       "moving": bool(moving), "exposures": exposures.to_dict(),
-                       "row_pitch_px": int(spacing.pitch), "queue_size": queue_size},
-            )  # fmt: skip
-        store.append(frame.rank1, item.mask, time_s=item.time_s, frame_index=item.index)
+        # A Ctrl-C lands after the frame is stored, not half-way into the store (it used to
+        # leave a store without its frame, or no store at all at the first frame).
+        with deferred_stop_signals():
+            if store is None:
+                store = VideoStore(
+                    store_path, bundle, units=frame.units,
+                    attrs={"started": started, "rig": rig.description.name, "scene": scene,
+                           "moving": bool(moving), "exposures": exposures.to_dict(),
+                           "row_pitch_px": int(spacing.pitch), "queue_size": queue_size},
+                )  # fmt: skip
+            store.append(frame.rank1, item.mask, time_s=item.time_s, frame_index=item.index)
         process_s.append(frame.seconds["total"])
         elapsed = time.perf_counter() - capture.start_time
         bar.update(1)

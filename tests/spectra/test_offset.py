@@ -2,7 +2,14 @@ import numpy as np
 import pytest
 
 from sassi_bench.spectra.geometry import StreakGeometry
-from sassi_bench.spectra.offset import estimate_background, streak_footprint
+from sassi_bench.spectra.offset import (
+    BlockBackground,
+    block_values,
+    estimate_background,
+    fill_block_grid,
+    first_block_estimate,
+    streak_footprint,
+)
 
 
 def test_footprint_covers_the_streaks_and_their_blur():
@@ -63,3 +70,49 @@ def test_thin_free_bands_between_streak_rows_give_the_background():
     # Away from the edge (the spline rings next to it) the level of each band is found.
     for rows in (slice(4, 24), slice(72, 92)):
         assert np.abs(estimate.image[rows] - background[rows]).max() < 10.0
+
+
+def test_a_block_background_is_the_estimates_spline_surface():
+    """Kept as coefficients, the surface through the block medians is the one
+    estimate_background builds (FITPACK's interpolating spline), for any lattice."""
+    rng = np.random.default_rng(4)
+    for shape in [(721, 300), (40, 33), (17, 50), (9, 40)]:
+        frame = rng.normal(100.0, 2.0, shape) + np.add.outer(
+            np.sin(np.arange(shape[0]) / 30.0), np.cos(np.arange(shape[1]) / 90.0)
+        )
+        free = np.zeros(shape, bool)
+        expected = estimate_background(frame, free).image
+        surface = BlockBackground.from_values(block_values(frame, (8, 16)), shape, (8, 16))
+        np.testing.assert_allclose(surface.image, expected, atol=1e-9)
+    # One block: a constant.
+    flat = BlockBackground.from_values([[3.0]], (5, 7), (8, 16))
+    np.testing.assert_array_equal(flat.image, np.full((5, 7), 3.0))
+
+
+def test_block_grids_are_checked_and_their_holes_filled():
+    with pytest.raises(ValueError, match="expected"):
+        BlockBackground.from_values(np.zeros((3, 3)), (24, 64), (8, 16))
+    with pytest.raises(ValueError, match="no block"):
+        fill_block_grid(np.full((2, 2), np.nan), (8, 16))
+    grid = np.array([[1.0, np.nan, 3.0], [np.nan, np.nan, np.nan]])
+    background = BlockBackground.from_values(grid, (16, 48), (8, 16))
+    np.testing.assert_allclose(background.values, [[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]])
+    assert np.isnan(grid).sum() == 4  # the caller's grid is left as it was
+
+
+def test_the_first_estimate_takes_the_free_pixels_of_the_wanted_blocks_only():
+    rng = np.random.default_rng(5)
+    geometry = StreakGeometry(
+        np.array([0]), np.array([0]), np.array([[40.0]]), np.array([[60.0]]),
+        np.array([[20.0]]), np.array([1.0]), guard=0,
+    )  # fmt: skip
+    frame = rng.normal(50.0, 1.0, (40, 96))
+    footprint = streak_footprint(geometry, frame.shape)
+    frame[footprint] += 1000.0  # the streak: not background
+    wanted = np.zeros((5, 6), bool)
+    wanted[1:4, 1:5] = True
+    estimate = first_block_estimate(frame, geometry, (8, 16), wanted)
+    assert np.isnan(estimate[~wanted]).all()
+    full = block_values(frame, (8, 16), footprint)
+    np.testing.assert_array_equal(estimate[wanted], full[wanted])
+    assert np.nanmax(np.abs(estimate - 50.0)) < 2.0  # the streak's light is not in it
