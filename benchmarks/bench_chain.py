@@ -152,13 +152,18 @@ class StageClock:
 
 
 def _feed_cpu() -> dict[int, float]:
-    """CPU seconds so far of every worker thread that processes frames as they are stored
-    (:mod:`sassi_bench.workflows.frame_feed`), by thread id."""
+    """CPU seconds so far of every background thread of a capture, by thread id: the
+    workers that process frames as they are stored
+    (:mod:`sassi_bench.workflows.frame_feed`) and the thread that stores them
+    (:mod:`sassi_bench.acquire.runner`)."""
+    from sassi_bench.acquire.runner import WRITER_THREAD_PREFIX
     from sassi_bench.workflows.frame_feed import THREAD_PREFIX
+
+    background = (THREAD_PREFIX, WRITER_THREAD_PREFIX)
 
     out = {}
     for thread in threading.enumerate():
-        if thread.name.startswith(THREAD_PREFIX) and thread.ident is not None:
+        if thread.name.startswith(background) and thread.ident is not None:
             with contextlib.suppress(OSError):  # the thread ended meanwhile
                 out[thread.ident] = time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
     return out
@@ -166,8 +171,8 @@ def _feed_cpu() -> dict[int, float]:
 
 def _cpu_besides_feeds(start: tuple[float, dict[int, float]]) -> float:
     """Process CPU since ``start`` (process time and :func:`_feed_cpu`), less what the
-    frame-processing workers spent meanwhile: while the bench renders or a frame is stored,
-    a worker may be processing an earlier frame, and that is processing."""
+    capture's background threads spent meanwhile: while the bench renders, a worker may be
+    processing an earlier frame (processing) and the writer storing one (storing)."""
     cpu = time.process_time() - start[0]
     now = _feed_cpu()
     workers = sum(value - start[1].get(ident, 0.0) for ident, value in now.items())
@@ -254,13 +259,15 @@ def instrument(clock: StageClock, rig) -> None:
     )
 
     def write(self, step_index, frame):
-        wall, start = time.perf_counter(), (time.process_time(), _feed_cpu())
+        # Frames are stored on the capture's writer thread while the bench renders the
+        # next: the writing thread's own CPU is the store's.
+        wall, start = time.perf_counter(), time.thread_time()
         try:
             return write_frame(self, step_index, frame)
         finally:
             entry = clock.store[clock.stage]
             entry[0] += time.perf_counter() - wall
-            entry[1] += _cpu_besides_feeds(start)
+            entry[1] += time.thread_time() - start
             entry[2] += 1
             clock.written.setdefault(self.id, clock.stage)
 

@@ -34,10 +34,12 @@ from sassi_bench.rig.protocols import Camera
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 
-__all__ = ["IN_FLIGHT", "run_plan"]
+__all__ = ["IN_FLIGHT", "WRITER_THREAD_PREFIX", "run_plan"]
 
 #: Frames captured but not yet stored, at most (8 MB each at the prototype's scale).
 IN_FLIGHT = 2
+#: Name prefix of the thread that stores a run's frames.
+WRITER_THREAD_PREFIX = "sassi-frame-writer"
 
 
 def _camera(rig: Rig, name: str) -> Camera:
@@ -79,7 +81,7 @@ class _FrameWriter:
     def __init__(self, session: Session, stored: Any) -> None:
         self._session = session
         self._stored = stored
-        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="frame-writer")
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix=WRITER_THREAD_PREFIX)
         self._pending: deque[Future[None]] = deque()
         self._failed = threading.Event()
 

@@ -304,8 +304,19 @@ def resume_command(outcome: Outcome, data: Path) -> list[str] | None:
 # -- running and stopping ------------------------------------------------------------------
 
 
-def _env(data: Path) -> dict[str, str]:
-    return {**os.environ, "SASSI_BENCH_DATA": str(data), "MPLBACKEND": "Agg"}
+#: How long a file waits under its temporary name before it is moved into place, when a
+#: kill point waits for such a name (``slow_commit/sitecustomize.py``): a small file is
+#: written in a few ms, under the trigger's polling interval on a quiet machine.
+COMMIT_PAUSE_S = 0.3
+
+
+def _env(data: Path, *, commit_pause_s: float = 0.0) -> dict[str, str]:
+    env = {**os.environ, "SASSI_BENCH_DATA": str(data), "MPLBACKEND": "Agg"}
+    if commit_pause_s > 0:
+        slow = str(Path(__file__).parent / "slow_commit")
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (slow, env.get("PYTHONPATH")) if p)
+        env["SASSI_FAULT_KIT_COMMIT_PAUSE_S"] = str(commit_pause_s)
+    return env
 
 
 def _frames_stored(roots: Iterable[Path]) -> int:
@@ -357,7 +368,7 @@ def kill_point(
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env=_env(data),
+        env=_env(data, commit_pause_s=COMMIT_PAUSE_S if trigger.startswith("file:") else 0.0),
         # A background job inherits an ignored Ctrl-C; a user's terminal does not.
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
