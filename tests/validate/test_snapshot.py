@@ -43,11 +43,21 @@ def natural_run(guided_bundle, tmp_path_factory):
     return status, doc, out
 
 
-def test_adaptive_mask_beats_uniform_and_random_on_detail(natural_run):
+#: The adaptive mask follows the guide image, so its score moves with the guide's noise:
+#: over eight noise realisations of this run (sensor streams split differently) its
+#: rank-1 detail PSNR spread from 23.3 to 26.5 dB (mean 24.7), the random mask's from 22.9
+#: to 23.1 and the uniform one's 14.5 to 14.9. One run shows the adaptive mask far ahead
+#: of the uniform lattice and not behind the random mask; its mean lead over the random
+#: mask (1.7 dB) is within one run's spread.
+ADAPTIVE_LEAD_OVER_UNIFORM_DB = 5.0
+ADAPTIVE_SHORTFALL_TO_RANDOM_DB = 0.5
+
+
+def test_adaptive_mask_beats_uniform_and_keeps_up_with_random_on_detail(natural_run):
     _, doc, _ = natural_run
     detail = {k: v["detail_psnr_db"]["rank1"] for k, v in doc["snapshots"].items()}
-    assert detail["adaptive"] > detail["uniform"] + 1.0
-    assert detail["adaptive"] > detail["random"] + 1.0
+    assert detail["adaptive"] > detail["uniform"] + ADAPTIVE_LEAD_OVER_UNIFORM_DB
+    assert detail["adaptive"] > detail["random"] - ADAPTIVE_SHORTFALL_TO_RANDOM_DB
 
 
 def test_report_scores_both_reconstructions_against_the_scan(natural_run):
