@@ -151,32 +151,51 @@ class StageClock:
         self.stack.append("read back")
 
 
-def _feed_cpu() -> dict[int, float]:
-    """CPU seconds so far of every background thread of a capture, by thread id: the
-    workers that process frames as they are stored
-    (:mod:`sassi_bench.workflows.frame_feed`) and the thread that stores them
-    (:mod:`sassi_bench.acquire.runner`)."""
+#: Threads of zarr's I/O loop and its executor, which compress and write the chunks.
+_ZARR_THREADS = ("zarr_io", "asyncio_")
+
+
+def _storing_threads() -> tuple[str, ...]:
+    """Name prefixes of the threads that store frames: the capture's writer and zarr's."""
     from sassi_bench.acquire.runner import WRITER_THREAD_PREFIX
+
+    return (WRITER_THREAD_PREFIX, *_ZARR_THREADS)
+
+
+def _background_threads() -> tuple[str, ...]:
+    """Name prefixes of a capture's background threads: the workers that process frames
+    as they are stored (:mod:`sassi_bench.workflows.frame_feed`) and the storing ones."""
     from sassi_bench.workflows.frame_feed import THREAD_PREFIX
 
-    background = (THREAD_PREFIX, WRITER_THREAD_PREFIX)
+    return (THREAD_PREFIX, *_storing_threads())
 
+
+def _thread_cpu(prefixes: tuple[str, ...]) -> dict[int, float]:
+    """CPU seconds so far of every thread whose name starts with one of ``prefixes``."""
     out = {}
     for thread in threading.enumerate():
-        if thread.name.startswith(background) and thread.ident is not None:
+        if thread.name.startswith(prefixes) and thread.ident is not None:
             with contextlib.suppress(OSError):  # the thread ended meanwhile
                 out[thread.ident] = time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
     return out
 
 
+def _spent(start: dict[int, float], now: dict[int, float]) -> float:
+    return sum(value - start.get(ident, 0.0) for ident, value in now.items())
+
+
+def _cpu_mark() -> tuple[float, dict[int, float]]:
+    """Process CPU time and the background threads' CPU, now."""
+    return time.process_time(), _thread_cpu(_background_threads())
+
+
 def _cpu_besides_feeds(start: tuple[float, dict[int, float]]) -> float:
-    """Process CPU since ``start`` (process time and :func:`_feed_cpu`), less what the
-    capture's background threads spent meanwhile: while the bench renders, a worker may be
-    processing an earlier frame (processing) and the writer storing one (storing)."""
+    """Process CPU since ``start`` (process time and the background threads' CPU), less
+    what the capture's background threads spent meanwhile: while the bench renders, a
+    worker may be processing an earlier frame (processing) and the writer and zarr storing
+    one (storing)."""
     cpu = time.process_time() - start[0]
-    now = _feed_cpu()
-    workers = sum(value - start[1].get(ident, 0.0) for ident, value in now.items())
-    return cpu - workers
+    return cpu - _spent(start[1], _thread_cpu(_background_threads()))
 
 
 #: Threads inside a bench call: a compilation there is the bench's (rendering) cost.
@@ -232,7 +251,7 @@ def instrument(clock: StageClock, rig) -> None:
     def timed_render(function):
         @functools.wraps(function)
         def rendering(*args, **kwargs):
-            wall, start = time.perf_counter(), (time.process_time(), _feed_cpu())
+            wall, start = time.perf_counter(), _cpu_mark()
             nested = getattr(_RENDERING, "active", False)
             _RENDERING.active = True
             try:
@@ -259,15 +278,15 @@ def instrument(clock: StageClock, rig) -> None:
     )
 
     def write(self, step_index, frame):
-        # Frames are stored on the capture's writer thread while the bench renders the
-        # next: the writing thread's own CPU is the store's.
-        wall, start = time.perf_counter(), time.thread_time()
+        # Frames are stored on the capture's writer thread (zarr compressing on its own)
+        # while the bench renders the next: those threads' CPU is the store's.
+        wall, start = time.perf_counter(), _thread_cpu(_storing_threads())
         try:
             return write_frame(self, step_index, frame)
         finally:
             entry = clock.store[clock.stage]
             entry[0] += time.perf_counter() - wall
-            entry[1] += time.thread_time() - start
+            entry[1] += _spent(start, _thread_cpu(_storing_threads()))
             entry[2] += 1
             clock.written.setdefault(self.id, clock.stage)
 
@@ -385,6 +404,7 @@ def main() -> None:
     instrument(clock, rig)
     with tempfile.TemporaryDirectory(prefix="bench-chain-") as tmp:
         data = Path(args.data) if args.data else Path(tmp)
+        data.mkdir(parents=True, exist_ok=True)
         procedure = load_procedure("full_calibration")
         if "keep" in procedure:
             procedure["keep"] = "all"  # every frame stays, to be read back below
