@@ -27,6 +27,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from sassi_bench.snapshot._slic import assign_row
+
 _JIT = {"cache": False, "nogil": True}
 #: Loops whose float sums may be reassociated (vectorised): the last bits change only.
 _SUMS = dict(_JIT, fastmath={"reassoc", "contract"})
@@ -486,20 +488,7 @@ def assign_to_samples(
         label = np.int32(n)
         for rr in range(max(0, r - radius), min(h, r + radius + 1)):
             dr = np.float32((rr - r) * (rr - r) * spatial_weight)
-            for q in range(span):
-                d[q] = dr + dc[q]
-            for ch in range(nc):
-                row = planes[ch, rr, c0:c1]
-                f = centre[ch]
-                for q in range(span):
-                    e = row[q] - f
-                    d[q] += e * e
-            best = distance[rr, c0:c1]
-            owner = labels[rr, c0:c1]
-            for q in range(span):
-                nearer = d[q] < best[q]
-                best[q] = d[q] if nearer else best[q]
-                owner[q] = label if nearer else owner[q]
+            assign_row(planes, rr, c0, c1, dr, dc, centre, label, d, distance, labels)
 
 
 @numba.njit(**_JIT)

@@ -18,6 +18,28 @@ _JIT = {"cache": False, "nogil": True}
 _SUMS = dict(_JIT, fastmath={"reassoc", "contract"})
 
 
+@numba.njit(inline="always", **_JIT)
+def assign_row(planes, rr, c0, c1, dr, dc, centre, label, d, distance, labels):  # pragma: no cover
+    """One row of a centre's window in a SLIC assignment: every pixel of row ``rr``,
+    columns ``c0:c1``, takes ``label`` where ``dr + dc + |f - centre|^2`` is below its best
+    distance so far (``d`` is scratch). Whole float32 vectors, no branch per pixel."""
+    n = c1 - c0
+    for q in range(n):
+        d[q] = dr + dc[q]
+    for ch in range(planes.shape[0]):
+        row = planes[ch, rr, c0:c1]
+        f = centre[ch]
+        for q in range(n):
+            e = row[q] - f
+            d[q] += e * e
+    best = distance[rr, c0:c1]
+    owner = labels[rr, c0:c1]
+    for q in range(n):
+        nearer = d[q] < best[q]
+        best[q] = d[q] if nearer else best[q]
+        owner[q] = label if nearer else owner[q]
+
+
 @numba.njit(**_JIT)
 def scaled_by_peak(image):  # pragma: no cover
     """``image / max(image)`` (float32; unscaled when the peak is not positive) and whether
@@ -170,20 +192,7 @@ def cluster(planes, positions, step, compactness, iterations, labels):  # pragma
             for rr in range(max(0, r - step), min(h, r + step + 1)):
                 y = np.float32(rr) - positions[k, 0]
                 dr = y * y * weight
-                for q in range(n):
-                    d[q] = dr + dc[q]
-                for ch in range(nc):
-                    row = planes[ch, rr, c0:c1]
-                    f = colours[k, ch]
-                    for q in range(n):
-                        e = row[q] - f
-                        d[q] += e * e
-                best = distance[rr, c0:c1]
-                owner = labels[rr, c0:c1]
-                for q in range(n):
-                    nearer = d[q] < best[q]
-                    best[q] = d[q] if nearer else best[q]
-                    owner[q] = label if nearer else owner[q]
+                assign_row(planes, rr, c0, c1, dr, dc, colours[k], label, d, distance, labels)
         counts[:] = 0
         sums[:] = 0.0
         for r in range(h):

@@ -486,14 +486,13 @@ class ScanAssembly:
 
     def choice_sample(self) -> ChoiceSample:
         """The sample frames' pixels unmixed as the spectra pass does (after it)."""
-        parts, gain = [], None
+        parts = []
         for index in sorted(self.sample_raw):  # a few dozen frames at most
             raw, good = self.sample_raw.pop(index)
             rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
             geo = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
             layout = cell_layout(geo, self.box)
-            gain = row_unmixing_gain(geo, layout) if gain is None else gain
-            variance = self.noise.variance(raw, layout, gain).mean(axis=1)
+            variance = self.noise.variance(raw, layout, self.row_gain).mean(axis=1)
             raw -= cell_sums(self.background_cumulative, layout)
             exposure = np.full(rows.size, self.session.plan.steps[index].exposure_s)
             parts.append((unmix_rows(raw, layout, geo), rows, cols, variance, exposure, good))

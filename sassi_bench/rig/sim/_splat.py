@@ -57,6 +57,17 @@ def table_width(max_reach: int) -> int:
 
 
 @njit(inline="always", error_model="numpy")
+def _spot(x, y, weights, taps, reach, steps, p, k):  # pragma: no cover - compiled
+    """Pixel p's sample k: weight, reach, centre pixel (cy, cx) and the row and column
+    taps of its sub-pixel phases."""
+    iy = np.int64(np.rint(y[p, k] * steps))
+    cy = iy // steps
+    ix = np.int64(np.rint(x[p, k] * steps))
+    cx = ix // steps
+    return weights[p, k], reach[k], cy, cx, taps[k, iy - cy * steps], taps[k, ix - cx * steps]
+
+
+@njit(inline="always", error_model="numpy")
 def _deposit(w, r, cy, cx, ty, tx_row, first, last, out):  # pragma: no cover - compiled
     """One spot: ``w * ty * tx`` at centre pixel (cx, cy), rows [first, last] only."""
     width = out.shape[1]
@@ -133,24 +144,10 @@ def splat(x, y, weights, taps, reach, steps, out):  # pragma: no cover - compile
             if highest[p] + widest + 1 < first or lowest[p] - widest - 1 > last:
                 continue
             for k0 in range(0, n_lam, 2):
-                w0 = weights[p, k0]
-                r0 = reach[k0]
-                iy0 = np.int64(np.rint(y[p, k0] * steps))
-                cy0 = iy0 // steps
-                ix0 = np.int64(np.rint(x[p, k0] * steps))
-                cx0 = ix0 // steps
-                ty0 = taps[k0, iy0 - cy0 * steps]
-                tx0 = taps[k0, ix0 - cx0 * steps]
+                w0, r0, cy0, cx0, ty0, tx0 = _spot(x, y, weights, taps, reach, steps, p, k0)
                 in0 = w0 != 0.0 and cy0 - r0 <= last and cy0 + r0 >= first
                 k1 = min(k0 + 1, n_lam - 1)  # an odd last sample pairs with none
-                w1 = weights[p, k1]
-                r1 = reach[k1]
-                iy1 = np.int64(np.rint(y[p, k1] * steps))
-                cy1 = iy1 // steps
-                ix1 = np.int64(np.rint(x[p, k1] * steps))
-                cx1 = ix1 // steps
-                ty1 = taps[k1, iy1 - cy1 * steps]
-                tx1 = taps[k1, ix1 - cx1 * steps]
+                w1, r1, cy1, cx1, ty1, tx1 = _spot(x, y, weights, taps, reach, steps, p, k1)
                 in1 = k1 > k0 and w1 != 0.0 and cy1 - r1 <= last and cy1 + r1 >= first
                 if in0 and in1:
                     # The pair's union window, in the frame and in each one's taps.
