@@ -491,3 +491,110 @@ def column_weights(x_left, x_right, width, total, square):  # pragma: no cover -
                 centre += 1.0
             total[n, b] = t
             square[n, b] = q
+
+
+@njit(nogil=True, error_model="numpy", inline="always")
+def _weights(x_left, x_right, width):  # pragma: no cover - compiled
+    """``sum w`` and ``sum w^2`` of one cell's columns, as :func:`column_weights` adds them:
+    the first column, the whole columns after it (both bounds outside them: ``w`` is 1
+    exactly), then the rest to the last."""
+    left = min(max(x_left, -0.5), width - 0.5)
+    right = min(max(x_right, -0.5), width - 0.5)
+    centre = math.floor(left + 0.5)
+    w = min(centre + 0.5, right) - max(centre - 0.5, left)
+    t = w if w > 0.0 else 0.0
+    q = w * w if w > 0.0 else 0.0
+    centre += 1.0
+    while centre + 0.5 <= right and centre - 0.5 >= left:
+        t += 1.0
+        q += 1.0
+        centre += 1.0
+    while centre - 0.5 < right:
+        w = min(centre + 0.5, right) - max(centre - 0.5, left)
+        if w > 0.0:
+            t += w
+            q += w * w
+        centre += 1.0
+    return t, q
+
+
+@njit(nogil=True, error_model="numpy", inline="always")
+def _variance(raw, t, q, lo, hi, height, dark, gain, read2, row_gain):  # pragma: no cover
+    """The noise model's variance of one cell sum ``raw`` with column weights ``t``, ``q``
+    (:meth:`sassi_bench.spectra.noise.CountsNoise.variance`, its numpy form's operations
+    in its order)."""
+    top = int(min(max(lo + 0.5, 0.0), height))
+    bottom = int(min(max(hi + 0.5, 0.0), height))
+    rows = float(bottom - top)
+    above = raw - dark * rows * t
+    above = 0.0 if above < 0.0 else above
+    share = q / t if t > 0.0 else 0.0
+    photons = share * above / gain
+    return (photons + rows * q * read2) * row_gain
+
+
+@njit(nogil=True, error_model="numpy")
+def cell_variance(
+    raw_sums, x_left, x_right, lo, hi, height, width, dark, gain, read2, row_gain, out
+):  # pragma: no cover - compiled
+    """The noise model's variance of every cell sum (:meth:`sassi_bench.spectra.noise.
+    CountsNoise.variance`) in one pass: each cell's column weights (as
+    :func:`column_weights`), its rows (as ``CellLayout.bottom - CellLayout.top``) and its
+    photon and read noise, with the numpy form's operations in its order, so the values
+    are the same to the bit. The numpy form made six (N, B') temporaries: 6.0 -> 3.2 ms
+    a prototype frame.
+    """
+    pixels, bins = x_left.shape
+    for n in range(pixels):
+        for b in range(bins):
+            t, q = _weights(x_left[n, b], x_right[n, b], width)
+            out[n, b] = _variance(
+                float(raw_sums[n, b]), t, q, lo[n, b], hi[n, b], height, dark, gain, read2,
+                row_gain[b],
+            )  # fmt: skip
+
+
+@njit(nogil=True, error_model="numpy")
+def cell_sums_variance(
+    cumulative, x_left, x_right, lo, hi, dark, gain, read2, row_gain, sums, variance
+):  # pragma: no cover - compiled
+    """A frame's cells in one pass: their sums as float32 (:func:`cell_sums`, the same
+    loop, rounded) and the noise model's variance of those float32 sums
+    (:func:`cell_variance`): the scan's reading pass, which took them in two passes and
+    the variance in numpy."""
+    height = cumulative.shape[0] - 1
+    width = cumulative.shape[1]
+    pixels, bins = lo.shape
+    for n in range(pixels):
+        for b in range(bins):
+            top = min(max(math.floor(lo[n, b] + 0.5), 0), height)
+            bottom = min(max(math.floor(hi[n, b] + 0.5), 0), height)
+            left, right = x_left[n, b], x_right[n, b]
+            first, last = math.floor(left + 0.5), math.floor(right + 0.5)
+            total = 0.0
+            if first >= 0 and last < width:
+                if first == last:
+                    total = (right - left) * (cumulative[bottom, first] - cumulative[top, first])
+                elif first < last:
+                    total = (first + 0.5 - left) * (
+                        cumulative[bottom, first] - cumulative[top, first]
+                    )
+                    for c in range(first + 1, last):
+                        total += cumulative[bottom, c] - cumulative[top, c]
+                    total += (right - last + 0.5) * (
+                        cumulative[bottom, last] - cumulative[top, last]
+                    )
+            else:  # partly off the frame: the edge columns stand in for those beyond
+                for c in range(first, last + 1):
+                    weight = min(c + 0.5, right) - max(c - 0.5, left)
+                    if weight > 0.0:
+                        column = min(max(c, 0), width - 1)
+                        total += min(weight, 1.0) * (
+                            cumulative[bottom, column] - cumulative[top, column]
+                        )
+            raw = np.float32(total)
+            sums[n, b] = raw
+            t, q = _weights(left, right, float(width))
+            variance[n, b] = _variance(
+                float(raw), t, q, lo[n, b], hi[n, b], height, dark, gain, read2, row_gain[b]
+            )

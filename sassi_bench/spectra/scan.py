@@ -462,12 +462,12 @@ class ScanAssembly:
             self.frames.append(_Frame(index, geo.rows, geo.cols, problems, usable=True))
             return
         layout = cell_layout(geo, self.box)
-        sums = cell_sums(scratch.cumulative, layout).astype(np.float32)
+        # The raw sums and their noise (light, background and dark level), in one pass.
+        sums, variance = self.noise.cell_sums(scratch.cumulative, layout, self.row_gain)
         local = self._local(geo)
         self.work[local] = sums[:, geo.core]
         self.guards[local] = np.concatenate([sums[:, : geo.guard], sums[:, geo.core.stop :]], 1)
-        # The noise of the raw sums (light, background and dark level), kept per pixel.
-        self.variance[local] = self.noise.variance(sums, layout, self.row_gain).mean(axis=1)
+        self.variance[local] = variance.mean(axis=1)  # kept per pixel
         flags = np.where(layout.off[:, geo.core].any(axis=1), QUALITY_FLAGS["off_camera"], 0)
         if bad:
             flags = flags | _pixel_flags(window, geo, self.saturation, index, problems)
