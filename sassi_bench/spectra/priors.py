@@ -22,12 +22,14 @@ decide.
   at the red end, so a per-pixel prior smooths the red end far more than its data and
   noise call for. Measured on the sim rig's ColorChecker with pinholes 15 rows apart
   (no stacked streaks), noisy, per-band PSNR against the bench's truth, the strength
-  chosen by the same pooled discrepancy: > 650 nm 50.4 -> 51.0 dB, 580-640 nm
-  52.9 -> 53.3, 500-600 nm 55.9 -> 56.1, the best single strength per band being 52.3 /
-  54.3 / 56.1 (``benchmarks/red_end_bound.py``). Curvature per nm^2 without the blur
-  weighting reached 51.7 dB beyond 650 nm there but smoothed the blue end (2 nm a pixel)
-  nine times harder, and amplified the stacked scan's row-unmixing error at the red end
-  (mean spectral angle 1.07 -> 1.16 degrees).
+  chosen by the same pooled discrepancy (``benchmarks/red_end_bound.py``): > 650 nm
+  50.5 -> 51.1 dB, 580-640 nm 53.0 -> 53.4, 500-600 nm 55.9 -> 56.1 (the best strength
+  per band apart gives 52.4 / 54.3 / 55.7); the chain's own scan (5-row pitch) 54.74 ->
+  54.94 dB PSNR, but its mean spectral angle 1.08 -> 1.11 degrees: a red end smoothed less
+  passes more of the row unmixing's error there. Curvature per nm^2 weighted by the blur
+  in pixels, or not weighted, reached 51.7 dB beyond 650 nm at the 15-row pitch but
+  smoothed the blue end (2 nm a pixel) nine times harder, and took the chain's scan to
+  1.16-1.29 degrees.
 """
 
 from __future__ import annotations
