@@ -101,7 +101,12 @@ class Prior(Protocol):
     @property
     def label(self) -> str: ...
 
-    def penalty(self, sigma: NDArray[np.float64], guard: int) -> NDArray[np.float64]: ...
+    def penalty(
+        self,
+        sigma: NDArray[np.float64],
+        guard: int,
+        wavelengths_nm: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]: ...
 
 
 @dataclass(frozen=True)
@@ -116,7 +121,7 @@ class _Operators:
 
     @classmethod
     def build(cls, model: StreakForwardModel, prior: Prior, shift: float) -> _Operators:
-        penalty = prior.penalty(model.sigma_px, model.guard)
+        penalty = prior.penalty(model.sigma_px, model.guard, model.wavelengths_nm)
         n = model.n_bins
         out: dict[str, list] = {"project": [], "eigenvalues": [], "expand": [], "gains": []}
         # One BLAS thread: the matrices are small, and BLAS's spinning threads contend with

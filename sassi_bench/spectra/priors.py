@@ -14,7 +14,22 @@ decide.
   spectrum (the scan's own): what every pixel shares (the lamp's and the LED's shape, the
   camera's efficiency, the cut-off beyond the band) costs nothing, only each pixel's
   departure from it, its reflectance, which is smooth. Bins where ``m`` is dark get a
-  ridge on ``x`` instead.
+  ridge on ``x`` instead. Given the bins' wavelengths (the deblur passes its forward
+  model's) it measures both in nanometres, not in camera pixels: the curvature per nm^2
+  (divided differences), weighted by the blur in nm. A reflectance is smooth in
+  wavelength, and a prism's pixel spans 2 nm at the blue end but 9-12 nm at the red
+  (more on a low-dispersion glass): per pixel, the same reflectance is 20-30 times rougher
+  at the red end, so a per-pixel prior smooths the red end far more than its data and
+  noise call for. Measured on the sim rig's ColorChecker with pinholes 15 rows apart
+  (no stacked streaks), noisy, per-band PSNR against the bench's truth, the strength
+  chosen by the same pooled discrepancy (``benchmarks/red_end_bound.py``): > 650 nm
+  50.5 -> 51.1 dB, 580-640 nm 53.0 -> 53.4, 500-600 nm 55.9 -> 56.1 (the best strength
+  per band apart gives 52.4 / 54.3 / 55.7); the chain's own scan (5-row pitch) 54.74 ->
+  54.94 dB PSNR, but its mean spectral angle 1.08 -> 1.11 degrees: a red end smoothed less
+  passes more of the row unmixing's error there. Curvature per nm^2 weighted by the blur
+  in pixels, or not weighted, reached 51.7 dB beyond 650 nm at the 15-row pitch but
+  smoothed the blue end (2 nm a pixel) nine times harder, and took the chain's scan to
+  1.16-1.29 degrees.
 """
 
 from __future__ import annotations
@@ -37,6 +52,39 @@ def _curvature(sigma: NDArray[np.float64]) -> NDArray[np.float64]:
     return weight[:, :, None] * second[None]
 
 
+def _curvature_nm(sigma: NDArray[np.float64], wavelengths: NDArray[np.float64]) -> NDArray:
+    """(P, B' - 2, B') second divided differences along the bins' wavelengths (per nm^2),
+    weighted by the middle bin's blur in nm, scaled so the largest stencil weighs 1.
+
+    Examples
+    --------
+    >>> rows = _curvature_nm(np.ones((1, 5)), np.array([[0.0, 1.0, 2.0, 4.0, 6.0]]))[0]
+    >>> rows[[0, 2]].tolist()  # bins twice as wide (same blur in pixels): half the weight
+    [[1.0, -2.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.5, -1.0, 0.5]]
+    """
+    lam = np.asarray(wavelengths, dtype=np.float64)
+    n = lam.shape[-1]
+    left, right = np.diff(lam, axis=-1)[:, :-1], np.diff(lam, axis=-1)[:, 1:]
+    if not np.all((left > 0) & (right > 0)):
+        raise ProcedureError(
+            step_error(
+                "spectral deblur",
+                "the bins' wavelengths do not increase along the streak",
+                "load a bundle whose dispersion fit passed its checks (sassi-bench bundle verify)",
+            )
+        )
+    centre = 2.0 / (left + right)
+    stencil = np.zeros((*left.shape, n))
+    k = np.arange(n - 2)
+    stencil[:, k, k] = centre / left
+    stencil[:, k, k + 1] = -centre * (1.0 / left + 1.0 / right)
+    stencil[:, k, k + 2] = centre / right
+    # The blur in nm: the bin's blur in pixels times the nm its pixel spans.
+    weight = sigma[:, 1:-1] * (left + right) / 2.0
+    weight = weight / np.max(weight * centre**2, axis=1, keepdims=True)
+    return weight[:, :, None] * stencil
+
+
 @dataclass(frozen=True)
 class SmoothnessPrior:
     """Curvature on the band and one guard bin per side; a ridge on the guards beyond.
@@ -55,8 +103,14 @@ class SmoothnessPrior:
         """How a report names it."""
         return "curvature"
 
-    def penalty(self, sigma: NDArray[np.float64], guard: int) -> NDArray[np.float64]:
-        """(P, K, B') penalty rows at each field point from its bins' blur ``sigma`` (P, B')."""
+    def penalty(
+        self,
+        sigma: NDArray[np.float64],
+        guard: int,
+        wavelengths_nm: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
+        """(P, K, B') penalty rows at each field point from its bins' blur ``sigma`` (P, B')
+        (in bins: ``wavelengths_nm`` is not used)."""
         curvature = _curvature(np.asarray(sigma, dtype=np.float64))
         p, n = sigma.shape
         # Stencil i is centred on bin i + 1: keep those from the first guard beside the
@@ -71,7 +125,8 @@ class SmoothnessPrior:
 @dataclass(frozen=True)
 class RelativeSmoothnessPrior:
     """Curvature of ``x / mean_spectrum`` on every bin whose mean reaches ``floor`` of its
-    band peak; a ridge (as if the mean were ``floor``) on the darker ones.
+    band peak; a ridge (as if the mean were ``floor``) on the darker ones. With the bins'
+    wavelengths, per nm^2 and weighted by the blur in nm (see the module's note).
 
     Examples
     --------
@@ -106,13 +161,24 @@ class RelativeSmoothnessPrior:
         """How a report names it."""
         return "curvature relative to the scan's mean spectrum"
 
-    def penalty(self, sigma: NDArray[np.float64], guard: int) -> NDArray[np.float64]:
-        """(P, K, B') penalty rows at each field point from its bins' blur ``sigma`` (P, B')."""
+    def penalty(
+        self,
+        sigma: NDArray[np.float64],
+        guard: int,
+        wavelengths_nm: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
+        """(P, K, B') penalty rows at each field point from its bins' blur ``sigma`` (P, B')
+        and, when given, their centre wavelengths (P, B'): the curvature per nm^2 weighted
+        by the blur in nm; without them, per bin weighted by the blur in pixels."""
         mean = self.mean_spectrum
         n = mean.size
         relative = mean / np.max(mean[guard : n - guard])
         lit = relative >= self.floor
-        curvature = _curvature(np.asarray(sigma, dtype=np.float64))
+        sigma = np.asarray(sigma, dtype=np.float64)
+        if wavelengths_nm is None:
+            curvature = _curvature(sigma)
+        else:
+            curvature = _curvature_nm(sigma, np.broadcast_to(wavelengths_nm, sigma.shape))
         stencils = lit[:-2] & lit[1:-1] & lit[2:]
         scaled = curvature[:, stencils] / np.where(lit, relative, 1.0)
         dark = np.flatnonzero(~lit)
