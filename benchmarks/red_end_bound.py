@@ -42,7 +42,7 @@ STRENGTHS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 
 
 def _noise_free(self, electron_rate, exposure_s, rng):
-    """The sensor's digitisation without photon and read noise."""
+    """The sensor's exposure without photon and read noise."""
     mean = (np.asarray(electron_rate, np.float64) + self.dark_current_e_per_s) * exposure_s
     mean = np.minimum(np.maximum(mean, 0.0), self.full_well_e)
     adu = np.rint(mean / self.gain_e_per_adu + self.dark_offset_adu)
@@ -78,6 +78,9 @@ def main() -> None:
     parser.add_argument("--data", required=True, help="folder holding the chart scan session")
     parser.add_argument("--session", required=True, help="the chart scan's session id")
     parser.add_argument("--bundle-data", help="data root of the bundle (default: --data)")
+    parser.add_argument(
+        "--row-mixture", action="store_true", help="assemble with the mixed-blur row unmixing"
+    )
     args = parser.parse_args()
     rig = open_rig(args.rig)
     bundle = load(rig=rig.description.name, data=args.bundle_data or args.data)
@@ -88,17 +91,21 @@ def main() -> None:
     expected = truth(rig).binned_cube(bundle.bin_edges, light, scene)
     model = StreakForwardModel.from_bundle(bundle)
     rows = {}
-    scan = assemble_scan(source, bundle, keep_raw=True, progress=False)
+    scan = assemble_scan(
+        source, bundle, keep_raw=True, progress=False, row_mixture=args.row_mixture
+    )
     rows["as captured"] = band_psnr(scan.cube, expected, scan.quality == 0, wl)
     rows["as captured, best strength per band"] = best_per_band(scan, model, expected, wl)
-    sensor.SensorModel._digitise = _noise_free
+    sensor.SensorModel.expose = _noise_free
     exposure = source.plan.steps[1].exposure_s
     with tempfile.TemporaryDirectory(prefix="red-end-") as tmp:
         clean_rig = open_rig(args.rig)
         clean_rig.set_scene(scene)
         clean = Session.create(clean_rig.description, source.plan, session_id="clean", data=tmp)
         run_plan(clean_rig, source.plan, clean, progress=False)
-        scan = assemble_scan(clean, bundle, keep_raw=True, progress=False)
+        scan = assemble_scan(
+            clean, bundle, keep_raw=True, progress=False, row_mixture=args.row_mixture
+        )
         rows["noise-free"] = band_psnr(scan.cube, expected, scan.quality == 0, wl)
         rows["noise-free, best strength per band"] = best_per_band(scan, model, expected, wl)
         steps = [Step("spectral", light, exposure, {"kind": "blank"}, {"role": "closed"})]
@@ -111,7 +118,9 @@ def main() -> None:
         plan = Plan("pinhole-scan", tuple(steps), {"pitch": [100, 15], "scene": scene})
         sparse = Session.create(clean_rig.description, plan, session_id="sparse", data=tmp)
         run_plan(clean_rig, plan, sparse, progress=False)
-        scan = assemble_scan(sparse, bundle, keep_raw=True, progress=False)
+        scan = assemble_scan(
+            sparse, bundle, keep_raw=True, progress=False, row_mixture=args.row_mixture
+        )
         rows["noise-free, 15-row pitch"] = band_psnr(scan.cube, expected, scan.quality == 0, wl)
         rows["noise-free, 15-row pitch, best per band"] = best_per_band(scan, model, expected, wl)
     print("| | 500-600 nm | > 650 nm |\n| --- | --- | --- |")
