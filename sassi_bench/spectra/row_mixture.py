@@ -27,7 +27,7 @@ more than :data:`MIXING_FLOOR` of a pixel's light across a cell edge are solved 
 
 On `sim`'s ColorChecker scan (``benchmarks/red_end_bound.py --row-mixture``) the red end
 beyond 650 nm goes from 48.2 to 49.7 dB as captured and, noise-free with the best strength
-per band, from 49.3 to 54.6 dB (55.6 dB without stacked pinholes), for about 1.7 times the
+per band, from 49.3 to 54.6 dB (55.6 dB without stacked pinholes), for about 1.8 times the
 assembly's CPU (about 9 ms a frame of 560 pixels: the quadrature nodes 4 ms, the banded
 systems 3 ms).
 """
