@@ -112,6 +112,9 @@ def main() -> None:
     parser.add_argument(
         "--rows", nargs="+", choices=GROUPS, default=list(GROUPS), help="which rows to measure"
     )
+    parser.add_argument(
+        "--row-mixture", action="store_true", help="assemble with the mixed-blur row unmixing"
+    )
     args = parser.parse_args()
     rig = open_rig(args.rig)
     bundle = load(rig=rig.description.name, data=args.bundle_data or args.data)
@@ -125,7 +128,9 @@ def main() -> None:
 
     def measure(name, session):
         start = time.process_time()
-        scan = assemble_scan(session, bundle, keep_raw=True, progress=False)
+        scan = assemble_scan(
+            session, bundle, keep_raw=True, progress=False, row_mixture=args.row_mixture
+        )
         cpu[name] = time.process_time() - start
         rows[name] = band_psnr(scan.cube, expected, scan.quality == 0, wl)
         rows[f"{name}, best strength per band"] = best_per_band(scan, model, expected, wl)
