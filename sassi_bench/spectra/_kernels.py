@@ -217,6 +217,33 @@ def cell_bounds(
     return bad
 
 
+@njit(nogil=True, error_model="numpy", inline="always")
+def _cell_sum(cumulative, lo, hi, left, right):  # pragma: no cover - compiled
+    """Sum of one cell (rows ``[lo, hi]``, columns ``[left, right]``) of an image from its
+    column cumulative sum (see :func:`cell_sums`)."""
+    height = cumulative.shape[0] - 1
+    width = cumulative.shape[1]
+    top = min(max(math.floor(lo + 0.5), 0), height)
+    bottom = min(max(math.floor(hi + 0.5), 0), height)
+    first, last = math.floor(left + 0.5), math.floor(right + 0.5)
+    total = 0.0
+    if first >= 0 and last < width:
+        if first == last:
+            total = (right - left) * (cumulative[bottom, first] - cumulative[top, first])
+        elif first < last:
+            total = (first + 0.5 - left) * (cumulative[bottom, first] - cumulative[top, first])
+            for c in range(first + 1, last):
+                total += cumulative[bottom, c] - cumulative[top, c]
+            total += (right - last + 0.5) * (cumulative[bottom, last] - cumulative[top, last])
+    else:  # partly off the frame: the edge columns stand in for those beyond
+        for c in range(first, last + 1):
+            weight = min(c + 0.5, right) - max(c - 0.5, left)
+            if weight > 0.0:
+                column = min(max(c, 0), width - 1)
+                total += min(weight, 1.0) * (cumulative[bottom, column] - cumulative[top, column])
+    return total
+
+
 @njit(nogil=True, error_model="numpy")
 def cell_sums(cumulative, x_left, x_right, lo, hi, out):  # pragma: no cover - compiled
     """Sum of each cell of an image from its column cumulative sum ``(H + 1, W)``.
@@ -225,37 +252,10 @@ def cell_sums(cumulative, x_left, x_right, lo, hi, out):  # pragma: no cover - c
     and last column of a bin with their fractions, those between whole. Rows and columns
     beyond the frame are clipped to it (such cells are flagged ``off``).
     """
-    height = cumulative.shape[0] - 1
-    width = cumulative.shape[1]
     pixels, bins = lo.shape
     for n in range(pixels):
         for b in range(bins):
-            top = min(max(math.floor(lo[n, b] + 0.5), 0), height)
-            bottom = min(max(math.floor(hi[n, b] + 0.5), 0), height)
-            left, right = x_left[n, b], x_right[n, b]
-            first, last = math.floor(left + 0.5), math.floor(right + 0.5)
-            total = 0.0
-            if first >= 0 and last < width:
-                if first == last:
-                    total = (right - left) * (cumulative[bottom, first] - cumulative[top, first])
-                elif first < last:
-                    total = (first + 0.5 - left) * (
-                        cumulative[bottom, first] - cumulative[top, first]
-                    )
-                    for c in range(first + 1, last):
-                        total += cumulative[bottom, c] - cumulative[top, c]
-                    total += (right - last + 0.5) * (
-                        cumulative[bottom, last] - cumulative[top, last]
-                    )
-            else:  # partly off the frame: the edge columns stand in for those beyond
-                for c in range(first, last + 1):
-                    weight = min(c + 0.5, right) - max(c - 0.5, left)
-                    if weight > 0.0:
-                        column = min(max(c, 0), width - 1)
-                        total += min(weight, 1.0) * (
-                            cumulative[bottom, column] - cumulative[top, column]
-                        )
-            out[n, b] = total
+            out[n, b] = _cell_sum(cumulative, lo[n, b], hi[n, b], x_left[n, b], x_right[n, b])
 
 
 @njit(nogil=True, error_model="numpy")
@@ -567,31 +567,8 @@ def cell_sums_variance(
     pixels, bins = lo.shape
     for n in range(pixels):
         for b in range(bins):
-            top = min(max(math.floor(lo[n, b] + 0.5), 0), height)
-            bottom = min(max(math.floor(hi[n, b] + 0.5), 0), height)
             left, right = x_left[n, b], x_right[n, b]
-            first, last = math.floor(left + 0.5), math.floor(right + 0.5)
-            total = 0.0
-            if first >= 0 and last < width:
-                if first == last:
-                    total = (right - left) * (cumulative[bottom, first] - cumulative[top, first])
-                elif first < last:
-                    total = (first + 0.5 - left) * (
-                        cumulative[bottom, first] - cumulative[top, first]
-                    )
-                    for c in range(first + 1, last):
-                        total += cumulative[bottom, c] - cumulative[top, c]
-                    total += (right - last + 0.5) * (
-                        cumulative[bottom, last] - cumulative[top, last]
-                    )
-            else:  # partly off the frame: the edge columns stand in for those beyond
-                for c in range(first, last + 1):
-                    weight = min(c + 0.5, right) - max(c - 0.5, left)
-                    if weight > 0.0:
-                        column = min(max(c, 0), width - 1)
-                        total += min(weight, 1.0) * (
-                            cumulative[bottom, column] - cumulative[top, column]
-                        )
+            total = _cell_sum(cumulative, lo[n, b], hi[n, b], left, right)
             raw = np.float32(total)
             sums[n, b] = raw
             t, q = _weights(left, right, float(width))
