@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import shlex
+from pathlib import Path
 
 from sassi_bench.commands.options import (
     add_bundle_options,
@@ -44,7 +46,28 @@ def _scan(args: argparse.Namespace) -> int:
     print(f"flagged pixels: {bad}; problems: {len(run.scan.problems)}")
     for line in run.scan.problems[:10]:
         print(f"  {line}")
+    print(next_step(args, out))
     return 0
+
+
+def next_step(args: argparse.Namespace, out: Path) -> str:
+    """The command that scores SASSI snapshots of the scanned scene against this cube.
+
+    Examples
+    --------
+    >>> args = argparse.Namespace(rig="sim", scene="natural", data=None, bundle=None,
+    ...                           bundle_rig=None)
+    >>> next_step(args, Path("cube.nc")).split(" --")  # doctest: +NORMALIZE_WHITESPACE
+    ['next: score snapshots against this cube: sassi-bench validate snapshot', 'rig sim',
+     'scene natural', 'scan cube.nc', 'out snapshot-report']
+    """
+    options = {"--rig": args.rig, "--scene": args.scene, "--scan": out, "--out": "snapshot-report"}
+    options.update({"--data": args.data, "--bundle": args.bundle, "--bundle-rig": args.bundle_rig})
+    argv = [str(part) for option, value in options.items() if value is not None
+            for part in (option, value)]  # fmt: skip
+    return "next: score snapshots against this cube: sassi-bench validate snapshot " + (
+        shlex.join(argv)
+    )
 
 
 def _band_psnr_png(run, out):
