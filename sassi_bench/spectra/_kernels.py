@@ -478,19 +478,7 @@ def column_weights(x_left, x_right, width, total, square):  # pragma: no cover -
     pixels, bins = x_left.shape
     for n in range(pixels):
         for b in range(bins):
-            left = min(max(x_left[n, b], -0.5), width - 0.5)
-            right = min(max(x_right[n, b], -0.5), width - 0.5)
-            centre = math.floor(left + 0.5)
-            t = 0.0
-            q = 0.0
-            while centre - 0.5 < right:
-                w = min(centre + 0.5, right) - max(centre - 0.5, left)
-                if w > 0.0:
-                    t += w
-                    q += w * w
-                centre += 1.0
-            total[n, b] = t
-            square[n, b] = q
+            total[n, b], square[n, b] = _weights(x_left[n, b], x_right[n, b], width)
 
 
 @njit(nogil=True, error_model="numpy", inline="always")

@@ -75,8 +75,8 @@ GUARD_WEIGHT = 0.05
 #: with its neighbours' streaks (the column fit leaves their errors there), so the guards
 #: are nuisance parameters: a weak ridge lets them take that light instead of the band's
 #: end bins. Measured on the sim rig's adaptive snapshots (spectra at the open pixels
-#: against the pinhole scan there / against the bench's truth): natural scene 42.22 /
-#: 43.18 dB at :data:`GUARD_WEIGHT`, 42.50 / 43.39 dB at 0.003; ColorChecker 43.50 /
+#: against the pinhole scan there / as `benchmarks/snapshot_accuracy.py` scores them):
+#: natural 42.22 / 43.18 dB at :data:`GUARD_WEIGHT`, 42.50 / 43.39 dB at 0.003; ColorChecker 43.50 /
 #: 44.22 dB and 43.64 / 44.33 dB. 0.001-0.005 differ by under 0.2 dB; at 3e-4 and below
 #: the guards are barely held and the scores scatter by 0.5 dB. (Isolated streaks, a
 #: scan's, want the stronger ridge: there the guards hold the band end's own tail.)

@@ -21,7 +21,7 @@ decide.
   (more on a low-dispersion glass): per pixel, the same reflectance is 20-30 times rougher
   at the red end, so a per-pixel prior smooths the red end far more than its data and
   noise call for. Measured on the sim rig's ColorChecker with pinholes 15 rows apart
-  (no stacked streaks), noisy, per-band PSNR against the bench's truth, the strength
+  (no stacked streaks), noisy, per-band PSNR as that benchmark scores it, the strength
   chosen by the same pooled discrepancy (``benchmarks/red_end_bound.py``): > 650 nm
   50.5 -> 51.1 dB, 580-640 nm 53.0 -> 53.4, 500-600 nm 55.9 -> 56.1 (the best strength
   per band apart gives 52.4 / 54.3 / 55.7); the chain's own scan (5-row pitch) 54.74 ->
