@@ -21,9 +21,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import signal
+import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import FrameType
 
 from sassi_bench.commands.options import resume_command
 from sassi_bench.errors import SassiBenchError
@@ -87,12 +89,40 @@ def stop_signals() -> Iterator[None]:
         restore()
         raise Stopped(signum)
 
+    previous_hook = sys.unraisablehook
+
+    def swallowed(unraisable: sys.UnraisableHookArgs) -> None:
+        # A handler's exception raised inside a C callback (the JIT compiler's cache
+        # callback, say) is printed and dropped there, and the command would run on.
+        # Raise it again at the first profile event outside this hook.
+        stopped = unraisable.exc_value
+        if isinstance(stopped, Stopped):
+            sys.setprofile(_raise_outside(sys._getframe(), stopped.signum))
+            return
+        previous_hook(unraisable)
+
     for signum in STOP_SIGNALS:
         signal.signal(signum, stop)
+    sys.unraisablehook = swallowed
     try:
         yield
     finally:
         restore()
+        sys.unraisablehook = previous_hook
+
+
+def _raise_outside(hook: FrameType, signum: int) -> Callable:
+    """A profile function that raises :class:`Stopped` at the first event outside the
+    frame ``hook`` (a call, a return or a built-in call in the code that runs next),
+    then puts back the profiler that was there before."""
+    previous = sys.getprofile()
+
+    def profile(frame: FrameType, event: str, arg: object) -> None:
+        if frame is not hook:
+            sys.setprofile(previous)
+            raise Stopped(signum)
+
+    return profile
 
 
 def _sessions(args: argparse.Namespace) -> list[str]:

@@ -5,6 +5,7 @@ with the first one named."""
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import shlex
@@ -19,6 +20,7 @@ import pytest
 from sassi_bench._shared.lock import WriteLock
 from sassi_bench.acquire.session import Session
 from sassi_bench.commands import PROG
+from sassi_bench.commands.interrupts import Stopped, stop_signals
 
 SCRIPT = Path(sys.executable).with_name("sassi-bench")
 
@@ -128,3 +130,19 @@ def test_a_procedure_on_a_rig_another_process_drives_is_refused(tmp_path):
     assert f"rig 'sim' is driven by another procedure (pid {holder.pid} on" in refused.stderr
     assert refused.stderr.count("\n") == 1
     assert not (data / "sessions").exists()
+
+
+def test_a_stop_signal_raised_inside_a_c_callback_still_stops_the_block(capsys):
+    reached = []
+
+    @ctypes.CFUNCTYPE(None)
+    def callback():  # a C library calling back into Python, as a JIT compiler does
+        signal.raise_signal(signal.SIGTERM)
+        reached.append("callback ran on")
+
+    with pytest.raises(Stopped) as stopped, stop_signals():
+        callback()
+        reached.append("block ran on")
+    assert stopped.value.signum == signal.SIGTERM
+    assert reached == []
+    assert "Exception ignored" not in capsys.readouterr().err
