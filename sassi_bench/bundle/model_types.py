@@ -326,7 +326,10 @@ class WavelengthBins:
 
 @dataclass(frozen=True, eq=False)
 class BlurModel:
-    """Wavelength-dependent Gaussian blur: ``sigma(λ) = c0 + c1 t + c2 t²``.
+    """Wavelength-dependent Gaussian blur: ``sigma(λ) = c0 + c1 t + c2 t²`` (``"quadratic"``),
+    or ``sigma(λ) = sqrt((c0 + c1 t + c2 t²)² + pixel_variance_px2)`` (``"psf_quadratic"``:
+    the quadratic is the optics' PSF, and the SLM pixel's and camera pixel's boxes add a
+    variance that does not depend on the wavelength).
 
     Parameters
     ----------
@@ -336,18 +339,24 @@ class BlurModel:
         ``t = (λ − lambda_ref_nm) / lambda_scale_nm``.
     window_sigmas
         Half-width of the summation window in units of sigma.
+    pixel_variance_px2
+        The pixel boxes' variance (camera px²); 0 (the default) is the plain quadratic.
 
     Examples
     --------
     >>> blur = BlurModel((1.0, 0.0, 3.0), 520.0, 115.0, 2.5)
     >>> blur.sigma([405.0, 520.0, 635.0]).round(3).tolist()
     [4.0, 1.0, 4.0]
+    >>> psf = BlurModel((0.0, 0.0, 3.0), 520.0, 115.0, 2.5, pixel_variance_px2=16.0)
+    >>> psf.sigma([405.0, 520.0]).round(3).tolist()
+    [5.0, 4.0]
     """
 
     coeffs: tuple[float, float, float]
     lambda_ref_nm: float
     lambda_scale_nm: float
     window_sigmas: float
+    pixel_variance_px2: float = 0.0
 
     def __post_init__(self) -> None:
         where = "models.blur"
@@ -365,13 +374,25 @@ class BlurModel:
             "window_sigmas",
             real(self.window_sigmas, f"{where}.window_sigmas", positive=True),
         )
+        pixel = real(self.pixel_variance_px2, f"{where}.pixel_variance_px2")
+        if pixel < 0:
+            raise bad(f"{where}.pixel_variance_px2", f"must be >= 0, got {pixel!r}")
+        object.__setattr__(self, "pixel_variance_px2", pixel)
+
+    @property
+    def kind(self) -> str:
+        """The manifest's ``model``: ``"quadratic"`` or ``"psf_quadratic"``."""
+        return "psf_quadratic" if self.pixel_variance_px2 > 0 else "quadratic"
 
     def sigma(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """Gaussian sigma in camera px at ``wavelength_nm`` (vectorised)."""
         t = (np.asarray(wavelength_nm, dtype=np.float64) - self.lambda_ref_nm) / (
             self.lambda_scale_nm
         )
-        return np.asarray(polynomial.polyval(t, self.coeffs), dtype=np.float64)
+        value = np.asarray(polynomial.polyval(t, self.coeffs), dtype=np.float64)
+        if self.pixel_variance_px2 > 0:
+            value = np.sqrt(value**2 + self.pixel_variance_px2)
+        return value
 
     def window_half_width(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
         """Half-width of the summation window, ``window_sigmas · sigma(λ)``, in rows."""
@@ -379,28 +400,32 @@ class BlurModel:
 
     def to_manifest(self) -> dict[str, Any]:
         """The ``models.blur`` entry."""
-        return {
-            "model": "quadratic",
+        entry = {
+            "model": self.kind,
             "coeffs": list(self.coeffs),
             "lambda_ref_nm": self.lambda_ref_nm,
             "lambda_scale_nm": self.lambda_scale_nm,
             "window_sigmas": self.window_sigmas,
         }
+        if self.pixel_variance_px2 > 0:
+            entry["pixel_variance_px2"] = self.pixel_variance_px2
+        return entry
 
     @classmethod
     def from_manifest(cls, entry: Any) -> BlurModel:
         """Build from a ``models.blur`` entry."""
         where = "models.blur"
         entry = mapping(entry, where)
-        if entry.get("model") != "quadratic":
+        kind = entry.get("model")
+        if kind not in ("quadratic", "psf_quadratic"):
             raise bad(
-                f"{where}.model", f"is {entry.get('model')!r}; this version knows 'quadratic'"
+                f"{where}.model",
+                f"is {kind!r}; this version knows 'quadratic' and 'psf_quadratic'",
             )
-        missing = [
-            key
-            for key in ("coeffs", "lambda_ref_nm", "lambda_scale_nm", "window_sigmas")
-            if key not in entry
-        ]
+        keys = ["coeffs", "lambda_ref_nm", "lambda_scale_nm", "window_sigmas"]
+        if kind == "psf_quadratic":
+            keys.append("pixel_variance_px2")
+        missing = [key for key in keys if key not in entry]
         if missing:
             raise bad(where, f"lacks {', '.join(missing)}")
         return cls(
@@ -408,4 +433,5 @@ class BlurModel:
             lambda_ref_nm=entry["lambda_ref_nm"],
             lambda_scale_nm=entry["lambda_scale_nm"],
             window_sigmas=entry["window_sigmas"],
+            pixel_variance_px2=entry.get("pixel_variance_px2", 0.0) if kind != "quadratic" else 0.0,
         )

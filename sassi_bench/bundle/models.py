@@ -35,6 +35,8 @@ Blur (``models.blur``)
     "window_sigmas"}``: Gaussian ``sigma(λ) = c0 + c1 t + c2 t²`` camera px with
     ``t = (λ − lambda_ref_nm) / lambda_scale_nm``; the half-width of the summation window is
     ``window_sigmas · sigma(λ)`` rows. ``sigma`` must be positive over the bins.
+    ``{"model": "psf_quadratic", ..., "pixel_variance_px2": p}``: the quadratic is the optics'
+    PSF and ``sigma(λ) = sqrt(quadratic² + p)`` (the pixel boxes' variance ``p`` px² added).
 
 Guide homography (``models.guide_homography``, optional)
     ``{"array": <3x3 array>, "rms_px": ..., ...}`` or null. The 3x3 matrix maps guide pixels

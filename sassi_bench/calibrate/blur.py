@@ -3,8 +3,25 @@
 Spot widths are measured on pinhole frames under each laser line, across the
 dispersion (along camera rows' normal, i.e. in y), where the laser's own line width
 does not widen them. The width is the spot's second moment, so it is the same number a
-Gaussian of that sigma would give whatever the exact spot shape. Widths at the lasers
-are then fitted with a quadratic in wavelength, as in the SASSI paper.
+Gaussian of that sigma would give whatever the exact spot shape.
+
+The SASSI paper fits those widths with a quadratic in wavelength. A spot is the optics'
+PSF convolved with the SLM pixel's image and the camera pixel, two boxes whose variance
+does not depend on the wavelength, so its width is ``sqrt(psf(λ)² + p)``: flat near the
+PSF's narrowest wavelength, steep away from it, a shape a quadratic in the spot width
+cannot follow between lasers far apart. Measured on ``sim`` (lasers 450 / 520 / 532 / 635 /
+670 nm, widths at the lasers within 0.2 % of the bench's): the quadratic through the spot
+widths was 2 % off at the lasers and +4.5 % at 580-600 nm, where no laser is.
+
+Given the SLM pixel's image (:func:`fit_blur`'s ``aperture_px``) the quadratic is fitted
+to the PSF instead (:class:`~sassi_bench.bundle.BlurModel` ``"psf_quadratic"``), and the
+model is the spot *before* the camera pixel, ``sqrt(psf² + aperture²/12)``: every user of
+the bundle's blur integrates its Gaussian over camera pixels (the scan's row unmixing over
+each cell's rows, the streak's forward model over each bin's columns, the lamp spots over
+a pixel box), so a width that held the camera pixel's ``1/12`` px² too would count it
+twice. The measured second moments are fitted as ``sqrt(model² + 1/12)``. On the ``sim``
+chain's ColorChecker scan the camera pixel counted once instead of twice took the
+500-600 nm bands from 55.7 to 59.6 dB.
 """
 
 from __future__ import annotations
@@ -19,7 +36,10 @@ from sassi_bench.bundle import BlurModel
 from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["BlurFit", "SpotWidths", "fit_blur", "measure_spot_widths"]
+__all__ = ["CAMERA_PIXEL_VARIANCE_PX2", "BlurFit", "SpotWidths", "fit_blur", "measure_spot_widths"]
+
+#: Variance (px²) one camera pixel's box adds to a spot's measured second moment.
+CAMERA_PIXEL_VARIANCE_PX2 = 1.0 / 12.0
 
 
 @dataclass(frozen=True)
@@ -134,15 +154,49 @@ class BlurFit:
 
 
 def fit_blur(
-    wavelengths_nm: Sequence[float], sigma_px: Sequence[float], window_sigmas: float = 3.0
+    wavelengths_nm: Sequence[float],
+    sigma_px: Sequence[float],
+    window_sigmas: float = 3.0,
+    aperture_px: float | None = None,
 ) -> BlurFit:
-    """Fit ``sigma(λ)`` with a quadratic in wavelength.
+    """Fit ``sigma(λ)``: a quadratic in wavelength, of the spot or of the optics' PSF.
+
+    Parameters
+    ----------
+    wavelengths_nm, sigma_px
+        Measured spot widths (second moments on the camera, px) at three or more
+        wavelengths.
+    window_sigmas
+        The model's summation window, in sigmas.
+    aperture_px
+        RMS side (camera px) of one SLM pixel's open area as imaged on the camera, across
+        the dispersion (its box adds ``aperture_px² / 12``). Given, the model is
+        ``"psf_quadratic"``: the PSF a quadratic, the model's width the spot before the
+        camera pixel ``sqrt(psf² + aperture_px²/12)``, fitted by least squares as
+        ``sqrt(model² + 1/12)`` to the measured widths. None fits the paper's quadratic to
+        the measured widths themselves.
+
+    Returns
+    -------
+    BlurFit
+        Its residuals compare what the model predicts a camera measures with what it did.
+
+    Raises
+    ------
+    ProcedureError
+        With fewer than three wavelengths, or a spot no wider than the pixel boxes.
 
     Examples
     --------
     >>> fit = fit_blur([405, 450, 520, 635, 670], [1.9, 1.2, 0.7, 1.9, 2.6])
     >>> bool(fit.model.sigma(520.0) < fit.model.sigma(670.0))
     True
+    >>> lam = np.array([450.0, 520.0, 532.0, 635.0, 670.0])
+    >>> psf = 0.4 + 2.0 * ((lam - 530.0) / 150.0) ** 2
+    >>> measured = np.sqrt(psf**2 + 1.2**2 / 12 + 1 / 12)
+    >>> fit = fit_blur(lam, measured, aperture_px=1.2)
+    >>> fit.model.kind, round(float(fit.model.sigma(590.0)), 4), round(fit.rms_px, 6)
+    ('psf_quadratic', 0.799, 0.0)
     """
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     sig = np.asarray(sigma_px, dtype=np.float64)
@@ -155,8 +209,53 @@ def fit_blur(
             )
         )
     t = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
-    coeffs = np.polynomial.polynomial.polyfit(t, sig, 2)
+    if aperture_px is None:
+        coeffs = np.polynomial.polynomial.polyfit(t, sig, 2)
+        model = BlurModel(
+            tuple(float(c) for c in coeffs), LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas
+        )
+        return BlurFit(model, lam, sig, model.sigma(lam) - sig)
+    aperture_variance = float(aperture_px) ** 2 / 12.0
+    coeffs = _fit_psf_quadratic(t, sig, aperture_variance + CAMERA_PIXEL_VARIANCE_PX2)
     model = BlurModel(
-        tuple(float(c) for c in coeffs), LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas
+        tuple(float(c) for c in coeffs),
+        LAMBDA_REF_NM,
+        LAMBDA_SCALE_NM,
+        window_sigmas,
+        pixel_variance_px2=aperture_variance,
     )
-    return BlurFit(model, lam, sig, model.sigma(lam) - sig)
+    predicted = np.sqrt(model.sigma(lam) ** 2 + CAMERA_PIXEL_VARIANCE_PX2)
+    return BlurFit(model, lam, sig, predicted - sig)
+
+
+def _fit_psf_quadratic(
+    t: NDArray[np.float64], sigma: NDArray[np.float64], pixel_variance: float
+) -> NDArray[np.float64]:
+    """The PSF quadratic whose ``sqrt(psf² + pixel_variance)`` fits ``sigma`` best.
+
+    Starts from the quadratic through the PSF widths the spots imply, then Gauss-Newton
+    on the spot widths themselves (the PSF's widths amplify the noise of spots near the
+    pixel boxes' width).
+    """
+    if not np.all(sigma**2 > pixel_variance):
+        narrowest = float(sigma.min())
+        raise ProcedureError(
+            step_error(
+                "blur fit",
+                f"a measured spot ({narrowest:.3f} px) is no wider than the pixel boxes alone "
+                f"({np.sqrt(pixel_variance):.3f} px)",
+                "check the rig's slm.fill_factor and the pinhole frames' focus",
+            )
+        )
+    powers = t[:, None] ** np.arange(3)[None, :]
+    coeffs = np.linalg.lstsq(powers, np.sqrt(sigma**2 - pixel_variance), rcond=None)[0]
+    for _ in range(20):
+        psf = powers @ coeffs
+        model = np.sqrt(psf**2 + pixel_variance)
+        jacobian = powers * (psf / model)[:, None]
+        step = np.linalg.lstsq(jacobian, sigma - model, rcond=None)[0]
+        coeffs = coeffs + step
+        if np.max(np.abs(step)) < 1e-12:
+            break
+    # The PSF's sign is free (only its square enters): keep it positive at the reference.
+    return coeffs if coeffs[0] >= 0 else -coeffs

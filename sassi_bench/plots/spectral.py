@@ -154,7 +154,10 @@ def blur_figure(blur):
     fig = _figure(figsize=(4.8, 3.4), layout="constrained")
     ax = fig.subplots()
     lam = np.linspace(400, 700, 200)
-    ax.plot(lam, blur.model.sigma(lam), label="quadratic fit")
+    label = {"psf_quadratic": "fit: PSF quadratic, pixel boxes added"}.get(
+        blur.model.kind, "quadratic fit"
+    )
+    ax.plot(lam, blur.model.sigma(lam), label=label)
     ax.plot(blur.wavelengths_nm, blur.measured_sigma_px, "o", label="measured (median of spots)")
     ax.set_xlabel("wavelength (nm)")
     ax.set_ylabel("spot sigma (camera px)")

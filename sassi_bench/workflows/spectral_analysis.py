@@ -267,7 +267,9 @@ def analyse_spectral_sweeps(
             x_information=anchoring.fit.information,
             **shape,
         )
-        blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes)
+        blur = blur_from_pinholes(
+            sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor
+        )
         tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
         return SpectralCalibration(
@@ -291,7 +293,9 @@ def analyse_spectral_sweeps(
         else None,
         **shape,
     )
-    blur = blur_from_pinholes(sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes)
+    blur = blur_from_pinholes(
+        sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor
+    )
     checks = grade(decoded, dispersion, blur, proc["tolerances"], lines)
     return SpectralCalibration(
         proc,

@@ -40,6 +40,7 @@ __all__ = [
     "excluded_regions",
     "measure_response",
     "pinhole_signal",
+    "slm_pixel_image_px",
 ]
 
 
@@ -282,11 +283,15 @@ def blur_from_pinholes(
     slm_shape: tuple[int, int],
     saturation: float,
     pinholes: Mapping[float, PinholeSignal] | None = None,
+    fill_factor: float | None = None,
 ) -> BlurFit:
     """Fit the blur model to the spot widths of the sweep session's pinhole frames.
 
     The dispersion model places every pinhole's streak; the median spot width across
     the streaks gives one sigma per laser line, and the lines together the blur model.
+    With the SLM's ``fill_factor`` the quadratic is the optics' PSF's, the SLM pixel's
+    image (as the dispersion's field map draws it) added in quadrature, and the model the
+    spot before the camera pixel (:func:`~sassi_bench.calibrate.blur.fit_blur`).
 
     Parameters
     ----------
@@ -304,6 +309,9 @@ def blur_from_pinholes(
     pinholes
         Each laser's pinhole signal, averaged while the session was captured (the others
         are read from the session).
+    fill_factor
+        The SLM's fill factor (its pixels' open side over their pitch); None fits the
+        paper's quadratic to the spot widths.
 
     Returns
     -------
@@ -331,4 +339,39 @@ def blur_from_pinholes(
         widths = measure_spot_widths(known.signal, x, y, 1.5, saturated=known.saturated)
         sigmas.append(widths.median_sigma_y)
     wavelengths = [dispersion.wavelengths_nm.get(laser, laser) for laser in lasers]
-    return fit_blur(wavelengths, sigmas, float(proc["blur"].get("window_sigmas", 3.0)))
+    window = float(proc["blur"].get("window_sigmas", 3.0))
+    if fill_factor is None:
+        return fit_blur(wavelengths, sigmas, window)
+    aperture = slm_pixel_image_px(dispersion, slm_shape, fill_factor, wavelengths)
+    return fit_blur(wavelengths, sigmas, window, aperture_px=aperture)
+
+
+def slm_pixel_image_px(
+    dispersion: DispersionFit,
+    slm_shape: tuple[int, int],
+    fill_factor: float,
+    wavelengths_nm: Sequence[float],
+) -> float:
+    """RMS side (camera px) of one SLM pixel's open area as the camera sees it across the
+    dispersion: its box adds this squared over 12 to a spot's row variance.
+
+    A uniform open square of side ``fill_factor`` SLM px, mapped by the dispersion's field
+    map (local Jacobian ``dy/du``, ``dy/dv``), has the row variance
+    ``fill_factor² (dy/du² + dy/dv²) / 12`` whatever its rotation. The Jacobian is the
+    median over a grid of the field and the wavelengths given.
+
+    Examples
+    --------
+    >>> slm_pixel_image_px(dispersion, (400, 640), 0.93, [450.0, 635.0])  # doctest: +SKIP
+    1.004
+    """
+    h, w = slm_shape
+    v, u = np.mgrid[h / 8 : h : h / 4, w / 8 : w : w / 4]
+    u, v = u.ravel(), v.ravel()
+    slopes = []
+    for lam in wavelengths_nm:
+        _, y_u = dispersion.model.evaluate(np.r_[u - 0.5, u + 0.5], np.r_[v, v], lam)
+        _, y_v = dispersion.model.evaluate(np.r_[u, u], np.r_[v - 0.5, v + 0.5], lam)
+        n = u.size
+        slopes.append((y_u[n:] - y_u[:n]) ** 2 + (y_v[n:] - y_v[:n]) ** 2)
+    return float(fill_factor * np.sqrt(np.median(np.concatenate(slopes))))

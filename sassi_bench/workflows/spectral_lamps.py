@@ -67,9 +67,11 @@ _REACH_SIGMAS = 4.0
 def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.ndarray:
     """The optics' PSF sigma (camera px) behind a measured spot width.
 
-    A bundle's blur is the second moment of one SLM pixel's spot across the dispersion:
-    the PSF plus the SLM pixel's image (``fill_factor`` of the relay's scale) and the
-    camera pixel, in quadrature (:func:`~sassi_bench.optics.blur.line_spread_sigma`).
+    A ``"psf_quadratic"`` blur is the PSF and the SLM pixel's image in quadrature (its
+    ``pixel_variance_px2``); a ``"quadratic"`` one is the second moment of one SLM pixel's
+    spot across the dispersion: the PSF plus the SLM pixel's image (``fill_factor`` of the
+    relay's scale) and the camera pixel, in quadrature
+    (:func:`~sassi_bench.optics.blur.line_spread_sigma`).
 
     Examples
     --------
@@ -78,10 +80,16 @@ def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.nda
     >>> total = BlurModel((1.0, 0.0, 0.0), 550.0, 150.0, 3.0)
     >>> round(float(psf_sigma_px(total, desc, 550.0)), 3)
     0.912
+    >>> psf = BlurModel((0.5, 0.0, 0.0), 550.0, 150.0, 3.0, pixel_variance_px2=0.08)
+    >>> round(float(psf_sigma_px(psf, desc, 550.0)), 3)
+    0.5
     """
     spot = np.asarray(blur.sigma(wavelength_nm), dtype=np.float64)
-    pixels = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor)
-    return np.sqrt(np.clip(spot**2 - pixels**2, 0.04, None))
+    if blur.kind == "psf_quadratic":
+        pixels2 = blur.pixel_variance_px2
+    else:
+        pixels2 = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor) ** 2
+    return np.sqrt(np.clip(spot**2 - pixels2, 0.04, None))
 
 
 def _lamp_band(lines: LineList, desc: RigDescription) -> tuple[float, float]:
@@ -471,7 +479,9 @@ def anchor_wavelengths(
     saturation = 2**desc.spectral_camera.bit_depth - 1
     shape = {"field_degree": field_degree, "order": order}
     start = fit_dispersion(maps, desc.prism.glass, slm_shape, **shape)
-    blur = blur_from_pinholes(sweep, procedure, start, slm_shape, saturation, pinholes)
+    blur = blur_from_pinholes(
+        sweep, procedure, start, slm_shape, saturation, pinholes, desc.slm.fill_factor
+    )
     streaks = lamp_streaks(lamps, procedure, desc, start.model, blur.model)
     tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
     glass = get_glass(desc.prism.glass)

@@ -148,3 +148,23 @@ def test_model_arrays_are_read_only(synthetic):
         models.dispersion.x_coeffs[0, 0] = 1.0
     with pytest.raises(TypeError):
         models.offset["method"] = "other"
+
+
+def test_blur_psf_quadratic_adds_the_pixel_boxes_and_round_trips():
+    blur = BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=0.16)
+    lam = np.array([400.0, 550.0, 700.0])
+    psf = 0.5 + 2.0 * ((lam - 550.0) / 150.0) ** 2
+    np.testing.assert_allclose(blur.sigma(lam), np.sqrt(psf**2 + 0.16))
+    entry = blur.to_manifest()
+    assert entry["model"] == "psf_quadratic" and entry["pixel_variance_px2"] == 0.16
+    again = BlurModel.from_manifest(entry)
+    np.testing.assert_array_equal(again.sigma(lam), blur.sigma(lam))
+    # A bundle of the plain quadratic reads and writes as before (no new key).
+    plain = BlurModel((1.0, 0.0, 3.0), 520.0, 115.0, 2.5).to_manifest()
+    assert plain["model"] == "quadratic" and "pixel_variance_px2" not in plain
+    assert BlurModel.from_manifest(plain).pixel_variance_px2 == 0.0
+    del entry["pixel_variance_px2"]
+    with pytest.raises(BundleSchemaError, match="lacks pixel_variance_px2"):
+        BlurModel.from_manifest(entry)
+    with pytest.raises(BundleSchemaError, match="must be >= 0"):
+        BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=-0.1)

@@ -97,10 +97,19 @@ def test_blur_width_matches_truth(calibrated):
     rig, result, _ = calibrated
     t = truth(rig)
     lasers = result.blur.wavelengths_nm
-    # Issue target 0.2 px; measured within 0.06 px.
-    assert result.blur.model.sigma(lasers) == pytest.approx(t.line_spread_sigma_px(lasers), abs=0.1)
-    band = np.linspace(420, 690, 28)
-    assert np.abs(result.blur.model.sigma(band) - t.line_spread_sigma_px(band)).max() <= 0.1
+    # Issue target 0.2 px: the measured spot widths, and what the model predicts a camera
+    # measures at the lasers.
+    spot = t.line_spread_sigma_px(lasers)
+    assert result.blur.measured_sigma_px == pytest.approx(spot, rel=0.01)
+    assert result.blur.measured_sigma_px + result.blur.residual_px == pytest.approx(spot, abs=0.1)
+    # Between and beyond the lasers, relative to the spot before the camera pixel (what the
+    # bundle's blur is: its users integrate it over camera pixels): the PSF's quadratic with
+    # the SLM pixel's image in quadrature (the paper's quadratic through the spot widths was
+    # 4.5 % off the spot at 580-600 nm on the chain's bundle).
+    band = np.arange(450.0, 691.0, 10.0)
+    error = result.blur.model.sigma(band) / np.sqrt(t.line_spread_sigma_px(band) ** 2 - 1 / 12) - 1
+    assert result.blur.model.kind == "psf_quadratic"
+    assert np.abs(error).max() <= 0.01
 
 
 def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):
