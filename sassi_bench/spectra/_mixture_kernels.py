@@ -32,6 +32,8 @@ from numba import njit
 
 from sassi_bench.spectra._kernels import _reach_runs, _solve_band, normal_cdf
 
+_HALF_ROOT3 = 0.5 * math.sqrt(3.0)
+
 
 @njit(nogil=True, error_model="numpy", inline="always")
 def _source_weights(
@@ -111,11 +113,21 @@ def _finish_nodes(a0, a1, b1sq, n1, n2, m2, nodes):  # pragma: no cover - compil
     scale = math.sqrt((d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * (b1sq + b2sq)) / 6.0)
     det = d0 * (d1 * d2 - b2sq) - b1sq * d2
     r = min(max(0.5 * det / (scale * scale * scale), -1.0), 1.0)
-    phi = math.acos(r) / 3.0
+    # cos(phi + 2 pi q / 3), phi = acos(r) / 3, from cos(phi) and sin(phi) >= 0: one
+    # cosine where three took a fifth of the nodes' time.
+    cosine = math.cos(math.acos(r) / 3.0)
+    sine = math.sqrt(max(1.0 - cosine * cosine, 0.0))
+    inverse_b1 = 1.0 / b1
+    inverse_b2 = 1.0 / b2
     for q in range(3):
-        node = mean + 2.0 * scale * math.cos(phi + 2.0 * math.pi * q / 3.0)
-        p1 = (node - a0) / b1
-        p2 = ((node - a1) * p1 - b1) / b2
+        turned = cosine
+        if q == 1:
+            turned = -0.5 * cosine - _HALF_ROOT3 * sine
+        elif q == 2:
+            turned = -0.5 * cosine + _HALF_ROOT3 * sine
+        node = mean + 2.0 * scale * turned
+        p1 = (node - a0) * inverse_b1
+        p2 = ((node - a1) * p1 - b1) * inverse_b2
         nodes[2 * q] = 1.0 / (1.0 + p1 * p1 + p2 * p2)
         nodes[2 * q + 1] = node
 
