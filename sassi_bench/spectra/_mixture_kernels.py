@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sassi_bench.spectra._kernels import _reach_runs, _solve_band, normal_cdf
+from sassi_bench.spectra._kernels import _solve_band, normal_cdf
 
 _HALF_ROOT3 = 0.5 * math.sqrt(3.0)
 
@@ -237,15 +237,16 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
 
     As :func:`sassi_bench.spectra._kernels.unmix_rows` does for one blur a bin: the
     systems of all bins of a column are built and solved together, bins innermost, each
-    distance ``d`` only over the runs of bins that reach it; a cell's upper edge is the
+    distance ``d`` only for the bins that reach it; a cell's upper edge is the
     previous cell's lower edge where they touch, so each node's Gaussian integral there is
     evaluated once for both; diagonally dominant systems are eliminated without pivoting,
     all bins at once, any other alone with partial pivoting.
     """
     groups, stack = index.shape
     count = bins.size
-    starts, stops, counts = _reach_runs(reach)
-    w = counts.size - 1  # the widest reach
+    w = 0
+    for j in range(count):
+        w = max(w, reach[j])
     band = np.zeros((stack, 2 * w + 1, count))  # band[s, d + w, j] = A_j[s, s + d]
     x = np.empty((stack, count))
     previous = np.zeros((2 * w + 1, count, 3))  # node CDFs at the previous cell's lower edge
@@ -275,26 +276,27 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
             for d in range(-min(w, s), min(w, size - 1 - s) + 1):
                 m = index[g, s + d]
                 k = abs(d)
-                for run in range(counts[k]):
-                    for j in range(starts[k, run], stops[k, run]):
-                        b = bins[j]
-                        top, bottom = lo[n, b], hi[n, b]
-                        # Pixel m at this cell's upper edge: the previous cell's lower edge.
-                        shared = up >= 0 and d < reach[j] and top == hi[up, b]
-                        centre = nodes[m, j, 6]
-                        value = 0.0
-                        for q in range(3):
-                            weight = nodes[m, j, 2 * q]
-                            if weight != 0.0:
-                                scale = inverse[s + d, j, q]
-                                lower = normal_cdf((bottom - centre) * scale, table)
-                                if shared:
-                                    upper = previous[d + 1 + w, j, q]
-                                else:
-                                    upper = normal_cdf((top - centre) * scale, table)
-                                current[d + w, j, q] = lower
-                                value += weight * (lower - upper)
-                        band[s, d + w, j] = value
+                for j in range(count):
+                    if reach[j] < k:
+                        continue
+                    b = bins[j]
+                    top, bottom = lo[n, b], hi[n, b]
+                    # Pixel m at this cell's upper edge: the previous cell's lower edge.
+                    shared = up >= 0 and d < reach[j] and top == hi[up, b]
+                    centre = nodes[m, j, 6]
+                    value = 0.0
+                    for q in range(3):
+                        weight = nodes[m, j, 2 * q]
+                        if weight != 0.0:
+                            scale = inverse[s + d, j, q]
+                            lower = normal_cdf((bottom - centre) * scale, table)
+                            if shared:
+                                upper = previous[d + 1 + w, j, q]
+                            else:
+                                upper = normal_cdf((top - centre) * scale, table)
+                            current[d + w, j, q] = lower
+                            value += weight * (lower - upper)
+                    band[s, d + w, j] = value
             previous, current = current, previous
             for j in range(count):
                 x[s, j] = sums[n, bins[j]]
@@ -324,20 +326,23 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
             last = min(w, size - 1 - k)
             for dr in range(1, last + 1):
                 r = k + dr
-                for run in range(counts[dr]):
-                    for j in range(starts[dr, run], stops[dr, run]):
-                        factor[j] = band[r, w - dr, j] / band[k, w, j]
-                        x[r, j] -= factor[j] * x[k, j]
+                for j in range(count):
+                    if reach[j] < dr:
+                        continue
+                    factor[j] = band[r, w - dr, j] / band[k, w, j]
+                    x[r, j] -= factor[j] * x[k, j]
                 for dj in range(1, last + 1):
                     level = max(dr, dj)
-                    for run in range(counts[level]):
-                        for j in range(starts[level, run], stops[level, run]):
-                            band[r, dj - dr + w, j] -= factor[j] * band[k, dj + w, j]
+                    for j in range(count):
+                        if reach[j] < level:
+                            continue
+                        band[r, dj - dr + w, j] -= factor[j] * band[k, dj + w, j]
         for i in range(size - 1, -1, -1):
             for dj in range(1, min(w, size - 1 - i) + 1):
-                for run in range(counts[dj]):
-                    for j in range(starts[dj, run], stops[dj, run]):
-                        x[i, j] -= band[i, dj + w, j] * x[i + dj, j]
+                for j in range(count):
+                    if reach[j] < dj:
+                        continue
+                    x[i, j] -= band[i, dj + w, j] * x[i + dj, j]
             for j in range(count):
                 x[i, j] /= band[i, w, j]
         for s in range(size):
