@@ -35,65 +35,129 @@ from sassi_bench.spectra._kernels import _solve_band, normal_cdf
 _HALF_ROOT3 = 0.5 * math.sqrt(3.0)
 
 
-@njit(nogil=True, error_model="numpy", inline="always")
-def _source_weights(
-    spill, sigma, y, estimate, n, point, b, lo, hi, weight, width
+@njit(nogil=True, error_model="numpy")
+def blur_nodes(
+    spill, sigma, y, first, stop, estimate, n, point, b, nodes
 ):  # pragma: no cover - compiled
-    """Weights (``weight[:hi - lo]``) and blurs (``width``) of the sources ``lo .. hi`` of
-    pixel ``n``'s light in bin ``b``'s columns (:func:`blur_nodes`), in one pass: returns
-    their total and the weighted sums of their blurs and centres."""
-    total = 0.0
-    a0 = 0.0
-    centre = 0.0
-    for k in range(lo, hi):
-        w = spill[point, b, k] * max(estimate[n, k], 0.0)
-        weight[k - lo] = w
-        width[k - lo] = sigma[point, k]
-        total += w
-        a0 += w * sigma[point, k]
-        centre += w * y[n, k]
-    if not total > 0.0:  # no estimate there: the spill alone
-        total = 0.0
-        a0 = 0.0
-        centre = 0.0
-        for k in range(lo, hi):
-            w = spill[point, b, k]
-            weight[k - lo] = w
-            total += w
-            a0 += w * sigma[point, k]
-            centre += w * y[n, k]
-    return total, a0, centre
+    """Three-node Gauss quadrature of the row blur of pixel ``n``'s light in bin ``b``'s
+    columns (:func:`mixture_nodes` of that one pixel and bin).
+
+    The light there is sources ``k`` in ``first[b] .. stop[b]`` weighted by
+    ``spill[point, b, k] * max(estimate[n, k], 0)`` (the spill alone without any
+    estimate), each blurred by ``sigma[point, k]`` about ``y[n, k]``. The Gauss nodes of
+    that discrete measure in sigma (exact for polynomials in sigma up to the fifth
+    degree) come from its three-term recurrence (Stieltjes) and the eigenvalues of the
+    3 x 3 Jacobi matrix; ``nodes = [w1, s1, w2, s2, w3, s3, centre]``, the centre being
+    the weighted mean of the sources' centres; unused nodes have weight 0.
+    """
+    out = np.empty((1, 1, 7))
+    points = np.full(1, point)
+    bins = np.full(1, b)
+    mixture_nodes(
+        points, spill, sigma, y[n : n + 1], first, stop, bins, estimate[n : n + 1], out,
+        np.empty(1),
+    )  # fmt: skip
+    nodes[:] = out[0, 0]
+
+
+@njit(nogil=True, error_model="numpy")
+def mixture_nodes(
+    points, spill, sigma, y, first, stop, bins, estimate, nodes, widest
+):  # pragma: no cover - compiled
+    """:func:`blur_nodes` of every pixel ``n`` (at field point ``points[n]``) and bin
+    ``bins[j]`` into ``nodes[n, j]``, and ``widest[j]``, the widest node of any pixel with
+    weight there.
+
+    Staged over the bins of a pixel (the sources of all its bins, then each step of the
+    recurrence for all, then the nodes) so that the bins' chains of dependent divisions
+    and roots overlap (one (pixel, bin) at a time: 3.2 against 2.6 ms a frame of 560
+    pixels x 36 bins on `sim`); written as one function, since calls passing the arrays
+    cost more than the sums themselves.
+    """
+    count = bins.size
+    sources = 1
+    for j in range(count):
+        sources = max(sources, stop[bins[j]] - first[bins[j]])
+    weight = np.empty((count, sources))
+    width = np.empty((count, sources))
+    total = np.empty(count)
+    mean = np.empty(count)  # a0 of the recurrence
+    a1 = np.empty(count)
+    b1sq = np.empty(count)
+    n1 = np.empty(count)
+    n2 = np.empty(count)
+    m2 = np.empty(count)
+    widest[:] = 0.0
+    for n in range(nodes.shape[0]):
+        point = points[n]
+        # Each bin's sources: weights and blurs, once; their total, mean blur and centre.
+        for j in range(count):
+            b = bins[j]
+            lo, hi = first[b], stop[b]
+            t = 0.0
+            a0 = 0.0
+            centre = 0.0
+            for k in range(lo, hi):
+                w = spill[point, b, k] * max(estimate[n, k], 0.0)
+                weight[j, k - lo] = w
+                width[j, k - lo] = sigma[point, k]
+                t += w
+                a0 += w * sigma[point, k]
+                centre += w * y[n, k]
+            if not t > 0.0:  # no estimate there: the spill alone
+                t = 0.0
+                a0 = 0.0
+                centre = 0.0
+                for k in range(lo, hi):
+                    w = spill[point, b, k]
+                    weight[j, k - lo] = w
+                    t += w
+                    a0 += w * sigma[point, k]
+                    centre += w * y[n, k]
+            total[j] = t
+            mean[j] = a0 / t
+            nodes[n, j, 6] = centre / t
+            for q in range(3):
+                nodes[n, j, 2 * q] = 0.0
+                nodes[n, j, 2 * q + 1] = mean[j]
+            nodes[n, j, 0] = 1.0
+        # Recurrence p1 = s - a0, p2 = (s - a1) p1 - b1sq, with norms n1, n2.
+        for j in range(count):
+            a0 = mean[j]
+            norm = 0.0
+            moment = 0.0
+            for i in range(stop[bins[j]] - first[bins[j]]):
+                p1 = width[j, i] - a0
+                norm += weight[j, i] * p1 * p1
+                moment += weight[j, i] * width[j, i] * p1 * p1
+            n1[j] = norm
+            b1sq[j] = norm / total[j]
+            a1[j] = moment / norm
+        for j in range(count):
+            a0 = mean[j]
+            if b1sq[j] > 1e-14 * a0 * a0:
+                norm = 0.0
+                moment = 0.0
+                for i in range(stop[bins[j]] - first[bins[j]]):
+                    p1 = width[j, i] - a0
+                    p2 = (width[j, i] - a1[j]) * p1 - b1sq[j]
+                    norm += weight[j, i] * p2 * p2
+                    moment += weight[j, i] * width[j, i] * p2 * p2
+                n2[j] = norm
+                m2[j] = moment
+        for j in range(count):
+            node = nodes[n, j]
+            if b1sq[j] > 1e-14 * mean[j] * mean[j]:
+                _jacobi_nodes(mean[j], a1[j], b1sq[j], n1[j], n2[j], m2[j], node)
+            for q in range(3):
+                if node[2 * q] > 0.0:
+                    widest[j] = max(widest[j], node[2 * q + 1])
 
 
 @njit(nogil=True, error_model="numpy", inline="always")
-def _recurrence(weight, width, count, a0, a1, b1sq):  # pragma: no cover - compiled
-    """Norm and first moment of ``p`` under the measure: ``p = s - a0`` when ``b1sq`` is
-    0, else ``p = (s - a1) (s - a0) - b1sq`` (the Stieltjes recurrence of
-    :func:`blur_nodes`)."""
-    norm = 0.0
-    moment = 0.0
-    for i in range(count):
-        p = width[i] - a0
-        if b1sq != 0.0:
-            p = (width[i] - a1) * p - b1sq
-        norm += weight[i] * p * p
-        moment += weight[i] * width[i] * p * p
-    return norm, moment
-
-
-@njit(nogil=True, error_model="numpy", inline="always")
-def _start_nodes(a0, total, centre, nodes):  # pragma: no cover - compiled
-    """One node at the mean blur (the degenerate measure) and the mean centre."""
-    nodes[6] = centre / total
-    for q in range(3):
-        nodes[2 * q] = 0.0
-        nodes[2 * q + 1] = a0
-    nodes[0] = 1.0
-
-
-@njit(nogil=True, error_model="numpy", inline="always")
-def _finish_nodes(a0, a1, b1sq, n1, n2, m2, nodes):  # pragma: no cover - compiled
-    """The two or three Gauss nodes from the recurrence's coefficients (Jacobi matrix)."""
+def _jacobi_nodes(a0, a1, b1sq, n1, n2, m2, nodes):  # pragma: no cover - compiled
+    """The two or three Gauss nodes from the recurrence's coefficients: the eigenvalues
+    of the Jacobi matrix, their weights from the orthogonal polynomials there."""
     b1 = math.sqrt(b1sq)
     if n2 <= 1e-14 * n1 * a0 * a0:  # two distinct blurs: the 2 x 2 Jacobi matrix
         half = 0.5 * (a0 - a1)
@@ -130,100 +194,6 @@ def _finish_nodes(a0, a1, b1sq, n1, n2, m2, nodes):  # pragma: no cover - compil
         p2 = ((node - a1) * p1 - b1) * inverse_b2
         nodes[2 * q] = 1.0 / (1.0 + p1 * p1 + p2 * p2)
         nodes[2 * q + 1] = node
-
-
-@njit(nogil=True, error_model="numpy")
-def _gauss_nodes(weight, width, count, total, a0, centre, nodes):  # pragma: no cover - compiled
-    """The three Gauss nodes of the measure ``weight[:count]`` at ``width[:count]``
-    (:func:`blur_nodes`), from its total and the weighted sums of widths and centres."""
-    a0 /= total
-    _start_nodes(a0, total, centre, nodes)
-    n1, m1 = _recurrence(weight, width, count, a0, 0.0, 0.0)
-    b1sq = n1 / total
-    if b1sq <= 1e-14 * a0 * a0:
-        return
-    a1 = m1 / n1
-    n2, m2 = _recurrence(weight, width, count, a0, a1, b1sq)
-    _finish_nodes(a0, a1, b1sq, n1, n2, m2, nodes)
-
-
-@njit(nogil=True, error_model="numpy")
-def blur_nodes(
-    spill, sigma, y, first, stop, estimate, n, point, b, nodes
-):  # pragma: no cover - compiled
-    """Three-node Gauss quadrature of the row blur of pixel ``n``'s light in bin ``b``'s
-    columns.
-
-    The light there is sources ``k`` in ``first[b] .. stop[b]`` weighted by
-    ``spill[point, b, k] * max(estimate[n, k], 0)`` (the spill alone without any
-    estimate), each blurred by ``sigma[point, k]`` about ``y[n, k]``. The Gauss nodes of
-    that discrete measure in sigma (exact for polynomials in sigma up to the fifth
-    degree) come from its three-term recurrence (Stieltjes) and the eigenvalues of the
-    3 x 3 Jacobi matrix; ``nodes = [w1, s1, w2, s2, w3, s3, centre]``, the centre being
-    the weighted mean of the sources' centres; unused nodes have weight 0.
-    """
-    lo, hi = first[b], stop[b]
-    weight = np.empty(hi - lo)
-    width = np.empty(hi - lo)
-    total, a0, centre = _source_weights(
-        spill, sigma, y, estimate, n, point, b, lo, hi, weight, width
-    )
-    _gauss_nodes(weight, width, hi - lo, total, a0, centre, nodes)
-
-
-@njit(nogil=True, error_model="numpy")
-def mixture_nodes(
-    points, spill, sigma, y, first, stop, bins, estimate, nodes, widest
-):  # pragma: no cover - compiled
-    """:func:`blur_nodes` of every pixel ``n`` and bin ``bins[j]`` into ``nodes[n, j]``,
-    and ``widest[j]``, the widest node of any pixel with weight there.
-
-    The same operations as :func:`blur_nodes`, staged over the bins of a pixel (sources,
-    then each step of the recurrence, then the nodes, each for all bins) so that the
-    bins' chains of dependent divisions and roots overlap (one (pixel, bin) at a time:
-    3.2 against 2.6 ms a frame of 560 pixels x 36 bins on `sim`).
-    """
-    count = bins.size
-    sources = 1
-    for j in range(count):
-        sources = max(sources, stop[bins[j]] - first[bins[j]])
-    weight = np.empty((count, sources))
-    width = np.empty((count, sources))
-    total = np.empty(count)
-    a0 = np.empty(count)
-    a1 = np.empty(count)
-    b1sq = np.empty(count)
-    n1 = np.empty(count)
-    n2 = np.empty(count)
-    m2 = np.empty(count)
-    widest[:] = 0.0
-    for n in range(nodes.shape[0]):
-        point = points[n]
-        for j in range(count):
-            b = bins[j]
-            lo, hi = first[b], stop[b]
-            total[j], mean, centre = _source_weights(
-                spill, sigma, y, estimate, n, point, b, lo, hi, weight[j], width[j]
-            )
-            a0[j] = mean / total[j]
-            _start_nodes(a0[j], total[j], centre, nodes[n, j])
-        for j in range(count):
-            b = bins[j]
-            n1[j], m1 = _recurrence(weight[j], width[j], stop[b] - first[b], a0[j], 0.0, 0.0)
-            b1sq[j] = n1[j] / total[j]
-            a1[j] = m1 / n1[j]
-        for j in range(count):
-            if b1sq[j] > 1e-14 * a0[j] * a0[j]:
-                b = bins[j]
-                count_j = stop[b] - first[b]
-                n2[j], m2[j] = _recurrence(weight[j], width[j], count_j, a0[j], a1[j], b1sq[j])
-        for j in range(count):
-            node = nodes[n, j]
-            if b1sq[j] > 1e-14 * a0[j] * a0[j]:
-                _finish_nodes(a0[j], a1[j], b1sq[j], n1[j], n2[j], m2[j], node)
-            for q in range(3):
-                if node[2 * q] > 0.0:
-                    widest[j] = max(widest[j], node[2 * q + 1])
 
 
 @njit(nogil=True, error_model="numpy")
