@@ -1,11 +1,31 @@
-"""Compiled loop of the row unmixing with mixed blurs (numba): see
+"""Compiled loops of the row unmixing with mixed blurs (numba): see
 :mod:`sassi_bench.spectra.row_mixture`.
 
 Why compiled: per SLM column and bin, the coupling of every stacked pixel into every
 cell within reach is a sum over the source bins whose light reaches the bin's columns
 (moments of the pixel's first-pass spectrum under the spill, then Gaussian integrals at
 three quadrature nodes), followed by one banded solve; as numpy that is Python calls per
-system and (pixels x bins x sources) temporaries. Compiled on first use in a process.
+system and (pixels x bins x sources) temporaries. Compiled on first use in a process
+(about 3 s; no on-disk cache, as for :mod:`sassi_bench.spectra._kernels`).
+
+How it is kept cheap (`sim`'s ColorChecker scan, 560 pixels x 36 mixed bins a frame;
+CPU a frame, one thread, all of :func:`~sassi_bench.spectra.row_mixture.unmix_rows_mixed`
+9.8 -> 5.1 ms measured in one run; the amplitudes are within 7e-15 of each frame's peak
+of those of the straightforward loops it replaced, one (pixel, bin) and one system at a
+time):
+
+- the nodes: a pixel's sources are weighed once, into a buffer the recurrence reads; the
+  steps of the recurrence run for all of the pixel's bins in turn, so the bins' chains of
+  divisions and roots overlap; one function, as calls passing the arrays cost more than
+  the sums; one cosine and its sine for the three eigenvalues (about 4 -> 2.4 ms);
+- the systems are built and solved as the separable kernel's are: each node's Gaussian
+  integral at an edge two touching cells share is evaluated once, each node's 1 / sigma
+  once per pixel, and the diagonally dominant systems of all bins of a column are
+  eliminated together (about 4 -> 2.3 ms).
+
+Not taken: the nodes from six shifted power moments in a single pass over the sources
+(no faster here, and up to 1.3e-8 of the peak off where a third node is faint: the
+moments cancel).
 """
 
 from __future__ import annotations
@@ -17,13 +37,7 @@ from numba import njit
 
 from sassi_bench.spectra._kernels import _solve_band, normal_cdf
 
-
-@njit(nogil=True, error_model="numpy")
-def _weight(spill, estimate, point, b, n, k, use_spill):  # pragma: no cover - compiled
-    """Weight of source ``k`` in pixel ``n``'s light in bin ``b``'s columns."""
-    if use_spill:
-        return spill[point, b, k]
-    return spill[point, b, k] * max(estimate[n, k], 0.0)
+_HALF_ROOT3 = 0.5 * math.sqrt(3.0)
 
 
 @njit(nogil=True, error_model="numpy")
@@ -31,7 +45,7 @@ def blur_nodes(
     spill, sigma, y, first, stop, estimate, n, point, b, nodes
 ):  # pragma: no cover - compiled
     """Three-node Gauss quadrature of the row blur of pixel ``n``'s light in bin ``b``'s
-    columns.
+    columns (:func:`mixture_nodes` of that one pixel and bin).
 
     The light there is sources ``k`` in ``first[b] .. stop[b]`` weighted by
     ``spill[point, b, k] * max(estimate[n, k], 0)`` (the spill alone without any
@@ -41,45 +55,114 @@ def blur_nodes(
     3 x 3 Jacobi matrix; ``nodes = [w1, s1, w2, s2, w3, s3, centre]``, the centre being
     the weighted mean of the sources' centres; unused nodes have weight 0.
     """
-    lo, hi = first[b], stop[b]
-    total = 0.0
-    for k in range(lo, hi):
-        total += spill[point, b, k] * max(estimate[n, k], 0.0)
-    use_spill = not total > 0.0
-    total = 0.0
-    a0 = 0.0
-    centre = 0.0
-    for k in range(lo, hi):
-        weight = _weight(spill, estimate, point, b, n, k, use_spill)
-        total += weight
-        a0 += weight * sigma[point, k]
-        centre += weight * y[n, k]
-    a0 /= total
-    nodes[6] = centre / total
-    for q in range(3):
-        nodes[2 * q] = 0.0
-        nodes[2 * q + 1] = a0
-    nodes[0] = 1.0
-    # Recurrence p1 = s - a0, p2 = (s - a1) p1 - b1sq, with norms n1, n2.
-    n1 = 0.0
-    m1 = 0.0
-    for k in range(lo, hi):
-        weight = _weight(spill, estimate, point, b, n, k, use_spill)
-        p1 = sigma[point, k] - a0
-        n1 += weight * p1 * p1
-        m1 += weight * sigma[point, k] * p1 * p1
-    b1sq = n1 / total
-    if b1sq <= 1e-14 * a0 * a0:
-        return
-    a1 = m1 / n1
-    n2 = 0.0
-    m2 = 0.0
-    for k in range(lo, hi):
-        weight = _weight(spill, estimate, point, b, n, k, use_spill)
-        p1 = sigma[point, k] - a0
-        p2 = (sigma[point, k] - a1) * p1 - b1sq
-        n2 += weight * p2 * p2
-        m2 += weight * sigma[point, k] * p2 * p2
+    out = np.empty((1, 1, 7))
+    points = np.full(1, point)
+    bins = np.full(1, b)
+    mixture_nodes(
+        points, spill, sigma, y[n : n + 1], first, stop, bins, estimate[n : n + 1], out,
+        np.empty(1),
+    )  # fmt: skip
+    nodes[:] = out[0, 0]
+
+
+@njit(nogil=True, error_model="numpy")
+def mixture_nodes(
+    points, spill, sigma, y, first, stop, bins, estimate, nodes, widest
+):  # pragma: no cover - compiled
+    """:func:`blur_nodes` of every pixel ``n`` (at field point ``points[n]``) and bin
+    ``bins[j]`` into ``nodes[n, j]``, and ``widest[j]``, the widest node of any pixel with
+    weight there.
+
+    Staged over the bins of a pixel (the sources of all its bins, then each step of the
+    recurrence for all, then the nodes) so that the bins' chains of dependent divisions
+    and roots overlap (one (pixel, bin) at a time: 3.2 against 2.6 ms a frame of 560
+    pixels x 36 bins on `sim`); written as one function, since calls passing the arrays
+    cost more than the sums themselves.
+    """
+    count = bins.size
+    sources = 1
+    for j in range(count):
+        sources = max(sources, stop[bins[j]] - first[bins[j]])
+    weight = np.empty((count, sources))
+    width = np.empty((count, sources))
+    total = np.empty(count)
+    mean = np.empty(count)  # a0 of the recurrence
+    a1 = np.empty(count)
+    b1sq = np.empty(count)
+    n1 = np.empty(count)
+    n2 = np.empty(count)
+    m2 = np.empty(count)
+    widest[:] = 0.0
+    for n in range(nodes.shape[0]):
+        point = points[n]
+        # Each bin's sources: weights and blurs, once; their total, mean blur and centre.
+        for j in range(count):
+            b = bins[j]
+            lo, hi = first[b], stop[b]
+            t = 0.0
+            a0 = 0.0
+            centre = 0.0
+            for k in range(lo, hi):
+                w = spill[point, b, k] * max(estimate[n, k], 0.0)
+                weight[j, k - lo] = w
+                width[j, k - lo] = sigma[point, k]
+                t += w
+                a0 += w * sigma[point, k]
+                centre += w * y[n, k]
+            if not t > 0.0:  # no estimate there: the spill alone
+                t = 0.0
+                a0 = 0.0
+                centre = 0.0
+                for k in range(lo, hi):
+                    w = spill[point, b, k]
+                    weight[j, k - lo] = w
+                    t += w
+                    a0 += w * sigma[point, k]
+                    centre += w * y[n, k]
+            total[j] = t
+            mean[j] = a0 / t
+            nodes[n, j, 6] = centre / t
+            for q in range(3):
+                nodes[n, j, 2 * q] = 0.0
+                nodes[n, j, 2 * q + 1] = mean[j]
+            nodes[n, j, 0] = 1.0
+        # Recurrence p1 = s - a0, p2 = (s - a1) p1 - b1sq, with norms n1, n2.
+        for j in range(count):
+            a0 = mean[j]
+            norm = 0.0
+            moment = 0.0
+            for i in range(stop[bins[j]] - first[bins[j]]):
+                p1 = width[j, i] - a0
+                norm += weight[j, i] * p1 * p1
+                moment += weight[j, i] * width[j, i] * p1 * p1
+            n1[j] = norm
+            b1sq[j] = norm / total[j]
+            a1[j] = moment / norm
+        for j in range(count):
+            a0 = mean[j]
+            if b1sq[j] > 1e-14 * a0 * a0:
+                norm = 0.0
+                moment = 0.0
+                for i in range(stop[bins[j]] - first[bins[j]]):
+                    p1 = width[j, i] - a0
+                    p2 = (width[j, i] - a1[j]) * p1 - b1sq[j]
+                    norm += weight[j, i] * p2 * p2
+                    moment += weight[j, i] * width[j, i] * p2 * p2
+                n2[j] = norm
+                m2[j] = moment
+        for j in range(count):
+            node = nodes[n, j]
+            if b1sq[j] > 1e-14 * mean[j] * mean[j]:
+                _jacobi_nodes(mean[j], a1[j], b1sq[j], n1[j], n2[j], m2[j], node)
+            for q in range(3):
+                if node[2 * q] > 0.0:
+                    widest[j] = max(widest[j], node[2 * q + 1])
+
+
+@njit(nogil=True, error_model="numpy", inline="always")
+def _jacobi_nodes(a0, a1, b1sq, n1, n2, m2, nodes):  # pragma: no cover - compiled
+    """The two or three Gauss nodes from the recurrence's coefficients: the eigenvalues
+    of the Jacobi matrix, their weights from the orthogonal polynomials there."""
     b1 = math.sqrt(b1sq)
     if n2 <= 1e-14 * n1 * a0 * a0:  # two distinct blurs: the 2 x 2 Jacobi matrix
         half = 0.5 * (a0 - a1)
@@ -99,23 +182,23 @@ def blur_nodes(
     scale = math.sqrt((d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * (b1sq + b2sq)) / 6.0)
     det = d0 * (d1 * d2 - b2sq) - b1sq * d2
     r = min(max(0.5 * det / (scale * scale * scale), -1.0), 1.0)
-    phi = math.acos(r) / 3.0
+    # cos(phi + 2 pi q / 3), phi = acos(r) / 3, from cos(phi) and sin(phi) >= 0: one
+    # cosine where three took a fifth of the nodes' time.
+    cosine = math.cos(math.acos(r) / 3.0)
+    sine = math.sqrt(max(1.0 - cosine * cosine, 0.0))
+    inverse_b1 = 1.0 / b1
+    inverse_b2 = 1.0 / b2
     for q in range(3):
-        node = mean + 2.0 * scale * math.cos(phi + 2.0 * math.pi * q / 3.0)
-        p1 = (node - a0) / b1
-        p2 = ((node - a1) * p1 - b1) / b2
+        turned = cosine
+        if q == 1:
+            turned = -0.5 * cosine - _HALF_ROOT3 * sine
+        elif q == 2:
+            turned = -0.5 * cosine + _HALF_ROOT3 * sine
+        node = mean + 2.0 * scale * turned
+        p1 = (node - a0) * inverse_b1
+        p2 = ((node - a1) * p1 - b1) * inverse_b2
         nodes[2 * q] = 1.0 / (1.0 + p1 * p1 + p2 * p2)
         nodes[2 * q + 1] = node
-
-
-@njit(nogil=True, error_model="numpy")
-def mixture_nodes(
-    points, spill, sigma, y, first, stop, bins, estimate, nodes
-):  # pragma: no cover - compiled
-    """:func:`blur_nodes` of every pixel ``n`` and bin ``bins[j]`` into ``nodes[n, j]``."""
-    for n in range(nodes.shape[0]):
-        for j in range(bins.size):
-            blur_nodes(spill, sigma, y, first, stop, estimate, n, points[n], bins[j], nodes[n, j])
 
 
 @njit(nogil=True, error_model="numpy")
@@ -124,38 +207,121 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
 
     Per SLM column (``index``: (G, S) pixels top to bottom, -1 pads) and bin
     ``b = bins[j]``, the banded system ``A[s, s + d]`` (``|d| <= reach[j]``) is the light
-    of pixel ``s + d`` in cell ``s`` under its blur ``nodes[n, j]`` (:func:`blur_nodes`),
-    solved by banded LU with partial pivoting; ``out[:, b]`` is overwritten for those
-    bins only.
+    of pixel ``s + d`` in cell ``s`` under its blur ``nodes[n, j]`` (:func:`blur_nodes`);
+    ``out[:, b]`` is overwritten for those bins only.
+
+    As :func:`sassi_bench.spectra._kernels.unmix_rows` does for one blur a bin: the
+    systems of all bins of a column are built and solved together, bins innermost, each
+    distance ``d`` only for the bins that reach it; a cell's upper edge is the
+    previous cell's lower edge where they touch, so each node's Gaussian integral there is
+    evaluated once for both; diagonally dominant systems are eliminated without pivoting,
+    all bins at once, any other alone with partial pivoting.
     """
     groups, stack = index.shape
-    widest = 0
-    for j in range(bins.size):
-        widest = max(widest, reach[j])
-    band = np.zeros((stack, 3 * widest + 1))
-    x = np.empty(stack)
+    count = bins.size
+    w = 0
+    for j in range(count):
+        w = max(w, reach[j])
+    band = np.zeros((stack, 2 * w + 1, count))  # band[s, d + w, j] = A_j[s, s + d]
+    x = np.empty((stack, count))
+    previous = np.zeros((2 * w + 1, count, 3))  # node CDFs at the previous cell's lower edge
+    current = np.zeros((2 * w + 1, count, 3))
+    rest = np.empty(count)
+    dominant = np.empty(count, dtype=np.bool_)
+    factor = np.empty(count)
+    alone = np.empty((stack, 3 * w + 1))
+    alone_x = np.empty(stack)
+    inverse = np.empty((stack, count, 3))
     for g in range(groups):
         size = 0
         while size < stack and index[g, size] >= 0:
             size += 1
-        for j in range(bins.size):
-            b = bins[j]
-            p = reach[j]
-            band[:size, : 3 * p + 1] = 0.0
-            for s in range(size):
-                n = index[g, s]
-                for d in range(-min(p, s), min(p, size - 1 - s) + 1):
-                    node = nodes[index[g, s + d], j]
+        # Entries are written only where a bin reaches; near the end of the stack, entries
+        # beyond it may still hold those of a longer stack.
+        band[max(0, size - w) : size] = 0.0
+        for s in range(size):  # each node's 1 / sigma, once per pixel
+            m = index[g, s]
+            for j in range(count):
+                for q in range(3):
+                    if nodes[m, j, 2 * q] != 0.0:
+                        inverse[s, j, q] = 1.0 / nodes[m, j, 2 * q + 1]
+        for s in range(size):
+            n = index[g, s]
+            up = index[g, s - 1] if s > 0 else -1
+            for d in range(-min(w, s), min(w, size - 1 - s) + 1):
+                m = index[g, s + d]
+                k = abs(d)
+                for j in range(count):
+                    if reach[j] < k:
+                        continue
+                    b = bins[j]
+                    top, bottom = lo[n, b], hi[n, b]
+                    # Pixel m at this cell's upper edge: the previous cell's lower edge.
+                    shared = up >= 0 and d < reach[j] and top == hi[up, b]
+                    centre = nodes[m, j, 6]
                     value = 0.0
                     for q in range(3):
-                        if node[2 * q] != 0.0:
-                            scale = 1.0 / node[2 * q + 1]
-                            value += node[2 * q] * (
-                                normal_cdf((hi[n, b] - node[6]) * scale, table)
-                                - normal_cdf((lo[n, b] - node[6]) * scale, table)
-                            )
-                    band[s, d + p] = value
-                x[s] = sums[n, b]
-            _solve_band(band, x, size, p)
-            for s in range(size):
-                out[index[g, s], b] = x[s]
+                        weight = nodes[m, j, 2 * q]
+                        if weight != 0.0:
+                            scale = inverse[s + d, j, q]
+                            lower = normal_cdf((bottom - centre) * scale, table)
+                            if shared:
+                                upper = previous[d + 1 + w, j, q]
+                            else:
+                                upper = normal_cdf((top - centre) * scale, table)
+                            current[d + w, j, q] = lower
+                            value += weight * (lower - upper)
+                    band[s, d + w, j] = value
+            previous, current = current, previous
+            for j in range(count):
+                x[s, j] = sums[n, bins[j]]
+        dominant[:] = True
+        for s in range(size):
+            rest[:] = 0.0
+            for d in range(2 * w + 1):
+                if d != w:
+                    for j in range(count):
+                        rest[j] += abs(band[s, d, j])
+            for j in range(count):
+                dominant[j] = dominant[j] and abs(band[s, w, j]) > rest[j]
+        for j in range(count):
+            if not dominant[j]:
+                p = reach[j]
+                alone[:size, : 3 * p + 1] = 0.0
+                for s in range(size):
+                    for d in range(-p, p + 1):
+                        alone[s, d + p] = band[s, d + w, j]
+                    alone_x[s] = x[s, j]
+                _solve_band(alone, alone_x, size, p)
+                for s in range(size):
+                    out[index[g, s], bins[j]] = alone_x[s]
+        # Elimination without pivoting of all bins' systems at once (the results of
+        # systems that are not dominant are discarded), as in the separable kernel.
+        for k in range(size):
+            last = min(w, size - 1 - k)
+            for dr in range(1, last + 1):
+                r = k + dr
+                for j in range(count):
+                    if reach[j] < dr:
+                        continue
+                    factor[j] = band[r, w - dr, j] / band[k, w, j]
+                    x[r, j] -= factor[j] * x[k, j]
+                for dj in range(1, last + 1):
+                    level = max(dr, dj)
+                    for j in range(count):
+                        if reach[j] < level:
+                            continue
+                        band[r, dj - dr + w, j] -= factor[j] * band[k, dj + w, j]
+        for i in range(size - 1, -1, -1):
+            for dj in range(1, min(w, size - 1 - i) + 1):
+                for j in range(count):
+                    if reach[j] < dj:
+                        continue
+                    x[i, j] -= band[i, dj + w, j] * x[i + dj, j]
+            for j in range(count):
+                x[i, j] /= band[i, w, j]
+        for s in range(size):
+            n = index[g, s]
+            for j in range(count):
+                if dominant[j]:
+                    out[n, bins[j]] = x[s, j]

@@ -27,9 +27,11 @@ more than :data:`MIXING_FLOOR` of a pixel's light across a cell edge are solved 
 
 On `sim`'s ColorChecker scan (``benchmarks/red_end_bound.py --row-mixture``) the red end
 beyond 650 nm goes from 48.2 to 49.7 dB as captured and, noise-free with the best strength
-per band, from 49.3 to 54.6 dB (55.6 dB without stacked pinholes), for about 1.8 times the
-assembly's CPU (about 9 ms a frame of 560 pixels: the quadrature nodes 4 ms, the banded
-systems 3 ms).
+per band, from 49.3 to 54.6 dB (55.6 dB without stacked pinholes). It costs about 5 ms
+of CPU a frame of 560 pixels (the quadrature nodes 2.5 ms, the banded systems 2.3 ms,
+choosing the bins 0.4 ms; :mod:`~sassi_bench.spectra._mixture_kernels` says how): about
+1.6-1.7 times the assembly's CPU once compiled (2.1 before its kernels were reworked);
+the first scan of a process also compiles them (about 3 s).
 """
 
 from __future__ import annotations
@@ -171,6 +173,7 @@ def unmix_rows_mixed(
     model = mixture.model
     points = model.point(geometry.rows, geometry.cols)
     nodes = np.empty((geometry.y.shape[0], mixed.size, 7))
+    widest = np.empty(mixed.size)  # the widest node any pixel has in each bin
     _mixture_kernels.mixture_nodes(
         points,
         np.ascontiguousarray(model.spill, dtype=np.float64),
@@ -181,9 +184,9 @@ def unmix_rows_mixed(
         mixed,
         np.ascontiguousarray(first, dtype=np.float64),
         nodes,
+        widest,
     )
-    # The reach of each bin's couplings from the widest node any pixel has there.
-    widest = np.where(nodes[..., 0:6:2] > 0.0, nodes[..., 1:6:2], 0.0).max(axis=(0, 2))
+    # The reach of each bin's couplings from its widest node.
     sigma = geometry.sigma.copy()
     sigma[mixed] = np.maximum(sigma[mixed], widest)
     wide = StreakGeometry(

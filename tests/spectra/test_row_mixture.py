@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sassi_bench.spectra import _mixture_kernels
+from sassi_bench.spectra import _kernels, _mixture_kernels
 from sassi_bench.spectra.cells import cell_layout, unmix_rows
 from sassi_bench.spectra.forward import StreakForwardModel, spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry
@@ -97,3 +97,79 @@ def test_blur_nodes_match_the_moments_of_the_mixture(count):
     for power in range(min(2 * count, 6)):
         assert (w * s**power).sum() == pytest.approx((weight * sigma[0] ** power).sum(), rel=1e-9)
     assert nodes[6] == pytest.approx((weight * y[0]).sum())
+
+
+def test_mixture_nodes_are_the_nodes_of_each_pixel_and_bin():
+    # Staged over bins, the nodes are those of blur_nodes one (pixel, bin) at a time,
+    # including one-blur, two-blur and no-estimate mixtures.
+    rng = np.random.default_rng(7)
+    pixels, bins, points = 9, 12, 2
+    spill = rng.uniform(0.0, 1.0, (points, bins, bins))
+    sigma = rng.uniform(1.0, 4.0, (points, bins))
+    sigma[:, 3:5] = 2.0  # bin 4's sources 3..5: two distinct blurs
+    y = rng.normal(20.0, 0.5, (pixels, bins))
+    first = np.maximum(np.arange(bins) - 3, 0)
+    stop = np.minimum(np.arange(bins) + 4, bins)
+    first[4], stop[4] = 3, 6
+    first[7], stop[7] = 7, 8  # one source
+    estimate = rng.uniform(-0.5, 2.0, (pixels, bins))
+    estimate[2] = 0.0  # nothing seen: the spill alone
+    points_of = rng.integers(0, points, pixels)
+    chosen = np.array([0, 4, 5, 7, 11])
+    nodes = np.empty((pixels, chosen.size, 7))
+    widest = np.empty(chosen.size)
+    args = (spill, sigma, y, first, stop)
+    _mixture_kernels.mixture_nodes(points_of, *args, chosen, estimate, nodes, widest)
+    expected = np.empty(7)
+    for n in range(pixels):
+        for j, b in enumerate(chosen):
+            _mixture_kernels.blur_nodes(*args, estimate, n, points_of[n], b, expected)
+            np.testing.assert_array_equal(nodes[n, j], expected)
+    assert (nodes[:, 3, 2] == 0).all() and (nodes[:, 1, 4] == 0).all()  # 1 and 2 nodes
+    np.testing.assert_array_equal(
+        widest, np.where(nodes[..., 0:6:2] > 0, nodes[..., 1:6:2], 0).max(axis=(0, 2))
+    )
+
+
+@pytest.mark.parametrize("pitch", [PITCH, 2.0, 30.0])
+def test_mixed_systems_match_dense_solves(pitch):
+    # Against dense systems of exact Gaussian integrals: touching cells (the usual
+    # pitch), a pitch finer than the blur (systems that are not diagonally dominant) and
+    # cells cut at 3 sigma (gaps between cells, no edge shared).
+    rng = np.random.default_rng(11)
+    stack, bins = 6, 5
+    sigma = np.linspace(1.2, 3.0, bins)
+    rows = np.r_[np.arange(stack), np.arange(stack - 2)]  # two SLM columns, one shorter
+    cols = np.r_[np.zeros(stack, np.intp), np.ones(stack - 2, np.intp)]
+    x_left = np.tile(50.0 + np.arange(bins), (rows.size, 1))
+    y = 20.0 + pitch * rows[:, None] + rng.normal(0.0, 0.1, (rows.size, bins))
+    geo = StreakGeometry(rows * 5, cols, x_left, x_left + 1.0, y, sigma, guard=0)
+    layout = cell_layout(geo, (400, 300))
+    chosen = np.array([1, 2, 4])
+    nodes = np.zeros((rows.size, chosen.size, 7))
+    nodes[..., 0:6:2] = rng.dirichlet(np.ones(3), (rows.size, chosen.size))
+    nodes[:, 0, 4] = 0.0  # a two-node mixture
+    nodes[:, 0, 0:4:2] /= nodes[:, 0, 0:4:2].sum(axis=1, keepdims=True)
+    nodes[..., 1:6:2] = sigma[chosen][None, :, None] * rng.uniform(0.8, 1.3, (1, 1, 3))
+    nodes[..., 6] = y[:, chosen] + rng.normal(0.0, 0.05, (rows.size, chosen.size))
+    reach = np.array([2, 3, stack - 1])
+    sums = rng.uniform(0.0, 1e4, (rows.size, bins))
+    out = np.full((rows.size, bins), -1.0)
+    _mixture_kernels.unmix_mixed(
+        sums, layout.lo, layout.hi, layout.index, chosen, reach, nodes, _kernels.CDF_TABLE, out
+    )
+    assert (out[:, [0, 3]] == -1.0).all()  # other bins untouched
+    for group in layout.index:
+        members = group[group >= 0]
+        for j, b in enumerate(chosen):
+            a = np.zeros((members.size, members.size))
+            for s, n in enumerate(members):
+                for t, m in enumerate(members):
+                    if abs(s - t) <= reach[j]:
+                        w, width, centre = nodes[m, j, 0:6:2], nodes[m, j, 1:6:2], nodes[m, j, 6]
+                        share = ndtr((layout.hi[n, b] - centre) / width)
+                        share -= ndtr((layout.lo[n, b] - centre) / width)
+                        a[s, t] = (w * share).sum()
+            expected = np.linalg.solve(a, sums[members, b])
+            scale = np.abs(expected).max()
+            np.testing.assert_allclose(out[members, b], expected, rtol=0, atol=1e-8 * scale)
