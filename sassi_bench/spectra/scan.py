@@ -342,7 +342,7 @@ class ScanAssembly:
         roi: Sequence[int] | None = None,
         deblur: bool = True,
         keep_raw: bool = False,
-        row_mixture: bool = False,
+        row_mixture: bool = True,
     ):
         rig = session.rig
         self.session, self.bundle, self.keep_raw = session, bundle, keep_raw
@@ -653,7 +653,7 @@ def assemble_scan(
     roi: Sequence[int] | None = None,
     deblur: bool = True,
     keep_raw: bool = False,
-    row_mixture: bool = False,
+    row_mixture: bool = True,
     progress: bool = True,
     workers: int | None = None,
 ) -> ScanCube:
