@@ -461,9 +461,10 @@ def trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, width):  # p
     lo_a, lo_b, hi_a, hi_b = bounds[0], bounds[1], bounds[2], bounds[3]
     if not lo_b < hi_a:
         return 0.0, 0.0, False
-    # A band holds about 2 width sqrt(n step q (1 - q)) ratios: room for four times that.
-    capacity = int(8.0 * width * np.sqrt(n * step * 0.25)) + 8 * step + 1024
-    lo_band, hi_band = np.empty(min(capacity, n)), np.empty(min(capacity, n))
+    # A band holds about 2 width sqrt(n step q (1 - q)) ratios: room for four times that
+    # and a chunk (every value of a chunk is written before the count keeps it or not).
+    capacity = min(int(8.0 * width * np.sqrt(n * step * 0.25)) + 8 * step, n) + 4096
+    lo_band, hi_band = np.empty(capacity), np.empty(capacity)
     n_lo = n_lo_band = n_mid = n_hi_band = 0
     shifted = square = middle = 0.0
     chunk = np.empty(4096)
@@ -484,18 +485,14 @@ def trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, width):  # p
             block += x if inside else 0.0
             n_mid += inside
         middle += block
-        for i in range(stop - start):
+        if max(n_lo_band, n_hi_band) + (stop - start) > capacity:
+            return 0.0, 0.0, False
+        for i in range(stop - start):  # every value written, the count kept if in a band
             x = chunk[i]
-            if (x >= lo_a) & (x <= lo_b):
-                if n_lo_band == lo_band.size:
-                    return 0.0, 0.0, False
-                lo_band[n_lo_band] = x
-                n_lo_band += 1
-            elif (x >= hi_a) & (x <= hi_b):
-                if n_hi_band == hi_band.size:
-                    return 0.0, 0.0, False
-                hi_band[n_hi_band] = x
-                n_hi_band += 1
+            lo_band[n_lo_band] = x
+            n_lo_band += (x >= lo_a) & (x <= lo_b)
+            hi_band[n_hi_band] = x
+            n_hi_band += (x >= hi_a) & (x <= hi_b)
     if not np.isfinite(shifted):  # a NaN or infinite ratio
         return 0.0, 0.0, False
     first = lowercut - n_lo  # the lower cut's position in the lower band
