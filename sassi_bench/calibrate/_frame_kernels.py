@@ -372,7 +372,7 @@ def frame_moments(frames, mean, variance):  # pragma: no cover - compiled
             variance[r, c] = square / (count - 1) if count > 1 else 0.0
 
 
-@njit(nogil=True, inline="always")
+@njit(nogil=True)
 def _ratio(frame, lit, dark, low, span, i):  # pragma: no cover - compiled
     """``(frame[lit[i]] - dark - low) / span`` in float64, as numpy's over the lit pixels."""
     j = lit[i]
@@ -410,17 +410,28 @@ def _select(values, count, rank):  # pragma: no cover - compiled
 
 
 @njit(nogil=True)
-def _band_sum(band, count, rank, upper):  # pragma: no cover - compiled
-    """Sum of the band's values at sorted positions ``>= rank`` (``<= rank`` if ``upper``)."""
-    _select(band, count, rank)
+def _chunked_sum(values, start, stop):  # pragma: no cover - compiled
+    """``values[start:stop].sum()`` in chunks of 4096 (rounding near numpy's pairwise)."""
     total = 0.0
-    if upper:
-        for i in range(rank + 1):
-            total += band[i]
-    else:
-        for i in range(rank, count):
-            total += band[i]
+    for first in range(start, stop, 4096):
+        chunk = 0.0
+        for i in range(first, min(first + 4096, stop)):
+            chunk += values[i]
+        total += chunk
     return total
+
+
+@njit(nogil=True)
+def _bracket(sample, m, rank, n, width):  # pragma: no cover - compiled
+    """The sample values ``width`` standard errors either side of the full set's ``rank``
+    (``-inf`` or ``inf`` past the sample's ends)."""
+    q = rank / n
+    at = q * (m - 1)
+    reach = width * np.sqrt(m * q * (1.0 - q)) + 2.0
+    below, above = int(np.floor(at - reach)), int(np.ceil(at + reach))
+    low = _select(sample, m, below) if below >= 0 else -np.inf
+    high = _select(sample, m, above) if above < m else np.inf
+    return low, high
 
 
 @njit(nogil=True)
@@ -449,16 +460,8 @@ def trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, width):  # p
         if not np.isfinite(sample[s]):
             return 0.0, 0.0, False
     centre = _select(sample, m, m // 2)
-    inf = np.inf
-    bounds = np.empty(4)
-    for b, rank in enumerate((lowercut, upper_cut - 1)):
-        q = rank / n
-        at = q * (m - 1)
-        reach = width * np.sqrt(m * q * (1.0 - q)) + 2.0
-        below, above = int(np.floor(at - reach)), int(np.ceil(at + reach))
-        bounds[2 * b] = _select(sample, m, below) if below >= 0 else -inf
-        bounds[2 * b + 1] = _select(sample, m, above) if above < m else inf
-    lo_a, lo_b, hi_a, hi_b = bounds[0], bounds[1], bounds[2], bounds[3]
+    lo_a, lo_b = _bracket(sample, m, lowercut, n, width)
+    hi_a, hi_b = _bracket(sample, m, upper_cut - 1, n, width)
     if not lo_b < hi_a:
         return 0.0, 0.0, False
     # A band holds about 2 width sqrt(n step q (1 - q)) ratios: room for four times that
@@ -499,7 +502,8 @@ def trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, width):  # p
     last = upper_cut - 1 - (n_lo + n_lo_band + n_mid)  # the upper cut's in the upper band
     if not (0 <= first < n_lo_band and 0 <= last < n_hi_band):
         return 0.0, 0.0, False
-    total = _band_sum(lo_band, n_lo_band, first, False) + middle
-    total += _band_sum(hi_band, n_hi_band, last, True)
+    _select(lo_band, n_lo_band, first)  # the band's values from the cut on are kept
+    _select(hi_band, n_hi_band, last)  # and those up to the cut
+    total = middle + _chunked_sum(lo_band, first, n_lo_band) + _chunked_sum(hi_band, 0, last + 1)
     variance = (square - shifted * shifted / n) / n
     return total / (upper_cut - lowercut), np.sqrt(max(variance, 0.0)), True
