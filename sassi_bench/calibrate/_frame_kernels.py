@@ -22,8 +22,8 @@ summed in another order: equal to rounding, about 1e-15 here).
 Every function works on plain arrays, releases the GIL, and (but for the trimmed mean's
 summation order) gives the same numbers as the numpy expressions it replaces (the same
 float32 and float64 operations in the same order; a test holds each to its numpy form).
-Compiled on first use in a process (about four seconds for all of them); numba's on-disk
-cache is not used, since it pickles.
+Compiled on first use in a process (about two seconds for the decoders, 1.5-2 more for
+the trimmed mean); numba's on-disk cache is not used, since it pickles.
 """
 
 from __future__ import annotations
