@@ -17,6 +17,8 @@ from sassi_bench.optics.datasets import camera_sensitivities
 
 __all__ = ["camera_sensitivities", "render_rgb", "rendering_sensitivities", "upsample_lattice"]
 
+# Values of the cube projected at a time (float64: 8 MB).
+_PROJECT_VALUES = 1 << 20
 STEP = "guide registration"
 
 
@@ -119,7 +121,7 @@ def render_rgb(
     >>> rgb.shape, float(rgb.max()), float(rgb[:, 0].max())
     ((4, 5, 3), 1.0, 0.0)
     """
-    data = np.asarray(cube, dtype=np.float64)
+    data = np.asarray(cube)
     wl = np.asarray(wavelengths_nm, dtype=np.float64)
     check_shape(
         data,
@@ -130,21 +132,35 @@ def render_rgb(
         fix="pass an (H, W, B) cube with its B bin centres",
     )
     mask = np.ones(data.shape[:2], bool) if valid is None else np.asarray(valid, bool)
-    data = np.where(mask[..., None] & np.isfinite(data), data, 0.0)
     if sensitivities is not None:
         weights = np.asarray(sensitivities, dtype=np.float64)
         check_shape(
             weights, (3, wl.size), step=STEP, name="sensitivities", fix=f"pass (3, {wl.size})"
         )
-        rgb = np.clip(data @ weights.T, 0.0, None)
+        rgb = np.clip(_project(data, mask, weights), 0.0, None)
     else:
         import colour
 
-        xyz = np.clip(data @ _cie_cmfs(wl).T, 0.0, None)
+        xyz = np.clip(_project(data, mask, _cie_cmfs(wl)), 0.0, None)
         peak = _peak(xyz[..., 1], mask, percentile)
         rgb = np.clip(colour.XYZ_to_sRGB(xyz / peak), 0.0, None)
     peak = _peak(rgb.max(axis=-1), mask, percentile)
     return np.clip(rgb / peak, 0.0, 1.0).astype(np.float32)
+
+
+def _project(
+    cube: NDArray, mask: NDArray[np.bool_], weights: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``where(mask & isfinite(cube), cube, 0) @ weights.T`` in float64, a band of rows at
+    a time: the same products (each pixel's own), without two float64 copies of the
+    whole cube (on a prototype guide cube the copies took most of the render)."""
+    out = np.empty((*cube.shape[:2], weights.shape[0]))
+    rows = max(1, _PROJECT_VALUES // max(cube.shape[1] * cube.shape[2], 1))
+    for start in range(0, cube.shape[0], rows):
+        band = np.asarray(cube[start : start + rows], dtype=np.float64)
+        keep = mask[start : start + rows, :, None] & np.isfinite(band)
+        out[start : start + rows] = np.where(keep, band, 0.0) @ weights.T
+    return out
 
 
 def _peak(plane: NDArray[np.float64], mask: NDArray[np.bool_], percentile: float) -> float:

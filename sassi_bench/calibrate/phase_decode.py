@@ -209,12 +209,14 @@ def _frame_gains(
     from all pixels) on a regular subsample of the well-modulated pixels (``usable``:
     positive offset, amplitude over a fifth of it, in a fit with equal gains).
     """
-    rows, cols = np.nonzero(usable)
+    # The flat indices, then rows and columns of the subsample only (``nonzero`` of a
+    # prototype frame made two index arrays of the whole frame: 31 ms against 2).
+    flat = np.flatnonzero(usable)
     count = stack.shape[0]
-    if rows.size < 100:
+    if flat.size < 100:
         return np.ones(count)
-    stride = max(1, rows.size // _GAIN_PIXELS)
-    rows, cols = rows[::stride], cols[::stride]
+    stride = max(1, flat.size // _GAIN_PIXELS)
+    rows, cols = np.divmod(flat[::stride], usable.shape[1])
     dark_at = dark if dark.ndim == 0 else dark[rows, cols]
     frames = np.stack([np.asarray(raw[rows, cols], dtype=np.float64) - dark_at for raw in stack])
     # With F the (S, N) frames, G = F F^T and the fit's projector P = design @ solver, the

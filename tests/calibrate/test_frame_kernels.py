@@ -132,3 +132,80 @@ def test_frame_moments_and_sums_are_numpy_s():
     for frame in frames:
         k.accumulate(frame, total)
     assert np.array_equal(total, frames.astype(np.float32).sum(0))
+
+
+def _ratio_inputs(values: np.ndarray, seed: int = 0):
+    """Frame, lit indices, dark, low and span whose ratios are ``values`` up to rounding."""
+    rng = np.random.default_rng(seed)
+    n = values.size
+    size = 2 * n + 7
+    lit = np.sort(rng.choice(size, n, replace=False))
+    span = rng.uniform(2000.0, 3000.0, n)
+    low = rng.uniform(10.0, 20.0, n)
+    dark = rng.uniform(90.0, 110.0, n)
+    frame = np.zeros(size, np.float64)
+    frame[lit] = values * span + dark + low
+    ratio = (frame[lit] - dark - low) / span
+    return frame, lit, dark, low, span, ratio
+
+
+@pytest.mark.parametrize(
+    "kind", ["normal", "heavy tails", "ties at the cuts", "spatial gradient", "uint16"]
+)
+@pytest.mark.parametrize("n", [3_001, 60_000])
+def test_trimmed_ratio_mean_is_scipy_s_trim_mean(kind, n):
+    from scipy.stats import trim_mean
+
+    rng = np.random.default_rng(n)
+    values = {
+        "normal": lambda: rng.normal(0.5, 0.05, n),
+        "heavy tails": lambda: rng.standard_cauchy(n),
+        "ties at the cuts": lambda: rng.integers(0, 7, n) / 6.0,
+        "spatial gradient": lambda: np.linspace(0.2, 0.9, n) + rng.normal(0, 0.01, n),
+        "uint16": lambda: rng.normal(0.5, 0.05, n),
+    }[kind]()
+    frame, lit, dark, low, span, ratio = _ratio_inputs(values)
+    if kind == "uint16":
+        frame = np.rint(frame).astype(np.uint16)
+        ratio = (frame[lit] - dark - low) / span
+    lowercut, step = int(0.1 * n), 16 if n < 10_000 else 128  # a sample of at least ~190
+    mean, std, ok = k.trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, 6.0)
+    assert ok
+    np.testing.assert_allclose(mean, trim_mean(ratio, 0.1), rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(std, np.std(ratio), rtol=1e-9)
+
+
+def test_trimmed_ratio_mean_uses_one_dark_level():
+    from scipy.stats import trim_mean
+
+    frame, lit, _, low, span, _ = _ratio_inputs(np.random.default_rng(3).normal(0.4, 0.1, 9000))
+    dark = np.array([100.0])
+    ratio = (frame[lit] - 100.0 - low) / span
+    mean, _, ok = k.trimmed_ratio_mean(frame, lit, dark, low, span, 900, 128, 6.0)
+    assert ok
+    np.testing.assert_allclose(mean, trim_mean(ratio, 0.1), rtol=1e-13)
+
+
+@pytest.mark.parametrize("case", ["all equal", "not finite", "a misleading sample"])
+def test_trimmed_ratio_mean_declines_what_it_cannot_place(case):
+    rng = np.random.default_rng(5)
+    values = np.full(5000, 0.5) if case == "all equal" else rng.normal(0.5, 0.05, 5000)
+    if case == "not finite":
+        values[17] = np.nan
+    if case == "a misleading sample":  # every sampled ratio far below the others
+        values[::128] = rng.uniform(0.1, 0.11, values[::128].size)
+    frame, lit, dark, low, span, _ = _ratio_inputs(values)
+    assert not k.trimmed_ratio_mean(frame, lit, dark, low, span, 500, 128, 6.0)[2]
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 10, 1000])
+def test_select_places_the_rank_th_value(n):
+    rng = np.random.default_rng(n)
+    for trial in range(20):
+        values = rng.integers(0, 5, n).astype(float) if trial % 2 else rng.random(n)
+        rank = int(rng.integers(0, n))
+        work = values.copy()
+        got = k._select(work, n, rank)
+        assert got == np.sort(values)[rank]
+        assert np.all(work[:rank] <= got) and np.all(work[rank:] >= got)
+        assert np.array_equal(np.sort(work), np.sort(values))

@@ -183,3 +183,32 @@ def test_frame_by_frame_measurement_equals_the_whole_stack_formula():
     expected = trim_mean(ratio, 0.1, axis=1)
     assert np.all(np.diff(expected) >= 0)  # so the smoothing leaves it as it is
     np.testing.assert_allclose(measured.response, expected, rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("scalar_dark", [False, True])
+def test_compiled_trimmed_mean_equals_scipy_s_on_a_large_frame(scalar_dark):
+    """Above the compiled pass's size (tens of thousands of lit pixels) the response is
+    still scipy's trimmed mean of every level's ratios, to rounding."""
+    from scipy.stats import trim_mean
+
+    from sassi_bench.calibrate import grey_response as gr
+
+    levels = np.array([0, 64, 128, 192, 255])
+    rng = np.random.default_rng(9)
+    light = 20000.0 * rng.uniform(0.2, 1.0, (256, 320))  # uneven illumination
+    t = EPS + (1 - EPS) * true_response(levels)[:, None, None]
+    frames = np.clip(rng.poisson(light * t) / 0.458 + 100, 0, 65535).astype(np.uint16)
+    dark = np.rint(100 + rng.normal(0.0, 5.0, light.shape))
+    dark = np.float64(100.0) if scalar_dark else dark
+    signal = frames.astype(np.float64) - dark
+    low, span = signal[0], signal[-1] - signal[0]
+    use = span >= 0.5 * np.percentile(span, 99.0)
+    assert use.sum() > gr._COMPILED_MIN_PIXELS  # the compiled pass, not the fallback
+    ratio = (signal[:, use] - low[use]) / span[use]
+    measured = measure_grey_response(levels, frames, dark)
+    np.testing.assert_allclose(measured.response, trim_mean(ratio, 0.1, axis=1), rtol=1e-13)
+    lit = np.flatnonzero(use)
+    dark_lit = dark if scalar_dark else dark.ravel()[lit]
+    mean, spread = gr._trimmed_ratio(frames[2], lit, dark_lit, low[use], span[use])
+    assert mean == pytest.approx(trim_mean(ratio[2], 0.1), rel=1e-13)
+    assert spread == pytest.approx(np.std(ratio[2]), rel=1e-9)

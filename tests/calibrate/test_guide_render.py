@@ -53,3 +53,24 @@ def test_upsample_lattice_keeps_pixel_centres():
     smooth = np.sin(cols / 20.0) + np.cos(rows / 7.0)
     up, ok = upsample_lattice(smooth[::2, ::2], np.ones((20, 32), bool), (2, 2), (40, 64))
     assert np.abs(up - smooth)[ok].max() < 0.01
+
+
+@pytest.mark.parametrize("cie", [False, True])
+def test_render_rgb_by_bands_of_rows_equals_the_whole_cube_projection(monkeypatch, cie):
+    """The projection a band of rows at a time gives the whole float64 cube's numbers."""
+    from sassi_bench.calibrate import guide_render as gr
+
+    rng = np.random.default_rng(2)
+    cube = rng.random((23, 17, 31), dtype=np.float32)
+    cube[3, 4, 5], cube[7, 1, 0] = np.nan, np.inf
+    valid = rng.random((23, 17)) < 0.8
+    wl = np.linspace(400, 700, 31)
+    weights = gr._cie_cmfs(wl) if cie else rng.random((3, 31))
+    data = np.asarray(cube, dtype=np.float64)
+    whole = np.where(valid[..., None] & np.isfinite(data), data, 0.0) @ weights.T
+    monkeypatch.setattr(gr, "_PROJECT_VALUES", 5 * 17 * 31)  # bands of 5 rows, one short
+    np.testing.assert_array_equal(gr._project(cube, valid, weights), whole)
+    kwargs = {} if cie else {"sensitivities": weights}
+    banded = gr.render_rgb(cube, wl, valid=valid, **kwargs)
+    monkeypatch.setattr(gr, "_PROJECT_VALUES", 1 << 30)  # one band
+    np.testing.assert_array_equal(banded, gr.render_rgb(cube, wl, valid=valid, **kwargs))
