@@ -31,7 +31,10 @@ per band, from 49.3 to 54.6 dB (55.6 dB without stacked pinholes). It costs abou
 of CPU a frame of 560 pixels (the quadrature nodes 2.5 ms, the banded systems 2.3 ms,
 choosing the bins 0.4 ms; :mod:`~sassi_bench.spectra._mixture_kernels` says how): about
 1.6-1.7 times the assembly's CPU once compiled (2.1 before its kernels were reworked);
-the first scan of a process also compiles them (about 3 s).
+the first scan of a process also compiles them (about 3 s). It is
+:func:`~sassi_bench.spectra.scan.assemble_scan`'s default: with the blur model fitted to
+the PSF the chain's chart scan on ``sim`` is 55.56 dB / 0.85 deg, against 54.33 dB / 1.17
+deg with the separable unmixing alone.
 """
 
 from __future__ import annotations

@@ -686,7 +686,8 @@ def assemble_scan(
         Unmix the stacked pixels with each one's light in a bin's columns blurred across
         the streak as the mixture of the wavelengths that reach them
         (:mod:`sassi_bench.spectra.row_mixture`) instead of with the bin's own blur alone:
-        closer at the red end, about 1.8 times the CPU of the assembly (off by default).
+        closer at the red end, about 1.6 times the CPU of the assembly. False unmixes each
+        bin with its own blur alone (the separable unmixing).
     progress
         Show progress bars.
     workers
