@@ -110,33 +110,30 @@ class RowMixture:
         moments = np.stack([(weight * sigma).sum(axis=2), (weight * sigma**2).sum(axis=2)], -1)
         return cls(model, first.astype(np.intp), stop.astype(np.intp), high, moments)
 
-    def mixed_bins(
-        self, layout: CellLayout, geometry: StreakGeometry, floor: float = MIXING_FLOOR
-    ) -> NDArray[np.intp]:
+    def mixed_bins(self, geometry: StreakGeometry, floor: float = MIXING_FLOOR) -> NDArray[np.intp]:
         """Bins where the blurs of the sources reaching them move more than ``floor`` of
-        a pixel's light across a cell edge, against the bin's own blur
-        (``geometry.sigma``), for a flat spectrum.
+        a pixel's light across a cell edge at any distance from its centre, against the
+        bin's own blur (``geometry.sigma``), for a flat spectrum.
 
         The sources' spread about the bin's own blur is their spill-weighted RMS deviation
-        (the largest over the field points); cell edges lie at least the nearest edge of
-        any cell from its centre; the share beyond an edge at ``h`` is ``Phi(-h / sigma)``.
+        (the largest over the field points); the share beyond an edge at ``h`` is
+        ``Phi(-h / sigma)``. The choice depends on the bundle alone, not on the pixels a
+        frame holds, so a region's cube is unmixed as the same region of the whole scan.
 
         Examples
         --------
-        >>> from sassi_bench.spectra.cells import cell_layout
         >>> moments = np.array([[[1.0, 1.0], [1.2, 1.2**2 + 0.04]]])  # (P, B', 2)
         >>> mix = RowMixture(None, *np.zeros((2, 2), np.intp), np.ones(2), moments)
         >>> geo = StreakGeometry(np.array([0, 5]), np.array([3, 3]), np.full((2, 2), 10.0),
         ...                      np.full((2, 2), 11.0), np.array([[4.0, 4.0], [9.0, 9.0]]),
         ...                      np.array([1.0, 1.2]), guard=0)
-        >>> mix.mixed_bins(cell_layout(geo, (20, 30)), geo).tolist()  # one blur; spread
+        >>> mix.mixed_bins(geo).tolist()  # one blur; spread
         [1]
         """
         own = geometry.sigma
         mean, square = self.moments[..., 0], self.moments[..., 1]
         spread = np.sqrt(np.maximum(square - 2.0 * own * mean + own**2, 0.0).max(axis=0))
-        nearest = np.minimum(layout.hi - geometry.y, geometry.y - layout.lo).min(axis=0)
-        h = np.maximum(nearest, 0.0)[:, None] + 0.25 * np.arange(48)
+        h = np.linspace(0.0, 6.0, 97)[None, :] * (own + spread)[:, None]
         change = np.abs(ndtr(-h / (own + spread)[:, None]) - ndtr(-h / own[:, None]))
         return np.flatnonzero(change.max(axis=1) > floor).astype(np.intp)
 
@@ -168,7 +165,7 @@ def unmix_rows_mixed(
     if first is None:
         first = unmix_rows(sums, layout, geometry, floor)
     out = np.array(first, dtype=np.float64, order="C")
-    mixed = mixture.mixed_bins(layout, geometry, mixing)
+    mixed = mixture.mixed_bins(geometry, mixing)
     if bins is not None:
         mixed = np.intersect1d(mixed, bins).astype(np.intp)
     if mixed.size == 0 or geometry.y.shape[0] == 0:

@@ -73,7 +73,7 @@ def test_one_blur_for_all_bins_leaves_the_separable_unmixing():
     layout = cell_layout(geo, (200, 300))
     separable = unmix_rows(sums, layout, geo, floor=1e-7)
     mixture = RowMixture.from_model(model)
-    assert mixture.mixed_bins(layout, geo).size == 0
+    assert mixture.mixed_bins(geo).size == 0
     # Forced through the mixture (every bin), one blur gives the same systems.
     mixed = unmix_rows_mixed(sums, layout, geo, mixture, floor=1e-7, mixing=-1.0)
     np.testing.assert_allclose(mixed, separable, rtol=1e-9, atol=1e-9 * np.abs(sums).max())

