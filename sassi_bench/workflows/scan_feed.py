@@ -34,6 +34,7 @@ def capture_scan(
     roi: Sequence[int] | None = None,
     deblur: bool = True,
     keep_raw: bool = False,
+    row_mixture: bool = True,
     progress: bool = True,
 ) -> ScanCube:
     """Capture what a scan session misses and assemble the scan as its frames are stored.
@@ -45,7 +46,7 @@ def capture_scan(
     session
         A pinhole-scan session (:func:`~sassi_bench.spectra.scan.scan_plan`), new or
         partly captured.
-    bundle, roi, deblur, keep_raw
+    bundle, roi, deblur, keep_raw, row_mixture
         As for :func:`~sassi_bench.spectra.scan.assemble_scan`.
     progress
         Show progress bars.
@@ -58,7 +59,9 @@ def capture_scan(
     --------
     >>> scan = capture_scan(rig, session, bundle, keep_raw=True)  # doctest: +SKIP
     """
-    assembly = ScanAssembly(session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw)
+    assembly = ScanAssembly(
+        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture
+    )
     stored = session.completed
     assembly.read_stored([i for i in assembly.steps if i in stored], progress=progress)
     todo = [i for i in assembly.steps if i not in stored]
