@@ -31,6 +31,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from sassi_bench.maths.order_statistics import select
+
 
 @njit(nogil=True, inline="always")
 def _min_nan(a, b):  # pragma: no cover - compiled
@@ -381,35 +383,6 @@ def _ratio(frame, lit, dark, low, span, i):  # pragma: no cover - compiled
 
 
 @njit(nogil=True)
-def _select(values, count, rank):  # pragma: no cover - compiled
-    """Quickselect (Hoare): reorder ``values[:count]`` so that ``values[rank]`` is the
-    ``rank``-th smallest, none before it larger and none after it smaller; return it.
-    The values must not be NaN. (numba's ``np.partition`` and ``sort`` took seconds to
-    compile; this loop a fraction of one.)"""
-    lo, hi = 0, count - 1
-    while lo < hi:
-        a, b, c = values[lo], values[(lo + hi) // 2], values[hi]
-        pivot = max(min(a, b), min(max(a, b), c))  # the median of the three
-        i, j = lo, hi
-        while i <= j:
-            while values[i] < pivot:
-                i += 1
-            while values[j] > pivot:
-                j -= 1
-            if i <= j:
-                values[i], values[j] = values[j], values[i]
-                i += 1
-                j -= 1
-        if rank <= j:
-            hi = j
-        elif rank >= i:
-            lo = i
-        else:  # values[j + 1 : i] all equal the pivot
-            break
-    return values[rank]
-
-
-@njit(nogil=True)
 def _chunked_sum(values, start, stop):  # pragma: no cover - compiled
     """``values[start:stop].sum()`` in chunks of 4096 (rounding near numpy's pairwise)."""
     total = 0.0
@@ -429,8 +402,8 @@ def _bracket(sample, m, rank, n, width):  # pragma: no cover - compiled
     at = q * (m - 1)
     reach = width * np.sqrt(m * q * (1.0 - q)) + 2.0
     below, above = int(np.floor(at - reach)), int(np.ceil(at + reach))
-    low = _select(sample, m, below) if below >= 0 else -np.inf
-    high = _select(sample, m, above) if above < m else np.inf
+    low = select(sample, m, below) if below >= 0 else -np.inf
+    high = select(sample, m, above) if above < m else np.inf
     return low, high
 
 
@@ -459,7 +432,7 @@ def trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, width):  # p
     for s in range(m):
         if not np.isfinite(sample[s]):
             return 0.0, 0.0, False
-    centre = _select(sample, m, m // 2)
+    centre = select(sample, m, m // 2)
     lo_a, lo_b = _bracket(sample, m, lowercut, n, width)
     hi_a, hi_b = _bracket(sample, m, upper_cut - 1, n, width)
     if not lo_b < hi_a:
@@ -502,8 +475,8 @@ def trimmed_ratio_mean(frame, lit, dark, low, span, lowercut, step, width):  # p
     last = upper_cut - 1 - (n_lo + n_lo_band + n_mid)  # the upper cut's in the upper band
     if not (0 <= first < n_lo_band and 0 <= last < n_hi_band):
         return 0.0, 0.0, False
-    _select(lo_band, n_lo_band, first)  # the band's values from the cut on are kept
-    _select(hi_band, n_hi_band, last)  # and those up to the cut
+    select(lo_band, n_lo_band, first)  # the band's values from the cut on are kept
+    select(hi_band, n_hi_band, last)  # and those up to the cut
     total = middle + _chunked_sum(lo_band, first, n_lo_band) + _chunked_sum(hi_band, 0, last + 1)
     variance = (square - shifted * shifted / n) / n
     return total / (upper_cut - lowercut), np.sqrt(max(variance, 0.0)), True

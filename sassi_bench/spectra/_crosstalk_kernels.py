@@ -33,6 +33,7 @@ import math
 import numpy as np
 from numba import njit
 
+from sassi_bench.maths.order_statistics import median
 from sassi_bench.spectra._kernels import CDF_RANGE, CDF_STEPS_PER_UNIT
 
 _JIT = {"cache": False, "nogil": True, "error_model": "numpy"}
@@ -353,43 +354,6 @@ def render_columns(col_start, top, bottom, prof_start, prof, light, out):  # pra
                 out[top[i] + q, c] += x * a[q]
 
 
-@njit(**_JIT)
-def select_median(values, n):  # pragma: no cover
-    """The median of ``values[:n]`` (reordered in place; the mean of the two middle values
-    for even ``n``, as ``np.median``): quickselect with a median-of-three pivot."""
-    k = n // 2
-    lo, hi = 0, n - 1
-    while hi > lo:
-        mid = (lo + hi) // 2
-        a, b, c = values[lo], values[mid], values[hi]
-        pivot = max(min(a, b), min(max(a, b), c))
-        i, j = lo, hi
-        while i <= j:
-            while values[i] < pivot:
-                i += 1
-            while values[j] > pivot:
-                j -= 1
-            if i <= j:
-                t = values[i]
-                values[i] = values[j]
-                values[j] = t
-                i += 1
-                j -= 1
-        if k <= j:
-            hi = j
-        elif k >= i:
-            lo = i
-        else:
-            break
-    upper = values[k]
-    if n % 2 == 1:
-        return upper
-    lower = values[0]
-    for q in range(1, k):
-        lower = max(lower, values[q])
-    return 0.5 * (lower + upper)
-
-
 @njit(**_SUMS)
 def residual_blocks(
     image, col_start, top, bottom, prof_start, prof, light, by, bx, wanted, row_of, full, medians
@@ -446,7 +410,7 @@ def residual_blocks(
                     for r in range(b0, b1):
                         buffer[n] = strip[c, r]
                         n += 1
-                medians[i, j] = select_median(buffer, n)
+                medians[i, j] = median(buffer, n)
 
 
 @njit(**_JIT)

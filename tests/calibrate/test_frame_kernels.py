@@ -196,16 +196,3 @@ def test_trimmed_ratio_mean_declines_what_it_cannot_place(case):
         values[::128] = rng.uniform(0.1, 0.11, values[::128].size)
     frame, lit, dark, low, span, _ = _ratio_inputs(values)
     assert not k.trimmed_ratio_mean(frame, lit, dark, low, span, 500, 128, 6.0)[2]
-
-
-@pytest.mark.parametrize("n", [1, 2, 3, 10, 1000])
-def test_select_places_the_rank_th_value(n):
-    rng = np.random.default_rng(n)
-    for trial in range(20):
-        values = rng.integers(0, 5, n).astype(float) if trial % 2 else rng.random(n)
-        rank = int(rng.integers(0, n))
-        work = values.copy()
-        got = k._select(work, n, rank)
-        assert got == np.sort(values)[rank]
-        assert np.all(work[:rank] <= got) and np.all(work[rank:] >= got)
-        assert np.array_equal(np.sort(work), np.sort(values))
