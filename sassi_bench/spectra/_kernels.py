@@ -359,6 +359,42 @@ def _reach_runs(reach):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, error_model="numpy")
+def solve_undominated(
+    band, x, size, reach, cells, columns, dominant, rest, alone, alone_x, out
+):  # pragma: no cover - compiled
+    """Mark which of a column's banded systems are diagonally dominant, and solve the
+    others alone with partial pivoting (:func:`_solve_band`).
+
+    ``band[s, d + w, j]`` = ``A_j[s, s + d]`` and ``x[:, j]`` the right-hand side of system
+    ``j`` (``size`` rows, bandwidth ``reach[j]``); ``dominant[j]`` is set for each; the
+    solution of a system that is not is written to ``out[cells[s], columns[j]]``. The
+    dominant ones are left to the caller's elimination without pivoting, all at once.
+    """
+    w = (band.shape[1] - 1) // 2
+    count = dominant.size
+    dominant[:] = True
+    for s in range(size):
+        rest[:] = 0.0
+        for d in range(2 * w + 1):
+            if d != w:
+                for j in range(count):
+                    rest[j] += abs(band[s, d, j])
+        for j in range(count):
+            dominant[j] = dominant[j] and abs(band[s, w, j]) > rest[j]
+    for j in range(count):
+        if not dominant[j]:
+            p = reach[j]
+            alone[:size, : 3 * p + 1] = 0.0
+            for s in range(size):
+                for d in range(-p, p + 1):
+                    alone[s, d + p] = band[s, d + w, j]
+                alone_x[s] = x[s, j]
+            _solve_band(alone, alone_x, size, p)
+            for s in range(size):
+                out[cells[s], columns[j]] = alone_x[s]
+
+
+@njit(nogil=True, error_model="numpy")
 def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no cover - compiled
     """Amplitudes of stacked pixels from their cell sums: per SLM column and bin, the
     banded system ``A[s, s + d]`` = light of pixel ``s + d`` in cell ``s`` (Gaussian
@@ -388,6 +424,7 @@ def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no 
     factor = np.empty(bins)
     alone = np.empty((stack, 3 * w + 1))
     alone_x = np.empty(stack)
+    columns = np.arange(bins)
     for g in range(groups):
         size = 0
         while size < stack and index[g, size] >= 0:
@@ -415,26 +452,8 @@ def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no 
             previous, current = current, previous
             for b in range(bins):
                 x[s, b] = sums[n, b]
-        dominant[:] = True
-        for s in range(size):
-            rest[:] = 0.0
-            for d in range(2 * w + 1):
-                if d != w:
-                    for b in range(bins):
-                        rest[b] += abs(band[s, d, b])
-            for b in range(bins):
-                dominant[b] = dominant[b] and abs(band[s, w, b]) > rest[b]
-        for b in range(bins):
-            if not dominant[b]:
-                p = reach[b]
-                alone[:size, : 3 * p + 1] = 0.0
-                for s in range(size):
-                    for d in range(-p, p + 1):
-                        alone[s, d + p] = band[s, d + w, b]
-                    alone_x[s] = x[s, b]
-                _solve_band(alone, alone_x, size, p)
-                for s in range(size):
-                    out[index[g, s], b] = alone_x[s]
+        cells = index[g]
+        solve_undominated(band, x, size, reach, cells, columns, dominant, rest, alone, alone_x, out)
         # Elimination without pivoting of all bins' systems at once (the results of
         # systems that are not dominant are discarded). Row r = k + dr takes a multiple of
         # row k only in bins that reach dr; entry j = k + dj changes only in bins that
@@ -460,7 +479,7 @@ def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no 
             for b in range(bins):
                 x[i, b] /= band[i, w, b]
         for s in range(size):
-            n = index[g, s]
+            n = cells[s]
             for b in range(bins):
                 if dominant[b]:
                     out[n, b] = x[s, b]

@@ -35,7 +35,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sassi_bench.spectra._kernels import _solve_band, normal_cdf
+from sassi_bench.spectra._kernels import normal_cdf, solve_undominated
 
 _HALF_ROOT3 = 0.5 * math.sqrt(3.0)
 
@@ -275,26 +275,8 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
             previous, current = current, previous
             for j in range(count):
                 x[s, j] = sums[n, bins[j]]
-        dominant[:] = True
-        for s in range(size):
-            rest[:] = 0.0
-            for d in range(2 * w + 1):
-                if d != w:
-                    for j in range(count):
-                        rest[j] += abs(band[s, d, j])
-            for j in range(count):
-                dominant[j] = dominant[j] and abs(band[s, w, j]) > rest[j]
-        for j in range(count):
-            if not dominant[j]:
-                p = reach[j]
-                alone[:size, : 3 * p + 1] = 0.0
-                for s in range(size):
-                    for d in range(-p, p + 1):
-                        alone[s, d + p] = band[s, d + w, j]
-                    alone_x[s] = x[s, j]
-                _solve_band(alone, alone_x, size, p)
-                for s in range(size):
-                    out[index[g, s], bins[j]] = alone_x[s]
+        cells = index[g]
+        solve_undominated(band, x, size, reach, cells, bins, dominant, rest, alone, alone_x, out)
         # Elimination without pivoting of all bins' systems at once (the results of
         # systems that are not dominant are discarded), as in the separable kernel.
         for k in range(size):
@@ -321,7 +303,7 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
             for j in range(count):
                 x[i, j] /= band[i, w, j]
         for s in range(size):
-            n = index[g, s]
+            n = cells[s]
             for j in range(count):
                 if dominant[j]:
                     out[n, bins[j]] = x[s, j]
