@@ -341,6 +341,10 @@ class BlurModel:
         Half-width of the summation window in units of sigma.
     pixel_variance_px2
         The pixel boxes' variance (camera px²); 0 (the default) is the plain quadratic.
+    relative_error
+        The fit's own estimate of how far ``sigma`` may be off between the lasers, as a
+        fraction (the RMS of its leave-one-out errors at the inner lasers); None when the
+        fit did not state one (older bundles, three lasers).
 
     Examples
     --------
@@ -357,6 +361,7 @@ class BlurModel:
     lambda_scale_nm: float
     window_sigmas: float
     pixel_variance_px2: float = 0.0
+    relative_error: float | None = None
 
     def __post_init__(self) -> None:
         where = "models.blur"
@@ -378,6 +383,11 @@ class BlurModel:
         if pixel < 0:
             raise bad(f"{where}.pixel_variance_px2", f"must be >= 0, got {pixel!r}")
         object.__setattr__(self, "pixel_variance_px2", pixel)
+        if self.relative_error is not None:
+            error = real(self.relative_error, f"{where}.relative_error")
+            if not 0 <= error < 1:
+                raise bad(f"{where}.relative_error", f"must be in [0, 1), got {error!r}")
+            object.__setattr__(self, "relative_error", error)
 
     @property
     def kind(self) -> str:
@@ -409,6 +419,8 @@ class BlurModel:
         }
         if self.pixel_variance_px2 > 0:
             entry["pixel_variance_px2"] = self.pixel_variance_px2
+        if self.relative_error is not None:
+            entry["relative_error"] = self.relative_error
         return entry
 
     @classmethod
@@ -434,4 +446,5 @@ class BlurModel:
             lambda_scale_nm=entry["lambda_scale_nm"],
             window_sigmas=entry["window_sigmas"],
             pixel_variance_px2=entry.get("pixel_variance_px2", 0.0) if kind != "quadratic" else 0.0,
+            relative_error=entry.get("relative_error"),
         )

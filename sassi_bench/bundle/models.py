@@ -37,6 +37,8 @@ Blur (``models.blur``)
     ``window_sigmas · sigma(λ)`` rows. ``sigma`` must be positive over the bins.
     ``{"model": "psf_quadratic", ..., "pixel_variance_px2": p}``: the quadratic is the optics'
     PSF and ``sigma(λ) = sqrt(quadratic² + p)`` (the pixel boxes' variance ``p`` px² added).
+    Either may state ``"relative_error"``: the fit's estimate of how far ``sigma`` may be
+    off between the lasers (a fraction), which a deblur weighs as the forward model's error.
 
 Guide homography (``models.guide_homography``, optional)
     ``{"array": <3x3 array>, "rms_px": ..., ...}`` or null. The 3x3 matrix maps guide pixels

@@ -145,7 +145,8 @@ def blur_figure(blur):
     Returns
     -------
     matplotlib.figure.Figure
-        Spot sigma against wavelength: the fit and the measured points.
+        Spot sigma against wavelength: the fit, its stated error as a band, and the
+        measured points.
 
     Examples
     --------
@@ -157,11 +158,18 @@ def blur_figure(blur):
     label = {"psf_quadratic": "fit: PSF quadratic, pixel boxes added"}.get(
         blur.model.kind, "quadratic fit"
     )
-    ax.plot(lam, blur.model.sigma(lam), label=label)
+    sigma = blur.model.sigma(lam)
+    ax.plot(lam, sigma, label=label)
+    title = f"Blur: fit residual {blur.rms_px:.3f} px rms"
+    error = blur.model.relative_error
+    if error is not None:
+        ax.fill_between(lam, sigma * (1 - error), sigma * (1 + error), alpha=0.25, lw=0,
+                        label="its error where no laser is (leave one out)")  # fmt: skip
+        title += f", {100 * error:.1f} % between lasers"
     ax.plot(blur.wavelengths_nm, blur.measured_sigma_px, "o", label="measured (median of spots)")
     ax.set_xlabel("wavelength (nm)")
     ax.set_ylabel("spot sigma (camera px)")
-    ax.set_title(f"Blur: fit residual {blur.rms_px:.3f} px rms", fontsize=10)
+    ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     return fig
 

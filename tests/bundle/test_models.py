@@ -168,3 +168,16 @@ def test_blur_psf_quadratic_adds_the_pixel_boxes_and_round_trips():
         BlurModel.from_manifest(entry)
     with pytest.raises(BundleSchemaError, match="must be >= 0"):
         BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=-0.1)
+
+
+def test_blur_states_its_error_when_the_fit_knows_it():
+    stated = BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, 0.16, relative_error=0.012)
+    entry = stated.to_manifest()
+    assert entry["relative_error"] == 0.012
+    assert BlurModel.from_manifest(entry).relative_error == 0.012
+    del entry["relative_error"]  # a bundle from before the error was recorded
+    assert BlurModel.from_manifest(entry).relative_error is None
+    assert "relative_error" not in BlurModel((1.0, 0.0, 3.0), 520.0, 115.0, 2.5).to_manifest()
+    for wrong in (-0.01, 1.0):
+        with pytest.raises(BundleSchemaError, match="relative_error"):
+            BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, relative_error=wrong)

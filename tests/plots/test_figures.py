@@ -7,8 +7,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from sassi_bench.calibrate.blur import fit_blur
 from sassi_bench.plots.snapshot import reconstruction_figure
-from sassi_bench.plots.spectral import residual_maps_figure
+from sassi_bench.plots.spectral import blur_figure, residual_maps_figure
 
 
 def test_the_two_error_maps_of_the_snapshot_report_share_one_colour_scale():
@@ -49,3 +50,18 @@ def test_residual_maps_stay_readable_at_notebook_width():
     for ax in shown:
         assert ax.title.get_fontsize() * scale >= 9
         assert ax.xaxis.label.get_fontsize() * scale >= 8
+
+
+def test_the_blur_figure_draws_the_fits_stated_error_as_a_band():
+    lam = [450.0, 520.0, 532.0, 635.0, 670.0]
+    fit = fit_blur(lam, [1.3, 0.8, 0.78, 1.5, 2.3], aperture_px=1.0)
+    ax = blur_figure(fit).axes[0]
+    band = ax.collections[0].get_paths()[0].vertices[:, 1]
+    sigma = ax.lines[0].get_ydata()
+    error = fit.model.relative_error
+    assert error > 0 and f"{100 * error:.1f} % between lasers" in ax.get_title()
+    np.testing.assert_allclose(
+        [band.min(), band.max()], [sigma.min() * (1 - error), sigma.max() * (1 + error)]
+    )
+    unstated = fit_blur(lam[:3], [1.3, 0.8, 0.78])  # three lasers: nothing to leave out
+    assert not blur_figure(unstated).axes[0].collections
