@@ -102,6 +102,10 @@ class StreakForwardModel:
         (P, B', B') :func:`spill_matrix` of each field point's bins.
     guard
         Guard bins at each end; the bundle's bins are ``guard .. B' - guard``.
+    spill_error
+        (P, B', B') how far the spill may be off: the spill with every blur sigma one
+        standard error of the blur fit wider, minus ``spill`` (the bundle's
+        ``models.blur.relative_error``); None when the bundle does not state it.
     """
 
     grid_u: NDArray[np.float64]
@@ -110,6 +114,7 @@ class StreakForwardModel:
     sigma_px: NDArray[np.float64]
     spill: NDArray[np.float64]
     guard: int = GUARD_BINS
+    spill_error: NDArray[np.float64] | None = None
 
     @classmethod
     def from_bundle(
@@ -150,7 +155,13 @@ class StreakForwardModel:
                 )
             )
         sigma = clipped_blur(bundle, lam)
-        return cls(gu, gv, lam, sigma, spill_matrix(geo.x_left, geo.x_right, sigma), guard)
+        spill = spill_matrix(geo.x_left, geo.x_right, sigma)
+        error = bundle.models.blur.relative_error
+        spill_error = None
+        if error is not None:
+            wider = spill_matrix(geo.x_left, geo.x_right, sigma * (1.0 + error))
+            spill_error = wider - spill
+        return cls(gu, gv, lam, sigma, spill, guard, spill_error)
 
     @property
     def n_bins(self) -> int:

@@ -219,7 +219,10 @@ def deblur_scan(
         return None
     values = sample.values.astype(np.float64)
     seconds, var = sample.exposure, sample.variance
-    mean = MeanDeblur(model)(values / seconds[:, None], sample.rows, sample.cols, var / seconds**2)
+    # The anchor allows for the blur's stated error (the 1 % floor of a result's mean
+    # smoothed its red end, and every pixel's prior with it).
+    anchor = MeanDeblur(model, model_error="blur")
+    mean = anchor(values / seconds[:, None], sample.rows, sample.cols, var / seconds**2)
     # The strength is judged on a seeded subset of the sample (the choice's cost grows
     # with its pixels and candidates).
     picked = np.sort(

@@ -1,12 +1,16 @@
 """The streak forward model, the priors and the mean deblur, against the bench's truth."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from sassi_bench.bundle import load
 from sassi_bench.rig.sim import truth
+from sassi_bench.spectra import deblur
 from sassi_bench.spectra.deblur import MeanDeblur, SpectralDeblur
 from sassi_bench.spectra.forward import StreakForwardModel, spill_matrix
+from sassi_bench.spectra.geometry import streak_geometry
 from sassi_bench.spectra.priors import RelativeSmoothnessPrior, SmoothnessPrior
 
 
@@ -66,6 +70,56 @@ def test_a_mean_spectrum_is_recovered_at_the_red_end(model):
     expected = light[:, m.core].mean(axis=0)
     assert np.abs(mean.band / expected - 1).max() < 0.025
     assert mean.choice.rule == "reml" and mean.count == values.shape[0]
+
+
+def _sloped_light_means(m, count=200):
+    rows, cols = m.point_pixels()
+    lam = m.wavelengths_nm
+    light = np.where(lam < 720, 1000.0 + 2.0 * (lam - 400.0), 0.0)  # (P, B')
+    clean = np.einsum("pij,pj->pi", m.spill, light)
+    values = np.repeat(clean, count, axis=0)
+    variance = np.full(values.shape[0], 1e-4 * clean.mean() ** 2)
+    values += np.random.default_rng(5).normal(size=values.shape) * np.sqrt(variance)[:, None]
+    return values, np.repeat(rows, count), np.repeat(cols, count), variance
+
+
+def _spill_error(bundle, m, error):
+    """The spill with every sigma ``error`` wider, minus the spill."""
+    rows, cols = m.point_pixels()
+    geo = streak_geometry(bundle, rows, cols, m.guard)
+    return spill_matrix(geo.x_left, geo.x_right, m.sigma_px * (1 + error)) - m.spill
+
+
+def test_the_spill_error_is_the_spill_under_the_blurs_stated_error(calibrated_sim, model):
+    bundle = load(rig="sim", data=calibrated_sim[2])
+    error = bundle.models.blur.relative_error
+    assert 0 < error < 0.02  # the chain's fit states it (its leave-one-out error)
+    _, m = model
+    np.testing.assert_allclose(m.spill_error, _spill_error(bundle, m, error), rtol=0, atol=1e-12)
+
+
+def test_a_stated_blur_error_is_weighed_as_the_forward_models_error(
+    calibrated_sim, model, monkeypatch
+):
+    """Allowing for the blur's error: a stated error of zero is the noise alone (as the
+    1 % floor of the signal set to zero), a larger one gives the means' weights more
+    strength. The default allows for the floor whatever the bundle states."""
+    bundle = load(rig="sim", data=calibrated_sim[2])
+    _, m = model
+    values, rows, cols, variance = _sloped_light_means(m)
+    weights = {}
+    for stated in (0.0, 0.1, 0.3):
+        stating = dataclasses.replace(m, spill_error=_spill_error(bundle, m, stated))
+        weigh = MeanDeblur(stating, model_error="blur")
+        weights[stated] = weigh(values, rows, cols, variance).choice.value
+    floor = MeanDeblur(stating)(values, rows, cols, variance).choice.value  # the default
+    unstated = dataclasses.replace(m, spill_error=None)
+    assert floor == MeanDeblur(unstated)(values, rows, cols, variance).choice.value
+    monkeypatch.setattr(deblur, "MODEL_ERROR", 0.0)
+    assert weights[0.0] == MeanDeblur(unstated)(values, rows, cols, variance).choice.value
+    assert weights[0.0] < weights[0.1] < weights[0.3]
+    with pytest.raises(ValueError, match="model_error"):
+        MeanDeblur(m, model_error="none")
 
 
 def test_the_per_pixel_strength_is_chosen_from_the_noise(model):
