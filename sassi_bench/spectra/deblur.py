@@ -86,9 +86,9 @@ PIXEL_GUARD_WEIGHT = 0.003
 MEAN_WEIGHTS = tuple(float(a) for a in np.geomspace(1e-6, 1e2, 33))
 _MEAN_SHIFT = MEAN_WEIGHTS[0]
 
-#: The forward model's relative accuracy assumed for a bundle whose blur states no error
-#: of its own (``models.blur.relative_error``: bundles fitted before it was recorded),
-#: added to a mean's noise when its weight is judged. It was set when the blur curve,
+#: The forward model's relative accuracy, added to a mean's noise when its weight is
+#: judged (:class:`MeanDeblur`'s ``model_error="floor"``, the default, and the fallback
+#: for a bundle whose blur states no error of its own). It was set when the blur curve,
 #: extrapolated to the guard bins, was 0.1-0.3 px narrower than the light's on the sim
 #: rig, about 1 % of the signal at the band's end.
 MODEL_ERROR = 0.01
@@ -98,9 +98,10 @@ MODEL_ERROR = 0.01
 #: that error (the forward model's ``spill_error``) applied to the spectrum solved at the
 #: last pass's weight, the first at the noise alone. Measured as the scan's anchor on the
 #: chains' ColorChecker scans against the 1 % floor (PSNR / mean angle): sim 55.57 dB /
-#: 0.85 deg -> 56.87 / 0.78 (the blur's error 0.6 %, the band beyond 650 nm 48.5 -> 50.8
-#: dB), N-BK7 rig 54.93 / 0.88 -> 56.28 / 0.81, the SF10 rig 54.85 / 0.89 -> 54.82 / 0.90
-#: (11.7 %); no floor at all gave the SF10 rig 54.06 dB. A third pass changed neither.
+#: 0.85 deg -> 56.87 / 0.78 (a stated blur error of about 0.6 %; the band beyond 650 nm
+#: 48.5 -> 50.8 dB), N-BK7 rig 54.93 / 0.88 -> 56.28 / 0.81, the SF10 rig 54.85 / 0.89 ->
+#: 54.82 / 0.90 (about 12 %); no floor at all gave the SF10 rig 54.06 dB. A third pass
+#: changed neither.
 #: As the response's white it let the first bins ring (N-BK7 rig: 1.2 -> 4.0 % off the
 #: truth near 411 nm, 1.0 -> 0.4 % beyond 640 nm): an error of the model there that is
 #: not the blur's, which the floor covers; so the response and the patches keep it.
@@ -449,11 +450,9 @@ class MeanDeblur:
 
     The pixels' raw column sums are averaged per field point (their pixels share one
     spill); each field point's mean is deblurred at its noise, the pixels' variance over
-    their count plus the forward model's own error (the change of its light under the
-    blur's stated error, :data:`MODEL_ERROR_PASSES`, else :data:`MODEL_ERROR` of the
-    signal: without it the rule reads the model's error at the band's end as signal
-    when the mean has tens of thousands of pixels), and the means are averaged by pixel
-    count.
+    their count plus the forward model's own error (``model_error``, below: without it
+    the rule reads the model's error at the band's end as signal when the mean has tens
+    of thousands of pixels), and the means are averaged by pixel count.
 
     ``model_error`` says which error of the forward model the weight allows for:
     ``"floor"`` (the default), :data:`MODEL_ERROR` of the signal; ``"blur"``, the change
