@@ -33,7 +33,7 @@ def _full(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.full import run_full_calibration
     from sassi_bench.workflows.procedure import load_procedure
-    from sassi_bench.workflows.spectral_analysis import laser_line_notes
+    from sassi_bench.workflows.spectral_analysis import spectral_notes
 
     procedure = load_procedure("full_calibration", args.procedure)
     rig = open_rig(args.rig)
@@ -54,7 +54,7 @@ def _full(args: argparse.Namespace) -> int:
     )
     print(f"\nfull calibration of rig {rig.description.name!r}")
     print_checks(result.checks)
-    _print_notes(laser_line_notes(result.stages["spectral"]))
+    _print_notes(spectral_notes(result.stages["spectral"]))
     if result.bundle_path is not None:
         print(f"  bundle: {result.bundle_path}")
     else:
@@ -86,7 +86,7 @@ def _spectral(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.spectral import run_spectral_calibration
-    from sassi_bench.workflows.spectral_analysis import laser_line_notes
+    from sassi_bench.workflows.spectral_analysis import spectral_notes
 
     procedure = load_procedure("spectral_calibration", args.procedure)
     rig = open_rig(args.rig)
@@ -102,7 +102,7 @@ def _spectral(args: argparse.Namespace) -> int:
     )
     print(f"\nspectral calibration of rig {rig.description.name!r}")
     print_checks(result.checks)
-    _print_notes(laser_line_notes(result))
+    _print_notes(spectral_notes(result))
     print(
         f"  {result.dispersion.bins.count} wavelength bins, "
         f"{result.dispersion.bins.centres_nm[0]:.1f}-{result.dispersion.bins.centres_nm[-1]:.1f} nm"

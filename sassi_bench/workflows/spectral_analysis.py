@@ -38,7 +38,14 @@ from sassi_bench.workflows.spectral_decode import (
 )
 from sassi_bench.workflows.spectral_lamps import LampAnchoring, anchor_wavelengths
 
-__all__ = ["SpectralCalibration", "analyse_spectral_sweeps", "grade", "laser_line_notes"]
+__all__ = [
+    "SpectralCalibration",
+    "analyse_spectral_sweeps",
+    "blur_notes",
+    "grade",
+    "laser_line_notes",
+    "spectral_notes",
+]
 
 
 @dataclass
@@ -308,6 +315,58 @@ def analyse_spectral_sweeps(
         sweeps.sessions,
         laser_lines=lines,
     )
+
+
+#: A blur fit whose own error between the lasers (``relative_error``) exceeds this gets
+#: a note. The default benches' fits state 0.6 %; a blur curve no quadratic follows
+#: (``tests/rigs/prism-sf10.yaml``, 8 % off between its lasers) states 11.5 %.
+BLUR_NOTE_ERROR = 0.05
+
+
+def spectral_notes(result: SpectralCalibration) -> list[str]:
+    """Every note of a spectral calibration: its laser lines', then its blur's.
+
+    Examples
+    --------
+    >>> spectral_notes(result)  # doctest: +SKIP
+    ['laser 450 nm: measured 450.00 +- 0.01 nm against the HgAr, Ne lamp lines ...']
+    """
+    return laser_line_notes(result) + blur_notes(result.blur)
+
+
+def blur_notes(blur: BlurFit) -> list[str]:
+    """A note when the blur curve is uncertain between the lasers, naming where a line
+    would pin it.
+
+    Parameters
+    ----------
+    blur
+        The blur fit (its model's ``relative_error`` and the lines it was fitted at).
+
+    Returns
+    -------
+    list of str
+        One note when the fit's own error exceeds :data:`BLUR_NOTE_ERROR`, else none.
+
+    Examples
+    --------
+    >>> from sassi_bench.calibrate.blur import fit_blur
+    >>> fit = fit_blur([450, 520, 532, 635, 670], [1.0, 0.6, 0.6, 1.3, 1.7])
+    >>> print(blur_notes(fit)[0])  # doctest: +ELLIPSIS +NORMALIZE_WHITESPACE
+    blur: each laser's spot width, predicted by the fit to the others, is off by 17.2 % RMS
+    (above 5 %), ... a line in the widest gap, 532-635 nm, would pin it
+    """
+    error = blur.model.relative_error
+    if error is None or error <= BLUR_NOTE_ERROR:
+        return []
+    lines = np.sort(np.asarray(blur.wavelengths_nm, dtype=np.float64))
+    widest = int(np.argmax(np.diff(lines)))
+    return [
+        f"blur: each laser's spot width, predicted by the fit to the others, is off by "
+        f"{100 * error:.1f} % RMS (above {100 * BLUR_NOTE_ERROR:.0f} %), so the blur curve "
+        "between the lasers is uncertain (the scan's deblur allows for it); a line in "
+        f"the widest gap, {lines[widest]:.0f}-{lines[widest + 1]:.0f} nm, would pin it"
+    ]
 
 
 def laser_line_notes(result: SpectralCalibration) -> list[str]:

@@ -16,7 +16,7 @@ import numpy as np
 
 from sassi_bench.bundle import publish
 from sassi_bench.bundle.derive import stage_checks
-from sassi_bench.workflows.spectral_analysis import SpectralCalibration, laser_line_notes
+from sassi_bench.workflows.spectral_analysis import SpectralCalibration, spectral_notes
 from sassi_bench.workflows.spectral_lamps import LampAnchoring
 
 __all__ = ["anchoring_section", "publish_spectral", "quality_section", "render_figures"]
@@ -92,7 +92,7 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
             }
             for label, line in result.laser_lines.items()
         },
-        "notes": laser_line_notes(result),
+        "notes": spectral_notes(result),
     }
     if result.anchoring is not None:
         section.update(anchoring_section(result.anchoring, disp))
