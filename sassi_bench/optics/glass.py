@@ -85,7 +85,11 @@ class Glass:
         b3 = tuple(float(x) for x in np.asarray(b, dtype=np.float64).ravel())
         c3 = tuple(float(x) for x in np.asarray(c, dtype=np.float64).ravel())
         nd, nf, nc = sellmeier_index([D_LINE_NM, F_LINE_NM, C_LINE_NM], b3, c3)
-        return cls(str(name), b3, c3, float(nd), float((nd - 1) / (nf - nc)))  # type: ignore[arg-type]
+        # Coefficients that are no glass may give no dispersion at all: the rig check
+        # refuses them with its own message, so no warning here.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            vd = float((nd - 1) / (nf - nc))
+        return cls(str(name), b3, c3, float(nd), vd)  # type: ignore[arg-type]
 
 
 GLASSES: dict[str, Glass] = {
