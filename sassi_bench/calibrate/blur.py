@@ -161,6 +161,22 @@ class BlurFit:
         """RMS of the fit residuals at the measured lines."""
         return float(np.sqrt(np.mean(self.residual_px**2)))
 
+    def camera_width_px(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """The spot width a camera measures, as the model predicts it: its sigma, with the
+        camera pixel's box for a ``"psf_quadratic"`` model (which leaves that box to its
+        users). The residuals are the measured widths' difference from it.
+
+        Examples
+        --------
+        >>> fit = fit_blur([450, 520, 635, 670], [1.2, 0.8, 1.5, 2.3], aperture_px=1.0)
+        >>> bool(fit.camera_width_px(520.0) > fit.model.sigma(520.0))
+        True
+        """
+        sigma = self.model.sigma(wavelength_nm)
+        if self.model.kind == "psf_quadratic":
+            return np.sqrt(sigma**2 + CAMERA_PIXEL_VARIANCE_PX2)
+        return sigma
+
 
 def fit_blur(
     wavelengths_nm: Sequence[float],

@@ -135,7 +135,8 @@ def dispersion_figure(dispersion, lasers, slm_shape: tuple[int, int]):
 
 
 def blur_figure(blur):
-    """Measured line-spread widths at the laser lines and the quadratic fit.
+    """Measured line-spread widths at the laser lines and the fit, as a camera measures
+    them.
 
     Parameters
     ----------
@@ -158,7 +159,8 @@ def blur_figure(blur):
     label = {"psf_quadratic": "fit: PSF quadratic, pixel boxes added"}.get(
         blur.model.kind, "quadratic fit"
     )
-    sigma = blur.model.sigma(lam)
+    # What the camera measures (the camera pixel's box too), the measured points' scale.
+    sigma = blur.camera_width_px(lam)
     ax.plot(lam, sigma, label=label)
     title = f"Blur: fit residual {blur.rms_px:.3f} px rms"
     error = blur.model.relative_error

@@ -136,3 +136,14 @@ def test_the_error_estimate_is_the_leave_one_out_rms():
     fit = fit_blur(lam[::-1], widths[::-1])  # any order
     assert fit.model.relative_error == pytest.approx(np.sqrt(np.mean(np.square(missed))))
     assert fit_blur(lam[:3], widths[:3]).model.relative_error is None  # nothing to leave out
+
+
+@pytest.mark.parametrize("aperture_px", [None, 1.0])
+def test_residuals_are_the_measured_widths_against_what_a_camera_would_measure(aperture_px):
+    widths = np.array([1.3, 0.8, 0.78, 1.5, 2.3])
+    fit = fit_blur(LASERS_NM, widths, aperture_px=aperture_px)
+    np.testing.assert_allclose(fit.residual_px, fit.camera_width_px(LASERS_NM) - widths)
+    camera = 0.0 if aperture_px is None else 1.0 / 12.0  # the camera pixel's box, psf only
+    np.testing.assert_allclose(
+        fit.camera_width_px(LASERS_NM) ** 2, fit.model.sigma(LASERS_NM) ** 2 + camera
+    )

@@ -58,6 +58,7 @@ def test_the_blur_figure_draws_the_fits_stated_error_as_a_band():
     ax = blur_figure(fit).axes[0]
     band = ax.collections[0].get_paths()[0].vertices[:, 1]
     sigma = ax.lines[0].get_ydata()
+    np.testing.assert_allclose(sigma, fit.camera_width_px(ax.lines[0].get_xdata()))
     error = fit.model.relative_error
     assert error > 0 and f"{100 * error:.1f} % between lasers" in ax.get_title()
     np.testing.assert_allclose(
