@@ -105,10 +105,9 @@ def score(rig, result) -> dict[str, str]:
         agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
         laser = f"none off label (max {agree:.3f} nm)"
     band = np.linspace(420, 690, 28)
-    # A "psf_quadratic" blur leaves the camera pixel (1/12 px^2) to its users: compare the
-    # spot width it predicts a camera measures.
-    camera = 1.0 / 12.0 if cal.blur.model.kind == "psf_quadratic" else 0.0
-    spot = np.sqrt(cal.blur.model.sigma(band) ** 2 + camera)
+    # A "psf_quadratic" blur leaves the camera pixel to its users: compare the spot width
+    # it predicts a camera measures.
+    spot = cal.blur.camera_width_px(band)
     blur = float(np.abs(spot - t.line_spread_sigma_px(band)).max())
     guide_rms, _ = field_discrepancy_px(bundle.guide_to_slm, t.guide_to_slm, rig.slm.shape)
     relative = np.asarray(bundle.response) / t.relative_response(bundle.bin_edges)

@@ -343,7 +343,7 @@ class BlurModel:
         The pixel boxes' variance (camera px²); 0 (the default) is the plain quadratic.
     relative_error
         The fit's own estimate of how far ``sigma`` may be off between the lasers, as a
-        fraction (the RMS of its leave-one-out errors at the inner lasers); None when the
+        fraction (the RMS of its leave-one-laser-out errors); None when the
         fit did not state one (older bundles, three lasers).
 
     Examples
