@@ -9,8 +9,10 @@ once, a few frames in memory at a time (threads work on several frames at once):
    ``1/contrast`` of the light; plus the dark level). A camera pixel outside the
    predicted streak footprints of a frame sees only that background, and across the
    shifted frames every camera pixel is free in dozens of frames, so the background is
-   averaged per pixel over those frames. No closed-SLM frame is needed (one, when the
-   plan has it, only checks the estimate). The same pass keeps each open pixel's raw
+   averaged per pixel over those frames. The full scan needs no closed-SLM frame (one,
+   when the plan has it, checks the estimate); a scan of a few offsets (the response's)
+   leaves pixels that are never free, and those take the closed frame's value
+   (:func:`_mean_background`). The same pass keeps each open pixel's raw
    cell sums (:mod:`~sassi_bench.spectra.cells`), which are linear in the frame, in the
    cube's own memory, and flags streaks that are saturated or leave the camera.
 2. **Spectra pass.** With the background known, its cell sums are subtracted and the
@@ -163,6 +165,16 @@ def check_pitch(pitch: tuple[int, int], slm_shape: tuple[int, int]) -> tuple[int
             )
         )
     return px, py
+
+
+#: How far a pinhole's streak footprint, which its frame's background samples avoid,
+#: reaches beyond the band's end bins: blur sigmas and camera px
+#: (:func:`~sassi_bench.spectra.offset.footprint_rectangles`). Under the blue end of a
+#: streak the background is 10-25 times the pinhole's own light on ``sim``, so samples
+#: still holding 1e-3 of another streak's red end bias those bins by several per cent:
+#: with 3 sigmas and 3 px a halogen white's column sums at 403-405 nm were 3.5 % under
+#: the forward model's (noise-free frames, the response's plan), with 4 and 6 within 0.05 %.
+FOOTPRINT_REACH = (4.0, 6.0)
 
 
 def scan_plan(
@@ -390,6 +402,7 @@ class ScanAssembly:
         self.thread = threading.local()
         self.frames: list[_Frame] = []
         self.background_cumulative: NDArray[np.float64] | None = None
+        self.estimated: NDArray[np.bool_] | None = None  # pixels free in some pinhole frame
         # The frames whose every pixel chooses the deblur's regularisation, whatever the ROI
         # (scan_deblur.sample_frames), and their raw cell sums and good pixels.
         # Chosen among the plan's pinhole frames, not the ones stored yet: the frames come
@@ -452,7 +465,7 @@ class ScanAssembly:
         # Per-thread sums: integer frames sum exactly, whatever the order of the frames.
         bad = _kernels.read_window(
             window,
-            *footprint_rectangles(everything, self.box),
+            *footprint_rectangles(everything, self.box, *FOOTPRINT_REACH),
             self.saturation,
             scratch.cumulative,
             scratch.total,
@@ -526,10 +539,25 @@ class ScanAssembly:
         # The reading pass is over: free the threads' sums and buffers for the spectra pass.
         self.scratches.clear()
         self.thread = threading.local()
-        inside = _mean_background(total, count)
+        closed = self._closed_window()
+        inside = _mean_background(total, count, closed)
+        self.estimated = count > 0
         background[self.top : self.top + self.box[0]] = inside
         self.background_cumulative = column_cumsum(inside)
         return background
+
+    def _closed_window(self) -> NDArray[np.float64] | None:
+        """The closed-SLM frame's processed rows, if the plan took one at the pinholes'
+        exposure (read back now if the reading pass did not see it)."""
+        if self.closed_frame is None and self.closed_step in self.session.completed:
+            self.closed_frame = self.session.read_frame(self.closed_step)
+        if self.closed_frame is None or np.shape(self.closed_frame) != self.camera_shape:
+            return None
+        steps = self.session.plan.steps
+        exposures = {steps[index].exposure_s for index in self.pinholes}
+        if exposures != {steps[self.closed_step].exposure_s}:
+            return None
+        return np.asarray(self.closed_frame[self.top : self.top + self.box[0]], dtype=np.float64)
 
     def _unmix(self, raw, layout, geo) -> NDArray[np.float64]:
         """The row unmixing of one frame's background-free cell sums."""
@@ -617,11 +645,11 @@ class ScanAssembly:
                 ),
             )
         check = None
-        if self.closed_frame is None and self.closed_step in self.session.completed:
-            self.closed_frame = self.session.read_frame(self.closed_step)
         if self.closed_frame is not None:
-            residual = self.closed_frame - background
-            check = float(np.sqrt(np.nanmean(residual**2)))
+            # Only where the pinhole frames made the estimate: elsewhere it is this frame.
+            window = slice(self.top, self.top + self.box[0])
+            residual = (self.closed_frame[window] - background[window])[self.estimated]
+            check = float(np.sqrt(np.nanmean(residual**2))) if residual.size else None
         r0, c0, r1, _ = self.roi
         crop = slice(r0 - self.w0, r1 - self.w0)
         seconds = np.where(self.exposure > 0, self.exposure, 1.0) ** 2
@@ -711,14 +739,30 @@ def assemble_scan(
     return assembly.finish(progress=progress, workers=workers)
 
 
-def _mean_background(total: NDArray, count: NDArray) -> NDArray[np.float64]:
-    """Per-pixel mean of the free samples; pixels never free are filled from around."""
-    background = np.divide(total, count, out=np.full(total.shape, np.nan), where=count > 0)
-    if np.isnan(background).any():
-        known = ~np.isnan(background)
-        filled = estimate_background(np.nan_to_num(background), ~known)
-        background = np.where(known, background, filled.image)
-    return background
+def _mean_background(
+    total: NDArray, count: NDArray, closed: NDArray | None = None
+) -> NDArray[np.float64]:
+    """Per-pixel mean of the free samples; pixels never free are filled from around, and
+    given the closed-SLM frame, the fill is that frame plus a smooth surface through its
+    difference from the mean where pixels were free.
+
+    Where the pinholes are few (the response's 4 x 5 frames on ``sim``), 62 % of the rows
+    that streaks reach is never free, and under the blue end of a streak the background is
+    10-25 times the pinhole's own light: a fill off by 0.5 % there is 5 % off in those bins,
+    the same bins of every streak. A smooth fill misses the background's structure there;
+    the closed frame has it but not the light that only the pinhole frames carry (stray
+    light of the open pixels, a lamp's drift), which is smooth and the surface supplies.
+    """
+    known = count > 0
+    background = np.divide(total, count, out=np.full(total.shape, np.nan), where=known)
+    if known.all():
+        return background
+    if closed is not None and known.any():
+        difference = np.where(known, background - closed, 0.0)
+        surface = estimate_background(difference, ~known).image
+        return np.where(known, background, closed + surface)
+    filled = estimate_background(np.nan_to_num(background), ~known)
+    return np.where(known, background, filled.image)
 
 
 def _pixel_flags(data, geo: StreakGeometry, saturation: int, index: int, problems: list[str]):

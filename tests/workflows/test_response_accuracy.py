@@ -29,11 +29,13 @@ def test_the_response_follows_the_cameras_true_quantum_efficiency(response_bundl
     relative /= np.median(relative)
     wl = bundle.wavelengths
     # The white's column sums are averaged, then deblurred once with the blur at every
-    # bin's own wavelength (the guard bins' too): measured on the sim rig, within 2.7 %
-    # in every bin from 410 to 690 nm, where the blur spans several bins (it was up to
-    # 18 % beyond 640 nm when the guard bins took the last bin's blur).
-    inside = (wl > 410) & (wl < 690)
-    assert np.abs(relative[inside] - 1).max() < 0.03, relative.round(3)
-    assert np.abs(relative - 1).max() < 0.08, relative.round(3)
+    # bin's own wavelength (the guard bins' too): it was up to 18 % off beyond 640 nm when
+    # the guard bins took the last bin's blur. Where the response's few pinhole offsets
+    # leave pixels never free of streaks, their background is the closed frame's (plus a
+    # smooth correction): before, a smooth fill and other streaks' red tails left the
+    # first bins 2.5-6.3 % low. Measured: within 0.44 % from 401 to 640 nm, 2.3 % at 697.
+    blue_to_orange = wl < 640
+    assert np.abs(relative[blue_to_orange] - 1).max() < 0.01, relative.round(3)
+    assert np.abs(relative - 1).max() < 0.03, relative.round(3)
     # The QE itself varies several-fold over the band: a flat response would fail.
     assert expected.max() / expected.min() > 1.5
