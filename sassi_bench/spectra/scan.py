@@ -11,8 +11,8 @@ once, a few frames in memory at a time (threads work on several frames at once):
    shifted frames every camera pixel is free in dozens of frames, so the background is
    averaged per pixel over those frames. The full scan needs no closed-SLM frame (one,
    when the plan has it, checks the estimate); a scan of a few offsets (the response's)
-   leaves pixels that are never free, and those take the closed frame's value
-   (:func:`_mean_background`). The same pass keeps each open pixel's raw
+   leaves pixels that are never free, and those take the closed frame's value plus a
+   smooth correction (:func:`_mean_background`). The same pass keeps each open pixel's raw
    cell sums (:mod:`~sassi_bench.spectra.cells`), which are linear in the frame, in the
    cube's own memory, and flags streaks that are saturated or leave the camera.
 2. **Spectra pass.** With the background known, its cell sums are subtracted and the
