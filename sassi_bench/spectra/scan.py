@@ -446,6 +446,13 @@ class ScanAssembly:
         noise, and flags (the closed-SLM frame is kept to check the background)."""
         if index == self.closed_step:
             self.closed_frame = np.asarray(data)
+            if self.closed_frame.shape != self.camera_shape:
+                problem = (
+                    f"frame {index} (closed SLM): shape {self.closed_frame.shape}, expected "
+                    f"{self.camera_shape}; the background is estimated without it"
+                )
+                empty = np.zeros(0, dtype=np.intp)
+                self.frames.append(_Frame(index, empty, empty, [problem], usable=False))
             return
         problems: list[str] = []
         data = np.asarray(data)
@@ -550,7 +557,7 @@ class ScanAssembly:
         """The closed-SLM frame's processed rows, if the plan took one at the pinholes'
         exposure (read back now if the reading pass did not see it)."""
         if self.closed_frame is None and self.closed_step in self.session.completed:
-            self.closed_frame = self.session.read_frame(self.closed_step)
+            self.read(self.closed_step, self.session.read_frame(self.closed_step))
         if self.closed_frame is None or np.shape(self.closed_frame) != self.camera_shape:
             return None
         steps = self.session.plan.steps
@@ -645,7 +652,7 @@ class ScanAssembly:
                 ),
             )
         check = None
-        if self.closed_frame is not None:
+        if self.closed_frame is not None and np.shape(self.closed_frame) == self.camera_shape:
             # Only where the pinhole frames made the estimate: elsewhere it is this frame.
             window = slice(self.top, self.top + self.box[0])
             residual = (self.closed_frame[window] - background[window])[self.estimated]

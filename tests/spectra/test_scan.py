@@ -12,7 +12,13 @@ from sassi_bench.bundle import load
 from sassi_bench.rig.sim import truth
 from sassi_bench.spectra.cells import NEGLIGIBLE_COUPLING
 from sassi_bench.spectra.cube_io import write_envi, write_netcdf
-from sassi_bench.spectra.scan import QUALITY_FLAGS, _mean_background, assemble_scan, scan_plan
+from sassi_bench.spectra.scan import (
+    QUALITY_FLAGS,
+    ScanAssembly,
+    _mean_background,
+    assemble_scan,
+    scan_plan,
+)
 from sassi_bench.workflows.scan import ScanRun
 
 
@@ -217,3 +223,15 @@ def test_pixels_never_free_take_the_closed_frame_plus_the_pinhole_frames_smooth_
     # Without the closed frame the fill misses the structure by its whole height.
     filled = _mean_background(total, count)
     assert np.abs(filled - (leak + stray))[never].max() > 100.0
+
+
+def test_a_closed_frame_of_the_wrong_shape_is_reported_and_left_out(white_scan):
+    _, bundle, session, _ = white_scan
+    assembly = ScanAssembly(session, bundle, deblur=False)
+    for index in assembly.steps:
+        frame = session.read_frame(index)
+        assembly.read(index, frame[:-1] if index == assembly.closed_step else frame)
+    scan = assembly.finish(progress=False)
+    assert scan.background_check_rms is None
+    assert any("closed SLM" in line and "without it" in line for line in scan.problems)
+    assert np.isfinite(scan.cube[scan.quality == 0]).all()
