@@ -546,19 +546,27 @@ class ScanAssembly:
         # The reading pass is over: free the threads' sums and buffers for the spectra pass.
         self.scratches.clear()
         self.thread = threading.local()
-        closed = self._closed_window()
+        # The closed frame only serves pixels that were never free (the full scan has none).
+        closed = self._closed_window() if not np.all(count) else None
         inside = _mean_background(total, count, closed)
         self.estimated = count > 0
         background[self.top : self.top + self.box[0]] = inside
         self.background_cumulative = column_cumsum(inside)
         return background
 
-    def _closed_window(self) -> NDArray[np.float64] | None:
-        """The closed-SLM frame's processed rows, if the plan took one at the pinholes'
-        exposure (read back now if the reading pass did not see it)."""
+    def _closed(self) -> NDArray | None:
+        """The closed-SLM frame of the right shape, if the plan took one (read back now
+        if the reading pass did not see it)."""
         if self.closed_frame is None and self.closed_step in self.session.completed:
             self.read(self.closed_step, self.session.read_frame(self.closed_step))
         if self.closed_frame is None or np.shape(self.closed_frame) != self.camera_shape:
+            return None
+        return self.closed_frame
+
+    def _closed_window(self) -> NDArray[np.float64] | None:
+        """The closed-SLM frame's processed rows, if the plan took one at the pinholes'
+        exposure."""
+        if self._closed() is None:
             return None
         steps = self.session.plan.steps
         exposures = {steps[index].exposure_s for index in self.pinholes}
@@ -638,6 +646,7 @@ class ScanAssembly:
         ScanCube
         """
         workers = max(1, workers or os.cpu_count() or 1)
+        self._closed()  # read back now if the reading pass missed it: its problems count too
         frames = sorted(self.frames, key=lambda frame: frame.index)
         # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and
         # BLAS's spinning threads contend with ours or with any other load (deblurring one
@@ -652,10 +661,11 @@ class ScanAssembly:
                 ),
             )
         check = None
-        if self.closed_frame is not None and np.shape(self.closed_frame) == self.camera_shape:
+        closed = self._closed()
+        if closed is not None:
             # Only where the pinhole frames made the estimate: elsewhere it is this frame.
             window = slice(self.top, self.top + self.box[0])
-            residual = (self.closed_frame[window] - background[window])[self.estimated]
+            residual = (closed[window] - background[window])[self.estimated]
             check = float(np.sqrt(np.nanmean(residual**2))) if residual.size else None
         r0, c0, r1, _ = self.roi
         crop = slice(r0 - self.w0, r1 - self.w0)
