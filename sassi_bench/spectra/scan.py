@@ -402,7 +402,6 @@ class ScanAssembly:
         self.thread = threading.local()
         self.frames: list[_Frame] = []
         self.background_cumulative: NDArray[np.float64] | None = None
-        self.estimated: NDArray[np.bool_] | None = None  # pixels free in some pinhole frame
         # The frames whose every pixel chooses the deblur's regularisation, whatever the ROI
         # (scan_deblur.sample_frames), and their raw cell sums and good pixels.
         # Chosen among the plan's pinhole frames, not the ones stored yet: the frames come
@@ -536,8 +535,10 @@ class ScanAssembly:
         with threadpool_limits(limits=1, user_api="blas"):
             _run_frames(task, list(indices), "scan frames", progress, workers)
 
-    def _background(self) -> NDArray[np.float64]:
-        """The background estimate on the whole camera (NaN where no light reaches)."""
+    def _background(self, closed: NDArray | None) -> tuple[NDArray[np.float64], float | None]:
+        """The background estimate on the whole camera (NaN where no light reaches), and
+        its RMS difference from the ``closed`` SLM frame where the pinhole frames made it
+        (None without a closed frame)."""
         background = np.full(self.camera_shape, np.nan)
         total, count = np.zeros(self.box), np.zeros(self.box, dtype=np.int64)
         for scratch in self.scratches:
@@ -546,13 +547,27 @@ class ScanAssembly:
         # The reading pass is over: free the threads' sums and buffers for the spectra pass.
         self.scratches.clear()
         self.thread = threading.local()
-        # The closed frame only serves pixels that were never free (the full scan has none).
-        closed = self._closed_window() if not np.all(count) else None
-        inside = _mean_background(total, count, closed)
-        self.estimated = count > 0
-        background[self.top : self.top + self.box[0]] = inside
+        rows = slice(self.top, self.top + self.box[0])
+        # The closed frame fills only pixels that were never free (the full scan has none),
+        # and only at the pinholes' exposure.
+        steps = self.session.plan.steps
+        fill = None
+        if (
+            closed is not None
+            and not np.all(count)
+            and {steps[index].exposure_s for index in self.pinholes}
+            == {steps[self.closed_step].exposure_s}
+        ):
+            fill = np.asarray(closed[rows], dtype=np.float64)
+        inside = _mean_background(total, count, fill)
+        background[rows] = inside
         self.background_cumulative = column_cumsum(inside)
-        return background
+        check = None
+        if closed is not None:
+            # Only where the pinhole frames made the estimate: elsewhere it is that frame.
+            residual = (closed[rows] - inside)[count > 0]
+            check = float(np.sqrt(np.nanmean(residual**2))) if residual.size else None
+        return background, check
 
     def _closed(self) -> NDArray | None:
         """The closed-SLM frame of the right shape, if the plan took one (read back now
@@ -562,17 +577,6 @@ class ScanAssembly:
         if self.closed_frame is None or np.shape(self.closed_frame) != self.camera_shape:
             return None
         return self.closed_frame
-
-    def _closed_window(self) -> NDArray[np.float64] | None:
-        """The closed-SLM frame's processed rows, if the plan took one at the pinholes'
-        exposure."""
-        if self._closed() is None:
-            return None
-        steps = self.session.plan.steps
-        exposures = {steps[index].exposure_s for index in self.pinholes}
-        if exposures != {steps[self.closed_step].exposure_s}:
-            return None
-        return np.asarray(self.closed_frame[self.top : self.top + self.box[0]], dtype=np.float64)
 
     def _unmix(self, raw, layout, geo) -> NDArray[np.float64]:
         """The row unmixing of one frame's background-free cell sums."""
@@ -646,27 +650,21 @@ class ScanAssembly:
         ScanCube
         """
         workers = max(1, workers or os.cpu_count() or 1)
-        self._closed()  # read back now if the reading pass missed it: its problems count too
+        # Read back now if the reading pass missed it: its problems count too.
+        closed = self._closed()
         frames = sorted(self.frames, key=lambda frame: frame.index)
         # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and
         # BLAS's spinning threads contend with ours or with any other load (deblurring one
         # frame took 445 ms with two BLAS threads on a busy machine, 12 ms with one;
         # building the deblur operators took 0.65 s with two, 0.15 s with one).
         with threadpool_limits(limits=1, user_api="blas"):
-            background = self._background()
+            background, check = self._background(closed)
             signals = _run_frames(self._spectra, frames, "scan spectra", progress, workers)
             deblurred, kept = self._deblur(
                 lambda task, items, label: _run_frames(
                     task, items, label, progress, workers, unit="block"
                 ),
             )
-        check = None
-        closed = self._closed()
-        if closed is not None:
-            # Only where the pinhole frames made the estimate: elsewhere it is this frame.
-            window = slice(self.top, self.top + self.box[0])
-            residual = (closed[window] - background[window])[self.estimated]
-            check = float(np.sqrt(np.nanmean(residual**2))) if residual.size else None
         r0, c0, r1, _ = self.roi
         crop = slice(r0 - self.w0, r1 - self.w0)
         seconds = np.where(self.exposure > 0, self.exposure, 1.0) ** 2
