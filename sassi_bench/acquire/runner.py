@@ -250,6 +250,8 @@ def _capture(
     _check_inputs(rig, plan, session, todo)
     if stop_after is not None:
         todo = todo[:stop_after]
+    if not todo:  # a complete session: no scene to place, no light to switch, no trigger
+        return session
     bar: Any = tqdm(
         total=len(plan),
         initial=len(plan) - len(session.missing),

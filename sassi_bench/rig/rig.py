@@ -96,16 +96,29 @@ class Rig:
     trigger: Trigger
     scene_setter: Callable[..., None] = field(repr=False)
     scene: str | None = None
+    _posed: bool = field(default=False, init=False, repr=False)
 
     def set_scene(self, name: str, pose: ScenePose | None = None) -> None:
         """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...).
 
         ``pose`` moves it (shift in SLM px and rotation about the SLM centre); ``None``
-        is the static scene. A moving scene is a pose set per frame.
+        is the static scene. A moving scene is a pose set per frame. Asking again for the
+        static scene already in front does nothing, so an operator is asked to place a
+        target once, not before every auto-exposure and plan that uses it.
+
+        Examples
+        --------
+        >>> from sassi_bench import open_rig
+        >>> rig = open_rig("sim")
+        >>> rig.set_scene("white")
+        >>> rig.scene
+        'white'
         """
         check_scene(name)
         if pose is None:
+            if name == self.scene and not self._posed:
+                return
             self.scene_setter(name)
         else:
             self.scene_setter(name, pose)
-        self.scene = name
+        self.scene, self._posed = name, pose is not None
