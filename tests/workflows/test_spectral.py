@@ -26,9 +26,7 @@ class _AskedLight:
         self._light.select(name)
 
 
-def test_a_finished_calibration_run_again_asks_for_no_target_and_no_light(
-    calibrated_sim, tmp_path
-):
+def test_a_finished_calibration_run_again_asks_for_no_target_and_no_light(calibrated_sim, tmp_path):
     """On a real bench each request is the operator placing a target or switching a
     laser; a run resumed after its captures finished (the analysis interrupted, say)
     asks for none and gives the same models."""
