@@ -93,15 +93,16 @@ def main() -> None:
     bundle = load(rig=rig.description.name, data=args.data)
     source = Session.open(args.session, data=args.data)
     plan = source.plan
+    scene, light = plan.parameters["scene"], plan.parameters["light"]
     if args.pitch_15:
-        plan = sparse_plan(plan.parameters["light"], plan.steps[1].exposure_s, "colorchecker")
+        plan = sparse_plan(light, plan.steps[1].exposure_s, scene)
     # The assembly reads its plan from a session; this one only lends it the plan.
     holder = source if not args.pitch_15 else _PlanOnly(source, plan)
     scan = exact_scan(args.rig, plan, holder, bundle)
 
     model = StreakForwardModel.from_bundle(bundle)
-    reflectance, grid = t.scene_cube(plan.parameters["scene"])
-    photons = t.light_samples(plan.parameters["light"]).weights * t.quantum_efficiency(grid)
+    reflectance, grid = t.scene_cube(scene)
+    photons = t.light_samples(light).weights * t.quantum_efficiency(grid)
     step = np.gradient(grid)
     label, interior = patch_labels(reflectance)
     r0, c0 = scan.origin
