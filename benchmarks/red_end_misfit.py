@@ -50,16 +50,16 @@ def _exact(self, electron_rate, exposure_s, rng):
     return mean / self.gain_e_per_adu + self.dark_offset_adu
 
 
-def exact_scan(rig_name, session_plan, session, bundle):
-    """The plan's frames rendered without noise or rounding, assembled (column sums)."""
+def exact_scan(rig_name, session, bundle):
+    """The frames of ``session``'s plan rendered without noise or rounding, assembled."""
     rig = open_rig(rig_name)
-    rig.set_scene(session_plan.parameters["scene"])
+    rig.set_scene(session.plan.parameters["scene"])
     assembly = ScanAssembly(session, bundle, keep_raw=True)
     expose = sensor.SensorModel.expose
     sensor.SensorModel.expose = _exact
     try:
         for index in assembly.steps:
-            step = session_plan.steps[index]
+            step = session.plan.steps[index]
             rig.light.select(step.light)
             rig.spectral_camera.set_exposure(step.exposure_s)
             rig.slm.show(render_pattern(step.pattern, rig.slm.shape))
@@ -98,7 +98,7 @@ def main() -> None:
         plan = sparse_plan(light, plan.steps[1].exposure_s, scene)
     # The assembly reads its plan from a session; this one only lends it the plan.
     holder = source if not args.pitch_15 else _PlanOnly(source, plan)
-    scan = exact_scan(args.rig, plan, holder, bundle)
+    scan = exact_scan(args.rig, holder, bundle)
 
     model = StreakForwardModel.from_bundle(bundle)
     reflectance, grid = t.scene_cube(scene)
