@@ -20,7 +20,9 @@ import contextlib
 import signal
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
+from sassi_bench._shared.disk import DISK_FULL_FIX, disk_full_cause, is_disk_full
 from sassi_bench.commands import (
     batch,
     bundle,
@@ -42,6 +44,7 @@ from sassi_bench.commands.interrupts import (
 )
 from sassi_bench.commands.options import PROG, resume_command
 from sassi_bench.errors import SassiBenchError
+from sassi_bench.paths import data_root
 
 __all__ = ["PROG", "build_parser", "main"]
 
@@ -101,6 +104,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             status = int(args.func(args) or 0)
     except SassiBenchError as exc:
         _say(f"error: {exc}")
+        _ended_on_error(args)
+        return 2
+    except OSError as exc:
+        if not is_disk_full(exc):
+            raise
+        where = Path(exc.filename) if exc.filename else data_root(getattr(args, "data", None))
+        _say(f"error: {args.command}: {disk_full_cause(where)}. Fix: {DISK_FULL_FIX}")
         _ended_on_error(args)
         return 2
     except KeyboardInterrupt as exc:

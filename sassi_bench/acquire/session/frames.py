@@ -32,6 +32,7 @@ from zarr.storage import LocalStore
 
 from sassi_bench._shared.arrays import check_dtype_kind, check_shape
 from sassi_bench._shared.atomic import fsync_dir, fsync_file
+from sassi_bench._shared.disk import DISK_FULL_FIX, disk_full_cause, is_disk_full
 from sassi_bench.acquire.session.errors import SessionError, SessionIntegrityError, session_error
 
 __all__ = ["FRAMES_DIR", "FRAME_CODEC", "FrameStore", "check_frame", "frame_sha256"]
@@ -150,11 +151,21 @@ class FrameStore:
         Raises
         ------
         SessionError
-            If the frame's shape or dtype differs from the camera's logged frames.
+            If the frame's shape or dtype differs from the camera's logged frames, or the
+            disk is full.
         """
         arr = self._array_for(camera, data, replace_ok, where)
-        arr[slot] = data
-        self._sync_chunk(camera, slot)
+        try:
+            arr[slot] = data
+            self._sync_chunk(camera, slot)
+        except OSError as exc:
+            if not is_disk_full(exc):
+                raise
+            # The chunk went in whole or not at all (zarr renames a finished temporary
+            # file into place), and the frame is not logged: a resumed run captures it.
+            raise session_error(
+                where, f"{disk_full_cause(self._root)}; this frame was not stored", DISK_FULL_FIX
+            ) from exc
 
     def read(self, camera: str, slot: int) -> NDArray[Any]:
         """The frame at ``slot`` of the camera's array (raises if the array is missing)."""
