@@ -23,8 +23,9 @@ __all__ = ["DISK_FULL_FIX", "disk_full_cause", "free_bytes", "is_disk_full"]
 
 #: What a user does about a full disk (frames and bundles already stored are kept).
 DISK_FULL_FIX = (
-    "free space on that disk, or keep the data on a larger one (--data or "
-    "SASSI_BENCH_DATA), then run it again: what is already stored is kept"
+    "free space on that disk ('sassi-bench data clean' lists what no published bundle "
+    "needs), or keep the data on a larger one (--data or SASSI_BENCH_DATA), then run it "
+    "again: what is already stored is kept"
 )
 
 
