@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shutil
+
 import pytest
 
 from sassi_bench import open_rig
@@ -28,6 +30,25 @@ def make_rig():
         return open_rig(rig_description_from_dict(data))
 
     return _make
+
+
+@pytest.fixture(scope="module")
+def module_folder(request, tmp_path_factory):
+    """Make folders that go when their module's tests are done, unless one failed.
+
+    pytest keeps a module fixture's folder to the end of the run; the suite's frames
+    (captures, cubes, notebooks' runs) then peak at several GB under it.
+    """
+    made = []
+
+    def make(name: str):
+        made.append(tmp_path_factory.mktemp(name))
+        return made[-1]
+
+    yield make
+    if request.session.testsfailed == 0:
+        for folder in made:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

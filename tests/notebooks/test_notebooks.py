@@ -60,9 +60,9 @@ nbclient = pytest.importorskip("nbclient", reason="nbclient comes with the noteb
 
 
 @pytest.fixture(scope="module")
-def lab(tmp_path_factory):
+def lab(module_folder):
     """A data root shared by the notebooks of this module, in their numbered order."""
-    return tmp_path_factory.mktemp("notebook-lab")
+    return module_folder("notebook-lab")
 
 
 def _run(name: str, data: Path, **extra) -> nbformat.NotebookNode:

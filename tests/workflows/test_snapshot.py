@@ -15,10 +15,10 @@ from sassi_bench.workflows.snapshot_ids import open_snapshots, resolve_snapshot
 
 
 @pytest.fixture(scope="module")
-def taken(guided_bundle, tmp_path_factory):
+def taken(guided_bundle, module_folder):
     """Two frames of the natural scene moving, taken and written once."""
     _, bundle, _, root = guided_bundle
-    out = tmp_path_factory.mktemp("snapshots")
+    out = module_folder("snapshots")
     status = main(
         ["snapshot", "take", "--rig", "sim", "--bundle", str(bundle.path), "--frames", "2",
          "--moving", "--session", "mov", "--data", str(root), "--out", str(out), "--quiet"]
