@@ -260,6 +260,24 @@ def _slow_writes(monkeypatch, seconds, log):
     monkeypatch.setattr(Session, "write_frame", slow)
 
 
+def test_a_run_that_cannot_fit_on_its_disk_is_refused_before_any_device_moves(
+    plan, data, monkeypatch
+):
+    import sassi_bench.acquire.runner as runner
+
+    log: list = []
+    rig = recorded_rig(log)
+    session = create(rig, plan, data, "small-disk")
+    # Four 512 x 800 spectral frames and one 400 x 600 RGB guide frame, 16 bits a value.
+    need = (4 * 512 * 800 + 400 * 600 * 3) * 2 * runner.LEAST_STORED_SHARE
+    monkeypatch.setattr(runner, "free_bytes", lambda path: int(need) - 1)
+    with pytest.raises(SessionError, match="run plan 'pinholes': its 5 frames to capture"):
+        run_plan(rig, plan, session, progress=False)
+    assert log == [] and rig.trigger.counters()["received"] == 0
+    monkeypatch.setattr(runner, "free_bytes", lambda path: int(need) + 1)
+    assert run_plan(rig, plan, session, progress=False).is_complete
+
+
 def test_a_frame_is_stored_while_the_next_is_captured(plan, data, monkeypatch):
     import time
 
