@@ -140,11 +140,15 @@ def main() -> None:
     misfit = measured[:, core] / (gain * predicted[:, core]) - 1
     # The chart's patches, its black mat (the commonest label after the surround) and
     # the surround (the label at the SLM's corner), apart.
-    kind = groups[counts >= 20] // 100000
+    kept = groups[counts >= 20]
+    kind = kept // 100000
     surround = label[0, 0]
     mat = np.bincount(label[label != surround].ravel()).argmax()
-    parts = {"patches": (kind != mat) & (kind != surround), "mat": kind == mat}
-    parts["surround"] = kind == surround
+    parts = {
+        "patches": (kind != mat) & (kind != surround),
+        "mat": kind == mat,
+        "surround": kind == surround,
+    }
     print(
         f"{len(measured)} (patch, field point) groups ("
         + ", ".join(f"{name} {chosen.sum()}" for name, chosen in parts.items())
@@ -160,7 +164,8 @@ def main() -> None:
         print(f"| {wl[k]:.1f} | " + " | ".join(cells) + " |")
 
     operators = MeanDeblur(model, RelativeSmoothnessPrior.of(scan.mean_spectrum)).operators
-    points = (groups % 100000)[counts >= 20]
+    points = kept % 100000
+    expected = gain * truth_light[:, core]
     print(
         "\npatch means deblurred at fixed weights, RMS error (% of each group's peak), "
         "500-600 nm / > 650 nm:"
@@ -168,7 +173,6 @@ def main() -> None:
     print("| weight | all | " + " | ".join(parts) + " |\n| --- | --- | --- | --- | --- |")
     for weight in WEIGHTS:
         solved = operators.solve(measured, points, np.full(points.size, weight))[:, core]
-        expected = gain * truth_light[:, core]
         error = (solved - expected) / expected.max(axis=1, keepdims=True)
         rms = [
             [100 * np.sqrt((error[chosen][:, band] ** 2).mean()) for band in (mid, red)]
