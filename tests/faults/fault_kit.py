@@ -319,14 +319,28 @@ def _env(data: Path, *, commit_pause_s: float = 0.0) -> dict[str, str]:
     return env
 
 
+def _found(roots: Iterable[Path], pattern: str, recursive: bool = False) -> list[Path]:
+    """Paths matching ``pattern`` under ``roots``, walked again when a folder vanished
+    mid-walk (a command renaming its temporary folder into place)."""
+    while True:
+        try:
+            return [
+                path
+                for root in roots
+                if root.exists()
+                for path in (root.rglob(pattern) if recursive else root.glob(pattern))
+            ]
+        except FileNotFoundError:
+            continue
+
+
 def _frames_stored(roots: Iterable[Path]) -> int:
     total = 0
-    for root in roots:
-        for events in root.rglob("events.jsonl") if root.exists() else ():
-            try:
-                total += events.read_bytes().count(b"\n")
-            except OSError:
-                continue
+    for events in _found(roots, "events.jsonl", recursive=True):
+        try:
+            total += events.read_bytes().count(b"\n")
+        except OSError:
+            continue
     return total
 
 
@@ -343,7 +357,7 @@ def wait_for(trigger: str, process: subprocess.Popen, roots: Sequence[Path], sta
             return True
         if kind == "frames" and _frames_stored(roots) - baseline >= int(value):
             return True
-        if kind == "file" and any(p for r in roots if r.exists() for p in r.glob(value)):
+        if kind == "file" and _found(roots, value):
             return True
         time.sleep(0.02)
     return False
