@@ -12,13 +12,19 @@ On the virtual bench, for a ColorChecker pinhole scan taken with a bundle (a cha
    costs, and the deblur's own part at the red end (the noisy row is the one a
    regulariser is judged by: a weaker one amplifies the noise).
 
-Prints the mean per-band PSNR at 500-600 nm and beyond 650 nm of each, and the curve.
+Prints the mean per-band PSNR at 500-600 nm, 580-640 nm and beyond 650 nm of each, and
+the curve; then, for each assembly, the cube's own noise (its ``band_noise_psnr_db``,
+what the scan reports) and the error of each chart patch's mean (the pixels the truth
+gives one spectrum, averaged: the systematic part, which no averaging of frames removes),
+as per-band PSNR alike.
 The truth and the noise-free captures are the bench's: this is a benchmark, not a
 procedure. About two minutes of CPU on ``sim``.
 
 Run: ``python benchmarks/red_end_bound.py --data DIR --session full-...-macbeth``
 (``--data`` the chain's staging folder holding the session, ``--bundle-data`` the data
-root holding the bundle; ``--rows captured noise-free pitch`` any of the three groups).
+root holding the bundle; ``--rows captured noise-free pitch`` any of the three groups;
+``--separable`` assembles with the separable row unmixing instead of the scan's default,
+the mixed-blur one).
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ import tempfile
 import time
 
 import numpy as np
+from numpy.typing import NDArray
 
 from sassi_bench import open_rig
 from sassi_bench.acquire.plan import Plan, Step
@@ -88,6 +95,24 @@ def band_psnr(cube, expected, good, wl):
     return 10 * np.log10(peak**2 / ((a - gain * b) ** 2).mean(axis=0))
 
 
+def patch_bias_psnr(cube, expected, good) -> NDArray[np.float64]:
+    """Per-band PSNR of the error of each patch's mean, after the gain of :func:`band_psnr`.
+
+    A patch is the set of good pixels the truth gives one spectrum; each pixel is charged
+    its patch's mean error, so what is left is the systematic part of the cube's error.
+    """
+    a, b = cube[good].astype(np.float64), expected[good]
+    gain = (a * b).sum() / (b * b).sum()
+    peak = (gain * b).max()
+    _, label = np.unique(np.round(b / peak, 6), axis=0, return_inverse=True)
+    label = label.ravel()
+    counts = np.bincount(label)
+    error = a - gain * b
+    means = np.stack([np.bincount(label, error[:, k]) for k in range(b.shape[1])], 1)
+    charged = (means / counts[:, None])[label]
+    return 10 * np.log10(peak**2 / (charged**2).mean(axis=0))
+
+
 def best_per_band(scan, model, expected, wl):
     """Per-band PSNR at the best of :data:`STRENGTHS` for every band apart."""
     good = scan.quality == 0
@@ -113,7 +138,9 @@ def main() -> None:
         "--rows", nargs="+", choices=GROUPS, default=list(GROUPS), help="which rows to measure"
     )
     parser.add_argument(
-        "--row-mixture", action="store_true", help="assemble with the mixed-blur row unmixing"
+        "--separable",
+        action="store_true",
+        help="assemble with the separable row unmixing (the scan's default mixes blurs)",
     )
     args = parser.parse_args()
     rig = open_rig(args.rig)
@@ -124,15 +151,17 @@ def main() -> None:
     scene, light = source.plan.parameters["scene"], source.plan.parameters["light"]
     expected = truth(rig).binned_cube(bundle.bin_edges, light, scene)
     model = StreakForwardModel.from_bundle(bundle)
-    rows, cpu = {}, {}
+    rows, cpu, parts = {}, {}, {}
 
     def measure(name, session):
         start = time.process_time()
         scan = assemble_scan(
-            session, bundle, keep_raw=True, progress=False, row_mixture=args.row_mixture
+            session, bundle, keep_raw=True, progress=False, row_mixture=not args.separable
         )
         cpu[name] = time.process_time() - start
-        rows[name] = band_psnr(scan.cube, expected, scan.quality == 0, wl)
+        good = scan.quality == 0
+        rows[name] = band_psnr(scan.cube, expected, good, wl)
+        parts[name] = (scan.band_noise_psnr_db, patch_bias_psnr(scan.cube, expected, good))
         rows[f"{name}, best strength per band"] = best_per_band(scan, model, expected, wl)
 
     if "captured" in args.rows:
@@ -151,6 +180,14 @@ def main() -> None:
     for name, band in rows.items():
         means = " | ".join(f"{band[m].mean():.1f} dB" for m in (mid, orange, red))
         print(f"| {name} | {means} |")
+    print(
+        "\nthe error's parts, 500-600 / 580-640 / > 650 nm: the cube's own noise "
+        "(band_noise_psnr_db) and the error of each patch's mean"
+    )
+    print("| | own noise | patch means |\n| --- | --- | --- |")
+    for name in parts:
+        cells = [" / ".join(f"{v[m].mean():.1f}" for m in (mid, orange, red)) for v in parts[name]]
+        print(f"| {name} | {cells[0]} dB | {cells[1]} dB |")
     print("\nassembly CPU: " + ", ".join(f"{k} {v:.1f} s" for k, v in cpu.items()))
     print("\nnm " + " ".join(f"{w:6.1f}" for w in wl[::4]))
     for name, band in rows.items():
