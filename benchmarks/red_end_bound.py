@@ -87,12 +87,18 @@ def sparse_plan(light, exposure, scene) -> Plan:
     return Plan("pinhole-scan", tuple(steps), {"pitch": [100, 15], "scene": scene})
 
 
+def _scaled(cube, expected, good):
+    """The good pixels' (N, B) measured and expected spectra, the expected after the one
+    gain that fits them best, and the peak of those."""
+    a, b = cube[good].astype(np.float64), expected[good]
+    b = b * ((a * b).sum() / (b * b).sum())
+    return a, b, b.max()
+
+
 def band_psnr(cube, expected, good, wl):
     """Per-band PSNR after one gain (as ``accuracy_table._chart_scan_scores``)."""
-    a, b = cube[good].astype(np.float64), expected[good]
-    gain = (a * b).sum() / (b * b).sum()
-    peak = (gain * b).max()
-    return 10 * np.log10(peak**2 / ((a - gain * b) ** 2).mean(axis=0))
+    a, b, peak = _scaled(cube, expected, good)
+    return 10 * np.log10(peak**2 / ((a - b) ** 2).mean(axis=0))
 
 
 def patch_bias_psnr(cube, expected, good) -> NDArray[np.float64]:
@@ -101,13 +107,11 @@ def patch_bias_psnr(cube, expected, good) -> NDArray[np.float64]:
     A patch is the set of good pixels the truth gives one spectrum; each pixel is charged
     its patch's mean error, so what is left is the systematic part of the cube's error.
     """
-    a, b = cube[good].astype(np.float64), expected[good]
-    gain = (a * b).sum() / (b * b).sum()
-    peak = (gain * b).max()
+    a, b, peak = _scaled(cube, expected, good)
     _, label = np.unique(np.round(b / peak, 6), axis=0, return_inverse=True)
     label = label.ravel()
     counts = np.bincount(label)
-    error = a - gain * b
+    error = a - b
     means = np.stack([np.bincount(label, error[:, k]) for k in range(b.shape[1])], 1)
     charged = (means / counts[:, None])[label]
     return 10 * np.log10(peak**2 / (charged**2).mean(axis=0))
