@@ -95,7 +95,7 @@ def _scaled(cube, expected, good):
     return a, b, b.max()
 
 
-def band_psnr(cube, expected, good, wl):
+def band_psnr(cube, expected, good):
     """Per-band PSNR after one gain (as ``accuracy_table._chart_scan_scores``)."""
     a, b, peak = _scaled(cube, expected, good)
     return 10 * np.log10(peak**2 / ((a - b) ** 2).mean(axis=0))
@@ -117,7 +117,7 @@ def patch_bias_psnr(cube, expected, good) -> NDArray[np.float64]:
     return 10 * np.log10(peak**2 / (charged**2).mean(axis=0))
 
 
-def best_per_band(scan, model, expected, wl):
+def best_per_band(scan, model, expected):
     """Per-band PSNR at the best of :data:`STRENGTHS` for every band apart."""
     good = scan.quality == 0
     rows, cols = np.nonzero(good)
@@ -128,7 +128,7 @@ def best_per_band(scan, model, expected, wl):
         out = SpectralDeblur.from_model(model, prior, strength=s).apply(values, rows, cols)
         cube = np.zeros(scan.cube.shape)
         cube[rows, cols] = out[:, model.core]
-        bands.append(band_psnr(cube, expected, good, wl))
+        bands.append(band_psnr(cube, expected, good))
     return np.max(bands, axis=0)
 
 
@@ -164,9 +164,9 @@ def main() -> None:
         )
         cpu[name] = time.process_time() - start
         good = scan.quality == 0
-        rows[name] = band_psnr(scan.cube, expected, good, wl)
+        rows[name] = band_psnr(scan.cube, expected, good)
         parts[name] = (scan.band_noise_psnr_db, patch_bias_psnr(scan.cube, expected, good))
-        rows[f"{name}, best strength per band"] = best_per_band(scan, model, expected, wl)
+        rows[f"{name}, best strength per band"] = best_per_band(scan, model, expected)
 
     if "captured" in args.rows:
         measure("as captured", source)
