@@ -58,3 +58,36 @@ def test_fused_cell_sums_are_the_two_passes_to_the_bit():
     assert sums.dtype == np.float32 and (expected_sums > 0).any()
     assert np.array_equal(sums.view(np.int32), expected_sums.view(np.int32))
     assert np.array_equal(variance.view(np.int64), expected_variance.view(np.int64))
+
+
+def test_neighbour_covariance_matches_a_monte_carlo_of_the_pixels():
+    # Bins 0.4-1.6 columns wide (the red end's are narrower than a column, so a column
+    # holds up to three), light uniform across the cells as the model takes it.
+    rng = np.random.default_rng(5)
+    noise = CountsNoise(0.5, 3.0, 100.0)
+    edges = 3.3 + np.cumsum(np.r_[0.0, rng.uniform(0.4, 1.6, 12)])
+    bins = edges.size - 1
+    layout = CellLayout(
+        np.full((1, bins), 1.5), np.full((1, bins), 7.5), np.zeros((1, bins), bool),
+        np.zeros((1, 1), np.intp), edges[None, :-1], edges[None, 1:], (10, 20),
+    )  # fmt: skip
+    electrons = 800.0
+    draws = 4000
+    frames = 100.0 + (
+        rng.poisson(electrons, (draws, 10, 20)) / noise.gain_e_per_adu
+        + rng.normal(0.0, noise.read_noise_adu, (draws, 10, 20))
+    )
+    sums = np.array([cell_sums(column_cumsum(f), layout)[0] for f in frames])
+    mean = sums.mean(axis=0, keepdims=True)
+    gain = np.ones(bins)
+    measured = np.cov(sums.T)
+    variance = noise.variance(mean, layout, gain)[0]
+    covariance = noise.neighbour_covariance(mean, layout, gain)[0]
+    assert np.allclose(variance, np.diag(measured), rtol=0.08)
+    for k in (1, 2):
+        shared = covariance[k - 1, :-k] > 0
+        assert shared.sum() >= 3 if k == 1 else shared.any()
+        scale = np.sqrt(variance[:-k] * variance[k:])  # errors judged as correlations
+        error = (covariance[k - 1, :-k] - np.diag(measured, k)) / scale
+        assert np.all(np.abs(error) <= 0.05), error.round(3)  # the draws' own: about 0.016
+        assert np.all(np.abs(np.diag(measured, k)[~shared] / scale[~shared]) <= 0.05)
