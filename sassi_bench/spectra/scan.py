@@ -515,11 +515,12 @@ class ScanAssembly:
             rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
             geo = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
             layout = cell_layout(geo, self.box)
-            variance = self.noise.variance(raw, layout, self.row_gain).mean(axis=1)
+            variance = self.noise.variance(raw, layout, self.row_gain)
+            covariance = self.noise.neighbour_covariance(raw, layout, self.row_gain)
             raw -= cell_sums(self.background_cumulative, layout)
             exposure = np.full(rows.size, self.session.plan.steps[index].exposure_s)
             amplitudes = self._unmix(raw, layout, geo)
-            parts.append((amplitudes, rows, cols, variance, exposure, good))
+            parts.append((amplitudes, rows, cols, variance, covariance, exposure, good))
         return ChoiceSample.of(parts, self.n_bins + 2 * GUARD_BINS)
 
     def read_stored(

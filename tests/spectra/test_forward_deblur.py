@@ -190,3 +190,36 @@ def test_the_scan_deblur_holds_at_the_red_end(model):
     assert rms(wl > 650) < 0.0136
     assert rms((wl > 580) & (wl < 640)) < 0.0075
     assert rms((wl > 500) & (wl < 600)) < 0.0030
+
+
+def test_the_stated_noise_holds_for_noise_that_differs_and_correlates_between_bins(model):
+    # posterior_std against a Monte Carlo of apply(): each bin its own variance (growing
+    # fivefold toward the red end) and neighbouring bins correlated, as a scan's are.
+    _, m = model
+    rows, cols = m.point_pixels()
+    rows, cols = rows[:3], cols[:3]
+    light = np.where(m.wavelengths_nm < 720, 1000.0 + 300.0 * np.sin(m.wavelengths_nm / 40), 0)
+    clean = np.einsum("pij,pj->pi", m.spill[m.point(rows, cols)], light[m.point(rows, cols)])
+    deblur = SpectralDeblur.from_model(m, SmoothnessPrior(0.05), strength=2.0)
+    bins = m.n_bins
+    variance = np.linspace(20.0, 100.0, bins)
+    correlation = np.array([0.3, 0.1])
+    dense = np.diag(variance)
+    for k, rho in enumerate(correlation, 1):
+        off = rho * np.sqrt(variance[:-k] * variance[k:])
+        dense += np.diag(off, k) + np.diag(off, -k)
+    banded = np.zeros((2, bins))
+    for k in (1, 2):
+        banded[k - 1, :-k] = np.diag(dense, k)
+    rng = np.random.default_rng(7)
+    draws = 3000
+    for n in range(rows.size):
+        noisy = clean[n] + rng.multivariate_normal(np.zeros(bins), dense, draws)
+        spectra = deblur.apply(noisy, np.full(draws, rows[n]), np.full(draws, cols[n]))
+        measured = spectra.std(axis=0)
+        one = slice(n, n + 1)
+        stated = deblur.posterior_std(clean[one], rows[one], cols[one], variance[None],
+                                      banded[None])[0]  # fmt: skip
+        white = deblur.posterior_std(clean[one], rows[one], cols[one], variance.mean()[None])[0]
+        assert np.allclose(stated, measured, rtol=0.06)
+        assert np.abs(white / measured - 1).max() > 0.2  # what a white statement misses
