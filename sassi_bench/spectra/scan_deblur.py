@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra.deblur import CHOICE_PIXELS, MeanDeblur, MeanSpectrum, SpectralDeblur
 from sassi_bench.spectra.forward import StreakForwardModel
+from sassi_bench.spectra.noise import NEIGHBOUR_REACH
 from sassi_bench.spectra.priors import RelativeSmoothnessPrior
 from sassi_bench.spectra.regularisation import RegularisationChoice
 
@@ -153,8 +154,8 @@ class ChoiceSample:
     @classmethod
     def of(cls, parts: Sequence[tuple[NDArray, ...]], bins: int) -> ChoiceSample:
         """The sample from per-frame ``(values, rows, cols, variance, covariance, exposure,
-        good)``,
-        in the order given (sort them by frame), keeping the good pixels with light.
+        good)``, in the order given (sort them by frame), keeping the good pixels with
+        light.
 
         Examples
         --------
@@ -166,8 +167,8 @@ class ChoiceSample:
         if not parts:
             empty = np.zeros(0)
             return cls(np.zeros((0, bins), np.float32), empty.astype(np.intp),
-                       empty.astype(np.intp), np.zeros((0, bins)), np.zeros((0, 0, bins)),
-                       empty)  # fmt: skip
+                       empty.astype(np.intp), np.zeros((0, bins)),
+                       np.zeros((0, NEIGHBOUR_REACH, bins)), empty)  # fmt: skip
         values, rows, cols, variance, covariance, exposure, good = (
             np.concatenate(column) for column in zip(*parts, strict=True)
         )
