@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from sassi_bench.bundle import CalibrationBundle, load
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig import Rig
-from sassi_bench.workflows.procedure import load_procedure
 from sassi_bench.workflows.spectral import run_spectral_calibration
 
 

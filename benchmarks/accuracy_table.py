@@ -33,10 +33,10 @@ from sassi_bench import open_rig
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.calibrate.guide_registration import field_discrepancy_px
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.sim import truth
 from sassi_bench.spectra.scan import assemble_scan
 from sassi_bench.workflows.full import run_full_calibration
-from sassi_bench.workflows.procedure import load_procedure
 
 ROOT = Path(__file__).resolve().parents[1]
 RIGS = [

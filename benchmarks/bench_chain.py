@@ -397,8 +397,8 @@ def main() -> None:
     print(f"load average at start: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
     clock = StageClock()
     from sassi_bench import open_rig
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.workflows.full import run_full_calibration
-    from sassi_bench.workflows.procedure import load_procedure
 
     rig = open_rig(args.rig)
     instrument(clock, rig)

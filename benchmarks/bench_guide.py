@@ -28,10 +28,10 @@ from sassi_bench.calibrate.guide_registration import (
     field_discrepancy_px,
     register_guide,
 )
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.config import rig_description_from_dict
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import capture_guide, run_guide_registration
-from sassi_bench.workflows.procedure import load_procedure
 
 
 def _accuracy(rig, result, proc, data, tag: str) -> tuple[float, float, float]:

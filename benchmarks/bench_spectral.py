@@ -18,7 +18,7 @@ import time
 from sassi_bench import open_rig
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.workflows.procedure import load_procedure
+from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.spectral_decode import analyse_sweep
 from sassi_bench.workflows.spectral_plans import sweep_plan
 

@@ -42,8 +42,8 @@ def _guided_bundle(work: Path) -> Path:
 
     from sassi_bench import open_rig
     from sassi_bench.bundle import load, publish
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig.sim import truth
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.spectral import run_spectral_calibration
 
     rig = open_rig("sim")

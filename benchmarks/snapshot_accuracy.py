@@ -26,8 +26,8 @@ import numpy as np
 from sassi_bench import open_rig
 from sassi_bench.bundle import load
 from sassi_bench.bundle.errors import BundleError
+from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.full import run_full_calibration
-from sassi_bench.workflows.procedure import load_procedure
 from sassi_bench.workflows.snapshot_validation import run_snapshot
 
 

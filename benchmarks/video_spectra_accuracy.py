@@ -34,12 +34,12 @@ import numpy as np
 from sassi_bench import open_rig
 from sassi_bench.acquire.snapshots import capture_snapshots
 from sassi_bench.bundle import load
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.sim import truth
 from sassi_bench.snapshot import VideoPipeline, measure_with_background
 from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.extract import extract_with_background
 from sassi_bench.spectra.geometry import reached_rows, streak_geometry
-from sassi_bench.workflows.procedure import load_procedure
 
 WARM = (1, 2, 4)
 

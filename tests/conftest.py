@@ -57,7 +57,7 @@ def calibrated_sim(tmp_path_factory):
 
     Returns (rig, result, data_root); the bundle is published under data_root.
     """
-    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.workflows.spectral import run_spectral_calibration
 
     rig = open_rig("sim")

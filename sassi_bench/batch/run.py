@@ -128,7 +128,7 @@ def run_batch(
     ['done', 'done']
     """
     if kind == "validate" and procedure is None:
-        from sassi_bench.workflows.procedure import load_procedure
+        from sassi_bench.procedure import load_procedure
 
         procedure = load_procedure("macbeth_validation")
     folder = check_out(out)

@@ -34,8 +34,8 @@ def _batch(args: argparse.Namespace) -> int:
     roi = check_roi(args.roi, tuple(bundle.slm_shape), "batch") if args.roi else None
     procedure = corners = None
     if args.kind == "validate":
+        from sassi_bench.procedure import load_procedure
         from sassi_bench.validate.locate import grid_from_corners
-        from sassi_bench.workflows.procedure import load_procedure
 
         procedure = load_procedure("macbeth_validation", args.procedure)
         if args.corners:

@@ -30,9 +30,9 @@ def _print_notes(notes: list[str]) -> None:
 
 def _full(args: argparse.Namespace) -> int:
     from sassi_bench.paths import data_root
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.full import run_full_calibration
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.spectral_analysis import spectral_notes
 
     procedure = load_procedure("full_calibration", args.procedure)
@@ -83,8 +83,8 @@ def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -
 
 
 def _spectral(args: argparse.Namespace) -> int:
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.spectral import run_spectral_calibration
     from sassi_bench.workflows.spectral_analysis import spectral_notes
 
@@ -133,9 +133,9 @@ def _response(args: argparse.Namespace) -> int:
 
 
 def _guide(args: argparse.Namespace) -> int:
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.guide import run_guide_registration
-    from sassi_bench.workflows.procedure import load_procedure
 
     procedure = load_procedure("guide_registration", args.procedure)
     if args.full:

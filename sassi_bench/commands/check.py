@@ -18,10 +18,10 @@ __all__ = ["register"]
 
 def _run(args: argparse.Namespace) -> int:
     from sassi_bench.commands.options import bundle_from_args
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import load_rig_description, open_rig
     from sassi_bench.storage.health_history import HealthHistory, history_path
     from sassi_bench.workflows.health_check import check_light, run_health_check
-    from sassi_bench.workflows.procedure import load_procedure
 
     procedure = load_procedure("health_check", args.procedure)
     if args.light:

@@ -60,8 +60,8 @@ def _write(selection, bundle, procedure, out: str, envi: bool, quiet: bool) -> N
 
 
 def _take(args: argparse.Namespace) -> int:
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot import check_inputs, check_outputs_free, take_snapshots
     from sassi_bench.workflows.snapshot_ids import SnapshotSelection
 
@@ -106,7 +106,7 @@ def _take(args: argparse.Namespace) -> int:
 
 
 def _reconstruct(args: argparse.Namespace) -> int:
-    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.workflows.snapshot import check_outputs_free
     from sassi_bench.workflows.snapshot_ids import resolve_snapshot
 

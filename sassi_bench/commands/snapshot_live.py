@@ -31,8 +31,8 @@ __all__ = ["register_live"]
 
 
 def _live(args: argparse.Namespace) -> int:
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot_live import run_live
 
     procedure = load_procedure("snapshot_validation", args.procedure)

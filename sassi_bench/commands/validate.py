@@ -24,7 +24,7 @@ SNAPSHOT_REPORT = ("snapshot_report.html", "snapshot_report.json", "scan.nc")
 
 
 def _procedure(args) -> dict:
-    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.procedure import load_procedure
 
     procedure = load_procedure("macbeth_validation", args.procedure)
     if args.white:
@@ -75,10 +75,10 @@ def _macbeth(args: argparse.Namespace) -> int:
 
 
 def _snapshot(args: argparse.Namespace) -> int:
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
     from sassi_bench.rig.rig import check_scene
     from sassi_bench.validate.snapshot_report import write_snapshot_report
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot import check_inputs
     from sassi_bench.workflows.snapshot_validation import run_snapshot
 

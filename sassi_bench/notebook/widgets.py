@@ -131,7 +131,7 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
 
     Examples
     --------
-    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> from sassi_bench.procedure import load_procedure
     >>> picker = pick_lasers(load_procedure("spectral_calibration"), [450, 520, 532, 635, 670])
     >>> picker.value
     (450.0, 520.0, 532.0, 635.0, 670.0)
@@ -161,7 +161,7 @@ def pick_exposure(procedure: Mapping[str, Any]):
 
     Examples
     --------
-    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> from sassi_bench.procedure import load_procedure
     >>> pick_exposure(load_procedure("spectral_calibration")).value
     0.6
     """

@@ -266,7 +266,7 @@ def run_health_check(
     bundle
         A bundle of that rig.
     procedure
-        The health-check procedure (:func:`~sassi_bench.workflows.procedure.load_procedure`
+        The health-check procedure (:func:`~sassi_bench.procedure.load_procedure`
         ``("health_check")``).
     data
         Data root (the frames go into a session ``check-<time>``).

@@ -110,7 +110,7 @@ def run_macbeth(
     --------
     >>> from sassi_bench import open_rig
     >>> from sassi_bench.bundle import load
-    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> from sassi_bench.procedure import load_procedure
     >>> result = run_macbeth(open_rig("sim"), load(rig="sim"),
     ...                      load_procedure("macbeth_validation"))  # doctest: +SKIP
     >>> result.passed, result.summary()["mean_de00"]  # doctest: +SKIP

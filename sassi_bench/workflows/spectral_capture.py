@@ -154,7 +154,7 @@ def capture_spectral_sweeps(
         Device handles (virtual or real).
     procedure
         A validated spectral-calibration procedure
-        (:func:`~sassi_bench.workflows.procedure.load_procedure`).
+        (:func:`~sassi_bench.procedure.load_procedure`).
     session_id
         Base id of the raw sessions (``<id>-grey``, ``<id>-sweep`` and, on a rig with
         wavelength lamps, ``<id>-lamps``); an existing id resumes its capture (the stored

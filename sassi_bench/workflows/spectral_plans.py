@@ -96,7 +96,7 @@ def grey_plan(procedure: Mapping[str, Any], laser_nm: float, exposure_s: float) 
 
     Examples
     --------
-    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> from sassi_bench.procedure import load_procedure
     >>> plan = grey_plan(load_procedure("spectral_calibration"), 532.0, 0.05)
     >>> len(plan), plan.steps[0].tags["role"]
     (18, 'dark')
@@ -232,7 +232,7 @@ def sweep_plan(
 
     Examples
     --------
-    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> from sassi_bench.procedure import load_procedure
     >>> proc = load_procedure("spectral_calibration")
     >>> plan = sweep_plan(proc, (400, 640), {532.0: 0.05}, list(range(0, 256, 16)))
     >>> len(plan.select(role="gray", laser=532.0)), len(plan.select(role="phase"))
@@ -306,7 +306,7 @@ def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> P
 
     Examples
     --------
-    >>> from sassi_bench.workflows.procedure import load_procedure
+    >>> from sassi_bench.procedure import load_procedure
     >>> plan = lamp_plan(load_procedure("spectral_calibration"), {"lamp:HgAr": 0.05})
     >>> len(plan), len(plan.select(role="lamp-pinholes", lamp="lamp:HgAr"))
     (8, 4)

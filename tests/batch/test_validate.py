@@ -11,9 +11,9 @@ import pytest
 
 from sassi_bench.acquire.session import Session
 from sassi_bench.batch import run_batch
+from sassi_bench.procedure import load_procedure
 from sassi_bench.spectra.scan import assemble_scan
 from sassi_bench.validate.chart import validate_scans
-from sassi_bench.workflows.procedure import load_procedure
 
 
 def test_batch_scores_equal_the_serial_validation_and_a_rerun_reads_them(

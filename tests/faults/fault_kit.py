@@ -504,8 +504,8 @@ def build_world(root: Path, bundle_dir: Path) -> dict[str, Path]:
     from sassi_bench.acquire.runner import run_plan
     from sassi_bench.acquire.session import Session
     from sassi_bench.bundle import export_zip, load
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.spectra.scan import scan_plan
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot import take_snapshots
 
     data = root / "data"

@@ -4,7 +4,7 @@ import pytest
 import yaml
 
 from sassi_bench.errors import ConfigError
-from sassi_bench.workflows.procedure import load_procedure
+from sassi_bench.procedure import load_procedure
 
 
 def test_shipped_procedure_has_the_issue_tolerances():

@@ -12,9 +12,9 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import QualityCheck, load, publish, publish_derived
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.plots.macbeth import localisation_figure, spectra_figure
+from sassi_bench.procedure import load_procedure
 from sassi_bench.validate.chart import validate_scans
 from sassi_bench.workflows import full
-from sassi_bench.workflows.procedure import load_procedure
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,7 @@ def natural_run(guided_bundle, tmp_path_factory):
     """The command run once: natural scene, low light and a two-frame video."""
     import yaml
 
-    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.procedure import load_procedure
 
     _, bundle, _, root = guided_bundle
     out = tmp_path_factory.mktemp("snapshot-report")
@@ -169,8 +169,8 @@ def test_the_validated_snapshot_reconstructs_from_disk_to_the_same_scores(
     from the stored guide frames: its cube scores exactly what the report says."""
     import xarray as xr
 
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.validate.snapshot import Scores, load_scan_cube
-    from sassi_bench.workflows.procedure import load_procedure
 
     _, doc, out = natural_run
     _, bundle, _, root = guided_bundle

@@ -12,6 +12,7 @@ from sassi_bench.calibrate.guide_registration import (
 )
 from sassi_bench.calibrate.guide_render import render_rgb
 from sassi_bench.errors import ConfigError
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import (
     capture_guide,
@@ -20,7 +21,6 @@ from sassi_bench.workflows.guide import (
     run_guide_registration,
     scan_reference,
 )
-from sassi_bench.workflows.procedure import load_procedure
 
 # Issue target: <= 0.3 px RMS over the SLM field against the true homography.
 FIELD_RMS_PX = 0.3

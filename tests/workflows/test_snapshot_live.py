@@ -8,10 +8,10 @@ import xarray as xr
 import zarr
 
 from sassi_bench.commands import main
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.frame import Frame, FrameMeta
 from sassi_bench.snapshot.video_store import VideoStore, read_frame
 from sassi_bench.workflows import snapshot_live
-from sassi_bench.workflows.procedure import load_procedure
 
 
 class _Camera:

@@ -8,7 +8,7 @@ import shutil
 import numpy as np
 
 from sassi_bench import open_rig
-from sassi_bench.workflows.procedure import load_procedure
+from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.spectral import run_spectral_calibration
 
 

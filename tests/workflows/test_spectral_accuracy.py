@@ -13,9 +13,9 @@ import pytest
 
 from sassi_bench import open_rig
 from sassi_bench.bundle import load
+from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
 from sassi_bench.rig.sim import truth
-from sassi_bench.workflows.procedure import load_procedure
 from sassi_bench.workflows.spectral import run_spectral_calibration
 
 

@@ -7,7 +7,7 @@ from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.calibrate.dispersion import fit_dispersion
 from sassi_bench.errors import ConfigError
-from sassi_bench.workflows.procedure import load_procedure
+from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.spectral import run_spectral_calibration
 from sassi_bench.workflows.spectral_decode import analyse_sweep
 from sassi_bench.workflows.spectral_plans import sweep_plan

@@ -64,7 +64,7 @@ def load_procedure(kind: str, name_or_path: str | os.PathLike[str] | None = None
 
 
 def _validate(kind: str, data: dict[str, Any], where: str) -> None:
-    schema_file = resources.files("sassi_bench.workflows").joinpath(
+    schema_file = resources.files("sassi_bench.procedure").joinpath(
         "schemas", f"{kind}.schema.json"
     )
     schema = json.loads(schema_file.read_text())
