@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from sassi_bench._shared.atomic import atomic_write_bytes
+from sassi_bench._shared.memory import release_memory
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import QualityCheck, load, publish_derived
 from sassi_bench.bundle.derive import derived_checks
@@ -29,7 +30,6 @@ from sassi_bench.validate.report import render_report
 from sassi_bench.workflows.guide import run_guide_registration
 from sassi_bench.workflows.keep import KeptFrames, keep_frames
 from sassi_bench.workflows.macbeth import run_macbeth
-from sassi_bench.workflows.memory import release_memory
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import check_scan, response_source, run_response
 from sassi_bench.workflows.spectral import run_spectral_calibration

@@ -15,13 +15,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from sassi_bench._shared.memory import release_memory
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanAssembly, ScanCube
 from sassi_bench.workflows.frame_feed import FrameFeed
-from sassi_bench.workflows.memory import release_memory
 
 __all__ = ["capture_scan"]
 
