@@ -26,9 +26,9 @@ from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.paths import data_root
 from sassi_bench.procedure import load_procedure, with_changes
 from sassi_bench.rig.rig import Rig
+from sassi_bench.storage.keep import KeptFrames, keep_frames
 from sassi_bench.validate.report import render_report
 from sassi_bench.workflows.guide import run_guide_registration
-from sassi_bench.workflows.keep import KeptFrames, keep_frames
 from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import check_scan, response_source, run_response

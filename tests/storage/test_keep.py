@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from sassi_bench.workflows.keep import DROPPED_NOTE, keep_frames
+from sassi_bench.storage.keep import DROPPED_NOTE, keep_frames
 
 SESSIONS = ("run-spectral-grey", "run-spectral-sweep", "run-response", "run-macbeth-chart")
 
