@@ -164,8 +164,8 @@ def _storing_threads() -> tuple[str, ...]:
 
 def _background_threads() -> tuple[str, ...]:
     """Name prefixes of a capture's background threads: the workers that process frames
-    as they are stored (:mod:`sassi_bench.workflows.frame_feed`) and the storing ones."""
-    from sassi_bench.workflows.frame_feed import THREAD_PREFIX
+    as they are stored (:mod:`sassi_bench.acquire.frame_feed`) and the storing ones."""
+    from sassi_bench.acquire.frame_feed import THREAD_PREFIX
 
     return (THREAD_PREFIX, *_storing_threads())
 

@@ -327,7 +327,7 @@ class ScanAssembly:
     keeps its own background sums, added up once all frames are read. Every sum of the
     reading pass is exact (integer frames summed in float64), so the cube does not depend
     on the order the frames came in or on how they were shared among threads: frames
-    taken while the session fills (:class:`~sassi_bench.workflows.frame_feed.FrameFeed`)
+    taken while the session fills (:class:`~sassi_bench.acquire.frame_feed.FrameFeed`)
     give the cube of the finished session, read back.
 
     Parameters

@@ -3,7 +3,7 @@
 :func:`capture_scan` runs a scan session's missing steps and hands every frame, as soon as
 it is stored, to the scan's reading pass
 (:class:`~sassi_bench.spectra.scan.ScanAssembly`, on a worker thread of a
-:class:`~sassi_bench.workflows.frame_feed.FrameFeed`), so that pass overlaps the capture
+:class:`~sassi_bench.acquire.frame_feed.FrameFeed`), so that pass overlaps the capture
 and no frame is read back; frames stored before (a resumed capture) are read back first,
 on a thread per CPU. Only the spectra pass and the deblur wait for the last frame: they
 need the background, which every frame adds to. The reading pass's sums are exact, so
@@ -16,12 +16,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from sassi_bench._shared.memory import release_memory
+from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.rig.rig import Rig
 from sassi_bench.spectra.scan import ScanAssembly, ScanCube
-from sassi_bench.workflows.frame_feed import FrameFeed
 
 __all__ = ["capture_scan"]
 

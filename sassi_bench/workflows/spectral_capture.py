@@ -17,6 +17,7 @@ from datetime import UTC, datetime
 from typing import Any
 
 from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle.jsonio import thaw
@@ -24,7 +25,6 @@ from sassi_bench.calibrate.grey_response import GreyResponse, sinusoid_profile
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
-from sassi_bench.workflows.frame_feed import FrameFeed
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_decode import measure_response
 from sassi_bench.workflows.spectral_lamps import capture_lamp_frames, check_lamp_pitch

@@ -2,7 +2,7 @@
 
 :class:`SweepStream` takes the frames of a sweep session
 (:func:`~sassi_bench.workflows.spectral_plans.sweep_plan`) one at a time, in plan order
-(a :class:`~sassi_bench.workflows.frame_feed.FrameFeed` gives them so), and keeps per
+(a :class:`~sassi_bench.acquire.frame_feed.FrameFeed` gives them so), and keeps per
 laser only what the decoding needs: the dark, blank and full frames' means, one Gray
 frame waiting for its inverse, the phase frames of the axis being decoded (raw), the
 decoded axis before it, and the pinhole frames' sum. Each axis is decoded

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.frame_feed import THREAD_PREFIX, FrameFeed
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.errors import ProcedureError
 from sassi_bench.rig import Frame, FrameMeta
-from sassi_bench.workflows.frame_feed import THREAD_PREFIX, FrameFeed
 
 
 def _plan(n: int) -> Plan:
