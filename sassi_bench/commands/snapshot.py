@@ -3,7 +3,7 @@ files of the SASSI authors' reconstruction code.
 
 Every command names a snapshot the way ``take`` prints it: the video's id (``--session
 snap``: every frame) or one frame's (``snap-f000``); see
-:mod:`sassi_bench.workflows.snapshot_ids`. ``export`` also takes any raw session with a
+:mod:`sassi_bench.acquire.snapshot_ids`. ``export`` also takes any raw session with a
 spectral frame tagged ``role=snapshot`` (or ``--step``/``--tag``).
 
 Examples
@@ -60,10 +60,10 @@ def _write(selection, bundle, procedure, out: str, envi: bool, quiet: bool) -> N
 
 
 def _take(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.snapshot_ids import SnapshotSelection
     from sassi_bench.procedure import load_procedure
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.snapshot import check_inputs, check_outputs_free, take_snapshots
-    from sassi_bench.workflows.snapshot_ids import SnapshotSelection
 
     if args.frames < 1:
         raise ProcedureError(
@@ -106,9 +106,9 @@ def _take(args: argparse.Namespace) -> int:
 
 
 def _reconstruct(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.snapshot_ids import resolve_snapshot
     from sassi_bench.procedure import load_procedure
     from sassi_bench.workflows.snapshot import check_outputs_free
-    from sassi_bench.workflows.snapshot_ids import resolve_snapshot
 
     procedure = load_procedure("snapshot_validation", args.procedure)
     check_output_folder("snapshot reconstruct", args.out)
@@ -221,7 +221,7 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
     own ``OUT/<frame id>``, as cassi.py reads one capture per folder), or the one frame
     or raw session named (into ``OUT``)."""
     from sassi_bench.acquire.session import Session, SessionError
-    from sassi_bench.workflows.snapshot_ids import resolve_snapshot, unknown_snapshot
+    from sassi_bench.acquire.snapshot_ids import resolve_snapshot, unknown_snapshot
 
     out, step = Path(args.out), "snapshot export"
     selection = resolve_snapshot(args.session, data=args.data, step=step, required=False)

@@ -272,7 +272,7 @@ def reconstruct_snapshots(
     ----------
     video
         The snapshot sessions (:func:`take_snapshots` or
-        :func:`~sassi_bench.workflows.snapshot_ids.open_snapshots`).
+        :func:`~sassi_bench.acquire.snapshot_ids.open_snapshots`).
     bundle
         The bundle to reconstruct with.
     procedure

@@ -9,9 +9,9 @@ import xarray as xr
 from scipy.io import loadmat
 
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.snapshot_ids import open_snapshots, resolve_snapshot
 from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
 from sassi_bench.commands import main
-from sassi_bench.workflows.snapshot_ids import open_snapshots, resolve_snapshot
 
 
 @pytest.fixture(scope="module")
