@@ -18,9 +18,9 @@ import time
 from sassi_bench import open_rig
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import sweep_plan
 from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.spectral_decode import analyse_sweep
-from sassi_bench.workflows.spectral_plans import sweep_plan
 
 LASER = 532.0
 

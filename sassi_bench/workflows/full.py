@@ -20,6 +20,7 @@ from typing import Any
 from sassi_bench._shared.atomic import atomic_write_bytes
 from sassi_bench._shared.memory import release_memory
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.streak_pitch import check_scan_pitch
 from sassi_bench.bundle import QualityCheck, load, publish_derived
 from sassi_bench.bundle.derive import derived_checks
 from sassi_bench.bundle.jsonio import thaw
@@ -33,7 +34,6 @@ from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import check_scan, response_source, run_response
 from sassi_bench.workflows.spectral import run_spectral_calibration
-from sassi_bench.workflows.streak_pitch import check_scan_pitch
 
 __all__ = ["FullCalibration", "run_full_calibration"]
 

@@ -24,6 +24,7 @@ import numpy as np
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import lamp_pinholes, lamp_plan
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.calibrate.lamp_streaks import signal_and_variance
 from sassi_bench.calibrate.streak_shift import (
@@ -39,7 +40,6 @@ from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_lamps import camera_noise, lamp_streaks
-from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
 
 __all__ = ["HealthCheck", "check_light", "run_health_check"]
 

@@ -20,6 +20,7 @@ import numpy as np
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.streak_pitch import check_scan_pitch
 from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
 from sassi_bench.bundle.derive import check_parent
 from sassi_bench.calibrate.radiometry import (
@@ -35,7 +36,6 @@ from sassi_bench.spectra.scan import ScanCube, check_pitch, check_roi, scan_plan
 from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan_feed import capture_scan
-from sassi_bench.workflows.streak_pitch import check_scan_pitch
 
 __all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
 
@@ -71,7 +71,7 @@ def check_scan(
     ProcedureError
         Naming the first argument the rig cannot take, and the choices it has; or a
         pitch at which the streaks leave no streak-free camera columns
-        (:func:`~sassi_bench.workflows.streak_pitch.check_scan_pitch`).
+        (:func:`~sassi_bench.acquire.streak_pitch.check_scan_pitch`).
 
     Examples
     --------

@@ -2,7 +2,7 @@
 
 :func:`capture_spectral_sweeps` finds each laser's exposure, measures the SLM's
 grey-level response (structured sweeps), then records the sweep plan of
-:mod:`sassi_bench.workflows.spectral_plans` and, on a rig with wavelength lamps, the
+:mod:`sassi_bench.acquire.spectral_plans` and, on a rig with wavelength lamps, the
 lamp frames (:mod:`sassi_bench.workflows.spectral_lamps`). Named sessions resume where they stopped;
 a resumed session must have been captured with the same capture settings.
 """
@@ -20,6 +20,7 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import check_lamp_pitch, grey_plan, laser_light, sweep_plan
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.grey_response import GreyResponse, sinusoid_profile
 from sassi_bench.errors import ConfigError, step_error
@@ -27,8 +28,7 @@ from sassi_bench.paths import data_root
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.spectral_decode import measure_response
-from sassi_bench.workflows.spectral_lamps import capture_lamp_frames, check_lamp_pitch
-from sassi_bench.workflows.spectral_plans import grey_plan, laser_light, sweep_plan
+from sassi_bench.workflows.spectral_lamps import capture_lamp_frames
 from sassi_bench.workflows.sweep_stream import DecodedSweep, SweepStream
 
 __all__ = ["SpectralSweeps", "capture_spectral_sweeps", "procedure_lasers"]

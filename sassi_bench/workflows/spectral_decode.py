@@ -5,7 +5,7 @@ The grey-level session gives the SLM's grey-level response
 correspondences and their smooth field maps (:func:`analyse_sweep`, structured light
 or the paper's line sweep) and the blur from its pinhole frames
 (:func:`blur_from_pinholes`). Frames are selected by the tags of the plans in
-:mod:`sassi_bench.workflows.spectral_plans`.
+:mod:`sassi_bench.acquire.spectral_plans`.
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ def measure_response(session: Session, saturation: float) -> GreyResponse:
     Parameters
     ----------
     session
-        A session of :func:`~sassi_bench.workflows.spectral_plans.grey_plan`.
+        A session of :func:`~sassi_bench.acquire.spectral_plans.grey_plan`.
     saturation
         Raw value at which the spectral camera saturates.
 
@@ -190,7 +190,7 @@ def analyse_sweep(
     Parameters
     ----------
     session
-        A session of :func:`~sassi_bench.workflows.spectral_plans.sweep_plan`.
+        A session of :func:`~sassi_bench.acquire.spectral_plans.sweep_plan`.
     proc
         The spectral-calibration procedure (``sweep.mode``, the fit's degree and
         excluded regions).
@@ -296,7 +296,7 @@ def blur_from_pinholes(
     Parameters
     ----------
     session
-        A session of :func:`~sassi_bench.workflows.spectral_plans.sweep_plan`.
+        A session of :func:`~sassi_bench.acquire.spectral_plans.sweep_plan`.
     proc
         The spectral-calibration procedure (``blur.pinhole_pitch_px``,
         ``blur.window_sigmas``).

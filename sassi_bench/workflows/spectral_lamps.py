@@ -22,6 +22,13 @@ from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import (
+    LAMP_REACH_SIGMAS,
+    check_lamp_pitch,
+    lamp_band,
+    lamp_pinholes,
+    lamp_plan,
+)
 from sassi_bench.bundle import BlurModel, DispersionModel
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.anchored import (
@@ -36,14 +43,13 @@ from sassi_bench.calibrate.lamp_streaks import (
     signal_and_variance,
 )
 from sassi_bench.errors import ConfigError, DeviceError, ProcedureError, step_error
-from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.blur import line_spread_sigma
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.lamps import LineList
 from sassi_bench.paths import data_root
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.spectral_decode import blur_from_pinholes
-from sassi_bench.workflows.spectral_plans import lamp_pinholes, lamp_plan
 from sassi_bench.workflows.sweep_stream import PinholeSignal
 
 __all__ = [
@@ -52,7 +58,6 @@ __all__ = [
     "anchor_wavelengths",
     "camera_noise",
     "capture_lamp_frames",
-    "check_lamp_pitch",
     "check_lamp_signal",
     "lamp_streaks",
     "psf_sigma_px",
@@ -60,8 +65,6 @@ __all__ = [
 
 #: The prior width (nm) that holds a confirmed laser line at its label.
 HELD_LABEL_NM = 1e-3
-#: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last.
-_REACH_SIGMAS = 4.0
 
 
 def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.ndarray:
@@ -90,62 +93,6 @@ def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.nda
     else:
         pixels2 = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor) ** 2
     return np.sqrt(np.clip(spot**2 - pixels2, 0.04, None))
-
-
-def _lamp_band(lines: LineList, desc: RigDescription) -> tuple[float, float]:
-    """The lamp lines the streaks are cut for: those on the rig's spectral grid."""
-    grid = desc.spectral_grid
-    inside = (lines.wavelengths_nm >= grid.start_nm) & (lines.wavelengths_nm <= grid.stop_nm)
-    lam = lines.wavelengths_nm[inside]
-    return float(lam.min()), float(lam.max())
-
-
-def check_lamp_pitch(desc: RigDescription, procedure: Mapping[str, Any]) -> None:
-    """Refuse a lamp pinhole pitch at which one pinhole's lines reach the next pinhole's.
-
-    Judged by the description's nominal optics (a ray trace) and described blur: from 4
-    spot sigmas before the first lamp line to 4 after the last, at the four SLM corners.
-
-    Raises
-    ------
-    ConfigError
-        Naming the smallest pitch that keeps the streaks apart.
-
-    Examples
-    --------
-    >>> from sassi_bench.rig.config import load_rig_description
-    >>> check_lamp_pitch(load_rig_description("sim"), {"lamps": {"pinhole_pitch_px": [100, 24]}})
-    >>> check_lamp_pitch(load_rig_description("sim"), {"lamps": {"pinhole_pitch_px": [60, 24]}})
-    Traceback (most recent call last):
-    ...
-    sassi_bench.errors.ConfigError: lamp frames: ... Fix: set lamps.pinhole_pitch_px to at ...
-    """
-    lines = desc.lamp_lines()
-    if not lines:
-        return
-    low = min(_lamp_band(x, desc)[0] for x in lines.values())
-    high = max(_lamp_band(x, desc)[1] for x in lines.values())
-    relay = desc.nominal_relay()
-    h, w = desc.slm.height, desc.slm.width
-    u = np.array([0.0, w - 1, 0.0, w - 1])[:, None]
-    v = np.array([0.0, 0.0, h - 1, h - 1])[:, None]
-    x, _ = relay.forward(u, v, np.array([low, high])[None, :])
-    spot = line_spread_sigma(
-        PsfSigmaCurve(desc.blur.sigma_px)([low, high]), desc.relay.scale, desc.slm.fill_factor
-    )
-    extent = float(np.max(x[:, 1] - x[:, 0]) + _REACH_SIGMAS * (spot[0] + spot[1]))
-    pitch = [int(p) for p in lamp_pinholes(procedure)["pitch"]]
-    needed = int(np.ceil(extent / desc.relay.scale)) + 2
-    if pitch[0] < needed:
-        raise ConfigError(
-            step_error(
-                "lamp frames",
-                f"a {pitch[0]} SLM px pinhole pitch puts the lamp streaks into each other (each "
-                f"spans {extent:.0f} camera px from {low:.1f} to {high:.1f} nm with 4 sigma of "
-                "blur)",
-                f"set lamps.pinhole_pitch_px to at least [{needed}, {pitch[1]}]",
-            )
-        )
 
 
 def _lamp_settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
@@ -269,7 +216,7 @@ def lamp_streaks(
     Parameters
     ----------
     session
-        A session of :func:`~sassi_bench.workflows.spectral_plans.lamp_plan`.
+        A session of :func:`~sassi_bench.acquire.spectral_plans.lamp_plan`.
     procedure
         The spectral-calibration procedure.
     desc
@@ -317,11 +264,11 @@ def lamp_streaks(
         pinhole_frames = session.read_frames(plan.select(role="lamp-pinholes", lamp=light))
         blank = session.read_frames(plan.select(role="lamp-blank", lamp=light))
         signal, variance = signal_and_variance(pinhole_frames, blank, **camera)
-        band = _lamp_band(lines, desc)
+        band = lamp_band(lines, desc)
         half_rows = int(max(2, min(10, np.floor(row_pitch / 2.0) - 2)))
 
         def reach(lam, blur=blur):
-            return _REACH_SIGMAS * blur.sigma(lam)
+            return LAMP_REACH_SIGMAS * blur.sigma(lam)
 
         profiles = extract_streak_profiles(
             signal,

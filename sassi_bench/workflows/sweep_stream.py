@@ -1,7 +1,7 @@
 """The laser sweep decoded frame by frame, as it is captured or read back.
 
 :class:`SweepStream` takes the frames of a sweep session
-(:func:`~sassi_bench.workflows.spectral_plans.sweep_plan`) one at a time, in plan order
+(:func:`~sassi_bench.acquire.spectral_plans.sweep_plan`) one at a time, in plan order
 (a :class:`~sassi_bench.acquire.frame_feed.FrameFeed` gives them so), and keeps per
 laser only what the decoding needs: the dark, blank and full frames' means, one Gray
 frame waiting for its inverse, the phase frames of the axis being decoded (raw), the

@@ -5,12 +5,12 @@ import pytest
 from sassi_bench import open_rig
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import sweep_plan
 from sassi_bench.calibrate.dispersion import fit_dispersion
 from sassi_bench.errors import ConfigError
 from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.spectral import run_spectral_calibration
 from sassi_bench.workflows.spectral_decode import analyse_sweep
-from sassi_bench.workflows.spectral_plans import sweep_plan
 
 
 def test_a_laser_mislabelled_by_10_nm_fails_the_leave_one_out_check(sim_rig, true_laser_maps):

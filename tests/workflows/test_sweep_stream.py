@@ -8,10 +8,10 @@ import pytest
 from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import sweep_plan
 from sassi_bench.calibrate.grey_response import sinusoid_profile
 from sassi_bench.procedure import load_procedure
 from sassi_bench.workflows.spectral_decode import _structured_decode, pinhole_signal
-from sassi_bench.workflows.spectral_plans import sweep_plan
 from sassi_bench.workflows.sweep_stream import SweepStream
 
 

@@ -18,12 +18,18 @@ import numpy as np
 
 from sassi_bench.acquire.patterns import gray_bit_count
 from sassi_bench.acquire.plan import Plan, Step
-from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.errors import ConfigError, ProcedureError, step_error
+from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.lamps import LineList
+from sassi_bench.rig.config import RigDescription
 
 __all__ = [
     "LAMP_PINHOLE_PITCH_PX",
+    "LAMP_REACH_SIGMAS",
+    "check_lamp_pitch",
     "grey_levels",
     "grey_plan",
+    "lamp_band",
     "lamp_pinholes",
     "lamp_plan",
     "laser_light",
@@ -33,6 +39,8 @@ __all__ = [
 #: Pinhole pitch (SLM px, [x, y]) of the lamp frames when the procedure leaves it out: a
 #: lamp streak's 400-710 nm lines and their blur must not reach the next pinhole's.
 LAMP_PINHOLE_PITCH_PX = (100, 24)
+#: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last.
+LAMP_REACH_SIGMAS = 4.0
 
 
 def laser_light(wavelength_nm: float) -> str:
@@ -326,3 +334,68 @@ def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> P
         "pinholes": pattern,
     }
     return Plan("spectral-lamps", tuple(steps), parameters)
+
+
+def lamp_band(lines: LineList, desc: RigDescription) -> tuple[float, float]:
+    """The span (nm) of a lamp's lines that its streaks are cut for: those on the rig's
+    spectral grid.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> desc = load_rig_description("sim")
+    >>> lamp_band(desc.lamp_lines()["HgAr"], desc)
+    (404.6565, 706.7218)
+    """
+    grid = desc.spectral_grid
+    inside = (lines.wavelengths_nm >= grid.start_nm) & (lines.wavelengths_nm <= grid.stop_nm)
+    lam = lines.wavelengths_nm[inside]
+    return float(lam.min()), float(lam.max())
+
+
+def check_lamp_pitch(desc: RigDescription, procedure: Mapping[str, Any]) -> None:
+    """Refuse a lamp pinhole pitch at which one pinhole's lines reach the next pinhole's.
+
+    Judged by the description's nominal optics (a ray trace) and described blur: from 4
+    spot sigmas before the first lamp line to 4 after the last, at the four SLM corners.
+
+    Raises
+    ------
+    ConfigError
+        Naming the smallest pitch that keeps the streaks apart.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> check_lamp_pitch(load_rig_description("sim"), {"lamps": {"pinhole_pitch_px": [100, 24]}})
+    >>> check_lamp_pitch(load_rig_description("sim"), {"lamps": {"pinhole_pitch_px": [60, 24]}})
+    Traceback (most recent call last):
+    ...
+    sassi_bench.errors.ConfigError: lamp frames: ... Fix: set lamps.pinhole_pitch_px to at ...
+    """
+    lines = desc.lamp_lines()
+    if not lines:
+        return
+    low = min(lamp_band(x, desc)[0] for x in lines.values())
+    high = max(lamp_band(x, desc)[1] for x in lines.values())
+    relay = desc.nominal_relay()
+    h, w = desc.slm.height, desc.slm.width
+    u = np.array([0.0, w - 1, 0.0, w - 1])[:, None]
+    v = np.array([0.0, 0.0, h - 1, h - 1])[:, None]
+    x, _ = relay.forward(u, v, np.array([low, high])[None, :])
+    spot = line_spread_sigma(
+        PsfSigmaCurve(desc.blur.sigma_px)([low, high]), desc.relay.scale, desc.slm.fill_factor
+    )
+    extent = float(np.max(x[:, 1] - x[:, 0]) + LAMP_REACH_SIGMAS * (spot[0] + spot[1]))
+    pitch = [int(p) for p in lamp_pinholes(procedure)["pitch"]]
+    needed = int(np.ceil(extent / desc.relay.scale)) + 2
+    if pitch[0] < needed:
+        raise ConfigError(
+            step_error(
+                "lamp frames",
+                f"a {pitch[0]} SLM px pinhole pitch puts the lamp streaks into each other (each "
+                f"spans {extent:.0f} camera px from {low:.1f} to {high:.1f} nm with 4 sigma of "
+                "blur)",
+                f"set lamps.pinhole_pitch_px to at least [{needed}, {pitch[1]}]",
+            )
+        )

@@ -5,12 +5,12 @@ from pathlib import Path
 import pytest
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.streak_pitch import check_scan_pitch, scan_pitch_room
 from sassi_bench.errors import ProcedureError
 from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.config import load_rig_description
 from sassi_bench.workflows.full import run_full_calibration
 from sassi_bench.workflows.scan import check_scan
-from sassi_bench.workflows.streak_pitch import check_scan_pitch, scan_pitch_room
 
 RIGS = Path(__file__).resolve().parents[1] / "rigs"
 LONG = str(RIGS / "prism-sf10-80px.yaml")

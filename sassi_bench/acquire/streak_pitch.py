@@ -13,7 +13,7 @@ seven minutes and then failed its Macbeth check (max dE00 3.0 against 2.5); this
 refuses it before anything is captured.
 
 Judged from the rig's description (a ray trace of the described relay and prism, the
-described blur), as :func:`~sassi_bench.workflows.spectral_lamps.check_lamp_pitch` does
+described blur), as :func:`~sassi_bench.acquire.spectral_plans.check_lamp_pitch` does
 for the lamp frames, on a grid of field points: a lab's prism and relay are known before
 any calibration.
 """
