@@ -34,8 +34,8 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.calibrate.guide_registration import field_discrepancy_px
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.scan import assemble_scan
 from sassi_bench.rig.sim import truth
-from sassi_bench.spectra.scan import assemble_scan
 from sassi_bench.workflows.full import run_full_calibration
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -39,12 +39,12 @@ from _bundle import bundle_for
 from sassi_bench import open_rig
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.scan_plans import scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.batch import run_batch
 from sassi_bench.batch.engine import batch_client, default_workers
 from sassi_bench.batch.tasks import scan_dataset
 from sassi_bench.spectra.cube_io import write_netcdf
-from sassi_bench.spectra.scan import scan_plan
 from sassi_bench.storage.inventory import folder_size
 
 

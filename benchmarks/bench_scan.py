@@ -38,8 +38,9 @@ from _bundle import bundle_for
 from sassi_bench import open_rig
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.scan_plans import scan_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.spectra.scan import assemble_scan, scan_plan
+from sassi_bench.reduce.scan import assemble_scan
 
 
 def main() -> None:

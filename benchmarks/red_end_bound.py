@@ -42,11 +42,11 @@ from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.optics import sensor
+from sassi_bench.reduce.scan import assemble_scan
 from sassi_bench.rig.sim import truth
 from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.priors import RelativeSmoothnessPrior
-from sassi_bench.spectra.scan import assemble_scan
 
 STRENGTHS = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 

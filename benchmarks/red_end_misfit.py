@@ -56,7 +56,7 @@ def exact_scan(rig_name, session, bundle):
     """The frames of ``session``'s plan rendered without noise or rounding, assembled."""
     rig = open_rig(rig_name)
     rig.set_scene(session.plan.parameters["scene"])
-    assembly = ScanAssembly(session, bundle, keep_raw=True)
+    assembly = ScanAssembly(session.plan, session.rig, bundle, keep_raw=True)
     expose = sensor.SensorModel.expose
     sensor.SensorModel.expose = _exact
     try:

@@ -14,7 +14,7 @@ from sassi_bench.paths import data_root
 
 __all__ = ["SCAN_PLAN", "scan_scenes", "select_sessions"]
 
-#: The plan name of a pinhole scan (:func:`sassi_bench.spectra.scan.scan_plan`).
+#: The plan name of a pinhole scan (:func:`sassi_bench.acquire.scan_plans.scan_plan`).
 SCAN_PLAN = "pinhole-scan"
 
 

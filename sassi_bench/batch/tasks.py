@@ -18,14 +18,14 @@ from typing import Any, Literal
 
 import xarray as xr
 
+from sassi_bench.acquire.scan_plans import Roi
 from sassi_bench.acquire.session import Session
 from sassi_bench.batch.outputs import finished, write_atomic
 from sassi_bench.bundle import CalibrationBundle, load
 from sassi_bench.bundle.integrity import sha256_file
+from sassi_bench.reduce.scan import ScanRun, assemble_scan
 from sassi_bench.spectra.cube_io import write_netcdf
-from sassi_bench.spectra.scan import Roi, assemble_scan
 from sassi_bench.validate.chart import validate_scans
-from sassi_bench.workflows.scan import ScanRun
 
 __all__ = ["SessionResult", "TaskSpec", "bundle_sha256", "output_path", "run_task", "scan_dataset"]
 

@@ -15,11 +15,11 @@ __all__ = ["register"]
 
 
 def _batch(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.scan_plans import check_roi
     from sassi_bench.batch.engine import check_scheduler
     from sassi_bench.batch.run import check_out, run_batch
     from sassi_bench.batch.select import scan_scenes, select_sessions
     from sassi_bench.rig.config import load_rig_description
-    from sassi_bench.spectra.scan import check_roi
 
     # Every argument is checked before a cluster starts.
     rig_name = load_rig_description(args.rig).name

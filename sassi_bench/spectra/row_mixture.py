@@ -33,7 +33,7 @@ stacked pinholes). It costs about 5 ms of CPU a frame of 560 pixels (the quadrat
 :mod:`~sassi_bench.spectra._mixture_kernels` says how): about
 1.6-1.7 times the assembly's CPU once compiled (2.1 before its kernels were reworked);
 the first scan of a process also compiles them (about 3 s). It is
-:func:`~sassi_bench.spectra.scan.assemble_scan`'s default: with the blur model fitted to
+:func:`~sassi_bench.reduce.scan.assemble_scan`'s default: with the blur model fitted to
 the PSF the chain's chart scan on ``sim`` is 55.56 dB / 0.85 deg, against 54.33 dB / 1.17
 deg with the separable unmixing alone.
 """

@@ -39,20 +39,18 @@ from __future__ import annotations
 
 import os
 import threading
-from collections import deque
-from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
-from tqdm.auto import tqdm
 
+from sassi_bench._shared.threads import run_in_order
 from sassi_bench.acquire.patterns import open_pixels
-from sassi_bench.acquire.plan import Plan, Step
-from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.scan_plans import Roi, check_roi
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
@@ -73,13 +71,8 @@ from sassi_bench.spectra.scan_deblur import (
 
 __all__ = [
     "QUALITY_FLAGS",
-    "Roi",
     "ScanAssembly",
     "ScanCube",
-    "assemble_scan",
-    "check_pitch",
-    "check_roi",
-    "scan_plan",
 ]
 
 #: Bits of the quality mask.
@@ -92,81 +85,6 @@ QUALITY_FLAGS = {"not_measured": 1, "off_camera": 2, "saturated": 4, "bad_frame"
 ROI_MARGIN_ROWS = 100
 
 
-class Roi(NamedTuple):
-    """A region of the SLM grid: rows ``row0:row1`` and columns ``col0:col1`` (Python slice
-    bounds, the end excluded).
-
-    Examples
-    --------
-    >>> roi = Roi(10, 20, 30, 40)
-    >>> roi.shape, roi.slices
-    ((20, 20), (slice(10, 30, None), slice(20, 40, None)))
-    """
-
-    row0: int
-    col0: int
-    row1: int
-    col1: int
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """(rows, columns) of the region."""
-        return (self.row1 - self.row0, self.col1 - self.col0)
-
-    @property
-    def slices(self) -> tuple[slice, slice]:
-        """The region as a NumPy index of an SLM-sized array."""
-        return (slice(self.row0, self.row1), slice(self.col0, self.col1))
-
-
-def check_roi(
-    roi: Sequence[int] | None, slm_shape: tuple[int, int], step: str = "scan assembly"
-) -> Roi:
-    """A region ``(row0, col0, row1, col1)`` of the SLM, checked; the whole SLM for None.
-
-    Examples
-    --------
-    >>> check_roi(None, (400, 640)), check_roi([10, 20, 30, 40], (400, 640))
-    (Roi(row0=0, col0=0, row1=400, col1=640), Roi(row0=10, col0=20, row1=30, col1=40))
-    """
-    h, w = slm_shape
-    if roi is None:
-        return Roi(0, 0, h, w)
-    r0, c0, r1, c1 = (int(v) for v in roi)
-    if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
-        raise ProcedureError(
-            step_error(
-                step,
-                f"the ROI {tuple(roi)} is not a region of the {h} x {w} SLM",
-                f"give (row0, col0, row1, col1) with 0 <= row0 < row1 <= {h} and "
-                f"0 <= col0 < col1 <= {w}",
-            )
-        )
-    return Roi(r0, c0, r1, c1)
-
-
-def check_pitch(pitch: tuple[int, int], slm_shape: tuple[int, int]) -> tuple[int, int]:
-    """The (horizontal, vertical) pinhole pitch of a scan, checked against the SLM.
-
-    Examples
-    --------
-    >>> check_pitch((100, 5), (400, 640))
-    (100, 5)
-    """
-    px, py = (int(p) for p in pitch)
-    h, w = slm_shape
-    if not (1 <= px <= w and 1 <= py <= h):
-        raise ProcedureError(
-            step_error(
-                "pinhole scan",
-                f"pitch {tuple(pitch)} px does not fit the {h} x {w} SLM",
-                f"give a horizontal pitch of 1..{w} and a vertical one of 1..{h} SLM px "
-                "(the Nyquist scan: 100 5)",
-            )
-        )
-    return px, py
-
-
 #: How far a pinhole's streak footprint, which its frame's background samples avoid,
 #: reaches beyond the band's end bins: blur sigmas and camera px
 #: (:func:`~sassi_bench.spectra.offset.footprint_rectangles`). Under the blue end of a
@@ -175,40 +93,6 @@ def check_pitch(pitch: tuple[int, int], slm_shape: tuple[int, int]) -> tuple[int
 #: with 3 sigmas and 3 px a halogen white's column sums at 403-405 nm were 3.5 % under
 #: the forward model's (noise-free frames, the response's plan), with 4 and 6 within 0.05 %.
 FOOTPRINT_REACH = (4.0, 6.0)
-
-
-def scan_plan(
-    slm_shape: tuple[int, int],
-    light: str,
-    exposure_s: float,
-    pitch: tuple[int, int] = (100, 5),
-    scene: str | None = None,
-    closed_check: bool = True,
-) -> Plan:
-    """The pinhole scan: every offset of a ``pitch`` grid, one frame each.
-
-    Examples
-    --------
-    >>> plan = scan_plan((400, 640), "led", 0.1)
-    >>> len(plan.select(role="pinholes")), plan.steps[0].tags["role"]
-    (500, 'closed')
-    """
-    px, py = check_pitch(pitch, slm_shape)
-    steps = []
-    if closed_check:
-        steps.append(Step("spectral", light, exposure_s, {"kind": "blank"}, {"role": "closed"}))
-    for oy in range(py):
-        for ox in range(px):
-            pattern = {"kind": "pinholes", "pitch": [px, py], "offset": [ox, oy]}
-            steps.append(
-                Step(
-                    "spectral", light, exposure_s, pattern, {"role": "pinholes", "ox": ox, "oy": oy}
-                )
-            )
-    parameters = {"pitch": [px, py], "light": light, "exposure_s": exposure_s}
-    if scene is not None:
-        parameters["scene"] = scene
-    return Plan("pinhole-scan", tuple(steps), parameters)
 
 
 @dataclass
@@ -266,34 +150,6 @@ class ScanCube:
     noise_variance: NDArray[np.float32] | None = None
 
 
-def _run_frames(
-    task, items: list, label: str, progress: bool, workers: int, unit: str = "frame"
-) -> list:
-    """``task(item)`` for every frame, ``workers`` at a time, results in order.
-
-    Threads suffice: the work is numpy, compiled loops and decompression, which release
-    the GIL. At most twice ``workers`` frames are in flight, so memory stays bounded.
-    """
-    results = []
-    with tqdm(total=len(items), desc=label, unit=unit, disable=not progress) as bar:
-        if workers == 1:  # in this thread (profilers and debuggers see the work)
-            for item in items:
-                results.append(task(item))
-                bar.update()
-            return results
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            pending: deque = deque()
-            for item in items:
-                pending.append(pool.submit(task, item))
-                if len(pending) >= 2 * workers:
-                    results.append(pending.popleft().result())
-                    bar.update()
-            while pending:
-                results.append(pending.popleft().result())
-                bar.update()
-    return results
-
-
 class _Scratch:
     """One thread's share of the reading pass: its background sums (free pixels' total and
     count over the frames it read) and a frame's working buffers, reused from frame to
@@ -332,15 +188,18 @@ class ScanAssembly:
 
     Parameters
     ----------
-    session
-        A session captured from :func:`scan_plan` (complete or not: missing frames leave
-        their pixels flagged ``not_measured``).
+    plan
+        The plan of a pinhole scan (:func:`~sassi_bench.acquire.scan_plans.scan_plan`);
+        frames it does not get leave their pixels flagged ``not_measured``.
+    rig
+        The description of the rig the frames come from, as a session stores it (its
+        SLM's and spectral camera's sizes, the camera's bit depth and noise).
     bundle, roi, deblur, keep_raw, row_mixture
-        As for :func:`assemble_scan`.
+        As for :func:`~sassi_bench.reduce.scan.assemble_scan`.
 
     Examples
     --------
-    >>> assembly = ScanAssembly(session, bundle)  # doctest: +SKIP
+    >>> assembly = ScanAssembly(session.plan, session.rig, bundle)  # doctest: +SKIP
     >>> for index in assembly.steps:  # doctest: +SKIP
     ...     assembly.read(index, session.read_frame(index))
     >>> scan = assembly.finish(progress=False)  # doctest: +SKIP
@@ -348,7 +207,8 @@ class ScanAssembly:
 
     def __init__(
         self,
-        session: Session,
+        plan: Plan,
+        rig: Mapping[str, Any],
         bundle: CalibrationBundle,
         *,
         roi: Sequence[int] | None = None,
@@ -356,8 +216,7 @@ class ScanAssembly:
         keep_raw: bool = False,
         row_mixture: bool = True,
     ):
-        rig = session.rig
-        self.session, self.bundle, self.keep_raw = session, bundle, keep_raw
+        self.plan, self.bundle, self.keep_raw = plan, bundle, keep_raw
         self.slm_shape = (int(rig["slm"]["height"]), int(rig["slm"]["width"]))
         self.camera_shape = (
             int(rig["spectral_camera"]["height"]),
@@ -373,7 +232,6 @@ class ScanAssembly:
                     "load the bundle of the rig the scan was taken on",
                 )
             )
-        plan = session.plan
         self.pinholes = list(plan.select(role="pinholes"))
         closed = plan.select(role="closed")
         self.closed_step = closed[0] if closed else None
@@ -424,7 +282,7 @@ class ScanAssembly:
         for the scan, from the plan's first pinhole frame (the pattern alone)."""
         if not self.pinholes:
             return np.ones(self.n_bins + 2 * GUARD_BINS)
-        rows, cols = open_pixels(self.session.plan.steps[self.pinholes[0]].pattern, self.slm_shape)
+        rows, cols = open_pixels(self.plan.steps[self.pinholes[0]].pattern, self.slm_shape)
         geo = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
         return row_unmixing_gain(geo, cell_layout(geo, self.box))
 
@@ -455,7 +313,7 @@ class ScanAssembly:
             return
         problems: list[str] = []
         data = np.asarray(data)
-        rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
+        rows, cols = open_pixels(self.plan.steps[index].pattern, self.slm_shape)
         _, c0, _, c1 = self.roi
         keep = (rows >= self.w0) & (rows < self.w1) & (cols >= c0) & (cols < c1)
         if data.shape != self.camera_shape:
@@ -512,29 +370,16 @@ class ScanAssembly:
         parts = []
         for index in sorted(self.sample_raw):  # a few dozen frames at most
             raw, good = self.sample_raw.pop(index)
-            rows, cols = open_pixels(self.session.plan.steps[index].pattern, self.slm_shape)
+            rows, cols = open_pixels(self.plan.steps[index].pattern, self.slm_shape)
             geo = streak_geometry(self.bundle, rows, cols, GUARD_BINS).shifted(self.top)
             layout = cell_layout(geo, self.box)
             variance = self.noise.variance(raw, layout, self.row_gain)
             covariance = self.noise.neighbour_covariance(raw, layout, self.row_gain)
             raw -= cell_sums(self.background_cumulative, layout)
-            exposure = np.full(rows.size, self.session.plan.steps[index].exposure_s)
+            exposure = np.full(rows.size, self.plan.steps[index].exposure_s)
             amplitudes = self._unmix(raw, layout, geo)
             parts.append((amplitudes, rows, cols, variance, covariance, exposure, good))
         return ChoiceSample.of(parts, self.n_bins + 2 * GUARD_BINS)
-
-    def read_stored(
-        self, indices: Sequence[int], *, progress: bool = True, workers: int | None = None
-    ) -> None:
-        """The reading pass of stored frames, read back from the session on ``workers``
-        threads (default: one per CPU)."""
-        workers = max(1, workers or os.cpu_count() or 1)
-
-        def task(index: int) -> None:
-            self.read(index, self.session.read_frame(index))
-
-        with threadpool_limits(limits=1, user_api="blas"):
-            _run_frames(task, list(indices), "scan frames", progress, workers)
 
     def _background(self, closed: NDArray | None) -> tuple[NDArray[np.float64], float | None]:
         """The background estimate on the whole camera (NaN where no light reaches), and
@@ -551,7 +396,7 @@ class ScanAssembly:
         rows = slice(self.top, self.top + self.box[0])
         # The closed frame fills only pixels that were never free (the full scan has none),
         # and only at the pinholes' exposure.
-        steps = self.session.plan.steps
+        steps = self.plan.steps
         fill = None
         if (
             closed is not None
@@ -570,11 +415,16 @@ class ScanAssembly:
             check = float(np.sqrt(np.nanmean(residual**2))) if residual.size else None
         return background, check
 
+    @property
+    def missing_closed(self) -> int | None:
+        """The plan's closed-SLM step if the reading pass has not had its frame (the
+        caller may pass it to :meth:`read` before :meth:`finish`), else None."""
+        if self.closed_step is None or self.closed_frame is not None:
+            return None
+        return self.closed_step
+
     def _closed(self) -> NDArray | None:
-        """The closed-SLM frame of the right shape, if the plan took one (read back now
-        if the reading pass did not see it)."""
-        if self.closed_frame is None and self.closed_step in self.session.completed:
-            self.read(self.closed_step, self.session.read_frame(self.closed_step))
+        """The closed-SLM frame, if the reading pass had one of the right shape."""
         if self.closed_frame is None or np.shape(self.closed_frame) != self.camera_shape:
             return None
         return self.closed_frame
@@ -600,7 +450,7 @@ class ScanAssembly:
         self.guards[local] = np.concatenate(
             [amplitudes[:, : geo.guard], amplitudes[:, geo.core.stop :]], 1
         )
-        exposure = self.session.plan.steps[frame.index].exposure_s
+        exposure = self.plan.steps[frame.index].exposure_s
         self.exposure[local] = exposure
         signal = amplitudes[:, geo.core] / exposure
         good = self.quality[local] == 0
@@ -651,7 +501,6 @@ class ScanAssembly:
         ScanCube
         """
         workers = max(1, workers or os.cpu_count() or 1)
-        # Read back now if the reading pass missed it: its problems count too.
         closed = self._closed()
         frames = sorted(self.frames, key=lambda frame: frame.index)
         # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and
@@ -660,9 +509,9 @@ class ScanAssembly:
         # building the deblur operators took 0.65 s with two, 0.15 s with one).
         with threadpool_limits(limits=1, user_api="blas"):
             background, check = self._background(closed)
-            signals = _run_frames(self._spectra, frames, "scan spectra", progress, workers)
+            signals = run_in_order(self._spectra, frames, "scan spectra", progress, workers)
             deblurred, kept = self._deblur(
-                lambda task, items, label: _run_frames(
+                lambda task, items, label: run_in_order(
                     task, items, label, progress, workers, unit="block"
                 ),
             )
@@ -688,71 +537,6 @@ class ScanAssembly:
                 (self.variance / seconds)[crop].astype(np.float32) if self.keep_raw else None
             ),
         )
-
-
-def assemble_scan(
-    session: Session,
-    bundle: CalibrationBundle,
-    *,
-    roi: Sequence[int] | None = None,
-    deblur: bool = True,
-    keep_raw: bool = False,
-    row_mixture: bool = True,
-    progress: bool = True,
-    workers: int | None = None,
-) -> ScanCube:
-    """Assemble a pinhole-scan session into a cube on the SLM grid.
-
-    Every frame is read once. The reading pass adds the frame's pixels outside the
-    predicted streaks to the background estimate and keeps the raw cell sums of its open
-    pixels (linear in the frame) and their noise; the spectra pass then subtracts the
-    background's cell sums and unmixes, without reading frames again. Only the camera rows
-    that streaks can reach are processed. (:class:`ScanAssembly` takes the frames one at a
-    time, e.g. as they are captured.)
-
-    Parameters
-    ----------
-    session
-        A session captured from :func:`scan_plan` (complete or not: missing frames leave
-        their pixels flagged ``not_measured``).
-    bundle
-        The calibration bundle giving the streak geometry and blur.
-    roi
-        Optional (row0, col0, row1, col1) SLM region (end exclusive) to assemble.
-    deblur
-        Undo the spill of each bin into its neighbours along the streak (see
-        :mod:`sassi_bench.spectra.deblur`), with the regularisation chosen from the scan.
-    keep_raw
-        Also keep every pixel's column sums before the deblur and their noise
-        (:attr:`ScanCube.column_sums`, :attr:`ScanCube.noise_variance`), for spectra
-        averaged before they are deblurred (the response, the Macbeth patches).
-    row_mixture
-        Unmix the stacked pixels with each one's light in a bin's columns blurred across
-        the streak as the mixture of the wavelengths that reach them
-        (:mod:`sassi_bench.spectra.row_mixture`) instead of with the bin's own blur alone:
-        closer at the red end, about 1.6 times the CPU of the assembly. False unmixes each
-        bin with its own blur alone (the separable unmixing).
-    progress
-        Show progress bars.
-    workers
-        Frames processed at once (threads; default: the number of CPUs).
-
-    Returns
-    -------
-    ScanCube
-
-    Examples
-    --------
-    >>> scan = assemble_scan(session, bundle)  # doctest: +SKIP
-    >>> scan.cube.shape  # doctest: +SKIP
-    (400, 640, 68)
-    """
-    assembly = ScanAssembly(
-        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture
-    )
-    stored = [i for i in assembly.steps if i in session.completed]
-    assembly.read_stored(stored, progress=progress, workers=workers)
-    return assembly.finish(progress=progress, workers=workers)
 
 
 def _mean_background(

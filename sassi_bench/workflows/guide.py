@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.scan_plans import coarse_scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
 from sassi_bench.bundle.derive import check_parent
@@ -36,9 +37,8 @@ from sassi_bench.calibrate.guide_render import (
     rendering_sensitivities,
     upsample_lattice,
 )
-from sassi_bench.errors import ConfigError, ProcedureError, step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
-from sassi_bench.spectra.scan import scan_plan
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan_feed import capture_scan
 
@@ -46,7 +46,6 @@ __all__ = [
     "GuideRegistration",
     "SlmReference",
     "capture_guide",
-    "coarse_scan_plan",
     "publish_guide",
     "run_guide_registration",
     "scan_reference",
@@ -132,71 +131,6 @@ def _check_resumed(session: Session, expected: Mapping[str, Any]) -> None:
 
 def _plain(value: Any) -> Any:
     return [_plain(v) for v in value] if isinstance(value, list | tuple) else value
-
-
-def coarse_scan_plan(
-    slm_shape: tuple[int, int],
-    light: str,
-    exposure_s: float,
-    pitch: tuple[int, int],
-    stride: tuple[int, int],
-    scene: str,
-) -> Plan:
-    """The pinhole scan restricted to every ``stride``-th offset per axis.
-
-    The measured SLM pixels form a lattice ``stride`` apart, starting at (0, 0); with
-    ``stride == (1, 1)`` this is the full Nyquist scan.
-
-    Parameters
-    ----------
-    slm_shape
-        SLM (height, width).
-    light
-        The light the scan is captured under.
-    exposure_s
-        Exposure of every pinhole frame.
-    pitch
-        (horizontal, vertical) pinhole pitch in SLM pixels.
-    stride
-        (horizontal, vertical) step between the pinhole offsets kept; each divides the
-        pitch on its axis.
-    scene
-        The scene scanned (recorded in the plan's parameters).
-
-    Returns
-    -------
-    Plan
-        ``guide-scan``: the full scan's dark and reference frames and the kept pinhole
-        frames, with ``stride`` among its parameters.
-
-    Raises
-    ------
-    ConfigError
-        If a stride does not divide the pitch.
-
-    Examples
-    --------
-    >>> plan = coarse_scan_plan((400, 640), "led", 0.1, (100, 5), (4, 1), "natural")
-    >>> len(plan.select(role="pinholes")), list(plan.parameters["stride"])
-    (125, [4, 1])
-    """
-    px, py = int(pitch[0]), int(pitch[1])
-    sx, sy = int(stride[0]), int(stride[1])
-    if px % sx or py % sy:
-        raise ConfigError(
-            step_error(
-                STEP,
-                f"scan stride {[sx, sy]} does not divide the pinhole pitch {[px, py]}",
-                "choose scan.stride_px dividing scan.pitch_px on each axis",
-            )
-        )
-    plan = scan_plan(slm_shape, light, exposure_s, (px, py), scene=scene)
-    keep = tuple(
-        s
-        for s in plan.steps
-        if s.tags["role"] != "pinholes" or (s.tags["ox"] % sx == 0 and s.tags["oy"] % sy == 0)
-    )
-    return Plan("guide-scan", keep, {**plan.parameters, "stride": [sx, sy]})
 
 
 @drives_rig("guide registration")

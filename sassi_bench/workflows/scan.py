@@ -19,6 +19,7 @@ import numpy as np
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.scan_plans import check_pitch, check_roi, scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.streak_pitch import check_scan_pitch
 from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
@@ -30,14 +31,14 @@ from sassi_bench.calibrate.radiometry import (
     temperature_sensitivity,
 )
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.reduce.scan import ScanRun
 from sassi_bench.rig.rig import Rig, check_light, check_scene
 from sassi_bench.spectra.forward import StreakForwardModel
-from sassi_bench.spectra.scan import ScanCube, check_pitch, check_roi, scan_plan
 from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan_feed import capture_scan
 
-__all__ = ["ResponseSource", "ScanRun", "check_scan", "response_source", "run_response", "run_scan"]
+__all__ = ["ResponseSource", "check_scan", "response_source", "run_response", "run_scan"]
 
 
 def _stamp(prefix: str) -> str:
@@ -346,64 +347,6 @@ def run_response(
         allow_failed=allow_failed,
         data=data,
     )
-
-
-@dataclass
-class ScanRun:
-    """A finished scan: the assembled cube, whether it is in radiance, and its session."""
-
-    scan: ScanCube
-    radiance: bool
-    session: Session
-    bundle: CalibrationBundle
-
-    def dataset(self):
-        """The cube as an xarray Dataset with its provenance as attributes.
-
-        Returns
-        -------
-        xarray.Dataset
-            Dims (y, x, wavelength), divided by the bundle's response when ``radiance``;
-            its attributes name the bundle, session, scene and light.
-
-        Examples
-        --------
-        >>> run_scan(rig, bundle, scene="white").dataset()["radiance"].dims  # doctest: +SKIP
-        ('y', 'x', 'wavelength')
-        """
-        from sassi_bench.spectra.cube_io import cube_dataset
-
-        cube = self.scan
-        if self.radiance:
-            cube = ScanCube(**{**cube.__dict__, "cube": _divided(cube.cube, self.bundle.response)})
-        units = (
-            "relative photon radiance per bin" if self.radiance else "camera ADU per second per bin"
-        )
-        attrs: dict[str, Any] = {
-            "bundle_version": self.bundle.version,
-            "bundle_rig": self.bundle.rig_name,
-            "session_id": self.session.id,
-            "session_sha256": self.session.sha256(),
-            "scene": str(self.session.plan.parameters.get("scene", "")),
-            "light": str(self.session.plan.parameters.get("light", "")),
-        }
-        response = self.bundle.response if self.radiance else None
-        return cube_dataset(cube, units=units, response=response, attrs=attrs)
-
-
-def _divided(cube: np.ndarray, response: np.ndarray, rows: int = 64) -> np.ndarray:
-    """``(cube / response).astype(float32)`` a block of rows at a time (the float64
-    quotient of a whole prototype cube is 1.1 GB).
-
-    Examples
-    --------
-    >>> _divided(np.ones((3, 2, 2), np.float32), np.array([2.0, 4.0]), rows=2)[2, 1].tolist()
-    [0.5, 0.25]
-    """
-    out = np.empty(cube.shape, np.float32)
-    for start in range(0, cube.shape[0], rows):
-        out[start : start + rows] = cube[start : start + rows] / response
-    return out
 
 
 @drives_rig("scan")

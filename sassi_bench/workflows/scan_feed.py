@@ -7,7 +7,7 @@ it is stored, to the scan's reading pass
 and no frame is read back; frames stored before (a resumed capture) are read back first,
 on a thread per CPU. Only the spectra pass and the deblur wait for the last frame: they
 need the background, which every frame adds to. The reading pass's sums are exact, so
-the cube is the one :func:`~sassi_bench.spectra.scan.assemble_scan` makes of the
+the cube is the one :func:`~sassi_bench.reduce.scan.assemble_scan` makes of the
 finished session, wherever a capture was interrupted.
 """
 
@@ -20,8 +20,9 @@ from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.reduce.scan import finish_scan, read_stored, scan_assembly
 from sassi_bench.rig.rig import Rig
-from sassi_bench.spectra.scan import ScanAssembly, ScanCube
+from sassi_bench.spectra.scan import ScanCube
 
 __all__ = ["capture_scan"]
 
@@ -44,10 +45,10 @@ def capture_scan(
     rig
         Device handles.
     session
-        A pinhole-scan session (:func:`~sassi_bench.spectra.scan.scan_plan`), new or
+        A pinhole-scan session (:func:`~sassi_bench.acquire.scan_plans.scan_plan`), new or
         partly captured.
     bundle, roi, deblur, keep_raw, row_mixture
-        As for :func:`~sassi_bench.spectra.scan.assemble_scan`.
+        As for :func:`~sassi_bench.reduce.scan.assemble_scan`.
     progress
         Show progress bars.
 
@@ -59,14 +60,14 @@ def capture_scan(
     --------
     >>> scan = capture_scan(rig, session, bundle, keep_raw=True)  # doctest: +SKIP
     """
-    assembly = ScanAssembly(
+    assembly = scan_assembly(
         session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture
     )
     stored = session.completed
-    assembly.read_stored([i for i in assembly.steps if i in stored], progress=progress)
+    read_stored(assembly, session, [i for i in assembly.steps if i in stored], progress=progress)
     todo = [i for i in assembly.steps if i not in stored]
     with FrameFeed(session, todo, assembly.read, label="scan") as feed:
         run_plan(rig, session.plan, feed.tee(), progress=progress)
         feed.finish()
     release_memory()  # the reading pass's per-frame buffers, before the cube's work
-    return assembly.finish(progress=progress)
+    return finish_scan(assembly, session, progress=progress)

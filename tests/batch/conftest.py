@@ -12,10 +12,10 @@ import pytest
 
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.scan_plans import scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.rig.sim import truth
-from sassi_bench.spectra.scan import scan_plan
 
 _spec = importlib.util.spec_from_file_location(
     "batch_synthetic_bundle", Path(__file__).parents[1] / "bundle" / "conftest.py"

@@ -12,7 +12,7 @@ import pytest
 from sassi_bench.acquire.session import Session
 from sassi_bench.batch import run_batch
 from sassi_bench.procedure import load_procedure
-from sassi_bench.spectra.scan import assemble_scan
+from sassi_bench.reduce.scan import assemble_scan
 from sassi_bench.validate.chart import validate_scans
 
 

@@ -502,10 +502,10 @@ def build_world(root: Path, bundle_dir: Path) -> dict[str, Path]:
     from sassi_bench import open_rig
     from sassi_bench.acquire.plan import Plan
     from sassi_bench.acquire.runner import run_plan
+    from sassi_bench.acquire.scan_plans import scan_plan
     from sassi_bench.acquire.session import Session
     from sassi_bench.bundle import export_zip, load
     from sassi_bench.procedure import load_procedure
-    from sassi_bench.spectra.scan import scan_plan
     from sassi_bench.workflows.snapshot import take_snapshots
 
     data = root / "data"

@@ -9,10 +9,11 @@ import pytest
 
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.scan_plans import scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load, publish
 from sassi_bench.procedure import load_procedure
-from sassi_bench.spectra.scan import assemble_scan, scan_plan
+from sassi_bench.reduce.scan import assemble_scan
 from sassi_bench.workflows.scan import run_scan
 
 

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from sassi_bench.acquire.scan_plans import coarse_scan_plan
 from sassi_bench.bundle import load
 from sassi_bench.calibrate.guide_registration import (
     RegistrationError,
@@ -16,7 +17,6 @@ from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import (
     capture_guide,
-    coarse_scan_plan,
     publish_guide,
     run_guide_registration,
     scan_reference,

@@ -7,9 +7,10 @@ import numpy as np
 from sassi_bench import open_rig
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.scan_plans import scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
-from sassi_bench.spectra.scan import assemble_scan, scan_plan
+from sassi_bench.reduce.scan import assemble_scan
 from sassi_bench.workflows.scan_feed import capture_scan
 
 
