@@ -14,5 +14,5 @@ def bundle_for(rig: Rig, path: str | None, data: str) -> CalibrationBundle:
         return load(path)
     print("calibrating the rig first ...")
     proc = load_procedure("spectral_calibration")
-    result = run_spectral_calibration(rig, proc, data=data, progress=False, figures=False)
+    result = run_spectral_calibration(rig, proc, data=data, progress=False)
     return load(result.bundle_path)

@@ -66,13 +66,13 @@ MARKERS = (
     ("sassi_bench.workflows.full", "run_macbeth", "Macbeth scan and validation"),
     ("sassi_bench.workflows.full", "render_report", "Macbeth scan and validation"),
     ("sassi_bench.workflows.full", "publish_derived", "publishing"),
-    ("sassi_bench.workflows.spectral_capture", "measure_response", "grey response"),
+    ("sassi_bench.workflows.spectral", "measure_response", "grey response"),
     ("sassi_bench.workflows.spectral", "analyse_spectral_sweeps", "dispersion and blur fits"),
     ("sassi_bench.workflows.spectral", "render_figures", "dispersion and blur fits"),
     ("sassi_bench.workflows.spectral", "publish_spectral", "publishing"),
-    ("sassi_bench.workflows.spectral_analysis", "measure_response", "grey response"),
-    ("sassi_bench.workflows.spectral_decode", "_structured_decode", "sweeps and decoding"),
-    ("sassi_bench.workflows.spectral_decode", "_line_decode", "sweeps and decoding"),
+    ("sassi_bench.reduce.spectral", "measure_response", "grey response"),
+    ("sassi_bench.reduce.sweeps", "_structured_decode", "sweeps and decoding"),
+    ("sassi_bench.reduce.sweeps", "_line_decode", "sweeps and decoding"),
     ("sassi_bench.workflows.scan", "publish_derived", "publishing"),
     ("sassi_bench.workflows.guide", "publish_derived", "publishing"),
 )
@@ -237,7 +237,7 @@ def instrument(clock: StageClock, rig) -> None:
             print(f"note: {module_name}.{name} not found; its time counts to its caller")
 
     _time_compiles(clock)
-    capture = importlib.import_module("sassi_bench.workflows.spectral_capture")
+    capture = importlib.import_module("sassi_bench.workflows.spectral")
     run_plan = capture.run_plan
 
     def run_stage_plan(rig, plan, session, **kwargs):

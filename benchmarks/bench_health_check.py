@@ -32,7 +32,7 @@ def _bundle(rig, data):
         return load(rig=rig.description.name, data=data)
     except BundleError:  # no bundle yet: calibrate one
         run_spectral_calibration(
-            rig, load_procedure("spectral_calibration"), data=data, progress=False, figures=False
+            rig, load_procedure("spectral_calibration"), data=data, progress=False
         )
         return load(rig=rig.description.name, data=data)
 

@@ -20,7 +20,7 @@ from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import sweep_plan
 from sassi_bench.procedure import load_procedure
-from sassi_bench.workflows.spectral_decode import analyse_sweep
+from sassi_bench.reduce.sweeps import analyse_sweep
 
 LASER = 532.0
 

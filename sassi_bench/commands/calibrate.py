@@ -31,9 +31,9 @@ def _print_notes(notes: list[str]) -> None:
 def _full(args: argparse.Namespace) -> int:
     from sassi_bench.paths import data_root
     from sassi_bench.procedure import load_procedure
+    from sassi_bench.reduce.spectral import spectral_notes
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.full import run_full_calibration
-    from sassi_bench.workflows.spectral_analysis import spectral_notes
 
     procedure = load_procedure("full_calibration", args.procedure)
     rig = open_rig(args.rig)
@@ -84,9 +84,9 @@ def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -
 
 def _spectral(args: argparse.Namespace) -> int:
     from sassi_bench.procedure import load_procedure
+    from sassi_bench.reduce.spectral import spectral_notes
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.spectral import run_spectral_calibration
-    from sassi_bench.workflows.spectral_analysis import spectral_notes
 
     procedure = load_procedure("spectral_calibration", args.procedure)
     rig = open_rig(args.rig)

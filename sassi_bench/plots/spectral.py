@@ -35,7 +35,7 @@ def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
     Parameters
     ----------
     lasers
-        Every laser's :class:`~sassi_bench.workflows.spectral_decode.LaserDecode`.
+        Every laser's :class:`~sassi_bench.reduce.sweeps.LaserDecode`.
     slm_shape
         SLM (height, width).
 
@@ -92,7 +92,7 @@ def dispersion_figure(dispersion, lasers, slm_shape: tuple[int, int]):
         The :class:`~sassi_bench.calibrate.dispersion.DispersionFit`: its model, bins and
         leave-one-out errors.
     lasers
-        Every laser's :class:`~sassi_bench.workflows.spectral_decode.LaserDecode`.
+        Every laser's :class:`~sassi_bench.reduce.sweeps.LaserDecode`.
     slm_shape
         SLM (height, width).
 
@@ -193,7 +193,7 @@ def lamp_spectrum_figure(anchoring, model):
     Parameters
     ----------
     anchoring
-        A :class:`~sassi_bench.workflows.spectral_lamps.LampAnchoring`.
+        A :class:`~sassi_bench.reduce.lamps.LampAnchoring`.
     model
         The calibration's dispersion model (it puts the streaks on a wavelength axis).
 
@@ -255,7 +255,7 @@ def spectral_figures(result: Any) -> dict[str, Any]:
     Parameters
     ----------
     result
-        A :class:`~sassi_bench.workflows.spectral_analysis.SpectralCalibration`.
+        A :class:`~sassi_bench.reduce.spectral.SpectralCalibration`.
 
     Returns
     -------

@@ -36,10 +36,10 @@ from sassi_bench.calibrate.streak_shift import (
 )
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.provenance import package_version
+from sassi_bench.reduce.lamps import camera_noise, lamp_streaks
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
-from sassi_bench.workflows.spectral_lamps import camera_noise, lamp_streaks
 
 __all__ = ["HealthCheck", "check_light", "run_health_check"]
 

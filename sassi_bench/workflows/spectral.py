@@ -1,28 +1,352 @@
-"""The spectral calibration workflow: laser sweeps -> dispersion and blur -> bundle.
+"""The spectral calibration: laser sweeps -> dispersion and blur -> bundle, as named steps.
 
-:func:`run_spectral_calibration` runs its stages end to end; the notebooks call them
-one by one. It drives a rig through the procedure's capture plans, recording everything
-in raw sessions, resumable (:mod:`~sassi_bench.workflows.spectral_capture`); decodes
-every laser's SLM -> camera correspondences, fits the per-laser field maps, the joint
-dispersion model and the blur and grades the result against the procedure's
-tolerances (:mod:`~sassi_bench.workflows.spectral_analysis`); and renders its plots and
-publishes a calibration bundle (:mod:`~sassi_bench.workflows.spectral_publish`). It
-uses device handles only.
+:data:`STEPS` lists the procedure's steps in order (:func:`run_spectral_calibration`
+runs them, the notebooks one at a time): ``open`` checks the procedure against the rig
+and opens the sessions of an earlier run; ``exposures`` finds each laser's exposure;
+``grey`` measures the SLM's grey-level response (structured sweeps); ``sweep`` records
+the sweep plan of :mod:`~sassi_bench.acquire.spectral_plans`, decoded as its frames are
+stored; ``lamps`` records the lamp frames on a rig with wavelength lamps; ``analyse``
+fits the dispersion and blur and grades them (:mod:`~sassi_bench.reduce.spectral`);
+``figures`` renders the plots and ``publish`` publishes the bundle
+(:mod:`~sassi_bench.reduce.spectral_bundle`). Named sessions resume where they stopped;
+a resumed session must have been captured with the same capture settings.
 """
 
 from __future__ import annotations
 
+import json
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from typing import Any
 
+from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.frame_feed import FrameFeed
+from sassi_bench.acquire.runner import run_plan
+from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import (
+    check_lamp_pitch,
+    grey_plan,
+    lamp_pinholes,
+    lamp_plan,
+    laser_light,
+    sweep_plan,
+)
+from sassi_bench.bundle.jsonio import thaw
+from sassi_bench.calibrate.grey_response import GreyResponse, sinusoid_profile
+from sassi_bench.errors import ConfigError, DeviceError, step_error
+from sassi_bench.paths import data_root
+from sassi_bench.reduce.spectral import SpectralCalibration, SpectralSweeps, analyse_spectral_sweeps
+from sassi_bench.reduce.spectral_bundle import publish_spectral, render_figures
+from sassi_bench.reduce.sweep_stream import DecodedSweep, SweepStream
+from sassi_bench.reduce.sweeps import measure_response
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
-from sassi_bench.workflows.spectral_analysis import SpectralCalibration, analyse_spectral_sweeps
-from sassi_bench.workflows.spectral_capture import capture_spectral_sweeps
-from sassi_bench.workflows.spectral_publish import publish_spectral, render_figures
+from sassi_bench.workflows.steps import run_steps
 
-__all__ = ["run_spectral_calibration"]
+__all__ = [
+    "CAPTURE_STEPS",
+    "STEPS",
+    "SpectralRun",
+    "capture_lamp_frames",
+    "capture_spectral_sweeps",
+    "procedure_lasers",
+    "run_spectral_calibration",
+]
+
+
+def _session_id(base: str | None) -> str:
+    if base:
+        return base
+    return "spectral-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+
+
+def procedure_lasers(procedure: Mapping[str, Any], lasers_nm: Sequence[float]) -> list[float]:
+    """The laser lines a spectral calibration sweeps: the procedure's ``lasers_nm`` when it
+    pins them, else every laser of the rig.
+
+    Parameters
+    ----------
+    procedure
+        The spectral-calibration procedure (its ``lasers_nm`` may be None).
+    lasers_nm
+        The rig's laser lines, from its description.
+
+    Returns
+    -------
+    list of float
+        Wavelengths, nm.
+
+    Examples
+    --------
+    >>> procedure_lasers({"lasers_nm": None}, (405, 488, 561, 640))
+    [405.0, 488.0, 561.0, 640.0]
+    >>> procedure_lasers({"lasers_nm": [450, 532, 670]}, (450, 520, 532, 635, 670))
+    [450.0, 532.0, 670.0]
+    """
+    pinned = procedure.get("lasers_nm")
+    return [float(x) for x in (pinned if pinned is not None else lasers_nm)]
+
+
+def _check_lasers(rig: Rig, lasers: list[float]) -> None:
+    missing = [x for x in lasers if laser_light(x) not in rig.light.available]
+    if missing:
+        raise ConfigError(
+            step_error(
+                "spectral calibration",
+                f"the procedure needs laser line(s) {missing} nm that rig "
+                f"{rig.description.name!r} does not have ({', '.join(rig.light.available)})",
+                "add them to the rig's lasers_nm or remove them from the procedure's lasers_nm",
+            )
+        )
+
+
+def _resume(session_id: str, data: str | os.PathLike[str] | None) -> Session | None:
+    """The existing session of this id, or None if there is none (damage is an error)."""
+    if not (data_root(data) / "sessions" / session_id).exists():
+        return None
+    return Session.open(session_id, data=data)
+
+
+def _capture_settings(proc: Mapping[str, Any]) -> dict[str, Any]:
+    """The parts of a procedure that decide what is captured, as JSON values (so 450 and
+    450.0 nm are the same laser). Fit settings and tolerances may change between capture
+    and analysis (a person excluding a region in the notebook); these may not."""
+    blur = {k: v for k, v in thaw(proc.get("blur", {})).items() if k != "window_sigmas"}
+    settings = {k: thaw(proc.get(k)) for k in ("lasers_nm", "sweep", "exposure")}
+    return json.loads(json.dumps({**settings, "blur": blur}))
+
+
+def _check_same_procedure(
+    session: Session, proc: Mapping[str, Any], rig_lasers: Sequence[float]
+) -> None:
+    """Refuse to resume ``session`` with a procedure that would capture other frames; a
+    procedure that leaves ``lasers_nm`` to the rig equals one pinning the rig's lasers."""
+    stored = session.plan.parameters.get("procedure")
+
+    def settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
+        lasers = procedure_lasers(procedure, rig_lasers)
+        return _capture_settings({**procedure, "lasers_nm": lasers})
+
+    if stored is not None and settings(stored) != settings(proc):
+        raise ConfigError(
+            step_error(
+                f"resume session {session.id}",
+                "it was captured with different lasers, sweep, exposure or blur settings "
+                "than the procedure given now",
+                "resume with the same procedure file, or start a new --session",
+            )
+        )
+
+
+@dataclass
+class SpectralRun:
+    """The state of a spectral calibration as its steps run.
+
+    Attributes
+    ----------
+    rig, procedure
+        The devices and the procedure.
+    base, data, progress, allow_failed
+        The sessions' base id, the data root, progress bars, and whether a bundle that
+        failed a check is published (marked).
+    lasers, extra
+        The lines swept, and those with pinhole (blur) frames only.
+    grey, sweep, lamps
+        The sessions (None until opened or created; ``lamps`` None on a rig without
+        wavelength lamps).
+    exposures
+        Exposure (s) per swept line, measured for a new sweep session.
+    response
+        The SLM's grey-level response (structured sweeps).
+    decoded
+        The sweep decoded as its frames were stored.
+    result
+        The analysed calibration (its ``figures`` and ``bundle_path`` once made).
+    """
+
+    rig: Rig
+    procedure: dict[str, Any]
+    base: str
+    data: str | os.PathLike[str] | None = None
+    progress: bool = True
+    allow_failed: bool = False
+    lasers: list[float] = field(default_factory=list)
+    extra: list[float] = field(default_factory=list)
+    grey: Session | None = None
+    sweep: Session | None = None
+    lamps: Session | None = None
+    exposures: dict[float, float] = field(default_factory=dict)
+    response: GreyResponse | None = None
+    decoded: DecodedSweep | None = None
+    result: SpectralCalibration | None = None
+
+    @property
+    def saturation(self) -> int:
+        """Raw value at which the spectral camera saturates."""
+        return 2**self.rig.spectral_camera.bit_depth - 1
+
+    def expose(self, laser: float, pattern: Mapping) -> float:
+        """The exposure that fills ``pattern``'s frames under ``laser`` (the procedure's
+        ``exposure`` section) on the white diffuser."""
+        exp_cfg = self.procedure.get("exposure", {})
+        self.rig.set_scene("white")
+        return auto_exposure(
+            self.rig,
+            laser_light(laser),
+            pattern,
+            target_fraction=float(exp_cfg.get("target_fraction", 0.6)),
+            start_s=float(exp_cfg.get("start_s", 0.01)),
+            max_s=float(exp_cfg.get("max_s", 2.0)),
+        )
+
+    def sweeps(self) -> SpectralSweeps:
+        """The sessions captured so far and what was measured from them."""
+        return SpectralSweeps(self.grey, self.sweep, self.lamps, self.response, self.decoded)
+
+
+def open_sessions(run: SpectralRun) -> None:
+    """Check the procedure against the rig (lasers, lamp pinhole pitch) and open the
+    grey-level and sweep sessions of an earlier run, refusing other capture settings."""
+    proc = run.procedure
+    run.lasers = procedure_lasers(proc, run.rig.description.lasers_nm)
+    run.extra = [float(x) for x in proc["blur"].get("extra_lasers_nm", [])]
+    _check_lasers(run.rig, run.lasers + run.extra)
+    check_lamp_pitch(run.rig.description, proc)
+    run.grey = _resume(f"{run.base}-grey", run.data)
+    run.sweep = _resume(f"{run.base}-sweep", run.data)
+    for existing in (run.grey, run.sweep):
+        if existing is not None:
+            _check_same_procedure(existing, proc, run.rig.description.lasers_nm)
+
+
+def measure_exposures(run: SpectralRun) -> None:
+    """Each swept line's exposure on the open SLM (for a sweep session still to plan)."""
+    if run.sweep is None:
+        run.exposures = {laser: run.expose(laser, {"kind": "full"}) for laser in run.lasers}
+
+
+def capture_grey(run: SpectralRun) -> None:
+    """The grey-level session (structured sweeps): uniform grey levels under the middle
+    line; the SLM's grey-level response measured from it."""
+    if run.procedure["sweep"]["mode"] == "structured":
+        middle = run.lasers[len(run.lasers) // 2]
+        if run.grey is None:
+            exposure = run.exposures.get(middle) or run.expose(middle, {"kind": "full"})
+            plan = grey_plan(run.procedure, middle, exposure)
+            run.grey = Session.create(
+                run.rig.description, plan, session_id=f"{run.base}-grey", data=run.data
+            )
+        run_plan(run.rig, run.grey.plan, run.grey, progress=run.progress)
+    if run.grey is not None:
+        run.response = measure_response(run.grey, run.saturation)
+
+
+def capture_sweep(run: SpectralRun) -> None:
+    """The sweep session (planned with the sinusoids precompensated for the grey-level
+    response), decoded as its frames are stored (those stored before are read back)."""
+    proc, rig = run.procedure, run.rig
+    if run.sweep is None:
+        pitch = [int(p) for p in proc["blur"]["pinhole_pitch_px"]]
+        pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
+        blur_exposures = {laser: run.expose(laser, pinholes) for laser in run.lasers + run.extra}
+        period = int(proc["sweep"]["phase_period_px"])
+        profile = (
+            sinusoid_profile(period, run.response).tolist() if run.response is not None else None
+        )
+        plan = sweep_plan(proc, rig.slm.shape, run.exposures, profile, blur_exposures)
+        run.sweep = Session.create(
+            rig.description, plan, session_id=f"{run.base}-sweep", data=run.data
+        )
+    stream = SweepStream(run.sweep.plan, proc, rig.slm.shape, run.saturation)
+    with FrameFeed(run.sweep, stream.steps, stream.add, label="sweep") as feed:
+        run_plan(rig, run.sweep.plan, feed.tee(), progress=run.progress)
+        feed.finish()
+    run.decoded = stream.result()
+
+
+def capture_lamps(run: SpectralRun) -> None:
+    """The lamp frames, on a rig with wavelength lamps (:func:`capture_lamp_frames`)."""
+    run.lamps = capture_lamp_frames(
+        run.rig, run.procedure, f"{run.base}-lamps", data=run.data, progress=run.progress
+    )
+
+
+def analyse(run: SpectralRun) -> None:
+    """Fit the dispersion and blur models to the sessions and grade them."""
+    run.result = analyse_spectral_sweeps(run.sweeps(), run.procedure, run.rig.description)
+
+
+def figures(run: SpectralRun) -> None:
+    """The report's plots (kept in the bundle's ``report/``)."""
+    render_figures(run.result)
+
+
+def publish(run: SpectralRun) -> None:
+    """Publish the calibration as a bundle (refused when a check failed, unless
+    ``allow_failed``)."""
+    run.result.bundle_path = publish_spectral(
+        run.result, data=run.data, allow_failed=run.allow_failed
+    )
+
+
+#: The spectral calibration's steps, in order.
+STEPS = {
+    "open": open_sessions,
+    "exposures": measure_exposures,
+    "grey": capture_grey,
+    "sweep": capture_sweep,
+    "lamps": capture_lamps,
+    "analyse": analyse,
+    "figures": figures,
+    "publish": publish,
+}
+#: The steps that capture (and decode as they capture).
+CAPTURE_STEPS = ("open", "exposures", "grey", "sweep", "lamps")
+
+
+@drives_rig("spectral calibration")
+def capture_spectral_sweeps(
+    rig: Rig,
+    procedure: Mapping[str, Any],
+    *,
+    session_id: str | None = None,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> SpectralSweeps:
+    """Capture (or resume) the laser sweeps of a spectral calibration: its
+    :data:`CAPTURE_STEPS`.
+
+    Parameters
+    ----------
+    rig
+        Device handles (virtual or real).
+    procedure
+        A validated spectral-calibration procedure
+        (:func:`~sassi_bench.procedure.load_procedure`).
+    session_id
+        Base id of the raw sessions (``<id>-grey``, ``<id>-sweep`` and, on a rig with
+        wavelength lamps, ``<id>-lamps``); an existing id resumes its capture (the stored
+        plans are reused, not rebuilt).
+    data
+        Data root for sessions.
+    progress
+        Show a progress bar per session.
+
+    Returns
+    -------
+    SpectralSweeps
+        The sessions, the grey-level response and the sweep decoded as it was captured
+        (:mod:`~sassi_bench.reduce.sweep_stream`; the frames of a resumed session
+        stored before are read back in turn, so the decode is the same).
+
+    Examples
+    --------
+    >>> sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")  # doctest: +SKIP
+    """
+    run = SpectralRun(rig, dict(procedure), _session_id(session_id), data, progress)
+    return run_steps(STEPS, run, CAPTURE_STEPS, procedure="spectral calibration").sweeps()
 
 
 @drives_rig("spectral calibration")
@@ -35,18 +359,16 @@ def run_spectral_calibration(
     progress: bool = True,
     publish_bundle: bool = True,
     allow_failed: bool = False,
-    figures: bool = True,
 ) -> SpectralCalibration:
     """Run the spectral calibration end to end: capture, analyse, plot, publish.
 
     Parameters
     ----------
     rig, procedure, session_id, data, progress
-        As for :func:`~sassi_bench.workflows.spectral_capture.capture_spectral_sweeps`.
+        As for :func:`capture_spectral_sweeps`.
     publish_bundle, allow_failed
-        Publish a bundle; refuse one that failed its checks unless ``allow_failed``.
-    figures
-        Render the plots (they go into the bundle's ``report/``).
+        Publish a bundle (the ``publish`` step); refuse one that failed its checks unless
+        ``allow_failed``.
 
     Returns
     -------
@@ -58,12 +380,98 @@ def run_spectral_calibration(
     >>> result.bundle_path  # doctest: +SKIP
     PosixPath('calib_data/sim/v0001')
     """
-    sweeps = capture_spectral_sweeps(
-        rig, procedure, session_id=session_id, data=data, progress=progress
-    )
-    result = analyse_spectral_sweeps(sweeps, procedure, rig.description)
-    if figures:
-        render_figures(result)
-    if publish_bundle:
-        result.bundle_path = publish_spectral(result, data=data, allow_failed=allow_failed)
-    return result
+    steps = [name for name in STEPS if publish_bundle or name != "publish"]
+    run = SpectralRun(rig, dict(procedure), _session_id(session_id), data, progress, allow_failed)
+    return run_steps(STEPS, run, steps, procedure="spectral calibration").result
+
+
+def _lamp_settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
+    return json.loads(json.dumps(thaw(procedure.get("lamps") or {})))
+
+
+def capture_lamp_frames(
+    rig: Rig,
+    procedure: Mapping[str, Any],
+    session_id: str,
+    *,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> Session | None:
+    """Capture (or resume) the lamp frames of a spectral calibration.
+
+    Parameters
+    ----------
+    rig
+        Device handles; a rig without ``wavelength_lamps`` captures nothing.
+    procedure
+        The spectral-calibration procedure (its ``lamps`` section).
+    session_id
+        The session's id (an existing one resumes).
+    data
+        Data root.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    Session or None
+        None when the rig has no lamps.
+
+    Raises
+    ------
+    ConfigError
+        When an existing session was captured with other lamp settings, or the pitch
+        lets streaks overlap.
+    DeviceError
+        When a lamp gives no light at the longest exposure allowed.
+
+    Examples
+    --------
+    >>> session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")  # doctest: +SKIP
+    """
+    desc = rig.description
+    if not desc.wavelength_lamps:
+        return None
+    session: Session | None = None
+    if (data_root(data) / "sessions" / session_id).exists():
+        session = Session.open(session_id, data=data)
+        stored = session.plan.parameters.get("procedure") or {}
+        if _lamp_settings(stored) != _lamp_settings(procedure):
+            raise ConfigError(
+                step_error(
+                    f"resume session {session.id}",
+                    "its lamp frames were captured with other lamps settings than the "
+                    "procedure given now",
+                    "resume with the same procedure file, or start a new --session",
+                )
+            )
+    if session is None:
+        check_lamp_pitch(desc, procedure)
+        settings = procedure.get("lamps") or {}
+        pattern = lamp_pinholes(procedure)
+        exposures = {}
+        for lines in desc.lamp_lines().values():
+            rig.set_scene("white")
+            try:
+                exposures[lines.light] = auto_exposure(
+                    rig,
+                    lines.light,
+                    pattern,
+                    target_fraction=float(settings.get("target_fraction", 0.6)),
+                    start_s=float(settings.get("start_s", 0.05)),
+                    max_s=float(settings.get("max_s", 10.0)),
+                )
+            except DeviceError as exc:
+                raise DeviceError(
+                    step_error(
+                        f"lamp frames {lines.light}",
+                        "the lamp's pinholes give no light at the longest exposure allowed "
+                        f"({settings.get('max_s', 10.0):g} s)",
+                        "switch the lamp on, let it warm up and check that it lights the "
+                        "diffuser, or raise lamps.max_s",
+                    )
+                ) from exc
+        plan = lamp_plan(procedure, exposures)
+        session = Session.create(desc, plan, session_id=session_id, data=data)
+    run_plan(rig, session.plan, session, progress=progress)
+    return session

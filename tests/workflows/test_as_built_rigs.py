@@ -16,12 +16,12 @@ from sassi_bench.calibrate.guide_registration import field_discrepancy_px, regis
 from sassi_bench.calibrate.guide_render import render_rgb, rendering_sensitivities
 from sassi_bench.calibrate.radiometry import source_photons_in_bins
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.spectral import analyse_spectral_sweeps, laser_line_notes
+from sassi_bench.reduce.spectral_bundle import publish_spectral
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import capture_guide
 from sassi_bench.workflows.scan import run_response
-from sassi_bench.workflows.spectral_analysis import analyse_spectral_sweeps, laser_line_notes
-from sassi_bench.workflows.spectral_capture import capture_spectral_sweeps
-from sassi_bench.workflows.spectral_publish import publish_spectral
+from sassi_bench.workflows.spectral import capture_spectral_sweeps
 
 RIGS = "tests/rigs/"
 

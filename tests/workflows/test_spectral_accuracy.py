@@ -117,7 +117,7 @@ def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):
     proc = load_procedure("spectral_calibration")
     proc["sweep"]["mode"] = "lines"
     result = run_spectral_calibration(
-        rig, proc, data=tmp_path, progress=False, publish_bundle=False, figures=False
+        rig, proc, data=tmp_path, progress=False, publish_bundle=False
     )
     assert result.passed, [c for c in result.checks if not c.passed]
     t = truth(rig)

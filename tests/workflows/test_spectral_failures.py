@@ -9,8 +9,8 @@ from sassi_bench.acquire.spectral_plans import sweep_plan
 from sassi_bench.calibrate.dispersion import fit_dispersion
 from sassi_bench.errors import ConfigError
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.sweeps import analyse_sweep
 from sassi_bench.workflows.spectral import run_spectral_calibration
-from sassi_bench.workflows.spectral_decode import analyse_sweep
 
 
 def test_a_laser_mislabelled_by_10_nm_fails_the_leave_one_out_check(sim_rig, true_laser_maps):
@@ -78,7 +78,7 @@ def test_resuming_with_another_procedure_is_refused(tmp_path):
 def test_fit_settings_may_change_between_capture_and_analysis():
     from types import MappingProxyType, SimpleNamespace
 
-    from sassi_bench.workflows.spectral_capture import _check_same_procedure
+    from sassi_bench.workflows.spectral import _check_same_procedure
 
     proc = load_procedure("spectral_calibration")
     stored = MappingProxyType({k: v for k, v in proc.items() if k != "source"})

@@ -11,8 +11,8 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import sweep_plan
 from sassi_bench.calibrate.grey_response import sinusoid_profile
 from sassi_bench.procedure import load_procedure
-from sassi_bench.workflows.spectral_decode import _structured_decode, pinhole_signal
-from sassi_bench.workflows.sweep_stream import SweepStream
+from sassi_bench.reduce.sweep_stream import SweepStream
+from sassi_bench.reduce.sweeps import _structured_decode, pinhole_signal
 
 
 @pytest.fixture(scope="module")

@@ -5,8 +5,8 @@ import pytest
 
 from sassi_bench import open_rig
 from sassi_bench.calibrate.blur import fit_blur
+from sassi_bench.reduce.spectral import BLUR_NOTE_ERROR, blur_notes
 from sassi_bench.rig.sim import truth
-from sassi_bench.workflows.spectral_analysis import BLUR_NOTE_ERROR, blur_notes
 
 LASERS_NM = np.array([450.0, 520.0, 532.0, 635.0, 670.0])
 

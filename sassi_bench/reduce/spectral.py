@@ -1,11 +1,11 @@
 """The analysis stage of the spectral calibration: sweeps -> dispersion, blur, checks.
 
 :func:`analyse_spectral_sweeps` decodes the captured sweeps
-(:mod:`sassi_bench.workflows.spectral_decode`), checks the laser lines against each
+(:mod:`sassi_bench.reduce.sweeps`), checks the laser lines against each
 other, fits the joint dispersion model and the blur, and grades the result against the
 procedure's tolerances (:func:`grade`). With lamp frames (a rig with wavelength lamps)
 the lamp lines anchor the wavelength axis and every laser's line is measured
-(:mod:`sassi_bench.workflows.spectral_lamps`) instead of checked against the others.
+(:mod:`sassi_bench.reduce.lamps`) instead of checked against the others.
 Fit settings and tolerances may differ from those the sweeps were captured with (a
 region excluded in the notebook).
 """
@@ -29,23 +29,43 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
-from sassi_bench.workflows.spectral_capture import SpectralSweeps
-from sassi_bench.workflows.spectral_decode import (
+from sassi_bench.reduce.lamps import LampAnchoring, anchor_wavelengths
+from sassi_bench.reduce.sweep_stream import DecodedSweep
+from sassi_bench.reduce.sweeps import (
     LaserDecode,
     analyse_sweep,
     blur_from_pinholes,
     measure_response,
 )
-from sassi_bench.workflows.spectral_lamps import LampAnchoring, anchor_wavelengths
 
 __all__ = [
     "SpectralCalibration",
+    "SpectralSweeps",
     "analyse_spectral_sweeps",
     "blur_notes",
     "grade",
     "laser_line_notes",
     "spectral_notes",
 ]
+
+
+@dataclass(frozen=True)
+class SpectralSweeps:
+    """The raw sessions of a spectral calibration: the grey-level response (structured
+    sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only); and
+    what was measured from them as they were captured: the grey-level response and the
+    sweep's decode (None: the analysis reads them from the sessions)."""
+
+    grey: Session | None
+    sweep: Session
+    lamps: Session | None = None
+    grey_response: GreyResponse | None = None
+    decoded: DecodedSweep | None = None
+
+    @property
+    def sessions(self) -> list[Session]:
+        """The sessions, in capture order."""
+        return [s for s in (self.grey, self.sweep, self.lamps) if s is not None]
 
 
 @dataclass
@@ -232,7 +252,7 @@ def analyse_spectral_sweeps(
     Parameters
     ----------
     sweeps
-        From :func:`~sassi_bench.workflows.spectral_capture.capture_spectral_sweeps`.
+        From :func:`~sassi_bench.workflows.spectral.capture_spectral_sweeps`.
     procedure
         The procedure the sweeps were captured with (fit settings and tolerances).
     rig_description

@@ -10,27 +10,20 @@ maps and the lamp lines together (:mod:`sassi_bench.calibrate.anchored`).
 
 from __future__ import annotations
 
-import json
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.patterns import open_pixels
-from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import (
     LAMP_REACH_SIGMAS,
-    check_lamp_pitch,
     lamp_band,
     lamp_pinholes,
-    lamp_plan,
 )
 from sassi_bench.bundle import BlurModel, DispersionModel
-from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.anchored import (
     AnchoredWavelengths,
     LampStreaks,
@@ -42,22 +35,19 @@ from sassi_bench.calibrate.lamp_streaks import (
     extract_streak_profiles,
     signal_and_variance,
 )
-from sassi_bench.errors import ConfigError, DeviceError, ProcedureError, step_error
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.blur import line_spread_sigma
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.lamps import LineList
-from sassi_bench.paths import data_root
+from sassi_bench.reduce.sweep_stream import PinholeSignal
+from sassi_bench.reduce.sweeps import blur_from_pinholes
 from sassi_bench.rig.config import RigDescription
-from sassi_bench.rig.rig import Rig
-from sassi_bench.workflows.spectral_decode import blur_from_pinholes
-from sassi_bench.workflows.sweep_stream import PinholeSignal
 
 __all__ = [
     "HELD_LABEL_NM",
     "LampAnchoring",
     "anchor_wavelengths",
     "camera_noise",
-    "capture_lamp_frames",
     "check_lamp_signal",
     "lamp_streaks",
     "psf_sigma_px",
@@ -93,98 +83,6 @@ def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.nda
     else:
         pixels2 = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor) ** 2
     return np.sqrt(np.clip(spot**2 - pixels2, 0.04, None))
-
-
-def _lamp_settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
-    return json.loads(json.dumps(thaw(procedure.get("lamps") or {})))
-
-
-def capture_lamp_frames(
-    rig: Rig,
-    procedure: Mapping[str, Any],
-    session_id: str,
-    *,
-    data: str | os.PathLike[str] | None = None,
-    progress: bool = True,
-) -> Session | None:
-    """Capture (or resume) the lamp frames of a spectral calibration.
-
-    Parameters
-    ----------
-    rig
-        Device handles; a rig without ``wavelength_lamps`` captures nothing.
-    procedure
-        The spectral-calibration procedure (its ``lamps`` section).
-    session_id
-        The session's id (an existing one resumes).
-    data
-        Data root.
-    progress
-        Show a progress bar.
-
-    Returns
-    -------
-    Session or None
-        None when the rig has no lamps.
-
-    Raises
-    ------
-    ConfigError
-        When an existing session was captured with other lamp settings, or the pitch
-        lets streaks overlap.
-    DeviceError
-        When a lamp gives no light at the longest exposure allowed.
-
-    Examples
-    --------
-    >>> session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")  # doctest: +SKIP
-    """
-    desc = rig.description
-    if not desc.wavelength_lamps:
-        return None
-    session: Session | None = None
-    if (data_root(data) / "sessions" / session_id).exists():
-        session = Session.open(session_id, data=data)
-        stored = session.plan.parameters.get("procedure") or {}
-        if _lamp_settings(stored) != _lamp_settings(procedure):
-            raise ConfigError(
-                step_error(
-                    f"resume session {session.id}",
-                    "its lamp frames were captured with other lamps settings than the "
-                    "procedure given now",
-                    "resume with the same procedure file, or start a new --session",
-                )
-            )
-    if session is None:
-        check_lamp_pitch(desc, procedure)
-        settings = procedure.get("lamps") or {}
-        pattern = lamp_pinholes(procedure)
-        exposures = {}
-        for lines in desc.lamp_lines().values():
-            rig.set_scene("white")
-            try:
-                exposures[lines.light] = auto_exposure(
-                    rig,
-                    lines.light,
-                    pattern,
-                    target_fraction=float(settings.get("target_fraction", 0.6)),
-                    start_s=float(settings.get("start_s", 0.05)),
-                    max_s=float(settings.get("max_s", 10.0)),
-                )
-            except DeviceError as exc:
-                raise DeviceError(
-                    step_error(
-                        f"lamp frames {lines.light}",
-                        "the lamp's pinholes give no light at the longest exposure allowed "
-                        f"({settings.get('max_s', 10.0):g} s)",
-                        "switch the lamp on, let it warm up and check that it lights the "
-                        "diffuser, or raise lamps.max_s",
-                    )
-                ) from exc
-        plan = lamp_plan(procedure, exposures)
-        session = Session.create(desc, plan, session_id=session_id, data=data)
-    run_plan(rig, session.plan, session, progress=progress)
-    return session
 
 
 def camera_noise(desc: RigDescription) -> dict[str, float]:

@@ -24,7 +24,7 @@ from sassi_bench.calibrate.field import fit_field
 from sassi_bench.calibrate.grey_response import GreyResponse, measure_grey_response
 from sassi_bench.calibrate.line_sweep import fit_line_axis, line_centres
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.workflows.sweep_stream import (
+from sassi_bench.reduce.sweep_stream import (
     DecodedSweep,
     PinholeSignal,
     SweepDecode,
@@ -106,7 +106,7 @@ def _structured_decode(
     session: Session, proc, laser: float, slm_shape, saturation: float
 ) -> SweepDecode:
     """One laser's structured sweep decoded from its session, frame by frame (as
-    :class:`~sassi_bench.workflows.sweep_stream.SweepStream` decodes it during a capture)."""
+    :class:`~sassi_bench.reduce.sweep_stream.SweepStream` decodes it during a capture)."""
     stream = SweepStream(session.plan, proc, slm_shape, saturation, {laser}, pinholes=False)
     for index in stream.steps:
         stream.add(index, session.read_frame(index))

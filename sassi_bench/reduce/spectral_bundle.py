@@ -16,8 +16,8 @@ import numpy as np
 
 from sassi_bench.bundle import publish
 from sassi_bench.bundle.derive import stage_checks
-from sassi_bench.workflows.spectral_analysis import SpectralCalibration, spectral_notes
-from sassi_bench.workflows.spectral_lamps import LampAnchoring
+from sassi_bench.reduce.lamps import LampAnchoring
+from sassi_bench.reduce.spectral import SpectralCalibration, spectral_notes
 
 __all__ = ["anchoring_section", "publish_spectral", "quality_section", "render_figures"]
 
