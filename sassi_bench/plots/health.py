@@ -43,7 +43,7 @@ def shift_map_figure(check):
     Parameters
     ----------
     check
-        A :class:`~sassi_bench.workflows.health_check.HealthCheck`.
+        A :class:`~sassi_bench.reduce.health.HealthCheck`.
 
     Returns
     -------

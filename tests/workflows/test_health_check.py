@@ -17,11 +17,12 @@ from sassi_bench.calibrate.lamp_streaks import StreakProfiles
 from sassi_bench.commands import main
 from sassi_bench.errors import ConfigError, ProcedureError
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.health import GUIDE_NOT_TESTED
 from sassi_bench.reduce.lamps import check_lamp_signal
 from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
 from sassi_bench.rig.sim import truth
 from sassi_bench.storage.health_history import HealthHistory, history_path
-from sassi_bench.workflows.health_check import GUIDE_NOT_TESTED, check_light, run_health_check
+from sassi_bench.workflows.health_check import check_light, run_health_check
 
 DRIFT_PX = 0.2
 
