@@ -74,7 +74,7 @@ def main() -> None:
             try:
                 result = run_guide_registration(
                     rig, bundle, proc, session_id=f"s{sx}x{sy}", data=data, progress=False,
-                    publish_bundle=False, figures=False,
+                    publish_bundle=False,
                 )  # fmt: skip
             except RegistrationError as exc:  # too coarse: say so and go on
                 print(f"{text:>7}  registration failed: {str(exc).split('. Fix:')[0]}")
@@ -85,7 +85,7 @@ def main() -> None:
             rms, worst, sparse = _accuracy(rig, result, proc, data, f"d{sx}x{sy}")
             other = run_guide_registration(
                 rotated, bundle, proc, reference=result.reference, session_id=f"r{sx}x{sy}",
-                data=data, progress=False, publish_bundle=False, figures=False,
+                data=data, progress=False, publish_bundle=False,
             )  # fmt: skip
             r_rms, r_worst, r_sparse = _accuracy(rotated, other, proc, data, f"r{sx}x{sy}")
             print(

@@ -199,7 +199,7 @@ def checkerboard_figure(
 
 
 def guide_figures(result) -> dict[str, Any]:
-    """Both figures of a :class:`~sassi_bench.workflows.guide.GuideRegistration`.
+    """Both figures of a :class:`~sassi_bench.reduce.guide.GuideRegistration`.
 
     Parameters
     ----------

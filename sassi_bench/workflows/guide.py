@@ -1,24 +1,25 @@
-"""The guide registration workflow: scan -> RGB on the SLM grid -> SIFT homography -> bundle.
+"""The guide registration: scan -> RGB on the SLM grid -> SIFT homography -> bundle, as
+named steps.
 
-:func:`run_guide_registration` scans a textured scene with pinholes (by default the coarse
-route: every 4th horizontal offset of the Nyquist grid, a quarter of the frames), renders
-the cube as RGB on the SLM grid, captures the guide image of the same scene (averaged,
-dark-subtracted), fits the guide -> SLM homography
-(:func:`~sassi_bench.calibrate.guide_registration.register_guide`), grades it against
-the procedure's tolerances and publishes a new bundle version: the given bundle's models
-plus the homography and its quality. It uses device handles and the rig description only.
+:data:`STEPS` lists them in order (:func:`run_guide_registration` runs them): ``check``;
+``scan`` scans a textured scene with pinholes (by default the coarse route: every 4th
+horizontal offset of the Nyquist grid, a quarter of the frames) and renders the cube as
+RGB on the SLM grid; ``guide`` captures the guide image of the same scene (averaged,
+dark-subtracted); ``register`` fits the guide -> SLM homography and grades it against the
+procedure's tolerances; ``figures`` and ``publish`` make the report's figures and a new
+bundle version (the reductions: :mod:`~sassi_bench.reduce.guide`). It uses device handles
+and the rig description only.
 
-A finished rendering (:class:`SlmReference`) can be passed back in to register a moved
-guide camera again without a new scan.
+A finished rendering (:class:`~sassi_bench.reduce.guide.SlmReference`) can be passed back
+in to register a moved guide camera again without a new scan.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,18 +30,22 @@ from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.scan_plans import coarse_scan_plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
+from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.bundle.derive import check_parent
-from sassi_bench.calibrate.guide_registration import Registration, register_guide
-from sassi_bench.calibrate.guide_render import (
-    render_rgb,
-    rendering_sensitivities,
-    upsample_lattice,
-)
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.reduce.guide import (
+    GuideRegistration,
+    SlmReference,
+    guide_image,
+    publish_guide,
+    register,
+    render_figures,
+    slm_reference,
+)
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan_feed import capture_scan
+from sassi_bench.workflows.steps import run_steps
 
 __all__ = [
     "GuideRegistration",
@@ -52,60 +57,6 @@ __all__ = [
 ]
 
 STEP = "guide registration"
-
-
-@dataclass(frozen=True)
-class SlmReference:
-    """An RGB rendering of a scanned scene on the SLM grid, and where it came from.
-
-    Attributes
-    ----------
-    image
-        (H, W, 3) float32 in [0, 1].
-    valid
-        (H, W) bool, pixels rendered from measured spectra.
-    rendering
-        ``"camera: <sensor>"`` or ``"cie"``.
-    scene
-        The scene that was scanned.
-    session
-        The scan session.
-    stride
-        (horizontal, vertical) pinhole-offset stride of the scan.
-    """
-
-    image: NDArray[np.float32]
-    valid: NDArray[np.bool_]
-    rendering: str
-    scene: str
-    session: Session
-    stride: tuple[int, int]
-
-
-@dataclass
-class GuideRegistration:
-    """Everything the guide registration produced."""
-
-    procedure: dict[str, Any]
-    rig_description: Any
-    registration: Registration
-    reference: SlmReference
-    guide_image: NDArray[np.float64]
-    guide_valid: NDArray[np.bool_]
-    guide_session: Session
-    checks: list[QualityCheck]
-    bundle_path: Path | None = None
-    figures: dict[str, bytes] = field(default_factory=dict)
-
-    @property
-    def homography(self) -> NDArray[np.float64]:
-        """3x3 guide ``(p, q, 1)`` -> SLM ``(u, v, 1)``."""
-        return self.registration.homography
-
-    @property
-    def passed(self) -> bool:
-        """Whether every quality check passed."""
-        return all(c.passed for c in self.checks)
 
 
 def _stamp() -> str:
@@ -196,16 +147,7 @@ def scan_reference(
     # Rendered to RGB for features only: the mixed row unmixing's red-end radiometry is not
     # worth its CPU here (about 7 s of 22 at the prototype's size).
     scan = capture_scan(rig, session, bundle, row_mixture=False, progress=progress)
-    cube = scan.cube[:: stride[1], :: stride[0]]
-    if bundle.response is not None:
-        cube = cube / np.asarray(bundle.response, dtype=np.float32)
-    valid = scan.quality[:: stride[1], :: stride[0]] == 0
-    sensitivities, label = rendering_sensitivities(
-        rig.description.guide_camera.sensitivities, str(procedure["rendering"]), scan.wavelengths_nm
-    )
-    rgb = render_rgb(cube, scan.wavelengths_nm, sensitivities=sensitivities, valid=valid)
-    image, image_valid = upsample_lattice(rgb, valid, stride, rig.slm.shape)
-    return SlmReference(np.clip(image, 0.0, 1.0), image_valid, label, scene, session, stride)
+    return slm_reference(scan, session, bundle, procedure, rig.description, stride)
 
 
 @drives_rig("guide registration")
@@ -263,25 +205,103 @@ def capture_guide(
     session = Session.resume_or_plan(rig.description, make_plan, session_id=session_id, data=data)
     _check_resumed(session, {"scene": scene, "light": light})
     run_plan(rig, session.plan, session, progress=progress)
-    lit = session.read_frames(session.plan.select(role="guide")).astype(np.float64)
-    dark = session.read_frames(session.plan.select(role="guide_dark")).astype(np.float64)
-    saturation = 2**rig.guide_camera.bit_depth - 1
-    valid = np.all(lit < saturation, axis=(0, -1)) if lit.ndim == 4 else np.all(lit < saturation, 0)
-    return lit.mean(axis=0) - dark.mean(axis=0), valid, session
+    image, valid = guide_image(session, rig.guide_camera.bit_depth)
+    return image, valid, session
 
 
-def _checks(reg: Registration, tol: Mapping[str, Any]) -> list[QualityCheck]:
-    q = reg.quality
-    return [
-        QualityCheck.at_least("guide_inliers", float(q.inliers), float(tol["min_inliers"]), "1"),
-        QualityCheck.at_least(
-            "guide_inlier_ratio", q.inlier_ratio, float(tol["min_inlier_ratio"]), "1"
-        ),
-        QualityCheck.at_least("guide_coverage", q.coverage, float(tol["min_coverage"]), "1"),
-        QualityCheck.at_most(
-            "guide_reprojection_rms_px", q.rms_px, float(tol["reprojection_rms_px"]), "px"
-        ),
-    ]
+@dataclass
+class GuideRun:
+    """The state of a guide registration as its steps run: the devices, the parent bundle,
+    the procedure and the run's settings; then the rendering, the guide image and its
+    session, and the registration (its ``bundle_path`` once published)."""
+
+    rig: Rig
+    bundle: CalibrationBundle
+    procedure: dict[str, Any]
+    base: str
+    data: str | os.PathLike[str] | None = None
+    progress: bool = True
+    publish: bool = True
+    allow_failed: bool = False
+    reference: SlmReference | None = None
+    guide: NDArray[np.float64] | None = None
+    guide_valid: NDArray[np.bool_] | None = None
+    guide_session: Session | None = None
+    result: GuideRegistration | None = None
+
+
+def check(run: GuideRun) -> None:
+    """Refuse a bundle of another SLM, a parent published with an override (when
+    publishing, unless ``allow_failed``) and a reference rendering of another scene."""
+    rig, bundle, proc = run.rig, run.bundle, run.procedure
+    if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
+        raise ProcedureError(
+            step_error(
+                STEP,
+                f"bundle is for a {bundle.slm_shape} SLM, the rig has {rig.slm.shape}",
+                "load this rig's bundle",
+            )
+        )
+    if run.publish:
+        check_parent(bundle, "guide", allow_failed=run.allow_failed)
+    if run.reference is not None and run.reference.scene != proc["scene"]:
+        raise ProcedureError(
+            step_error(
+                STEP,
+                f"the reference rendering shows scene {run.reference.scene!r}, the procedure "
+                f"asks for {proc['scene']!r}",
+                "register against a reference of the same scene, or scan again",
+            )
+        )
+
+
+def scan(run: GuideRun) -> None:
+    """Scan the scene and render it on the SLM grid (:func:`scan_reference`), unless a
+    reference rendering was given."""
+    if run.reference is None:
+        run.reference = scan_reference(
+            run.rig, run.bundle, run.procedure, session_id=f"{run.base}-scan", data=run.data,
+            progress=run.progress,
+        )  # fmt: skip
+
+
+def guide(run: GuideRun) -> None:
+    """The guide image of the scene (:func:`capture_guide`)."""
+    run.guide, run.guide_valid, run.guide_session = capture_guide(
+        run.rig, run.procedure, session_id=f"{run.base}-guide", data=run.data,
+        progress=run.progress,
+    )  # fmt: skip
+
+
+def registration(run: GuideRun) -> None:
+    """The guide -> SLM homography, graded."""
+    run.result = register(
+        run.guide, run.guide_valid, run.guide_session, run.reference, run.procedure,
+        run.rig.description,
+    )  # fmt: skip
+
+
+def figures(run: GuideRun) -> None:
+    """The match and checkerboard figures (kept in the bundle's ``report/``)."""
+    render_figures(run.result)
+
+
+def publish(run: GuideRun) -> None:
+    """Publish the parent's models and the homography as a new bundle version."""
+    run.result.bundle_path = publish_guide(
+        run.result, run.bundle, data=run.data, allow_failed=run.allow_failed
+    )
+
+
+#: The guide registration's steps, in order.
+STEPS = {
+    "check": check,
+    "scan": scan,
+    "guide": guide,
+    "register": registration,
+    "figures": figures,
+    "publish": publish,
+}
 
 
 @drives_rig("guide registration")
@@ -296,7 +316,6 @@ def run_guide_registration(
     progress: bool = True,
     publish_bundle: bool = True,
     allow_failed: bool = False,
-    figures: bool = True,
 ) -> GuideRegistration:
     """Register the guide camera to the SLM and publish the homography in a new bundle.
 
@@ -318,10 +337,9 @@ def run_guide_registration(
     data
         Data root for sessions and bundles.
     publish_bundle, allow_failed
-        Publish a bundle; refuse one that failed its checks, or a ``bundle`` published
-        with an override (checked before the scan), unless ``allow_failed``.
-    figures
-        Make the match and checkerboard figures (kept in the bundle's ``report/``).
+        Publish a bundle (the ``publish`` step); refuse one that failed its checks, or a
+        ``bundle`` published with an override (checked before the scan), unless
+        ``allow_failed``.
 
     Returns
     -------
@@ -340,126 +358,9 @@ def run_guide_registration(
     0.69
     """
     proc = {k: v for k, v in dict(procedure).items() if k != "source"}
-    if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
-        raise ProcedureError(
-            step_error(
-                STEP,
-                f"bundle is for a {bundle.slm_shape} SLM, the rig has {rig.slm.shape}",
-                "load this rig's bundle",
-            )
-        )
-    if publish_bundle:
-        check_parent(bundle, "guide", allow_failed=allow_failed)
-    base = session_id or _stamp()
-    if reference is None:
-        reference = scan_reference(
-            rig, bundle, proc, session_id=f"{base}-scan", data=data, progress=progress
-        )
-    elif reference.scene != proc["scene"]:
-        raise ProcedureError(
-            step_error(
-                STEP,
-                f"the reference rendering shows scene {reference.scene!r}, the procedure "
-                f"asks for {proc['scene']!r}",
-                "register against a reference of the same scene, or scan again",
-            )
-        )
-    guide, guide_valid, guide_session = capture_guide(
-        rig, proc, session_id=f"{base}-guide", data=data, progress=progress
-    )
-    match, tol = proc["match"], proc["tolerances"]
-    registration = register_guide(
-        guide,
-        reference.image,
-        slm_valid=reference.valid,
-        guide_valid=guide_valid,
-        ratio=float(match["ratio"]),
-        method=str(match["method"]),
-        threshold_px=float(match["threshold_px"]),
-        min_inliers=int(tol["min_inliers"]),
-        min_coverage=float(tol["min_coverage"]),
-        sift_options={"contrastThreshold": float(match["contrast_threshold"])},
-        dense=bool(match["dense"]),
-    )
-    result = GuideRegistration(
-        proc,
-        rig.description,
-        registration,
+    run = GuideRun(
+        rig, bundle, proc, session_id or _stamp(), data, progress, publish_bundle, allow_failed,
         reference,
-        guide,
-        guide_valid,
-        guide_session,
-        _checks(registration, tol),
-    )
-    if figures:
-        from sassi_bench.plots.guide import guide_figures
-        from sassi_bench.plots.png import figure_png
-
-        result.figures = {name: figure_png(fig) for name, fig in guide_figures(result).items()}
-    if publish_bundle:
-        result.bundle_path = publish_guide(result, bundle, data=data, allow_failed=allow_failed)
-    return result
-
-
-def publish_guide(
-    result: GuideRegistration,
-    bundle: CalibrationBundle,
-    *,
-    data=None,
-    allow_failed: bool = False,
-) -> Path:
-    """Publish ``bundle``'s models plus the guide homography as a new, derived bundle version.
-
-    The new version carries ``bundle``'s quality checks (see
-    :func:`~sassi_bench.bundle.publish_derived`): a parent published with an override is
-    refused unless ``allow_failed``.
-
-    Parameters
-    ----------
-    result
-        A finished registration.
-    bundle
-        The parent bundle whose models the new version carries.
-    data
-        Data root for bundles.
-    allow_failed
-        Publish although a check failed (recorded as an override).
-
-    Returns
-    -------
-    pathlib.Path
-        The new bundle's folder.
-
-    Examples
-    --------
-    >>> path = publish_guide(result, bundle)  # doctest: +SKIP
-    """
-    ref = result.reference
-    info = {
-        **result.registration.info(),
-        "rendering": ref.rendering,
-        "scene": ref.scene,
-        "scan_stride_px": list(ref.stride),
-        "guide_shape": list(result.guide_image.shape[:2]),
-    }
-    q = result.registration.quality
-    return publish_derived(
-        bundle,
-        stage="guide",
-        rig=result.rig_description,
-        models={"guide_to_slm": result.homography, "guide_info": info},
-        checks=result.checks,
-        residuals={
-            "guide_reprojection_rms_px": q.rms_px,
-            "guide_matches": q.matches,
-            "guide_inliers": q.inliers,
-        },
-        procedure={"guide_registration": result.procedure},
-        inputs=[
-            {"id": s.id, "sha256": s.sha256(), "kind": "session"}
-            for s in (ref.session, result.guide_session)
-        ],
-        reports={f"{name}.png": png for name, png in result.figures.items()},
-        allow_failed=allow_failed,
-        data=data,
-    )
+    )  # fmt: skip
+    steps = [name for name in STEPS if publish_bundle or name != "publish"]
+    return run_steps(STEPS, run, steps, procedure=STEP).result

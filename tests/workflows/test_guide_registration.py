@@ -14,13 +14,9 @@ from sassi_bench.calibrate.guide_registration import (
 from sassi_bench.calibrate.guide_render import render_rgb
 from sassi_bench.errors import ConfigError
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.guide import publish_guide
 from sassi_bench.rig.sim import truth
-from sassi_bench.workflows.guide import (
-    capture_guide,
-    publish_guide,
-    run_guide_registration,
-    scan_reference,
-)
+from sassi_bench.workflows.guide import capture_guide, run_guide_registration, scan_reference
 
 # Issue target: <= 0.3 px RMS over the SLM field against the true homography.
 FIELD_RMS_PX = 0.3
@@ -60,7 +56,7 @@ def test_rotated_and_scaled_guide_camera(guide_run, sim_dict, make_rig, tmp_path
     truth(rig).bench._scenes["natural"] = truth(guide_run[0]).bench.scene_named("natural")
     result = run_guide_registration(
         rig, parent, load_procedure("guide_registration"), reference=first.reference,
-        session_id="rotated", data=tmp_path, progress=False, publish_bundle=False, figures=False,
+        session_id="rotated", data=tmp_path, progress=False, publish_bundle=False,
     )  # fmt: skip
     h_true = truth(rig).guide_to_slm
     assert np.degrees(np.arctan2(h_true[1, 0], h_true[0, 0])) == pytest.approx(3.0)
