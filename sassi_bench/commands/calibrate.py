@@ -115,12 +115,13 @@ def _spectral(args: argparse.Namespace) -> int:
 
 
 def _response(args: argparse.Namespace) -> int:
+    from sassi_bench.reduce.response import response_source
     from sassi_bench.rig import open_rig
-    from sassi_bench.workflows.scan import check_scan, response_source, run_response
+    from sassi_bench.workflows.scan import check_scan, run_response
 
     rig = open_rig(args.rig)
     check_scan(rig, "white", args.light, (100, 5))
-    response_source(rig, args.temperature, args.reference)
+    response_source(rig.description, args.temperature, args.reference)
     bundle = bundle_from_args(args, rig.description.name, step="calibrate response")
     new_session(args, "session", "response")
     path = run_response(

@@ -41,7 +41,7 @@ SNAPSHOT_TAG = {"role": "snapshot"}
 def _write(selection, bundle, procedure, out: str, envi: bool, quiet: bool) -> None:
     from tqdm.auto import tqdm
 
-    from sassi_bench.workflows.snapshot import reconstruct_snapshots, write_frame
+    from sassi_bench.reduce.snapshots import reconstruct_snapshots, write_frame
 
     video = selection.video
     frames = reconstruct_snapshots(
@@ -62,8 +62,9 @@ def _write(selection, bundle, procedure, out: str, envi: bool, quiet: bool) -> N
 def _take(args: argparse.Namespace) -> int:
     from sassi_bench.acquire.snapshot_ids import SnapshotSelection
     from sassi_bench.procedure import load_procedure
+    from sassi_bench.reduce.snapshots import check_outputs_free
     from sassi_bench.rig import open_rig
-    from sassi_bench.workflows.snapshot import check_inputs, check_outputs_free, take_snapshots
+    from sassi_bench.workflows.snapshot import check_inputs, take_snapshots
 
     if args.frames < 1:
         raise ProcedureError(
@@ -108,7 +109,7 @@ def _take(args: argparse.Namespace) -> int:
 def _reconstruct(args: argparse.Namespace) -> int:
     from sassi_bench.acquire.snapshot_ids import resolve_snapshot
     from sassi_bench.procedure import load_procedure
-    from sassi_bench.workflows.snapshot import check_outputs_free
+    from sassi_bench.reduce.snapshots import check_outputs_free
 
     procedure = load_procedure("snapshot_validation", args.procedure)
     check_output_folder("snapshot reconstruct", args.out)

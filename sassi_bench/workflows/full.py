@@ -1,18 +1,21 @@
 """The whole calibration chain: spectral sweeps and fits, radiometric response, guide
-homography, Macbeth validation; one bundle and its report.
+homography, Macbeth validation; one bundle and its report. Its steps, in order
+(:data:`STEPS`): ``check``, ``spectral``, ``response``, ``guide``, ``macbeth``,
+``publish`` and ``keep``.
 
 The stages run in a staging data root beside the lab's
 (``<data>/staging/<session id>/``: their raw sessions, so an interrupted chain resumes,
 and the intermediate bundle versions each stage builds on). At the end the last staged
 bundle's models are published once in the lab's data root, with every stage's quality
-checks, procedures, input sessions and figures, and the Macbeth report in ``report/``.
+checks, procedures, input sessions and figures, and the Macbeth report in ``report/``;
+then the raw frames the procedure's ``keep`` does not keep go.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -26,16 +29,18 @@ from sassi_bench.bundle.derive import derived_checks
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.paths import data_root
 from sassi_bench.procedure import load_procedure, with_changes
+from sassi_bench.reduce.response import response_source
 from sassi_bench.rig.rig import Rig
 from sassi_bench.storage.keep import KeptFrames, keep_frames
 from sassi_bench.validate.report import render_report
 from sassi_bench.workflows.guide import run_guide_registration
 from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.rig_lock import drives_rig
-from sassi_bench.workflows.scan import check_scan, response_source, run_response
+from sassi_bench.workflows.scan import check_scan, run_response
 from sassi_bench.workflows.spectral import run_spectral_calibration
+from sassi_bench.workflows.steps import run_steps
 
-__all__ = ["FullCalibration", "run_full_calibration"]
+__all__ = ["STEPS", "FullCalibration", "FullRun", "run_full_calibration"]
 
 
 @dataclass
@@ -57,6 +62,178 @@ class FullCalibration:
 
 def _stage_procedure(kind: str, name_or_path: str) -> dict[str, Any]:
     return load_procedure(kind, None if name_or_path == kind else name_or_path)
+
+
+@dataclass
+class FullRun:
+    """The state of the calibration chain as its steps run: the devices, the procedure and
+    where the run keeps its data; then every stage's procedure and result, the staged
+    bundle each stage builds on, and the published bundle, its report and the frames kept.
+    """
+
+    rig: Rig
+    procedure: Mapping[str, Any]
+    base: str
+    root: Path
+    report_dir: Path
+    progress: bool = True
+    allow_failed: bool = False
+    stage_procedures: dict[str, dict[str, Any]] = field(default_factory=dict)
+    spectral: Any = None
+    guide: Any = None
+    macbeth: Any = None
+    report: Any = None
+    staged: Any = None
+    checks: list[QualityCheck] = field(default_factory=list)
+    bundle_path: Path | None = None
+    html: Path | None = None
+    kept: KeptFrames | None = None
+
+    @property
+    def staging(self) -> Path:
+        """The chain's staging data root: its sessions and intermediate bundles."""
+        return self.root / "staging" / self.base
+
+
+def check(run: FullRun) -> None:
+    """Refuse what would fail later, before anything is captured: the response scan's
+    light and pitch, an unknown lamp spectrum, every scan's pitch against the streaks;
+    and load the stages' procedures."""
+    rig, procedure = run.rig, run.procedure
+    response_cfg = procedure["response"]
+    check_scan(rig, "white", response_cfg["light"], (100, 5))
+    response_source(rig.description)  # the lamp's spectrum must be known before capturing
+    stages = {
+        kind: _stage_procedure(kind, procedure[key])
+        for kind, key in (
+            ("spectral_calibration", "spectral_procedure"),
+            ("guide_registration", "guide_procedure"),
+            ("macbeth_validation", "macbeth_procedure"),
+        )
+    }
+    # Every scan of the chain, before anything is captured: a streak too long for a pitch
+    # would otherwise fail only at the scan that uses it.
+    for what, stage in (
+        ("guide scan", stages["guide_registration"]),
+        ("Macbeth scan", stages["macbeth_validation"]),
+    ):
+        check_scan_pitch(rig.description, tuple(stage["scan"]["pitch_px"]), what)
+    macbeth = stages["macbeth_validation"]
+    stages["macbeth_validation"] = with_changes(
+        macbeth,
+        white_reference={
+            **macbeth["white_reference"],
+            "source": procedure["macbeth_white_reference"],
+        },
+    )
+    run.stage_procedures = stages
+
+
+def spectral(run: FullRun) -> None:
+    """The spectral calibration (its bundle staged)."""
+    run.spectral = run_spectral_calibration(
+        run.rig, run.stage_procedures["spectral_calibration"], session_id=f"{run.base}-spectral",
+        data=run.staging, progress=run.progress, allow_failed=True,
+    )  # fmt: skip
+    release_memory()  # each stage's arrays go before the next one's come
+
+
+def response(run: FullRun) -> None:
+    """The radiometric response, on the spectral bundle (staged)."""
+    cfg = run.procedure["response"]
+    run.staged = load(
+        run_response(
+            run.rig, load(run.spectral.bundle_path), light=cfg["light"], every=int(cfg["every"]),
+            reflectance=float(cfg["reflectance"]), session_id=f"{run.base}-response",
+            data=run.staging, progress=run.progress, allow_failed=True,
+        )
+    )  # fmt: skip
+    release_memory()
+
+
+def guide(run: FullRun) -> None:
+    """The guide homography, on the response's bundle (staged)."""
+    run.guide = run_guide_registration(
+        run.rig, run.staged, run.stage_procedures["guide_registration"],
+        session_id=f"{run.base}-guide", data=run.staging, progress=run.progress,
+        allow_failed=True,
+    )  # fmt: skip
+    run.staged = load(run.guide.bundle_path)
+    release_memory()
+
+
+def macbeth(run: FullRun) -> None:
+    """The Macbeth validation of the staged bundle, and its report."""
+    proc = run.stage_procedures["macbeth_validation"]
+    run.macbeth = run_macbeth(
+        run.rig, run.staged, proc, session_id=f"{run.base}-macbeth", data=run.staging,
+        progress=run.progress,
+    )  # fmt: skip
+    staged_at = f"the staged bundle {run.staged.path.relative_to(run.root).as_posix()} of this run"
+    run.report = render_report(run.macbeth, run.staged, proc, scanned_from=staged_at)
+    # The staged bundle carries the spectral, response and guide checks.
+    run.checks = derived_checks(run.staged, "macbeth", run.macbeth.checks)
+
+
+def publish(run: FullRun) -> None:
+    """Publish one bundle with every model, check and figure and the Macbeth report (when
+    every tolerance passed, or ``allow_failed``), and write the report beside it; else
+    write the report of the unpublished bundle."""
+    reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in run.spectral.figures.items()}
+    reports.update({f"guide_{k}.png": v for k, v in run.guide.figures.items()})
+    # Rendered against the published manifest, so the report names its own version.
+    reports.update({"macbeth_report.html": run.report.html, "macbeth_report.json": run.report.json})
+    chart = Session.open(run.macbeth.settings["chart_session"], data=run.staging)
+    if all(c.passed for c in run.checks) or run.allow_failed:
+        run.bundle_path = publish_derived(
+            run.staged,
+            stage="macbeth",
+            rig=run.rig.description,
+            checks=run.macbeth.checks,
+            residuals=run.macbeth.summary(),
+            procedure={  # the response and guide procedures come with the staged bundle
+                "full_calibration": dict(run.procedure),
+                "spectral_calibration": run.stage_procedures["spectral_calibration"],
+                "macbeth_validation": run.stage_procedures["macbeth_validation"],
+            },
+            inputs=[{"id": chart.id, "sha256": chart.sha256(), "kind": "session"}],
+            reports=reports,
+            allow_failed=run.allow_failed,
+            data=run.root,
+        )
+        run.report_dir.mkdir(parents=True, exist_ok=True)
+        for name in ("macbeth_report.html", "macbeth_report.json"):
+            raw = (run.bundle_path / "report" / name).read_bytes()
+            atomic_write_bytes(run.report_dir / name, raw, overwrite=False)
+        run.html = run.report_dir / "macbeth_report.html"
+    else:
+        unpublished = {
+            **thaw(run.staged.manifest),
+            "version": None,
+            "created": datetime.now(UTC).isoformat(timespec="seconds"),
+            "passed": False,
+            "quality": {"checks": [c.to_manifest() for c in run.checks]},
+        }
+        run.html, _ = run.report.write(run.report_dir, unpublished)
+
+
+def keep(run: FullRun) -> None:
+    """Drop the raw frames the procedure's ``keep`` does not keep, once the bundle is
+    published (until then a re-run resumes from them)."""
+    policy = run.procedure.get("keep", "all") if run.bundle_path else "all"
+    run.kept = keep_frames(run.staging, run.base, policy)
+
+
+#: The calibration chain's steps, in order.
+STEPS = {
+    "check": check,
+    "spectral": spectral,
+    "response": response,
+    "guide": guide,
+    "macbeth": macbeth,
+    "publish": publish,
+    "keep": keep,
+}
 
 
 @drives_rig("calibrate")
@@ -101,94 +278,13 @@ def run_full_calibration(
     >>> result.passed, result.bundle_path  # doctest: +SKIP
     (True, PosixPath('calib_data/sim/v0001'))
     """
-    response_cfg = procedure["response"]
-    check_scan(rig, "white", response_cfg["light"], (100, 5))
-    response_source(rig)  # the lamp's spectrum must be known before anything is captured
     base = session_id or "full-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     root = data_root(data)
-    staging = root / "staging" / base
     report_dir = Path(out) if out is not None else root / "reports" / base
-    spectral_proc = _stage_procedure("spectral_calibration", procedure["spectral_procedure"])
-    guide_proc = _stage_procedure("guide_registration", procedure["guide_procedure"])
-    macbeth_proc = _stage_procedure("macbeth_validation", procedure["macbeth_procedure"])
-    # Every scan of the chain, before anything is captured: a streak too long for a pitch
-    # would otherwise fail only at the scan that uses it.
-    for what, stage in (("guide scan", guide_proc), ("Macbeth scan", macbeth_proc)):
-        check_scan_pitch(rig.description, tuple(stage["scan"]["pitch_px"]), what)
-    macbeth_proc = with_changes(
-        macbeth_proc,
-        white_reference={
-            **macbeth_proc["white_reference"],
-            "source": procedure["macbeth_white_reference"],
-        },
-    )
-
-    spectral = run_spectral_calibration(
-        rig, spectral_proc, session_id=f"{base}-spectral", data=staging, progress=progress,
-        allow_failed=True,
-    )  # fmt: skip
-    release_memory()  # each stage's arrays go before the next one's come
-    staged = load(
-        run_response(
-            rig, load(spectral.bundle_path), light=response_cfg["light"],
-            every=int(response_cfg["every"]), reflectance=float(response_cfg["reflectance"]),
-            session_id=f"{base}-response", data=staging, progress=progress, allow_failed=True,
-        )
-    )  # fmt: skip
-    release_memory()
-    guide = run_guide_registration(
-        rig, staged, guide_proc, session_id=f"{base}-guide", data=staging, progress=progress,
-        allow_failed=True,
-    )  # fmt: skip
-    staged = load(guide.bundle_path)
-    release_memory()
-    macbeth = run_macbeth(
-        rig, staged, macbeth_proc, session_id=f"{base}-macbeth", data=staging,
-        progress=progress,
-    )  # fmt: skip
-    staged_at = f"the staged bundle {staged.path.relative_to(root).as_posix()} of this run"
-    report = render_report(macbeth, staged, macbeth_proc, scanned_from=staged_at)
-
-    # The staged bundle carries the spectral, response and guide checks.
-    checks = derived_checks(staged, "macbeth", macbeth.checks)
-    reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in spectral.figures.items()}
-    reports.update({f"guide_{k}.png": v for k, v in guide.figures.items()})
-    # Rendered against the published manifest, so the report names its own version.
-    reports.update({"macbeth_report.html": report.html, "macbeth_report.json": report.json})
-    chart = Session.open(macbeth.settings["chart_session"], data=staging)
-    bundle_path = None
-    if all(c.passed for c in checks) or allow_failed:
-        bundle_path = publish_derived(
-            staged,
-            stage="macbeth",
-            rig=rig.description,
-            checks=macbeth.checks,
-            residuals=macbeth.summary(),
-            procedure={  # the response and guide procedures come with the staged bundle
-                "full_calibration": dict(procedure),
-                "spectral_calibration": spectral_proc,
-                "macbeth_validation": macbeth_proc,
-            },
-            inputs=[{"id": chart.id, "sha256": chart.sha256(), "kind": "session"}],
-            reports=reports,
-            allow_failed=allow_failed,
-            data=root,
-        )
-        report_dir.mkdir(parents=True, exist_ok=True)
-        for name in ("macbeth_report.html", "macbeth_report.json"):
-            raw = (bundle_path / "report" / name).read_bytes()
-            atomic_write_bytes(report_dir / name, raw, overwrite=False)
-        html = report_dir / "macbeth_report.html"
-    else:
-        unpublished = {
-            **thaw(staged.manifest),
-            "version": None,
-            "created": datetime.now(UTC).isoformat(timespec="seconds"),
-            "passed": False,
-            "quality": {"checks": [c.to_manifest() for c in checks]},
-        }
-        html, _ = report.write(report_dir, unpublished)
-    # Frames go only once the bundle is published: until then a re-run resumes from them.
-    kept = keep_frames(staging, base, procedure.get("keep", "all") if bundle_path else "all")
-    stages = {"spectral": spectral, "guide": guide, "macbeth": macbeth, "staging": staging}
-    return FullCalibration(checks, bundle_path, html, stages, kept)
+    run = FullRun(rig, procedure, base, root, report_dir, progress, allow_failed)
+    run_steps(STEPS, run, procedure="calibrate")
+    stages = {
+        "spectral": run.spectral, "guide": run.guide, "macbeth": run.macbeth,
+        "staging": run.staging,
+    }  # fmt: skip
+    return FullCalibration(run.checks, run.bundle_path, run.html, stages, run.kept)

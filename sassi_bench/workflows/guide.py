@@ -44,7 +44,7 @@ from sassi_bench.reduce.guide import (
 )
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
-from sassi_bench.workflows.scan_feed import capture_scan
+from sassi_bench.workflows.scan import capture_scan
 from sassi_bench.workflows.steps import run_steps
 
 __all__ = [

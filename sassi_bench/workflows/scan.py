@@ -1,44 +1,45 @@
-"""Pinhole-scan workflows: the radiometric response and reference cubes.
+"""Pinhole scans on a rig: reference cubes and the radiometric response.
 
-:func:`run_response` scans a white diffuser under a source of known spectrum (halogen as
-a blackbody of the rig's lamp temperature, or a reference CSV) and publishes a new
-bundle version with the per-bin response. :func:`run_scan` scans a scene, assembles the
-cube with a bundle and divides by its response when it has one.
+:func:`capture_scan` captures what a scan session misses and hands every frame, as soon
+as it is stored, to the scan's reading pass (:class:`~sassi_bench.spectra.scan.ScanAssembly`,
+on a worker thread of a :class:`~sassi_bench.acquire.frame_feed.FrameFeed`), so that pass
+overlaps the capture and no frame is read back; frames stored before (a resumed capture)
+are read back first, on a thread per CPU. Only the spectra pass and the deblur wait for
+the last frame: they need the background, which every frame adds to. The reading pass's
+sums are exact, so the cube is the one :func:`~sassi_bench.reduce.scan.assemble_scan`
+makes of the finished session, wherever a capture was interrupted.
+
+:func:`run_scan` scans a scene and assembles the cube with a bundle (divided by its
+response when it has one); :func:`run_response` scans a white diffuser under a source of
+known spectrum and publishes a new bundle version with the per-bin response
+(:mod:`~sassi_bench.reduce.response`).
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
+from sassi_bench._shared.memory import release_memory
 from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.scan_plans import check_pitch, check_roi, scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.streak_pitch import check_scan_pitch
-from sassi_bench.bundle import CalibrationBundle, QualityCheck, publish_derived
+from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.bundle.derive import check_parent
-from sassi_bench.calibrate.radiometry import (
-    read_reference_csv,
-    response_from_white,
-    source_photons_in_bins,
-    temperature_sensitivity,
-)
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.reduce.scan import ScanRun
+from sassi_bench.reduce.response import publish_response, response_source
+from sassi_bench.reduce.scan import ScanRun, finish_scan, read_stored, scan_assembly
 from sassi_bench.rig.rig import Rig, check_light, check_scene
-from sassi_bench.spectra.forward import StreakForwardModel
-from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
+from sassi_bench.spectra.scan import ScanCube
 from sassi_bench.workflows.rig_lock import drives_rig
-from sassi_bench.workflows.scan_feed import capture_scan
 
-__all__ = ["ResponseSource", "check_scan", "response_source", "run_response", "run_scan"]
+__all__ = ["capture_scan", "check_scan", "run_response", "run_scan"]
 
 
 def _stamp(prefix: str) -> str:
@@ -85,133 +86,50 @@ def check_scan(
     check_roi(roi, rig.slm.shape, step="scan")
 
 
-#: The lamp temperature uncertainty whose effect on the response is reported (K).
-LAMP_DELTA_K = 100.0
-
-
-@dataclass(frozen=True)
-class ResponseSource:
-    """The spectrum of the source a response scan is taken under: a reference spectrum
-    (wavelengths in nm, relative power) or a blackbody temperature."""
-
-    temperature_k: float | None
-    reference: tuple[np.ndarray, np.ndarray] | None
-    label: str
-
-    def photons_in_bins(self, bin_edges_nm) -> np.ndarray:
-        """Relative photon flux per bin (:func:`source_photons_in_bins`).
-
-        Parameters
-        ----------
-        bin_edges_nm
-            (B + 1,) edges of the wavelength bins.
-
-        Returns
-        -------
-        ndarray
-            (B,) photon flux of the source in each bin, relative.
-
-        Examples
-        --------
-        >>> flux = ResponseSource(3000.0, None, "blackbody 3000 K").photons_in_bins([400, 550, 700])
-        >>> bool(flux[1] > flux[0])  # a halogen lamp is redder than it is blue
-        True
-        """
-        return source_photons_in_bins(
-            bin_edges_nm, temperature_k=self.temperature_k, reference=self.reference
-        )
-
-    def temperature_sensitivity(
-        self, bin_edges_nm, delta_k: float = LAMP_DELTA_K
-    ) -> dict[str, Any] | None:
-        """How much a response taken under this blackbody changes, per bin, if the lamp
-        is ``delta_k`` cooler or hotter than assumed (None for a reference spectrum,
-        whose uncertainty is the lab's to state).
-
-        Parameters
-        ----------
-        bin_edges_nm
-            (B + 1,) edges of the wavelength bins.
-        delta_k
-            The lamp temperature uncertainty (K).
-
-        Returns
-        -------
-        dict or None
-            The temperature, ``delta_k``, the largest relative change over bins and the
-            relative change per bin for a cooler and a hotter lamp.
-
-        Examples
-        --------
-        >>> source = ResponseSource(3000.0, None, "blackbody 3000 K")
-        >>> round(source.temperature_sensitivity([400, 550, 700])["max_relative_change"], 3)
-        0.037
-        """
-        if self.temperature_k is None:
-            return None
-        change = temperature_sensitivity(bin_edges_nm, self.temperature_k, delta_k)
-        return {
-            "temperature_k": self.temperature_k,
-            "delta_k": float(delta_k),
-            "max_relative_change": float(np.abs(change).max()),
-            "relative_change_cooler": change[0].tolist(),
-            "relative_change_hotter": change[1].tolist(),
-        }
-
-
-def response_source(
+def capture_scan(
     rig: Rig,
-    temperature_k: float | None = None,
-    reference_csv: str | os.PathLike[str] | None = None,
-) -> ResponseSource:
-    """The source of a response scan: a reference CSV, else a blackbody at ``temperature_k``
-    or the rig's ``light.halogen_k``; refused before any capture when none is known.
+    session: Session,
+    bundle: CalibrationBundle,
+    *,
+    roi: Sequence[int] | None = None,
+    deblur: bool = True,
+    keep_raw: bool = False,
+    row_mixture: bool = True,
+    progress: bool = True,
+) -> ScanCube:
+    """Capture what a scan session misses and assemble the scan as its frames are stored.
 
     Parameters
     ----------
     rig
-        Device handles (their description's ``light.halogen_k``).
-    temperature_k
-        Colour temperature of the lamp (1000-10000 K).
-    reference_csv
-        A CSV of ``wavelength_nm,power``; wins over a temperature.
+        Device handles.
+    session
+        A pinhole-scan session (:func:`~sassi_bench.acquire.scan_plans.scan_plan`), new or
+        partly captured.
+    bundle, roi, deblur, keep_raw, row_mixture
+        As for :func:`~sassi_bench.reduce.scan.assemble_scan`.
+    progress
+        Show progress bars.
 
     Returns
     -------
-    ResponseSource
-        The spectrum and a label for the bundle's provenance.
-
-    Raises
-    ------
-    ProcedureError
-        If no source spectrum is known, or the temperature is no lamp's.
+    ScanCube
 
     Examples
     --------
-    >>> response_source(open_rig("sim"), temperature_k=3100).label  # doctest: +SKIP
-    'blackbody 3100 K'
+    >>> scan = capture_scan(rig, session, bundle, keep_raw=True)  # doctest: +SKIP
     """
-    if reference_csv is not None:
-        return ResponseSource(None, read_reference_csv(reference_csv), str(reference_csv))
-    kelvin = temperature_k if temperature_k is not None else rig.description.light.halogen_k
-    if kelvin is None:
-        raise ProcedureError(
-            step_error(
-                "radiometric response",
-                f"rig {rig.description.name!r} does not give its halogen lamp's colour "
-                "temperature (light.halogen_k) and no source spectrum was given",
-                "pass --temperature K or --reference CSV, or set light.halogen_k in the rig",
-            )
-        )
-    if not 1000 <= kelvin <= 10000:
-        raise ProcedureError(
-            step_error(
-                "radiometric response",
-                f"a blackbody of {kelvin:g} K is no lamp",
-                "give the colour temperature in kelvin (1000-10000; halogen: about 3000)",
-            )
-        )
-    return ResponseSource(float(kelvin), None, f"blackbody {kelvin:g} K")
+    assembly = scan_assembly(
+        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture
+    )
+    stored = session.completed
+    read_stored(assembly, session, [i for i in assembly.steps if i in stored], progress=progress)
+    todo = [i for i in assembly.steps if i not in stored]
+    with FrameFeed(session, todo, assembly.read, label="scan") as feed:
+        run_plan(rig, session.plan, feed.tee(), progress=progress)
+        feed.finish()
+    release_memory()  # the reading pass's per-frame buffers, before the cube's work
+    return finish_scan(assembly, session, progress=progress)
 
 
 def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) -> Plan:
@@ -291,7 +209,7 @@ def run_response(
     """
     check_parent(bundle, "response", allow_failed=allow_failed)
     check_scan(rig, "white", light, pitch)
-    source = response_source(rig, temperature_k, reference_csv)
+    source = response_source(rig.description, temperature_k, reference_csv)
     session = Session.resume_or_plan(
         rig.description,
         lambda: _plan(rig, "white", light, pitch, every, 0.6),
@@ -299,54 +217,10 @@ def run_response(
         data=data,
     )
     scan = capture_scan(rig, session, bundle, keep_raw=True, progress=progress)
-    lit = (scan.quality == 0) & (np.abs(scan.cube).sum(axis=-1) > 0)
-    spectra = scan.cube[lit]
-    # The white's column sums are averaged first and deblurred once, at the mean's noise:
-    # noise averages out of a mean, the per-pixel deblur's smoothing bias would not.
-    white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle), lit)
-    response = response_from_white(
-        white.band, source.photons_in_bins(bundle.bin_edges), reflectance, pixels=white.count
-    )
-    positive = bool(np.all(np.isfinite(response)) and np.all(response > 0))
-    spread = float(np.median(np.std(spectra, axis=0) / np.abs(np.mean(spectra, axis=0))))
-    residuals: dict[str, Any] = {"white_relative_spread": spread}
-    sensitivity = source.temperature_sensitivity(bundle.bin_edges)
-    if sensitivity is not None:
-        residuals["lamp_temperature_sensitivity"] = sensitivity
-    checks = [
-        QualityCheck("response_positive", float(positive), 1.0, "1", positive, ">="),
-        QualityCheck.at_most("white_uniformity", spread, 0.1, "1"),
-    ]
-    return publish_derived(
-        bundle,
-        stage="response",
-        rig=rig.description,
-        models={
-            "offset": {
-                "method": "per-pixel mean of streak-free frames",
-                "fallback": "block-median spline",
-            },
-            "response": response,
-        },
-        checks=checks,
-        residuals=residuals,
-        procedure={
-            "response": {
-                "light": light,
-                "pitch": list(pitch),
-                "every": every,
-                "reflectance": reflectance,
-                "source": source.label,
-                "deblur": {
-                    "mean": white.choice.to_dict(),
-                    "pixels": scan.deblur.to_dict() if scan.deblur is not None else None,
-                },
-            },
-        },
-        inputs=[{"id": session.id, "sha256": session.sha256(), "kind": "session"}],
-        allow_failed=allow_failed,
-        data=data,
-    )
+    return publish_response(
+        scan, session, bundle, rig.description, source, light=light, pitch=pitch, every=every,
+        reflectance=reflectance, data=data, allow_failed=allow_failed,
+    )  # fmt: skip
 
 
 @drives_rig("scan")

@@ -41,12 +41,13 @@ from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.acquire.snapshots import snapshot_exposures
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.reduce.snapshots import procedure_spacing
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 from sassi_bench.snapshot.video import VideoPipeline
 from sassi_bench.snapshot.video_store import VideoStore
 from sassi_bench.workflows.rig_lock import drives_rig
-from sassi_bench.workflows.snapshot import check_inputs, procedure_spacing
+from sassi_bench.workflows.snapshot import check_inputs
 
 __all__ = ["LiveRun", "run_live"]
 

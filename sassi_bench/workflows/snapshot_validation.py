@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from sassi_bench.acquire.snapshots import SnapshotVideo, capture_snapshots
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing, QualityCheck
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.reduce.snapshots import adaptive_planner, frame_samples, procedure_spacing
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 from sassi_bench.snapshot import random_mask, reconstruct_frame, uniform_mask
@@ -39,12 +40,7 @@ from sassi_bench.validate.snapshot import (
 )
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.scan import run_scan
-from sassi_bench.workflows.snapshot import (
-    adaptive_planner,
-    check_inputs,
-    frame_samples,
-    procedure_spacing,
-)
+from sassi_bench.workflows.snapshot import check_inputs
 
 __all__ = ["run_snapshot"]
 

@@ -11,7 +11,7 @@ from sassi_bench.acquire.scan_plans import scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.reduce.scan import assemble_scan
-from sassi_bench.workflows.scan_feed import capture_scan
+from sassi_bench.workflows.scan import capture_scan
 
 
 def test_a_scan_assembled_as_captured_and_resumed_equals_the_session_s(calibrated_sim):
