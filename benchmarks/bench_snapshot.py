@@ -47,9 +47,9 @@ from threadpoolctl import threadpool_limits
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import (
-    BlurModel,
     CalibrationModels,
     DispersionModel,
+    QuadraticBlur,
     QualityCheck,
     WavelengthBins,
     load,
@@ -86,7 +86,7 @@ def prototype_models(slm: tuple[int, int] = SLMS["crop"]) -> CalibrationModels:
     edges = np.sort(np.interp(x_edges, xs[order], lam[order]))
     centres = (edges[:-1] + edges[1:]) / 2
     bins = WavelengthBins(centres, edges, 1.2 * np.diff(edges))
-    blur = BlurModel((0.42, 0.0, (1.7 - 0.42) / 1.15**2), 520.0, 100.0, 2.5)
+    blur = QuadraticBlur((0.42, 0.0, (1.7 - 0.42) / 1.15**2), 520.0, 100.0, 2.5)
     scale = slm[1] / GUIDE[1]
     homography = np.array([[scale, 0.0, 0.0], [0.0, scale, -10.0], [0.0, 0.0, 1.0]])
     return CalibrationModels(

@@ -160,7 +160,11 @@ def main() -> None:
     def measure(name, session):
         start = time.process_time()
         scan = assemble_scan(
-            session, bundle, keep_raw=True, progress=False, row_mixture=not args.separable
+            session,
+            bundle,
+            keep_raw=True,
+            progress=False,
+            unmixing="separable" if args.separable else "mixed",
         )
         cpu[name] = time.process_time() - start
         good = scan.quality == 0

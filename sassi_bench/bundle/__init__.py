@@ -18,6 +18,7 @@ Examples
 """
 
 from sassi_bench.bundle.archive import ImportedBundle, export_zip, import_zip, verify_zip
+from sassi_bench.bundle.blur import BlurModel, QuadraticBlur, Spot
 from sassi_bench.bundle.bundle import CalibrationBundle, Streak
 from sassi_bench.bundle.derive import publish_derived
 from sassi_bench.bundle.diff import BundleDiff, diff_bundles, format_diff
@@ -31,7 +32,7 @@ from sassi_bench.bundle.errors import (
     UnsupportedSchemaError,
 )
 from sassi_bench.bundle.loader import load, verify
-from sassi_bench.bundle.model_types import BlurModel, DispersionModel, WavelengthBins
+from sassi_bench.bundle.model_types import DispersionModel, WavelengthBins
 from sassi_bench.bundle.models import CalibrationModels
 from sassi_bench.bundle.quality import QualityCheck
 from sassi_bench.bundle.schema import SCHEMA_NAME, SCHEMA_VERSION
@@ -54,7 +55,9 @@ __all__ = [
     "DispersionModel",
     "ImportedBundle",
     "MaskSpacing",
+    "QuadraticBlur",
     "QualityCheck",
+    "Spot",
     "Streak",
     "UnsafeArchiveError",
     "UnsupportedSchemaError",

@@ -1,4 +1,5 @@
-"""The three required models of the contract: dispersion, wavelength bins and blur.
+"""Two of the three required models of the contract: dispersion and wavelength bins (the
+blur is :mod:`sassi_bench.bundle.blur`).
 
 Each model checks its values when it is built (:mod:`sassi_bench.bundle.model_checks`),
 evaluates its formula, and converts to and from its entry of the manifest's ``models``
@@ -14,7 +15,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.polynomial import polynomial
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle.model_checks import (
@@ -35,7 +35,7 @@ from sassi_bench.maths.legendre import (
 )
 from sassi_bench.optics.glass import sellmeier_index
 
-__all__ = ["FIELD_BASIS", "MAX_FIELD_DEGREE", "BlurModel", "DispersionModel", "WavelengthBins"]
+__all__ = ["FIELD_BASIS", "MAX_FIELD_DEGREE", "DispersionModel", "WavelengthBins"]
 
 #: The field basis this version of the contract defines.
 FIELD_BASIS = "legendre2d"
@@ -321,130 +321,4 @@ class WavelengthBins:
             centres_nm=array_ref(entry, "bin_centres_nm", arrays, where),
             edges_nm=array_ref(entry, "bin_edges_nm", arrays, where),
             resolution_nm=array_ref(entry, "bin_resolution_nm", arrays, where),
-        )
-
-
-@dataclass(frozen=True, eq=False)
-class BlurModel:
-    """Wavelength-dependent Gaussian blur: ``sigma(λ) = c0 + c1 t + c2 t²`` (``"quadratic"``),
-    or ``sigma(λ) = sqrt((c0 + c1 t + c2 t²)² + pixel_variance_px2)`` (``"psf_quadratic"``:
-    the quadratic is the optics' PSF, and the SLM pixel's and camera pixel's boxes add a
-    variance that does not depend on the wavelength).
-
-    Parameters
-    ----------
-    coeffs
-        ``(c0, c1, c2)`` in camera px.
-    lambda_ref_nm, lambda_scale_nm
-        ``t = (λ − lambda_ref_nm) / lambda_scale_nm``.
-    window_sigmas
-        Half-width of the summation window in units of sigma.
-    pixel_variance_px2
-        The pixel boxes' variance (camera px²); 0 (the default) is the plain quadratic.
-    relative_error
-        The fit's own estimate of how far ``sigma`` may be off between the lasers, as a
-        fraction (the RMS of its leave-one-laser-out errors); None when the
-        fit did not state one (older bundles, three lasers).
-
-    Examples
-    --------
-    >>> blur = BlurModel((1.0, 0.0, 3.0), 520.0, 115.0, 2.5)
-    >>> blur.sigma([405.0, 520.0, 635.0]).round(3).tolist()
-    [4.0, 1.0, 4.0]
-    >>> psf = BlurModel((0.0, 0.0, 3.0), 520.0, 115.0, 2.5, pixel_variance_px2=16.0)
-    >>> psf.sigma([405.0, 520.0]).round(3).tolist()
-    [5.0, 4.0]
-    """
-
-    coeffs: tuple[float, float, float]
-    lambda_ref_nm: float
-    lambda_scale_nm: float
-    window_sigmas: float
-    pixel_variance_px2: float = 0.0
-    relative_error: float | None = None
-
-    def __post_init__(self) -> None:
-        where = "models.blur"
-        object.__setattr__(self, "coeffs", reals(self.coeffs, 3, f"{where}.coeffs"))
-        object.__setattr__(
-            self, "lambda_ref_nm", real(self.lambda_ref_nm, f"{where}.lambda_ref_nm")
-        )
-        object.__setattr__(
-            self,
-            "lambda_scale_nm",
-            real(self.lambda_scale_nm, f"{where}.lambda_scale_nm", positive=True),
-        )
-        object.__setattr__(
-            self,
-            "window_sigmas",
-            real(self.window_sigmas, f"{where}.window_sigmas", positive=True),
-        )
-        pixel = real(self.pixel_variance_px2, f"{where}.pixel_variance_px2")
-        if pixel < 0:
-            raise bad(f"{where}.pixel_variance_px2", f"must be >= 0, got {pixel!r}")
-        object.__setattr__(self, "pixel_variance_px2", pixel)
-        if self.relative_error is not None:
-            error = real(self.relative_error, f"{where}.relative_error")
-            if not 0 <= error < 1:
-                raise bad(f"{where}.relative_error", f"must be in [0, 1), got {error!r}")
-            object.__setattr__(self, "relative_error", error)
-
-    @property
-    def kind(self) -> str:
-        """The manifest's ``model``: ``"quadratic"`` or ``"psf_quadratic"``."""
-        return "psf_quadratic" if self.pixel_variance_px2 > 0 else "quadratic"
-
-    def sigma(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
-        """Gaussian sigma in camera px at ``wavelength_nm`` (vectorised)."""
-        t = (np.asarray(wavelength_nm, dtype=np.float64) - self.lambda_ref_nm) / (
-            self.lambda_scale_nm
-        )
-        value = np.asarray(polynomial.polyval(t, self.coeffs), dtype=np.float64)
-        if self.pixel_variance_px2 > 0:
-            value = np.sqrt(value**2 + self.pixel_variance_px2)
-        return value
-
-    def window_half_width(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
-        """Half-width of the summation window, ``window_sigmas · sigma(λ)``, in rows."""
-        return self.window_sigmas * self.sigma(wavelength_nm)
-
-    def to_manifest(self) -> dict[str, Any]:
-        """The ``models.blur`` entry."""
-        entry = {
-            "model": self.kind,
-            "coeffs": list(self.coeffs),
-            "lambda_ref_nm": self.lambda_ref_nm,
-            "lambda_scale_nm": self.lambda_scale_nm,
-            "window_sigmas": self.window_sigmas,
-        }
-        if self.pixel_variance_px2 > 0:
-            entry["pixel_variance_px2"] = self.pixel_variance_px2
-        if self.relative_error is not None:
-            entry["relative_error"] = self.relative_error
-        return entry
-
-    @classmethod
-    def from_manifest(cls, entry: Any) -> BlurModel:
-        """Build from a ``models.blur`` entry."""
-        where = "models.blur"
-        entry = mapping(entry, where)
-        kind = entry.get("model")
-        if kind not in ("quadratic", "psf_quadratic"):
-            raise bad(
-                f"{where}.model",
-                f"is {kind!r}; this version knows 'quadratic' and 'psf_quadratic'",
-            )
-        keys = ["coeffs", "lambda_ref_nm", "lambda_scale_nm", "window_sigmas"]
-        if kind == "psf_quadratic":
-            keys.append("pixel_variance_px2")
-        missing = [key for key in keys if key not in entry]
-        if missing:
-            raise bad(where, f"lacks {', '.join(missing)}")
-        return cls(
-            coeffs=entry["coeffs"],
-            lambda_ref_nm=entry["lambda_ref_nm"],
-            lambda_scale_nm=entry["lambda_scale_nm"],
-            window_sigmas=entry["window_sigmas"],
-            pixel_variance_px2=entry.get("pixel_variance_px2", 0.0) if kind != "quadratic" else 0.0,
-            relative_error=entry.get("relative_error"),
         )

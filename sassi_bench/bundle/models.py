@@ -64,9 +64,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench.bundle.blur import BlurModel, blur_from_manifest
 from sassi_bench.bundle.jsonio import freeze, thaw, to_jsonable
 from sassi_bench.bundle.model_checks import array_ref, bad, frozen_array, mapping, real
-from sassi_bench.bundle.model_types import BlurModel, DispersionModel, WavelengthBins
+from sassi_bench.bundle.model_types import DispersionModel, WavelengthBins
 
 __all__ = ["CalibrationModels"]
 
@@ -241,7 +242,7 @@ class CalibrationModels:
         return cls(
             dispersion=DispersionModel.from_manifest(section.get("dispersion"), arrays),
             bins=WavelengthBins.from_manifest(section.get("wavelength_bins"), arrays),
-            blur=BlurModel.from_manifest(section.get("blur")),
+            blur=blur_from_manifest(section.get("blur")),
             guide_to_slm=guide_matrix,
             guide_info=thaw(guide_info),
             offset=thaw(offset) if offset is not None else None,

@@ -39,8 +39,9 @@ import numpy as np
 from numpy.typing import NDArray
 from threadpoolctl import threadpool_limits
 
+from sassi_bench.bundle.blur import GAUSSIAN, GaussianProfile
 from sassi_bench.calibrate.dispersion import BAND_NM, LAMBDA_REF_NM, LaserMap
-from sassi_bench.calibrate.lamp_streaks import StreakProfiles, pixel_spot, shared_line_amplitudes
+from sassi_bench.calibrate.lamp_streaks import StreakProfiles, shared_line_amplitudes
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 from sassi_bench.optics.glass import Glass
@@ -66,6 +67,8 @@ class LampStreaks:
         Side of one SLM pixel's image on the camera, px.
     profiles
         The pinholes' streaks.
+    spot
+        The spot's profile (the bundle's blur's): a line's pixel-integrated spot.
     """
 
     name: str
@@ -74,6 +77,7 @@ class LampStreaks:
     psf_sigma_px: NDArray[np.float64]
     aperture_px: float
     profiles: StreakProfiles
+    spot: GaussianProfile = GAUSSIAN
 
 
 @dataclass(frozen=True, eq=False)
@@ -253,7 +257,7 @@ class _Lamp:
         sigma = self.sigmas(blur)
         near = np.abs(offset) < (6.0 * sigma + self.data.aperture_px + 1.0)[None, None, :]
         sigma_near = np.broadcast_to(sigma[None, None, :], offset.shape)[near]
-        parts = pixel_spot(offset[near], self.data.aperture_px, sigma_near)
+        parts = self.data.spot.pixel_spot(offset[near], self.data.aperture_px, sigma_near)
         out = []
         for part in parts[: 3 if derivatives else 1]:
             full = np.zeros(offset.shape)

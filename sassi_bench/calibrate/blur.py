@@ -14,7 +14,7 @@ cannot follow between lasers far apart. Measured on ``sim`` (lasers 450 / 520 / 
 widths was 2 % off at the lasers and +4.5 % at 580-600 nm, where no laser is.
 
 Given the SLM pixel's image (:func:`fit_blur`'s ``aperture_px``) the quadratic is fitted
-to the PSF instead (:class:`~sassi_bench.bundle.BlurModel` ``"psf_quadratic"``), and the
+to the PSF instead (:class:`~sassi_bench.bundle.QuadraticBlur` ``"psf_quadratic"``), and the
 model is the spot *before* the camera pixel, ``sqrt(psf² + aperture²/12)``: every user of
 the bundle's blur integrates its Gaussian over camera pixels (the scan's row unmixing over
 each cell's rows, the streak's forward model over each bin's columns, the lamp spots over
@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sassi_bench.bundle import BlurModel
+from sassi_bench.bundle import QuadraticBlur
 from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
 from sassi_bench.errors import ProcedureError, step_error
 
@@ -151,7 +151,7 @@ def measure_spot_widths(
 class BlurFit:
     """Result of :func:`fit_blur`: the model and how well it fits the measurements."""
 
-    model: BlurModel
+    model: QuadraticBlur
     wavelengths_nm: NDArray[np.float64]
     measured_sigma_px: NDArray[np.float64]
     residual_px: NDArray[np.float64]
@@ -247,7 +247,7 @@ def fit_blur(
     if lam.size >= 4:  # three are left to fit when one is out
         missed = np.array([measured.left_out(sig, i) for i in range(lam.size)]) / sig
         error = float(np.sqrt(np.mean(missed**2)))
-    model = BlurModel(
+    model = QuadraticBlur(
         tuple(float(c) for c in coeffs),
         LAMBDA_REF_NM,
         LAMBDA_SCALE_NM,

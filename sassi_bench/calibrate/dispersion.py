@@ -104,13 +104,6 @@ class DispersionFit:
         return [entry[key] for label, entry in self.leave_one_out.items() if label not in skip]
 
     @property
-    def leave_one_out_rms_px(self) -> float:
-        """RMS over lasers of the leave-one-laser-out position error (lines fitted at
-        their estimated wavelength left out)."""
-        values = self._graded("rms_px")
-        return float(np.sqrt(np.mean(np.square(values)))) if values else float("nan")
-
-    @property
     def leave_one_out_rms_nm(self) -> float:
         """RMS over lasers of the leave-one-laser-out wavelength error (lines fitted at
         their estimated wavelength left out)."""

@@ -1,21 +1,21 @@
 """Lamp streaks: where a pinhole's atomic lines fall along its streak, as a forward model.
 
-Under a gas-discharge lamp every open SLM pixel draws a streak of separate spots, one per
-atomic line, at the columns the dispersion puts the lines' wavelengths. Close lines blend
-where the prism's dispersion is coarse (the mercury doublet at 577/579 nm, the dense neon
-lines beyond 585 nm), so the lines are not picked as peaks: each pinhole's streak, summed
-over its rows, is modelled as the sum of every listed line's spot,
+Under a gas-discharge lamp every open SLM pixel draws a streak of separate spots, one
+per atomic line, at the columns the dispersion puts the lines' wavelengths. Close lines
+blend where the prism's dispersion is coarse (the mercury doublet at 577/579 nm, the
+dense neon lines beyond 585 nm), so the lines are not picked as peaks: each pinhole's
+streak, summed over its rows, is modelled as the sum of every listed line's spot,
 
     m_j = gain · Σ_k a_k h(x_j − X_k; σ_k) + background,
 
 with the spot ``h`` of one SLM pixel integrated by a camera pixel (a box of the SLM
-pixel's image ⊗ a box of one camera pixel ⊗ the optics' Gaussian PSF,
-:func:`pixel_spot_profile`), the line amplitudes ``a_k`` shared by every pinhole of a
-lamp's frames and a gain and background per pinhole (:mod:`sassi_bench.calibrate.anchored`
-fits them with the line positions ``X_k``).
+pixel's image ⊗ a box of one camera pixel ⊗ the optics' PSF: the blur's profile,
+:meth:`~sassi_bench.bundle.blur.GaussianProfile.pixel_spot`), the line amplitudes
+``a_k`` shared by every pinhole of a lamp's frames and a gain and background per pinhole
+(:mod:`sassi_bench.calibrate.anchored` fits them with the line positions ``X_k``).
 
-:func:`extract_streak_profiles` cuts each pinhole's streak out of a background-free frame
-(vectorised gathers; no loop over pinholes).
+:func:`extract_streak_profiles` cuts each pinhole's streak out of a background-free
+frame (vectorised gathers; no loop over pinholes).
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import nnls
-from scipy.special import ndtr
 
 from sassi_bench.bundle import DispersionModel
 from sassi_bench.calibrate import _frame_kernels
@@ -35,70 +34,9 @@ from sassi_bench.errors import ProcedureError, step_error
 __all__ = [
     "StreakProfiles",
     "extract_streak_profiles",
-    "pixel_spot",
-    "pixel_spot_profile",
     "shared_line_amplitudes",
     "signal_and_variance",
 ]
-
-_SQRT_2PI = np.sqrt(2.0 * np.pi)
-
-
-def pixel_spot(
-    offset: ArrayLike, aperture_px: float, psf_sigma_px: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """One SLM pixel's spot as a camera pixel records it, and its two derivatives.
-
-    The spot is a box of side ``aperture_px`` (the SLM pixel's image), convolved with a
-    box of one camera pixel and a Gaussian PSF of ``psf_sigma_px``, at ``offset`` px from
-    its centre, in closed form: with ``R(t) = t Φ(t/σ) + σ φ(t/σ)`` (the smoothed ramp),
-    ``h(d) = [R(d + a⁺) − R(d + a⁻) − R(d − a⁻) + R(d − a⁺)] / aperture``,
-    ``a± = (aperture ± 1) / 2``; ``dR/dt = Φ`` and ``dR/dσ = φ``.
-
-    Returns
-    -------
-    value, slope, width_slope : ndarray
-        The spot (it sums to one over whole-pixel steps), its derivative with respect to
-        ``offset`` and with respect to ``psf_sigma_px``.
-
-    Examples
-    --------
-    >>> x = np.arange(-12, 13)
-    >>> value, slope, width = pixel_spot(x + 0.3, 1.0, 1.5)
-    >>> round(float(value.sum()), 6), bool(abs(slope.sum()) < 1e-9), bool(abs(width.sum()) < 1e-9)
-    (1.0, True, True)
-    >>> h = 1e-6
-    >>> up, down = pixel_spot(0.4 + h, 1.0, 0.8)[0], pixel_spot(0.4 - h, 1.0, 0.8)[0]
-    >>> bool(abs((up - down) / (2 * h) - pixel_spot(0.4, 1.0, 0.8)[1]) < 1e-6)
-    True
-    """
-    d = np.asarray(offset, dtype=np.float64)
-    sigma = np.maximum(np.asarray(psf_sigma_px, dtype=np.float64), 1e-3)
-    half_sum, half_diff = (aperture_px + 1.0) / 2.0, (aperture_px - 1.0) / 2.0
-    value = slope = width = 0.0
-    for shift, sign in ((half_sum, 1.0), (half_diff, -1.0), (-half_diff, -1.0), (-half_sum, 1.0)):
-        t = d + shift
-        z = t / sigma
-        cdf = ndtr(z)
-        density = np.exp(-0.5 * z * z) / _SQRT_2PI
-        value = value + sign * (t * cdf + sigma * density)
-        slope = slope + sign * cdf
-        width = width + sign * density
-    return value / aperture_px, slope / aperture_px, width / aperture_px
-
-
-def pixel_spot_profile(
-    offset: ArrayLike, aperture_px: float, psf_sigma_px: ArrayLike
-) -> NDArray[np.float64]:
-    """The spot of :func:`pixel_spot` alone.
-
-    Examples
-    --------
-    >>> x = np.arange(-12, 13)
-    >>> round(float(pixel_spot_profile(x + 0.3, 1.0, 1.5).sum()), 6)
-    1.0
-    """
-    return pixel_spot(offset, aperture_px, psf_sigma_px)[0]
 
 
 def signal_and_variance(

@@ -22,7 +22,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import DispersionModel
-from sassi_bench.calibrate.lamp_streaks import StreakProfiles, pixel_spot, shared_line_amplitudes
+from sassi_bench.bundle.blur import GAUSSIAN, GaussianProfile
+from sassi_bench.calibrate.lamp_streaks import StreakProfiles, shared_line_amplitudes
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 
@@ -74,6 +75,7 @@ def measure_streak_shifts(
     *,
     iterations: int = 8,
     dy: ArrayLike | None = None,
+    spot: GaussianProfile = GAUSSIAN,
 ) -> StreakShifts:
     """Fit one shift per pinhole of the lamp streaks against a dispersion model.
 
@@ -93,6 +95,8 @@ def measure_streak_shifts(
         Gauss-Newton rounds.
     dy
         Row shifts measured elsewhere (:func:`row_shifts`), recorded as they are.
+    spot
+        The spot's profile (the bundle's blur's): a line's pixel-integrated spot.
 
     Returns
     -------
@@ -124,7 +128,7 @@ def measure_streak_shifts(
     covariance = np.zeros((count, 3, 3))
     for _ in range(iterations):
         offset = profiles.columns[:, :, None] - x_lines[:, None, :] - shift[:, None, None]
-        value, slope, _ = pixel_spot(offset, aperture_px, sigma[None, None, :])
+        value, slope, _ = spot.pixel_spot(offset, aperture_px, sigma[None, None, :])
         amplitudes = _shared_amplitudes(value, y, weight, gain, background, profiles.light)
         spectrum = value @ amplitudes  # (P, W)
         # d model / d (γ, β, δ), weighted; δ moves every line the same way.
@@ -142,7 +146,7 @@ def measure_streak_shifts(
         gain, background = gain + step[:, 0], background + step[:, 1]
         shift = shift + np.clip(step[:, 2], -1.0, 1.0)
     offset = profiles.columns[:, :, None] - x_lines[:, None, :] - shift[:, None, None]
-    value = pixel_spot(offset, aperture_px, sigma[None, None, :])[0]
+    value = spot.pixel_spot(offset, aperture_px, sigma[None, None, :])[0]
     residual = (y - gain[:, None] * (value @ amplitudes) - background[:, None]) * weight
     dof = max(int(np.count_nonzero(weight)) - 3 * count - lam.size, 1)
     chi2 = float((residual**2).sum() / dof)

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtr
 
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
@@ -147,13 +146,15 @@ def row_window_share(
     vsize = check_vsize(vsize)
     u, v = _field(bundle)
     x, y = bundle.slm_to_camera(u, v, lam[None, :])  # (P, T)
-    sigma = np.asarray(bundle.blur_width(lam), dtype=np.float64)
-    s = np.sqrt(np.maximum(sigma**2 - 1.0 / 12.0, 1e-6))[None, :]
+    blur = bundle.models.blur
+    sigma = np.asarray(blur.spot(u, v, lam[None, :]).across, dtype=np.float64)  # (P, T)
+    s = np.sqrt(np.maximum(sigma**2 - 1.0 / 12.0, 1e-6))
     top = np.floor(y)
     frac = y - top
+    cdf = blur.profile.cdf
 
     def window(row):
-        return ndtr((row + vsize / 2 - y) / s) - ndtr((row - vsize / 2 - y) / s)
+        return cdf((row + vsize / 2 - y) / s) - cdf((row - vsize / 2 - y) / s)
 
     share = (1.0 - frac) * window(top) + frac * window(top + 1.0)
     height, width = camera_shape

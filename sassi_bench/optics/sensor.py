@@ -140,11 +140,6 @@ class SensorModel:
         """QE at ``wavelength_nm`` (vectorised, clipped to [0, 1])."""
         return np.clip(self._qe(np.asarray(wavelength_nm, dtype=np.float64)), 0.0, 1.0)
 
-    def mean_adu(self, electrons: ArrayLike) -> NDArray[np.float64]:
-        """Noise-free ADU for a mean electron count (including saturation)."""
-        e = np.minimum(np.asarray(electrons, dtype=np.float64), self.full_well_e)
-        return np.clip(e / self.gain_e_per_adu + self.dark_offset_adu, 0, self.max_adu)
-
     def expose(
         self, electron_rate: NDArray[np.floating], exposure_s: float, rng: np.random.Generator
     ) -> NDArray[np.unsignedinteger]:

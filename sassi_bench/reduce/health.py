@@ -245,6 +245,7 @@ def check_session(
         streaks.psf_sigma_px,
         streaks.aperture_px,
         dy=dy,
+        spot=streaks.spot,
     )
     field_map = shift_field_map(shifts, models.dispersion, degree=int(procedure["field_degree"]))
     tol = {k: float(v) for k, v in procedure["tolerances"].items()}

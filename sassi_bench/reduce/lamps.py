@@ -18,11 +18,7 @@ import numpy as np
 
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.session import Session
-from sassi_bench.acquire.spectral_plans import (
-    LAMP_REACH_SIGMAS,
-    lamp_band,
-    lamp_pinholes,
-)
+from sassi_bench.acquire.spectral_plans import LAMP_REACH_SIGMAS, lamp_band, lamp_pinholes
 from sassi_bench.bundle import BlurModel, DispersionModel
 from sassi_bench.calibrate.anchored import (
     AnchoredWavelengths,
@@ -36,7 +32,6 @@ from sassi_bench.calibrate.lamp_streaks import (
     signal_and_variance,
 )
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.optics.blur import line_spread_sigma
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.lamps import LineList
 from sassi_bench.reduce.sweep_stream import PinholeSignal
@@ -50,39 +45,10 @@ __all__ = [
     "camera_noise",
     "check_lamp_signal",
     "lamp_streaks",
-    "psf_sigma_px",
 ]
 
 #: The prior width (nm) that holds a confirmed laser line at its label.
 HELD_LABEL_NM = 1e-3
-
-
-def psf_sigma_px(blur: BlurModel, desc: RigDescription, wavelength_nm) -> np.ndarray:
-    """The optics' PSF sigma (camera px) behind a measured spot width.
-
-    A ``"psf_quadratic"`` blur is the PSF and the SLM pixel's image in quadrature (its
-    ``pixel_variance_px2``); a ``"quadratic"`` one is the second moment of one SLM pixel's
-    spot across the dispersion: the PSF plus the SLM pixel's image (``fill_factor`` of the
-    relay's scale) and the camera pixel, in quadrature
-    (:func:`~sassi_bench.optics.blur.line_spread_sigma`).
-
-    Examples
-    --------
-    >>> from sassi_bench.rig.config import load_rig_description
-    >>> desc = load_rig_description("sim")
-    >>> total = BlurModel((1.0, 0.0, 0.0), 550.0, 150.0, 3.0)
-    >>> round(float(psf_sigma_px(total, desc, 550.0)), 3)
-    0.912
-    >>> psf = BlurModel((0.5, 0.0, 0.0), 550.0, 150.0, 3.0, pixel_variance_px2=0.08)
-    >>> round(float(psf_sigma_px(psf, desc, 550.0)), 3)
-    0.5
-    """
-    spot = np.asarray(blur.sigma(wavelength_nm), dtype=np.float64)
-    if blur.kind == "psf_quadratic":
-        pixels2 = blur.pixel_variance_px2
-    else:
-        pixels2 = line_spread_sigma(0.0, desc.relay.scale, desc.slm.fill_factor) ** 2
-    return np.sqrt(np.clip(spot**2 - pixels2, 0.04, None))
 
 
 def camera_noise(desc: RigDescription) -> dict[str, float]:
@@ -188,7 +154,14 @@ def lamp_streaks(
                 name=lines.name,
                 lines_nm=lam,
                 start_intensity=lines.relative_intensity[modelled],
-                psf_sigma_px=psf_sigma_px(blur, desc, lam),
+                # The lamps' PSF starts at the blur's, at the field's centre.
+                psf_sigma_px=blur.psf(
+                    (desc.slm.width - 1) / 2.0,
+                    (desc.slm.height - 1) / 2.0,
+                    lam,
+                    slm_pixel_variance_px2=aperture**2 / 12.0,
+                ).along,
+                spot=blur.profile,
                 aperture_px=aperture,
                 profiles=profiles,
             )

@@ -32,7 +32,7 @@ def scan_assembly(
     roi: Sequence[int] | None = None,
     deblur: bool = True,
     keep_raw: bool = False,
-    row_mixture: bool = True,
+    unmixing: str = "mixed",
 ) -> ScanAssembly:
     """The assembly of a scan session's frames, before any frame is read.
 
@@ -40,7 +40,7 @@ def scan_assembly(
     ----------
     session
         A pinhole-scan session, complete or still to be captured.
-    bundle, roi, deblur, keep_raw, row_mixture
+    bundle, roi, deblur, keep_raw, unmixing
         As for :func:`assemble_scan`.
 
     Returns
@@ -53,7 +53,7 @@ def scan_assembly(
     """
     return ScanAssembly(
         session.plan, session.rig, bundle,
-        roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture,
+        roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing,
     )  # fmt: skip
 
 
@@ -108,7 +108,7 @@ def assemble_scan(
     roi: Sequence[int] | None = None,
     deblur: bool = True,
     keep_raw: bool = False,
-    row_mixture: bool = True,
+    unmixing: str = "mixed",
     progress: bool = True,
     workers: int | None = None,
 ) -> ScanCube:
@@ -138,12 +138,12 @@ def assemble_scan(
         Also keep every pixel's column sums before the deblur and their noise
         (:attr:`ScanCube.column_sums`, :attr:`ScanCube.noise_variance`), for spectra
         averaged before they are deblurred (the response, the Macbeth patches).
-    row_mixture
-        Unmix the stacked pixels with each one's light in a bin's columns blurred across
-        the streak as the mixture of the wavelengths that reach them
-        (:mod:`sassi_bench.spectra.row_mixture`) instead of with the bin's own blur alone:
-        closer at the red end, about 1.6 times the CPU of the assembly. False unmixes each
-        bin with its own blur alone (the separable unmixing).
+    unmixing
+        How stacked pixels are unmixed
+        (:data:`~sassi_bench.spectra.unmixing.ROW_UNMIXING_METHODS`): ``"mixed"``, each
+        one's light in a bin's columns blurred across the streak as the mixture of the
+        wavelengths that reach them (closer at the red end, about 1.6 times the CPU of the
+        assembly), or ``"separable"``, each bin with its own blur alone.
     progress
         Show progress bars.
     workers
@@ -160,7 +160,7 @@ def assemble_scan(
     (400, 640, 68)
     """
     assembly = scan_assembly(
-        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture
+        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing
     )
     stored = [i for i in assembly.steps if i in session.completed]
     read_stored(assembly, session, stored, progress=progress, workers=workers)

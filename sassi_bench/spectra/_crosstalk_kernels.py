@@ -10,9 +10,10 @@ So a frame's model is
 
 * the *layout* (:func:`unit_rows`, :func:`sort_units`): per camera column, its units
   sorted by first row, each with its rows and its profile (the share of a Gaussian of the
-  unit's blur in every row, from the tabulated normal CDF of
-  :mod:`sassi_bench.spectra._kernels`);
-* the skyline Cholesky factor of every column's system (:func:`factor_columns`);
+  unit's blur in every row, from the blur profile's tabulated CDF,
+  :mod:`sassi_bench.maths.normal`);
+* the skyline Cholesky factor of every column's system (:func:`factor_columns`, by
+  :func:`~sassi_bench.maths.banded.skyline_cholesky`);
 
 and every background refinement is a right-hand side per unit (the profile against the
 frame minus the background, evaluated from the background's spline on the unit's rows
@@ -33,8 +34,9 @@ import math
 import numpy as np
 from numba import njit
 
+from sassi_bench.maths.banded import skyline_cholesky, skyline_solve
+from sassi_bench.maths.normal import CDF_RANGE, CDF_STEPS_PER_UNIT
 from sassi_bench.maths.order_statistics import median
-from sassi_bench.spectra._kernels import CDF_RANGE, CDF_STEPS_PER_UNIT
 
 _JIT = {"cache": False, "nogil": True, "error_model": "numpy"}
 #: Loops whose sums may be reassociated (vectorised): results change in the last bits only.
@@ -61,7 +63,7 @@ def column_profiles(x_left, x_right, y, sigma, first, weight, centre, spread):  
                     k = c - first[n]
                     weight[n, k] += overlap
                     centre[n, k] += overlap * y[n, b]
-                    spread[n, k] += overlap * sigma[b]
+                    spread[n, k] += overlap * sigma[n, b]
         for k in range(weight.shape[1]):
             if weight[n, k] > 0.0:
                 centre[n, k] /= weight[n, k]
@@ -138,12 +140,12 @@ def sort_units(
 def fill_profiles(
     slot_unit, top, bottom, centre, spread, prof_start, table, prof
 ):  # pragma: no cover
-    """Every slot's profile: the share of a Gaussian (its unit's centre and sigma) in each
-    of its rows ``top[i] .. bottom[i]`` (shares under :data:`TINY_SHARE` are zero).
+    """Every slot's profile: the share of the blur's profile (its unit's centre and sigma)
+    in each of its rows ``top[i] .. bottom[i]`` (shares under :data:`TINY_SHARE` are zero).
 
-    The normal CDF is read from the tabulated cubics of
-    :func:`~sassi_bench.spectra._kernels.normal_cdf`, stepping the table position by a
-    fixed increment a row (the same values, without its per-call checks)."""
+    The CDF is read from its tabulated cubics (``table``, as
+    :func:`~sassi_bench.maths.normal.tabulated_cdf` reads it), stepping the table position
+    by a fixed increment a row (the same values, without its per-call checks)."""
     last = table.shape[0]
     for i in range(slot_unit.size):
         u = slot_unit[i]
@@ -221,23 +223,8 @@ def factor_columns(
                     pb = _U(prof_start[j] + r0 - top[j])
                     for q in range(_U(r1 - r0 + 1)):
                         g += prof[pa + q] * prof[pb + q]
-                # Minus the factor rows' product over their common envelope.
-                ej = envelope[j]
-                fj = factor_start[j]
-                k0 = max(ei, ej)
-                if j > k0:
-                    pa = _U(fi + k0 - ei)
-                    pb = _U(fj + k0 - ej)
-                    for q in range(_U(j - k0)):
-                        g -= factor[pa + q] * factor[pb + q]
-                if j < i:
-                    factor[fi + j - ei] = g * factor[fj + j - ej]
-                elif g > 0.0:
-                    factor[fi + i - ei] = 1.0 / math.sqrt(g)
-                else:  # no light on the camera (or numerically none): pinned to zero
-                    for k in range(ei, i):
-                        factor[fi + k - ei] = 0.0
-                    factor[fi + i - ei] = 1.0
+                factor[fi + j - ei] = g
+        skyline_cholesky(envelope, factor_start, factor, lo, hi)
     return factor
 
 
@@ -287,7 +274,7 @@ def solve_columns(
     (:func:`profile_sums`) minus the background's (when ``has_background``: the tensor
     spline ``coefficients`` with the rows' and columns' bases, evaluated from the column's
     first to its last slot's row), by the two triangular solves with the skyline factor of
-    every camera column."""
+    every camera column (:func:`~sassi_bench.maths.banded.skyline_solve`)."""
     height = row_index.size
     width = col_start.size - 1
     line = np.empty(coefficients.shape[0])
@@ -324,22 +311,7 @@ def solve_columns(
                 for q in range(_U(bottom[i] - top[i] + 1)):
                     acc += prof[pa + q] * column[pb + q]
                 light[i] -= acc
-        # Forward: L z = rhs (rows stored left to right, 1 / diagonal last).
-        for i in range(lo, hi):
-            ei = envelope[i]
-            fi = _U(factor_start[i])
-            acc = light[i]
-            for q in range(_U(i - ei)):
-                acc -= factor[fi + q] * light[ei + q]
-            light[i] = acc * factor[fi + i - ei]
-        # Backward: L^T x = z, a row of L at a time.
-        for i in range(hi - 1, lo - 1, -1):
-            ei = envelope[i]
-            fi = _U(factor_start[i])
-            x = light[i] * factor[fi + i - ei]
-            light[i] = x
-            for q in range(_U(i - ei)):
-                light[ei + q] -= factor[fi + q] * x
+        skyline_solve(envelope, factor_start, factor, light, lo, hi)
 
 
 @njit(**_SUMS)

@@ -23,42 +23,9 @@ import math
 
 import numpy as np
 from numba import njit
-from scipy.special import ndtr
 
-#: The normal CDF as piecewise cubics on [-CDF_RANGE, CDF_RANGE], one per step of
-#: 1 / CDF_STEPS_PER_UNIT: row ``i`` holds the coefficients in the step's local coordinate
-#: ``u`` in [0, 1) of the cubic Hermite interpolant of the values and slopes at its ends
-#: (errors under 1e-10). Why not ``math.erfc``: the row unmixing evaluates 1.6 million
-#: Gaussian integrals per prototype frame; the table takes 2.3 ns a value against 19 ns
-#: (and against 4.8 ns for the same cubic in the Hermite basis).
-CDF_RANGE = 9.0
-CDF_STEPS_PER_UNIT = 64.0
-
-
-def _cdf_table() -> np.ndarray:
-    z = np.arange(-CDF_RANGE, CDF_RANGE + 0.5 / CDF_STEPS_PER_UNIT, 1.0 / CDF_STEPS_PER_UNIT)
-    value = ndtr(z)
-    slope = np.exp(-0.5 * z**2) / math.sqrt(2.0 * math.pi) / CDF_STEPS_PER_UNIT  # per step
-    v0, v1, d0, d1 = value[:-1], value[1:], slope[:-1], slope[1:]
-    return np.stack([v0, d0, 3.0 * (v1 - v0) - 2.0 * d0 - d1, 2.0 * (v0 - v1) + d0 + d1], 1)
-
-
-CDF_TABLE = _cdf_table()
-
-
-@njit(nogil=True, error_model="numpy")
-def normal_cdf(z, table):  # pragma: no cover - compiled
-    """Standard normal CDF at ``z`` from :data:`CDF_TABLE`; NaN stays NaN."""
-    t = (z + CDF_RANGE) * CDF_STEPS_PER_UNIT
-    if t != t:
-        return t
-    if t <= 0.0:
-        return 0.0
-    if t >= table.shape[0]:  # also +inf, before the conversion to an index
-        return 1.0
-    i = int(t)
-    u = t - i
-    return table[i, 0] + u * (table[i, 1] + u * (table[i, 2] + u * table[i, 3]))
+from sassi_bench.maths.banded import band_solve
+from sassi_bench.maths.normal import tabulated_cdf
 
 
 @njit(nogil=True, error_model="numpy")
@@ -197,7 +164,7 @@ def cell_bounds(
                 ):
                     bad += 1
                     continue
-                reach = reach_sigmas * sigma[b]
+                reach = reach_sigmas * sigma[n, b]
                 upper = centre - reach
                 if up >= 0:
                     upper = max(upper, 0.5 * (centre + y[up, b]))
@@ -265,8 +232,8 @@ def coupling_reach(y, lo, hi, sigma, index, floor, table, out):  # pragma: no co
     Pixel ``s + d`` (``d > 0``) lies at least ``d`` times the closest spacing below
     pixel ``s``, and the lower edge of cell ``s`` (which has a neighbour below) at most
     the largest such extent below its centre, so pixel ``s + d`` puts at most
-    ``Phi((extent_below - d * spacing) / sigma)`` of its light into cell ``s``;
-    likewise upwards.
+    ``Phi((extent_below - d * spacing) / sigma)`` of its light into cell ``s`` (``sigma``:
+    the bin's widest blur); likewise upwards.
     """
     groups, stack = index.shape
     bins = y.shape[1]
@@ -292,48 +259,10 @@ def coupling_reach(y, lo, hi, sigma, index, floor, table, out):  # pragma: no co
         distance = 0
         while (
             distance + 1 < count
-            and normal_cdf((extent - (distance + 1) * spacing[b]) / sigma[b], table) > floor
+            and tabulated_cdf((extent - (distance + 1) * spacing[b]) / sigma[b], table) > floor
         ):
             distance += 1
         out[b] = distance
-
-
-@njit(nogil=True, error_model="numpy")
-def _solve_band(a, x, size, p):  # pragma: no cover - compiled
-    """Solve one banded system in place by LU with partial pivoting (as LAPACK's gbsv).
-
-    ``a[i, j - i + p] = A[i, j]`` for ``|j - i| <= p``; columns up to ``3 p`` hold the
-    fill-in of row exchanges (zero on entry). ``x`` is the right-hand side on entry and
-    the solution on return.
-    """
-    for k in range(size):
-        pivot_row = k
-        best = abs(a[k, p])
-        for r in range(k + 1, min(k + p, size - 1) + 1):
-            if abs(a[r, k - r + p]) > best:
-                best = abs(a[r, k - r + p])
-                pivot_row = r
-        end = min(k + 2 * p, size - 1)
-        if pivot_row != k:
-            for j in range(k, end + 1):
-                tmp = a[k, j - k + p]
-                a[k, j - k + p] = a[pivot_row, j - pivot_row + p]
-                a[pivot_row, j - pivot_row + p] = tmp
-            tmp = x[k]
-            x[k] = x[pivot_row]
-            x[pivot_row] = tmp
-        pivot = a[k, p]
-        for r in range(k + 1, min(k + p, size - 1) + 1):
-            factor = a[r, k - r + p] / pivot
-            if factor != 0.0:
-                for j in range(k + 1, end + 1):
-                    a[r, j - r + p] -= factor * a[k, j - k + p]
-                x[r] -= factor * x[k]
-    for i in range(size - 1, -1, -1):
-        total = x[i]
-        for j in range(i + 1, min(i + 2 * p, size - 1) + 1):
-            total -= a[i, j - i + p] * x[j]
-        x[i] = total / a[i, p]
 
 
 @njit(nogil=True, error_model="numpy")
@@ -363,7 +292,7 @@ def solve_undominated(
     band, x, size, reach, cells, columns, dominant, rest, alone, alone_x, out
 ):  # pragma: no cover - compiled
     """Mark which of a column's banded systems are diagonally dominant, and solve the
-    others alone with partial pivoting (:func:`_solve_band`).
+    others alone with partial pivoting (:func:`~sassi_bench.maths.banded.band_solve`).
 
     ``band[s, d + w, j]`` = ``A_j[s, s + d]`` and ``x[:, j]`` the right-hand side of system
     ``j`` (``size`` rows, bandwidth ``reach[j]``); ``dominant[j]`` is set for each; the
@@ -389,7 +318,7 @@ def solve_undominated(
                 for d in range(-p, p + 1):
                     alone[s, d + p] = band[s, d + w, j]
                 alone_x[s] = x[s, j]
-            _solve_band(alone, alone_x, size, p)
+            band_solve(alone, alone_x, size, p)
             for s in range(size):
                 out[cells[s], columns[j]] = alone_x[s]
 
@@ -397,8 +326,9 @@ def solve_undominated(
 @njit(nogil=True, error_model="numpy")
 def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no cover - compiled
     """Amplitudes of stacked pixels from their cell sums: per SLM column and bin, the
-    banded system ``A[s, s + d]`` = light of pixel ``s + d`` in cell ``s`` (Gaussian
-    integrals over the cell), ``|d| <= reach[bin]``, solved exactly.
+    banded system ``A[s, s + d]`` = light of pixel ``s + d`` in cell ``s`` (its profile,
+    of its own blur ``sigma[s + d, bin]``, integrated over the cell: the CDF ``table``),
+    ``|d| <= reach[bin]``, solved exactly.
 
     The systems of all bins of an SLM column are built and solved together, bins
     innermost, each coupling distance ``d`` only over the runs of bins that reach that far
@@ -441,12 +371,12 @@ def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no 
                 for run in range(counts[k]):
                     for b in range(starts[k, run], stops[k, run]):
                         centre = y[m, b]
-                        lower = normal_cdf((hi[n, b] - centre) * scale[b], table)
+                        lower = tabulated_cdf((hi[n, b] - centre) * scale[m, b], table)
                         # Pixel m at this cell's upper edge: the previous cell's lower edge.
                         if up >= 0 and d < reach[b] and lo[n, b] == hi[up, b]:
                             upper = previous[d + 1 + w, b]
                         else:
-                            upper = normal_cdf((lo[n, b] - centre) * scale[b], table)
+                            upper = tabulated_cdf((lo[n, b] - centre) * scale[m, b], table)
                         current[d + w, b] = lower
                         band[s, d + w, b] = lower - upper
             previous, current = current, previous

@@ -35,7 +35,8 @@ import math
 import numpy as np
 from numba import njit
 
-from sassi_bench.spectra._kernels import normal_cdf, solve_undominated
+from sassi_bench.maths.normal import tabulated_cdf
+from sassi_bench.spectra._kernels import solve_undominated
 
 _HALF_ROOT3 = 0.5 * math.sqrt(3.0)
 
@@ -264,11 +265,11 @@ def unmix_mixed(sums, lo, hi, index, bins, reach, nodes, table, out):  # pragma:
                         weight = nodes[m, j, 2 * q]
                         if weight != 0.0:
                             scale = inverse[s + d, j, q]
-                            lower = normal_cdf((bottom - centre) * scale, table)
+                            lower = tabulated_cdf((bottom - centre) * scale, table)
                             if shared:
                                 upper = previous[d + 1 + w, j, q]
                             else:
-                                upper = normal_cdf((top - centre) * scale, table)
+                                upper = tabulated_cdf((top - centre) * scale, table)
                             current[d + w, j, q] = lower
                             value += weight * (lower - upper)
                     band[s, d + w, j] = value

@@ -124,35 +124,3 @@ def squared_residual(frame, footprint, image):  # pragma: no cover
                 total += d * d
                 n += 1
     return total, n
-
-
-@njit(**_JIT)
-def banded_lu(a, lower, upper):  # pragma: no cover
-    """LU factors of a banded square matrix in place, without pivoting (``lower``,
-    ``upper``: its band widths). A B-spline collocation matrix is totally positive, so
-    elimination without pivoting is stable for it (de Boor)."""
-    n = a.shape[0]
-    for k in range(n - 1):
-        for i in range(k + 1, min(n, k + lower + 1)):
-            a[i, k] /= a[k, k]
-            for j in range(k + 1, min(n, k + upper + 1)):
-                a[i, j] -= a[i, k] * a[k, j]
-
-
-@njit(**_JIT)
-def banded_solve(lu, lower, upper, rhs):  # pragma: no cover
-    """Solve ``A x = rhs`` (rhs (n, m), overwritten by x) with :func:`banded_lu`'s factors."""
-    n, m = rhs.shape
-    for k in range(n):
-        for i in range(k + 1, min(n, k + lower + 1)):
-            f = lu[i, k]
-            for j in range(m):
-                rhs[i, j] -= f * rhs[k, j]
-    for k in range(n - 1, -1, -1):
-        d = 1.0 / lu[k, k]
-        for j in range(m):
-            rhs[k, j] *= d
-        for i in range(max(0, k - upper), k):
-            f = lu[i, k]
-            for j in range(m):
-                rhs[i, j] -= f * rhs[k, j]

@@ -189,10 +189,10 @@ def coupling_reach(
         _floats(geometry.y),
         layout.lo,
         layout.hi,
-        _floats(geometry.sigma),
+        _floats(geometry.sigma.max(axis=0, initial=0.0)),
         layout.index,
         float(floor),
-        _kernels.CDF_TABLE,
+        geometry.profile.cdf_table,
         reach,
     )
     return reach
@@ -227,6 +227,14 @@ def unmix_rows(
     reach = coupling_reach(layout, geometry, floor)
     out = np.zeros_like(y)
     _kernels.unmix_rows(
-        _floats(sums), y, layout.lo, layout.hi, sigma, layout.index, reach, _kernels.CDF_TABLE, out
+        _floats(sums),
+        y,
+        layout.lo,
+        layout.hi,
+        sigma,
+        layout.index,
+        reach,
+        geometry.profile.cdf_table,
+        out,
     )
     return out

@@ -41,7 +41,6 @@ from numpy.typing import NDArray
 
 from sassi_bench._shared.arrays import check_shape
 from sassi_bench.spectra import _crosstalk_kernels as _kernels
-from sassi_bench.spectra._kernels import CDF_TABLE
 from sassi_bench.spectra.geometry import StreakGeometry
 from sassi_bench.spectra.offset import BlockBackground
 
@@ -131,7 +130,7 @@ class StreakModel:
         prof = np.empty(total)
         _kernels.fill_profiles(
             slot_unit, slot_top, slot_bottom, centre.ravel(), spread.ravel(), prof_start,
-            CDF_TABLE, prof,
+            geometry.profile.cdf_table, prof,
         )  # fmt: skip
         envelope = np.empty(placed, np.int64)
         factor_start = np.empty(placed, np.int64)
@@ -263,7 +262,7 @@ def columns_interact(geometry: StreakGeometry, reach_sigmas: float = 3.0) -> boo
     n = geometry.rows.size
     if n < 2:
         return False
-    reach = reach_sigmas * np.asarray(geometry.sigma)[None, :]
+    reach = reach_sigmas * np.asarray(geometry.sigma)
     top = np.floor(geometry.y - reach).astype(np.int64)
     bottom = np.ceil(geometry.y + reach).astype(np.int64)
     left = np.floor(geometry.x_left).astype(np.int64)

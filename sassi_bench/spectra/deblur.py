@@ -46,6 +46,7 @@ __all__ = [
     "DEFAULT_STRENGTH",
     "GUARD_WEIGHT",
     "MIN_SMOOTHING",
+    "MODEL_ERROR_METHODS",
     "PIXEL_GUARD_WEIGHT",
     "MeanDeblur",
     "MeanSpectrum",
@@ -107,8 +108,6 @@ MODEL_ERROR = 0.01
 #: not the blur's, which the floor covers; so the response and the patches keep it.
 MODEL_ERROR_PASSES = 2
 
-#: What a mean's weight may allow for (:class:`MeanDeblur`'s ``model_error``).
-MODEL_ERRORS = ("floor", "blur")
 
 #: Pixels at most that judge a scan's strength (spread over the scan).
 CHOICE_PIXELS = 4096
@@ -473,11 +472,6 @@ class MeanSpectrum:
         """The spectrum at the bundle's bins, (B,)."""
         return self.spectrum[self.guard : self.spectrum.size - self.guard]
 
-    @property
-    def band_std(self) -> NDArray[np.float64]:
-        """Its noise standard deviation at the bundle's bins, (B,)."""
-        return self.std[self.guard : self.std.size - self.guard]
-
 
 def _group_means(values, variance, point, trim):
     """Per field point: mean (trimmed per bin) column sums, mean variance, count."""
@@ -494,6 +488,36 @@ def _group_means(values, variance, point, trim):
             means[g] = np.sum(np.where(inside, chunk, 0.0), 0) / np.maximum(inside.sum(0), 1)
     var = np.bincount(inverse, weights=variance) / counts
     return groups, means, var / counts, counts
+
+
+def signal_floor_error(choose, noise, means, groups, ops, spill_error) -> NDArray[np.float64]:
+    """A mean's weight chosen at its noise plus :data:`MODEL_ERROR` of its signal: the
+    forward model's error where no better measure of it is (the response's white, the
+    chart's patches; a bundle whose blur states no error).
+
+    ``choose`` picks the weight for a noise variance per mean (``noise``); ``means`` are
+    the means' column sums, ``groups`` their field points, ``ops`` the deblur's operators
+    and ``spill_error`` the forward model's (unused here)."""
+    return choose(noise + MODEL_ERROR**2 * np.mean(means**2, axis=1))
+
+
+def stated_blur_error(choose, noise, means, groups, ops, spill_error) -> NDArray[np.float64]:
+    """A mean's weight chosen at its noise plus its light's change under the blur's stated
+    error (the forward model's ``spill_error``) applied to the spectrum solved at the last
+    pass's weight, :data:`MODEL_ERROR_PASSES` passes from the noise alone (the scan's
+    anchor); the signal floor when the bundle states no error."""
+    if spill_error is None:
+        return signal_floor_error(choose, noise, means, groups, ops, spill_error)
+    alpha = choose(noise)
+    for _ in range(MODEL_ERROR_PASSES):
+        drift = np.einsum("nij,nj->ni", spill_error[groups], ops.solve(means, groups, alpha))
+        alpha = choose(noise + np.mean(drift**2, axis=1))
+    return alpha
+
+
+#: What a mean's weight allows for as the forward model's error (:class:`MeanDeblur`'s
+#: ``model_error``), by name.
+MODEL_ERROR_METHODS = {"floor": signal_floor_error, "blur": stated_blur_error}
 
 
 class MeanDeblur:
@@ -525,8 +549,10 @@ class MeanDeblur:
     def __init__(
         self, model: StreakForwardModel, prior: Prior | None = None, *, model_error: str = "floor"
     ):
-        if model_error not in MODEL_ERRORS:
-            raise ValueError(f"model_error must be one of {MODEL_ERRORS}, got {model_error!r}")
+        if model_error not in MODEL_ERROR_METHODS:
+            raise ValueError(
+                f"model_error must be one of {tuple(MODEL_ERROR_METHODS)}, got {model_error!r}"
+            )
         self.model = model
         self.prior = prior or SmoothnessPrior(GUARD_WEIGHT)
         self.model_error = model_error
@@ -591,16 +617,8 @@ class MeanDeblur:
             )  # (K, G)
             return weights[np.argmin(scores, axis=0)]
 
-        spill_error = self.model.spill_error
-        if spill_error is None or self.model_error == "floor":
-            alpha = choose(noise + MODEL_ERROR**2 * np.mean(means**2, axis=1))
-        else:
-            alpha = choose(noise)
-            for _ in range(MODEL_ERROR_PASSES):
-                drift = np.einsum(
-                    "nij,nj->ni", spill_error[groups], ops.solve(means, groups, alpha)
-                )
-                alpha = choose(noise + np.mean(drift**2, axis=1))
+        judge = MODEL_ERROR_METHODS[self.model_error]
+        alpha = judge(choose, noise, means, groups, ops, self.model.spill_error)
         solved = ops.solve(means, groups, alpha)
         std = ops.noise_std(groups, alpha, noise)
         total = int(counts.sum())

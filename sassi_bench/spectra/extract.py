@@ -34,7 +34,7 @@ from sassi_bench.spectra.cells import (
     column_cumsum,
     unmix_rows,
 )
-from sassi_bench.spectra.crosstalk import StreakModel, columns_interact
+from sassi_bench.spectra.crosstalk import StreakModel
 from sassi_bench.spectra.deblur import SpectralDeblur
 from sassi_bench.spectra.geometry import StreakGeometry
 from sassi_bench.spectra.offset import (
@@ -51,7 +51,6 @@ def extract_spectra(
     geometry: StreakGeometry,
     deblur: SpectralDeblur | None = None,
     coupling_floor: float = NEGLIGIBLE_COUPLING,
-    cross_columns: bool | None = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Spectra (N, B) of the open pixels of a background-free frame.
 
@@ -69,10 +68,6 @@ def extract_spectra(
     coupling_floor
         Stacked neighbours that can couple less than this into a cell are neglected
         (:func:`~sassi_bench.spectra.cells.coupling_reach`; 0 keeps all).
-    cross_columns
-        Also unmix pixels of different SLM columns whose streaks overlap (dense snapshot
-        masks; :class:`~sassi_bench.spectra.crosstalk.StreakModel`); None does so only when
-        some do (:func:`~sassi_bench.spectra.crosstalk.columns_interact`).
 
     Returns
     -------
@@ -84,17 +79,11 @@ def extract_spectra(
     image = np.asarray(image, dtype=np.float64)
     check_ndim(image, 2, step="spectrum extraction", name="the frame", fix="pass one 2-D frame")
     if geometry.rows.size == 0:
-        nb = geometry.sigma.size - 2 * geometry.guard
+        nb = np.shape(geometry.y)[1] - 2 * geometry.guard
         return np.zeros((0, nb)), np.zeros((0, nb), dtype=bool)
     layout = cell_layout(geometry, image.shape)
-    if cross_columns is None:
-        cross_columns = columns_interact(geometry)
-    if cross_columns:
-        model = StreakModel(geometry, image.shape)
-        amplitudes = model.bins(model.fit(image))
-    else:
-        sums = cell_sums(column_cumsum(image), layout)
-        amplitudes = unmix_rows(sums, layout, geometry, coupling_floor)
+    sums = cell_sums(column_cumsum(image), layout)
+    amplitudes = unmix_rows(sums, layout, geometry, coupling_floor)
     if deblur is not None:
         amplitudes = deblur.apply(amplitudes, geometry.rows, geometry.cols)
     core = geometry.core

@@ -1,19 +1,20 @@
-"""The forward model of a streak along its length: how each bin's light reaches the columns.
+"""The forward model of a streak along its length: how each bin's light reaches the
+columns.
 
-Within a streak, bin ``b'``'s light is spread evenly over its camera columns
-``[x_left, x_right]`` and blurred by a Gaussian of the blur at the bin's *own*
-wavelength; the fraction of it that lands in bin ``b``'s columns is
-``A[b, b']`` (:func:`spill_matrix`, in closed form). So the column sums ``a`` of a pixel
-(what the row unmixing gives, :mod:`~sassi_bench.spectra.cells`) are ``a = A x`` with
-``x`` the light per bin.
+Within a streak, bin ``b'``'s light is spread evenly over its camera columns ``[x_left,
+x_right]`` and blurred by a Gaussian of the blur at the bin's *own* wavelength; the
+fraction of it that lands in bin ``b``'s columns is ``A[b, b']`` (the blur's profile's
+:meth:`~sassi_bench.bundle.blur.GaussianProfile.box_overlap`, in closed form). So the
+column sums ``a`` of a pixel (what the row unmixing gives,
+:mod:`~sassi_bench.spectra.cells`) are ``a = A x`` with ``x`` the light per bin.
 
 The guard bins, one camera pixel each beyond both ends of the band, carry light from
 outside the bundle's bins (at the red end of a prism's band, a pixel spans 10-15 nm, so
 six guard bins reach 60-90 nm past 700 nm). Their wavelengths come from the bundle's
 dispersion model inverted at their columns, and their blur from the bundle's blur model
 at those wavelengths: the blur at 700-760 nm is far wider than at the last bin, and a
-model that gave the guards the last bin's blur would predict several per cent more
-light at the band's end than reaches the camera, which the deblur amplifies.
+model that gave the guards the last bin's blur would predict several per cent more light
+at the band's end than reaches the camera, which the deblur amplifies.
 
 The spill depends only on the field position, slowly, so it is built at a coarse grid of
 field points (:class:`StreakForwardModel`) and each pixel uses its nearest.
@@ -21,13 +22,13 @@ field points (:class:`StreakForwardModel`) and each pixel uses its nearest.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import ndtr
 
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.bundle.blur import GAUSSIAN, GaussianProfile
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra.geometry import (
     GUARD_BINS,
@@ -36,36 +37,12 @@ from sassi_bench.spectra.geometry import (
     streak_geometry,
 )
 
-__all__ = ["FIELD_POINTS", "StreakForwardModel", "guard_wavelengths", "spill_matrix"]
+__all__ = ["FIELD_POINTS", "StreakForwardModel", "guard_wavelengths"]
 
 #: Field points (along u, along v) at which the forward model is evaluated: the spill
 #: changes slowly over the field (blending the four nearest points bilinearly changed the
 #: ColorChecker cube by 1.4e-4 RMS, relative, at four times the cost of the nearest).
 FIELD_POINTS = (9, 6)
-
-
-def _psi(z: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Antiderivative of the normal CDF: z Phi(z) + phi(z)."""
-    return z * ndtr(z) + np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
-
-
-def spill_matrix(x_left, x_right, sigma) -> NDArray[np.float64]:
-    """Fraction of bin b' light (uniform over its columns, Gaussian-blurred by
-    ``sigma[..., b']``) in bin b's columns: ``A[..., b, b']``.
-
-    Examples
-    --------
-    >>> a = spill_matrix(np.array([0.0, 1.0]), np.array([1.0, 2.0]), np.array([1e-6, 1e-6]))
-    >>> a.round(3).tolist()
-    [[1.0, 0.0], [0.0, 1.0]]
-    """
-    x0, x1 = x_left[..., :, None], x_right[..., :, None]
-    s0, s1 = x_left[..., None, :], x_right[..., None, :]
-    sg = np.broadcast_to(sigma, x_left.shape)[..., None, :]
-    width = s1 - s0
-    return (sg / width) * (
-        _psi((x1 - s0) / sg) - _psi((x1 - s1) / sg) - _psi((x0 - s0) / sg) + _psi((x0 - s1) / sg)
-    )
 
 
 def guard_wavelengths(
@@ -99,13 +76,16 @@ class StreakForwardModel:
     sigma_px
         (P, B') blur sigma at each bin's own wavelength (camera px).
     spill
-        (P, B', B') :func:`spill_matrix` of each field point's bins.
+        (P, B', B') the share of each bin's light in each bin's columns, at each field
+        point.
     guard
         Guard bins at each end; the bundle's bins are ``guard .. B' - guard``.
     spill_error
         (P, B', B') how far the spill may be off: the spill with every blur sigma one
         standard error of the blur fit wider, minus ``spill`` (the bundle's
         ``models.blur.relative_error``); None when the bundle does not state it.
+    profile
+        The blur's profile (its shares across the streak, for the row unmixing).
     """
 
     grid_u: NDArray[np.float64]
@@ -115,6 +95,7 @@ class StreakForwardModel:
     spill: NDArray[np.float64]
     guard: int = GUARD_BINS
     spill_error: NDArray[np.float64] | None = None
+    profile: GaussianProfile = field(default=GAUSSIAN, repr=False)
 
     @classmethod
     def from_bundle(
@@ -144,7 +125,8 @@ class StreakForwardModel:
         rows, cols = np.rint(vv.ravel()), np.rint(uu.ravel())
         geo = streak_geometry(bundle, rows, cols, guard)
         lam = guard_wavelengths(bundle, rows, cols, guard)
-        band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
+        blur = bundle.models.blur
+        band = np.asarray(blur.sigma(bundle.wavelengths), dtype=np.float64)
         if not (np.all(np.isfinite(band)) and np.all(band > 0)):
             raise ProcedureError(
                 step_error(
@@ -154,14 +136,14 @@ class StreakForwardModel:
                     "load a bundle whose blur fit passed its checks (sassi-bench bundle verify)",
                 )
             )
-        sigma = clipped_blur(bundle, lam)
-        spill = spill_matrix(geo.x_left, geo.x_right, sigma)
-        error = bundle.models.blur.relative_error
+        sigma = clipped_blur(bundle, rows[:, None], cols[:, None], lam)
+        spill = blur.profile.box_overlap(geo.x_left, geo.x_right, sigma)
+        error = blur.relative_error
         spill_error = None
         if error is not None:
-            wider = spill_matrix(geo.x_left, geo.x_right, sigma * (1.0 + error))
+            wider = blur.profile.box_overlap(geo.x_left, geo.x_right, sigma * (1.0 + error))
             spill_error = wider - spill
-        return cls(gu, gv, lam, sigma, spill, guard, spill_error)
+        return cls(gu, gv, lam, sigma, spill, guard, spill_error, blur.profile)
 
     @property
     def n_bins(self) -> int:

@@ -1,32 +1,35 @@
 """Streak geometry: where each bin of each open SLM pixel falls on the spectral camera.
 
-:attr:`StreakGeometry.sigma` is the blur *across* the streak, the vertical spread of the
-light in each bin's columns, which the row unmixing (:mod:`~sassi_bench.spectra.cells`),
-the column fit of dense masks (:mod:`~sassi_bench.spectra.crosstalk`), the footprints and
-the noise model use. The guard bins beyond the band keep the blur of the band's end bin
-there: their columns hold mostly the blurred tail of the band's end (on the virtual bench
-no light lies past 720 nm), whose vertical spread is the end bin's. Giving them the blur
-at their own wavelength instead (up to 5.8 px at the sim rig's last guard, 760 nm, for
-5.4 camera rows between stacked pixels) made the row unmixing of those columns
-ill-conditioned: the ColorChecker scan's column-sum noise rose 19-fold (mean variance
-2.7e6 -> 5.1e7 ADU^2), its PSNR in the accuracy benchmark
-(`benchmarks/accuracy_table.py`) fell from 54.7 to 49.6 dB and its mean spectral angle
-rose from 1.07 to 2.59 degrees.
+:attr:`StreakGeometry.sigma` is the blur *across* the streak at every pixel and bin (the
+bundle's blur object's :meth:`~sassi_bench.bundle.blur.BlurModel.spot`), the vertical
+spread of the light in each bin's columns, which the row unmixing
+(:mod:`~sassi_bench.spectra.cells`), the column fit of dense masks
+(:mod:`~sassi_bench.spectra.crosstalk`), the footprints and the noise model use. The
+guard bins beyond the band keep the blur of the band's end bin there: their columns hold
+mostly the blurred tail of the band's end (on the virtual bench no light lies past 720
+nm), whose vertical spread is the end bin's. Giving them the blur at their own
+wavelength instead (up to 5.8 px at the sim rig's last guard, 760 nm, for 5.4 camera
+rows between stacked pixels) made the row unmixing of those columns ill-conditioned: the
+ColorChecker scan's column-sum noise rose 19-fold (mean variance 2.7e6 -> 5.1e7 ADU^2),
+its PSNR in the accuracy benchmark (`benchmarks/accuracy_table.py`) fell from 54.7 to
+49.6 dB and its mean spectral angle rose from 1.07 to 2.59 degrees.
 
 *Along* the streak, where a guard bin is an unknown of the deblur (light at the guard's
 own wavelength), its blur is the one at that wavelength: :func:`bin_wavelengths` gives the
-wavelength of every bin's column and :func:`clipped_blur` the blur there, which the
-deblur's forward model takes per field point (:mod:`~sassi_bench.spectra.forward`).
+wavelength of every bin's column and :func:`clipped_blur` the blur along the streak there,
+which the deblur's forward model takes per field point (:mod:`~sassi_bench.spectra.forward`).
+
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.bundle.blur import GAUSSIAN, GaussianProfile
 from sassi_bench.spectra import _kernels
 
 __all__ = [
@@ -56,10 +59,13 @@ class StreakGeometry:
     y
         Camera row of each bin's centre, (N, B + 2 * guard).
     sigma
-        Blur sigma across the streak of each bin, (B + 2 * guard,): the guard bins carry
-        the band's end bins' (see the module docstring).
+        Blur sigma across the streak of each pixel's bins, (N, B + 2 * guard): the guard
+        bins carry the band's end bins' (see the module docstring). Given per bin, (B +
+        2 * guard,), it is the same for every pixel.
     guard
         Guard bins at each end; the bundle's bins are ``guard .. guard + B``.
+    profile
+        The blur's profile across the streak (its shares of the cells' rows).
     """
 
     rows: NDArray[np.intp]
@@ -69,11 +75,16 @@ class StreakGeometry:
     y: NDArray[np.float64]
     sigma: NDArray[np.float64]
     guard: int = GUARD_BINS
+    profile: GaussianProfile = field(default=GAUSSIAN, repr=False)
+
+    def __post_init__(self) -> None:
+        sigma = np.asarray(self.sigma, dtype=np.float64)
+        object.__setattr__(self, "sigma", np.broadcast_to(sigma, np.shape(self.y)))
 
     @property
     def core(self) -> slice:
         """Index of the bundle's own bins along the bin axis."""
-        return slice(self.guard, self.sigma.size - self.guard)
+        return slice(self.guard, np.shape(self.y)[1] - self.guard)
 
     def select(self, keep: NDArray[np.bool_] | NDArray[np.intp]) -> StreakGeometry:
         """The geometry of a subset of the pixels (a mask or indices over N)."""
@@ -84,6 +95,7 @@ class StreakGeometry:
             x_left=self.x_left[keep],
             x_right=self.x_right[keep],
             y=self.y[keep],
+            sigma=self.sigma[keep],
         )
 
     def shifted(self, camera_rows: float) -> StreakGeometry:
@@ -123,9 +135,15 @@ def streak_geometry(
         x_right,
         y,
     )
-    band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
-    sigma = np.concatenate([np.full(guard, band[0]), band, np.full(guard, band[-1])])
-    return StreakGeometry(rows, cols, x_left, x_right, y, sigma, guard)
+    blur = bundle.models.blur
+    band = blur.spot(cols[:, None], rows[:, None], bundle.wavelengths[None, :]).across
+    if band.ndim == 2 and band.strides[0] == 0:  # the same for every pixel: one row of it
+        band = band[:1]
+    sigma = np.concatenate(
+        [np.repeat(band[:, :1], guard, axis=1), band, np.repeat(band[:, -1:], guard, axis=1)],
+        axis=1,
+    )
+    return StreakGeometry(rows, cols, x_left, x_right, y, sigma, guard, blur.profile)
 
 
 def bin_wavelengths(bundle: CalibrationBundle, geometry: StreakGeometry) -> NDArray[np.float64]:
@@ -157,19 +175,23 @@ def bin_wavelengths(bundle: CalibrationBundle, geometry: StreakGeometry) -> NDAr
     return lam
 
 
-def clipped_blur(bundle: CalibrationBundle, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
-    """The bundle's blur sigma (camera px) at ``wavelength_nm``, kept within half the
-    band's narrowest and twice its widest blur: outside the band the fitted curve is an
-    extrapolation past the lasers, and a fit that bends away there must not give nonsense.
+def clipped_blur(
+    bundle: CalibrationBundle, rows: ArrayLike, cols: ArrayLike, wavelength_nm: ArrayLike
+) -> NDArray[np.float64]:
+    """The bundle's blur sigma along the streak (camera px) at SLM pixels (rows, cols) and
+    wavelengths (broadcast together), kept within half the band's narrowest and twice its
+    widest blur: outside the band the fitted curve is an extrapolation past the lasers, and
+    a fit that bends away there must not give nonsense.
 
     Examples
     --------
-    >>> clipped_blur(bundle, [550.0, 760.0])  # doctest: +SKIP
+    >>> clipped_blur(bundle, 200, 320, [550.0, 760.0])  # doctest: +SKIP
     array([0.71, 4.9 ])
     """
-    band = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
-    sigma = np.asarray(bundle.blur_width(np.asarray(wavelength_nm, float)), dtype=np.float64)
-    return np.clip(sigma, 0.5 * np.min(band), 2.0 * np.max(band))
+    blur = bundle.models.blur
+    band = np.asarray(blur.sigma(bundle.wavelengths), dtype=np.float64)
+    along = blur.spot(cols, rows, np.asarray(wavelength_nm, float)).along
+    return np.clip(np.asarray(along, dtype=np.float64), 0.5 * np.min(band), 2.0 * np.max(band))
 
 
 def reached_rows(

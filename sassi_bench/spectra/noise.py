@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import ndtr
 
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.spectra import _kernels
@@ -68,7 +67,7 @@ def row_unmixing_gain(
     """The variance gain of the row unmixing per bin, (B',).
 
     For a long column of pixels stacked at the geometry's median pitch, with the median
-    cell of each bin: the squared row of the inverse mixing matrix of the middle pixel
+    cell and blur of each bin: the squared row of the inverse mixing matrix of the middle pixel
     (a Toeplitz inverse). 1 where no pixels are stacked.
 
     Examples
@@ -85,14 +84,15 @@ def row_unmixing_gain(
     upper, lower = index[:, :-1], index[:, 1:]
     paired = (upper >= 0) & (lower >= 0)
     if not paired.any():
-        return np.ones(geometry.sigma.size)
+        return np.ones(np.shape(geometry.y)[1])
     pitch = np.median(np.abs(geometry.y[lower[paired]] - geometry.y[upper[paired]]), axis=0)
     low = np.median(layout.lo - geometry.y, axis=0)
     high = np.median(layout.hi - geometry.y, axis=0)
     k = np.arange(stack) - stack // 2
     offset = (k[:, None] - k[None, :])[None] * pitch[:, None, None]  # (B', S, S)
-    sigma = geometry.sigma[:, None, None]
-    mixing = ndtr((high[:, None, None] + offset) / sigma) - ndtr(
+    sigma = np.median(geometry.sigma, axis=0)[:, None, None]
+    cdf = geometry.profile.cdf
+    mixing = cdf((high[:, None, None] + offset) / sigma) - cdf(
         (low[:, None, None] + offset) / sigma
     )
     inverse = np.linalg.inv(mixing)

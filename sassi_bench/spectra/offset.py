@@ -18,6 +18,7 @@ from scipy.interpolate import BSpline, RectBivariateSpline, make_interp_spline
 from scipy.sparse import csr_array
 
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.maths.banded import band_lu, band_lu_solve
 from sassi_bench.spectra import _kernels, _offset_kernels
 from sassi_bench.spectra.geometry import StreakGeometry
 
@@ -58,8 +59,8 @@ def footprint_rectangles(
     core = geometry.core
     first, last = core.start, core.stop - 1
     reach_y = reach_sigmas * geometry.sigma.max()
-    left = geometry.x_left[:, first] - margin_px - reach_sigmas * geometry.sigma[first]
-    right = geometry.x_right[:, last] + margin_px + reach_sigmas * geometry.sigma[last]
+    left = geometry.x_left[:, first] - margin_px - reach_sigmas * geometry.sigma[:, first]
+    right = geometry.x_right[:, last] + margin_px + reach_sigmas * geometry.sigma[:, last]
     x0 = np.clip(np.floor(left), 0, w).astype(np.intp)
     x1 = np.clip(np.ceil(right) + 1, 0, w).astype(np.intp)
     y0 = np.clip(np.floor(geometry.y[:, core].min(axis=1) - reach_y), 0, h).astype(np.intp)
@@ -213,13 +214,13 @@ def _spline_surface(cy, cx, values, h: int, w: int) -> NDArray[np.float64]:
 class _Axis:
     """The interpolating spline along one axis of a block lattice: its degree, the banded
     LU factors of its collocation matrix (values at the extended block centres ->
-    coefficients) and, for every pixel, the first of its ``degree + 1`` basis functions
-    and their values."""
+    coefficients; :func:`~sassi_bench.maths.banded.band_lu`, bandwidth ``p``) and, for
+    every pixel, the first of its ``degree + 1`` basis functions and their values."""
 
     degree: int
     lu: NDArray[np.float64]
-    lower: int
-    upper: int
+    p: int
+    pivots: NDArray[np.intp]
     index: NDArray[np.int64]
     basis: NDArray[np.float64]
     design: object  # the pixels' sparse basis matrix (dense evaluation)
@@ -244,8 +245,9 @@ def _axis(pixels: int, block: int) -> _Axis:
         ones = np.ones((pixels, 1))
         design = csr_array(ones)
         return _Axis(
-            0, np.ones((1, 1)), 0, 0, np.zeros(pixels, np.int64), ones, design, first, last
-        )
+            0, np.ones((1, 1)), 0, np.zeros(1, np.intp), np.zeros(pixels, np.int64), ones,
+            design, first, last,
+        )  # fmt: skip
     knots = make_interp_spline(points, np.zeros(points.size), k=degree).t
     collocation = BSpline.design_matrix(points, knots, degree).toarray()
     design = BSpline.design_matrix(np.clip(x, points[0], points[-1]), knots, degree).tocsr()
@@ -253,11 +255,15 @@ def _axis(pixels: int, block: int) -> _Axis:
     index = design.indices.reshape(pixels, degree + 1)[:, 0].astype(np.int64)
     basis = design.data.reshape(pixels, degree + 1).copy()
     rows, cols = np.nonzero(collocation)
-    lower, upper = int((rows - cols).max()), int((cols - rows).max())
-    _offset_kernels.banded_lu(collocation, lower, upper)
-    for array in (collocation, index, basis):
+    p = int(max((rows - cols).max(), (cols - rows).max()))
+    size = collocation.shape[0]
+    lu = np.zeros((size, 3 * p + 1))
+    lu[rows, cols - rows + p] = collocation[rows, cols]
+    pivots = np.empty(size, np.intp)
+    band_lu(lu, size, p, pivots)
+    for array in (lu, pivots, index, basis):
         array.flags.writeable = False
-    return _Axis(degree, collocation, lower, upper, index, basis, design, first, last)
+    return _Axis(degree, lu, p, pivots, index, basis, design, first, last)
 
 
 def _extended(values: NDArray[np.float64], axis: _Axis, block: int, along: int):
@@ -360,9 +366,9 @@ class BlockBackground:
         values = _extended(values, columns, self.block[1], 1)
         # Interpolation along the rows, then along the columns: two banded solves (no
         # BLAS, whose threads spin against the video pipeline's other thread).
-        _offset_kernels.banded_solve(rows.lu, rows.lower, rows.upper, values)
+        band_lu_solve(rows.lu, values.shape[0], rows.p, rows.pivots, values)
         values = np.ascontiguousarray(values.T)
-        _offset_kernels.banded_solve(columns.lu, columns.lower, columns.upper, values)
+        band_lu_solve(columns.lu, values.shape[0], columns.p, columns.pivots, values)
         return np.ascontiguousarray(values.T)
 
     def kernel_arrays(self):

@@ -40,13 +40,12 @@ deg with the separable unmixing alone.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import ndtr
 
-from sassi_bench.spectra import _kernels, _mixture_kernels
+from sassi_bench.spectra import _mixture_kernels
 from sassi_bench.spectra.cells import NEGLIGIBLE_COUPLING, CellLayout, coupling_reach, unmix_rows
 from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.geometry import StreakGeometry
@@ -114,7 +113,7 @@ class RowMixture:
     def mixed_bins(self, geometry: StreakGeometry, floor: float = MIXING_FLOOR) -> NDArray[np.intp]:
         """Bins where the blurs of the sources reaching them move more than ``floor`` of
         a pixel's light across a cell edge at any distance from its centre, against the
-        bin's own blur (``geometry.sigma``), for a flat spectrum.
+        bin's own blur (the widest of ``geometry.sigma``), for a flat spectrum.
 
         The sources' spread about the bin's own blur is their spill-weighted RMS deviation
         (the largest over the field points); the share beyond an edge at ``h`` is
@@ -131,11 +130,12 @@ class RowMixture:
         >>> mix.mixed_bins(geo).tolist()  # one blur; spread
         [1]
         """
-        own = geometry.sigma
+        own = geometry.sigma.max(axis=0, initial=0.0)
         mean, square = self.moments[..., 0], self.moments[..., 1]
         spread = np.sqrt(np.maximum(square - 2.0 * own * mean + own**2, 0.0).max(axis=0))
         h = np.linspace(0.0, 6.0, 97)[None, :] * (own + spread)[:, None]
-        change = np.abs(ndtr(-h / (own + spread)[:, None]) - ndtr(-h / own[:, None]))
+        cdf = geometry.profile.cdf
+        change = np.abs(cdf(-h / (own + spread)[:, None]) - cdf(-h / own[:, None]))
         return np.flatnonzero(change.max(axis=1) > floor).astype(np.intp)
 
 
@@ -188,14 +188,19 @@ def unmix_rows_mixed(
         widest,
     )
     # The reach of each bin's couplings from its widest node.
-    sigma = geometry.sigma.copy()
-    sigma[mixed] = np.maximum(sigma[mixed], widest)
-    wide = StreakGeometry(
-        geometry.rows, geometry.cols, geometry.x_left, geometry.x_right, geometry.y, sigma,
-        geometry.guard,
-    )  # fmt: skip
+    sigma = np.array(geometry.sigma)
+    sigma[:, mixed] = np.maximum(sigma[:, mixed], widest)
+    wide = replace(geometry, sigma=sigma)
     reach = coupling_reach(layout, wide, floor)[mixed]
     _mixture_kernels.unmix_mixed(
-        sums, layout.lo, layout.hi, layout.index, mixed, reach, nodes, _kernels.CDF_TABLE, out
+        sums,
+        layout.lo,
+        layout.hi,
+        layout.index,
+        mixed,
+        reach,
+        nodes,
+        geometry.profile.cdf_table,
+        out,
     )
     return out

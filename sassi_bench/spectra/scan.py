@@ -54,13 +54,12 @@ from sassi_bench.acquire.scan_plans import Roi, check_roi
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
-from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
+from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum
 from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.geometry import GUARD_BINS, StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.noise import CountsNoise, row_unmixing_gain
 from sassi_bench.spectra.offset import estimate_background, footprint_rectangles
 from sassi_bench.spectra.regularisation import RegularisationChoice
-from sassi_bench.spectra.row_mixture import RowMixture, unmix_rows_mixed
 from sassi_bench.spectra.scan_deblur import (
     ChoiceSample,
     ScanDeblur,
@@ -68,6 +67,7 @@ from sassi_bench.spectra.scan_deblur import (
     sample_frames,
     stack_bins,
 )
+from sassi_bench.spectra.unmixing import row_unmixing
 
 __all__ = [
     "QUALITY_FLAGS",
@@ -194,7 +194,7 @@ class ScanAssembly:
     rig
         The description of the rig the frames come from, as a session stores it (its
         SLM's and spectral camera's sizes, the camera's bit depth and noise).
-    bundle, roi, deblur, keep_raw, row_mixture
+    bundle, roi, deblur, keep_raw, unmixing
         As for :func:`~sassi_bench.reduce.scan.assemble_scan`.
 
     Examples
@@ -214,7 +214,7 @@ class ScanAssembly:
         roi: Sequence[int] | None = None,
         deblur: bool = True,
         keep_raw: bool = False,
-        row_mixture: bool = True,
+        unmixing: str = "mixed",
     ):
         self.plan, self.bundle, self.keep_raw = plan, bundle, keep_raw
         self.slm_shape = (int(rig["slm"]["height"]), int(rig["slm"]["width"]))
@@ -238,7 +238,7 @@ class ScanAssembly:
         self.closed_frame: NDArray | None = None
         model = StreakForwardModel.from_bundle(bundle)
         self.model = model if deblur else None
-        self.mixture = RowMixture.from_model(model) if row_mixture else None
+        self.unmix = row_unmixing(unmixing, model)
         self.noise = CountsNoise.from_camera(rig["spectral_camera"])
         self.roi = check_roi(roi, self.slm_shape)
         r0, c0, r1, c1 = self.roi
@@ -377,7 +377,7 @@ class ScanAssembly:
             covariance = self.noise.neighbour_covariance(raw, layout, self.row_gain)
             raw -= cell_sums(self.background_cumulative, layout)
             exposure = np.full(rows.size, self.plan.steps[index].exposure_s)
-            amplitudes = self._unmix(raw, layout, geo)
+            amplitudes = self.unmix(raw, layout, geo)
             parts.append((amplitudes, rows, cols, variance, covariance, exposure, good))
         return ChoiceSample.of(parts, self.n_bins + 2 * GUARD_BINS)
 
@@ -429,13 +429,6 @@ class ScanAssembly:
             return None
         return self.closed_frame
 
-    def _unmix(self, raw, layout, geo) -> NDArray[np.float64]:
-        """The row unmixing of one frame's background-free cell sums."""
-        amplitudes = unmix_rows(raw, layout, geo)
-        if self.mixture is None:
-            return amplitudes
-        return unmix_rows_mixed(raw, layout, geo, self.mixture, amplitudes)
-
     def _spectra(self, frame: _Frame) -> tuple[float, int]:
         """Spectra pass of one frame: subtract the background's cell sums and unmix."""
         if not frame.usable or frame.rows.size == 0:
@@ -445,7 +438,7 @@ class ScanAssembly:
         local = self._local(geo)
         raw = stack_bins(self.work[local], self.guards[local], geo.guard)
         raw -= cell_sums(self.background_cumulative, layout)
-        amplitudes = self._unmix(raw, layout, geo)
+        amplitudes = self.unmix(raw, layout, geo)
         self.work[local] = amplitudes[:, geo.core]
         self.guards[local] = np.concatenate(
             [amplitudes[:, : geo.guard], amplitudes[:, geo.core.stop :]], 1

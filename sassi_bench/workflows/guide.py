@@ -146,7 +146,7 @@ def scan_reference(
     )
     # Rendered to RGB for features only: the mixed row unmixing's red-end radiometry is not
     # worth its CPU here (about 7 s of 22 at the prototype's size).
-    scan = capture_scan(rig, session, bundle, row_mixture=False, progress=progress)
+    scan = capture_scan(rig, session, bundle, unmixing="separable", progress=progress)
     return slm_reference(scan, session, bundle, procedure, rig.description, stride)
 
 

@@ -94,7 +94,7 @@ def capture_scan(
     roi: Sequence[int] | None = None,
     deblur: bool = True,
     keep_raw: bool = False,
-    row_mixture: bool = True,
+    unmixing: str = "mixed",
     progress: bool = True,
 ) -> ScanCube:
     """Capture what a scan session misses and assemble the scan as its frames are stored.
@@ -106,7 +106,7 @@ def capture_scan(
     session
         A pinhole-scan session (:func:`~sassi_bench.acquire.scan_plans.scan_plan`), new or
         partly captured.
-    bundle, roi, deblur, keep_raw, row_mixture
+    bundle, roi, deblur, keep_raw, unmixing
         As for :func:`~sassi_bench.reduce.scan.assemble_scan`.
     progress
         Show progress bars.
@@ -120,7 +120,7 @@ def capture_scan(
     >>> scan = capture_scan(rig, session, bundle, keep_raw=True)  # doctest: +SKIP
     """
     assembly = scan_assembly(
-        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, row_mixture=row_mixture
+        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing
     )
     stored = session.completed
     read_stored(assembly, session, [i for i in assembly.steps if i in stored], progress=progress)

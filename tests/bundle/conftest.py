@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from sassi_bench.bundle import (
-    BlurModel,
     CalibrationModels,
     DispersionModel,
+    QuadraticBlur,
     QualityCheck,
     WavelengthBins,
     publish,
@@ -100,9 +100,9 @@ def make_bins(dispersion: DispersionModel, count: int = N_BINS) -> WavelengthBin
     return WavelengthBins(centres, edges, 1.2 * np.diff(edges))
 
 
-def make_blur() -> BlurModel:
+def make_blur() -> QuadraticBlur:
     """4 px at 405 and 635 nm, 1 px at 520 nm."""
-    return BlurModel((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5)
+    return QuadraticBlur((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5)
 
 
 def make_models(**overrides: Any) -> CalibrationModels:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from sassi_bench.bundle import (
-    BlurModel,
     DispersionModel,
+    QuadraticBlur,
     QualityCheck,
     diff_bundles,
     format_diff,
@@ -38,7 +38,7 @@ def test_changes_are_measured_in_scientist_units(data_root: Path, synthetic):
     translate = np.array([[1.0, 0, 1.0], [0, 1.0, 0], [0, 0, 1.0]])  # +1 SLM px in u
     models = synthetic.make_models(
         dispersion=DispersionModel(**kwargs),
-        blur=BlurModel((1.1, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5),
+        blur=QuadraticBlur((1.1, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5),
         guide_to_slm=translate @ synthetic.GUIDE_TO_SLM,
     )
     quality = synthetic.passing_quality()

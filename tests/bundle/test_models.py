@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 from sassi_bench.bundle import (
-    BlurModel,
     BundleSchemaError,
     CalibrationModels,
     DispersionModel,
+    QuadraticBlur,
     WavelengthBins,
 )
+from sassi_bench.bundle.blur import blur_from_manifest
 from sassi_bench.optics.glass import sellmeier_index
 
 # Closed forms of the first Legendre polynomials, independent of numpy.polynomial.
@@ -77,7 +78,7 @@ def test_synthetic_dispersion_is_physically_shaped(synthetic):
 
 
 def test_blur_quadratic():
-    blur = BlurModel((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5)
+    blur = QuadraticBlur((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5)
     np.testing.assert_allclose(blur.sigma([405.0, 520.0, 635.0]), [4.0, 1.0, 4.0])
     np.testing.assert_allclose(blur.window_half_width(520.0), 2.5)
 
@@ -113,7 +114,7 @@ def test_bins_rejects_malformed():
 
 def test_models_reject_cross_model_problems(synthetic):
     with pytest.raises(BundleSchemaError, match="sigma must be > 0"):
-        synthetic.make_models(blur=BlurModel((-1.0, 0.0, 0.1), 520.0, 100.0, 2.5))
+        synthetic.make_models(blur=QuadraticBlur((-1.0, 0.0, 0.1), 520.0, 100.0, 2.5))
     with pytest.raises(BundleSchemaError, match=r"response.*expected \(68,\)"):
         synthetic.make_models(response=np.ones(5))
     with pytest.raises(BundleSchemaError, match="singular"):
@@ -151,33 +152,33 @@ def test_model_arrays_are_read_only(synthetic):
 
 
 def test_blur_psf_quadratic_adds_the_pixel_boxes_and_round_trips():
-    blur = BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=0.16)
+    blur = QuadraticBlur((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=0.16)
     lam = np.array([400.0, 550.0, 700.0])
     psf = 0.5 + 2.0 * ((lam - 550.0) / 150.0) ** 2
     np.testing.assert_allclose(blur.sigma(lam), np.sqrt(psf**2 + 0.16))
     entry = blur.to_manifest()
     assert entry["model"] == "psf_quadratic" and entry["pixel_variance_px2"] == 0.16
-    again = BlurModel.from_manifest(entry)
+    again = blur_from_manifest(entry)
     np.testing.assert_array_equal(again.sigma(lam), blur.sigma(lam))
     # A bundle of the plain quadratic reads and writes as before (no new key).
-    plain = BlurModel((1.0, 0.0, 3.0), 520.0, 115.0, 2.5).to_manifest()
+    plain = QuadraticBlur((1.0, 0.0, 3.0), 520.0, 115.0, 2.5).to_manifest()
     assert plain["model"] == "quadratic" and "pixel_variance_px2" not in plain
-    assert BlurModel.from_manifest(plain).pixel_variance_px2 == 0.0
+    assert blur_from_manifest(plain).pixel_variance_px2 == 0.0
     del entry["pixel_variance_px2"]
     with pytest.raises(BundleSchemaError, match="lacks pixel_variance_px2"):
-        BlurModel.from_manifest(entry)
+        blur_from_manifest(entry)
     with pytest.raises(BundleSchemaError, match="must be >= 0"):
-        BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=-0.1)
+        QuadraticBlur((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, pixel_variance_px2=-0.1)
 
 
 def test_blur_states_its_error_when_the_fit_knows_it():
-    stated = BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, 0.16, relative_error=0.012)
+    stated = QuadraticBlur((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, 0.16, relative_error=0.012)
     entry = stated.to_manifest()
     assert entry["relative_error"] == 0.012
-    assert BlurModel.from_manifest(entry).relative_error == 0.012
+    assert blur_from_manifest(entry).relative_error == 0.012
     del entry["relative_error"]  # a bundle from before the error was recorded
-    assert BlurModel.from_manifest(entry).relative_error is None
-    assert "relative_error" not in BlurModel((1.0, 0.0, 3.0), 520.0, 115.0, 2.5).to_manifest()
+    assert blur_from_manifest(entry).relative_error is None
+    assert "relative_error" not in QuadraticBlur((1.0, 0.0, 3.0), 520.0, 115.0, 2.5).to_manifest()
     for wrong in (-0.01, 1.0):
         with pytest.raises(BundleSchemaError, match="relative_error"):
-            BlurModel((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, relative_error=wrong)
+            QuadraticBlur((0.5, 0.0, 2.0), 550.0, 150.0, 3.0, relative_error=wrong)

@@ -144,7 +144,7 @@ def test_an_roi_cube_is_the_full_cubes_region(white_scan):
 
 def test_mixed_blur_unmixing_brings_the_red_end_closer_to_the_truth(white_scan):
     rig, bundle, session, mixed = white_scan  # the mixed unmixing is the default
-    separable = assemble_scan(session, bundle, row_mixture=False, progress=False)
+    separable = assemble_scan(session, bundle, unmixing="separable", progress=False)
     expected = truth(rig).binned_cube(bundle.bin_edges, "led", "white")
     red = bundle.wavelengths > 650
 

@@ -7,8 +7,8 @@ import pytest
 from scipy.special import ndtr
 
 from sassi_bench.errors import ProcedureError
+from sassi_bench.maths.normal import ramp
 from sassi_bench.snapshot import measure_samples, uniform_mask
-from sassi_bench.spectra.forward import _psi
 from sassi_bench.spectra.geometry import streak_geometry
 
 CAMERA = (2048, 2048)
@@ -20,8 +20,8 @@ def render(bundle, rows, cols, spectra, background):
     geo = streak_geometry(bundle, rows, cols)
     core = geo.core
     frame = background.copy()
-    sigma = geo.sigma[core]
     for n in range(rows.size):  # a fixture: a few dozen synthetic streaks
+        sigma = geo.sigma[n, core]
         xl, xr, y = geo.x_left[n, core], geo.x_right[n, core], geo.y[n, core]
         c0, c1 = int(xl.min() - 5 * sigma.max()), int(xr.max() + 5 * sigma.max()) + 2
         r0, r1 = int(y.min() - 5 * sigma.max()), int(y.max() + 5 * sigma.max()) + 2
@@ -29,10 +29,10 @@ def render(bundle, rows, cols, spectra, background):
         r = np.arange(r0, r1)[None, :]
         s, width = sigma[:, None], (xr - xl)[:, None]
         columns = (s / width) * (
-            _psi((c + 0.5 - xl[:, None]) / s)
-            - _psi((c + 0.5 - xr[:, None]) / s)
-            - _psi((c - 0.5 - xl[:, None]) / s)
-            + _psi((c - 0.5 - xr[:, None]) / s)
+            ramp((c + 0.5 - xl[:, None]) / s)
+            - ramp((c + 0.5 - xr[:, None]) / s)
+            - ramp((c - 0.5 - xl[:, None]) / s)
+            + ramp((c - 0.5 - xr[:, None]) / s)
         )
         lines = ndtr((r + 0.5 - y[:, None]) / s) - ndtr((r - 0.5 - y[:, None]) / s)
         frame[r0:r1, c0:c1] += np.einsum("b,br,bc->rc", spectra[n], lines, columns)

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from sassi_bench.bundle import load
+from sassi_bench.maths.normal import box_overlap
 from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum
 from sassi_bench.spectra.deblur import PIXEL_GUARD_WEIGHT, SpectralDeblur
-from sassi_bench.spectra.forward import spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.priors import SmoothnessPrior
 
@@ -76,7 +76,7 @@ def test_deblur_in_single_precision_follows_double(calibrated_sim):
     rng = np.random.default_rng(6)
     rows, cols = rng.integers(0, h, 400), rng.integers(0, w, 400)
     geo = streak_geometry(bundle, rows, cols)
-    a = spill_matrix(geo.x_left, geo.x_right, geo.sigma)
+    a = box_overlap(geo.x_left, geo.x_right, geo.sigma)
     spectra = rng.uniform(0.5, 1.5, (400, 1)) * (1.2 + np.sin(np.linspace(0, 3, a.shape[-1])))
     values = np.einsum("nij,nj->ni", a, 10.0 ** rng.uniform(0, 4, (400, 1)) * spectra)
     double = deblur.apply(values, rows, cols)

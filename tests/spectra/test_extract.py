@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
+from sassi_bench.maths.normal import box_overlap
 from sassi_bench.spectra.cells import NEGLIGIBLE_COUPLING
 from sassi_bench.spectra.extract import extract_spectra
-from sassi_bench.spectra.forward import spill_matrix
 from sassi_bench.spectra.geometry import StreakGeometry
 
 
@@ -60,6 +60,6 @@ def test_plain_window_sums_would_mix_neighbours():
 def test_spill_matrix_conserves_light_of_interior_bins():
     edges = np.arange(30.0)
     sigma = np.full(29, 1.5)
-    a = spill_matrix(edges[:-1], edges[1:], sigma)
+    a = box_overlap(edges[:-1], edges[1:], sigma)
     assert a[:, 10:19].sum(axis=0) == pytest.approx(1.0, abs=1e-9)
     assert a[10, 10] < 0.5  # at 1.5 px blur most of a 1 px bin spills out

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 from sassi_bench.bundle import load
+from sassi_bench.maths.normal import box_overlap
 from sassi_bench.rig.sim import truth
 from sassi_bench.spectra import deblur
 from sassi_bench.spectra.deblur import MeanDeblur, SpectralDeblur
-from sassi_bench.spectra.forward import StreakForwardModel, spill_matrix
+from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.geometry import streak_geometry
 from sassi_bench.spectra.priors import RelativeSmoothnessPrior, SmoothnessPrior
 
@@ -87,7 +88,7 @@ def _spill_error(bundle, m, error):
     """The spill with every sigma ``error`` wider, minus the spill."""
     rows, cols = m.point_pixels()
     geo = streak_geometry(bundle, rows, cols, m.guard)
-    return spill_matrix(geo.x_left, geo.x_right, m.sigma_px * (1 + error)) - m.spill
+    return box_overlap(geo.x_left, geo.x_right, m.sigma_px * (1 + error)) - m.spill
 
 
 def test_the_spill_error_is_the_spill_under_the_blurs_stated_error(calibrated_sim, model):
@@ -142,8 +143,8 @@ def test_the_per_pixel_strength_is_chosen_from_the_noise(model):
 
 def test_spill_of_a_wide_blur_leaves_the_bin():
     edges = np.arange(11.0)
-    narrow = spill_matrix(edges[:-1], edges[1:], np.full(10, 0.2))
-    wide = spill_matrix(edges[:-1], edges[1:], np.full(10, 3.0))
+    narrow = box_overlap(edges[:-1], edges[1:], np.full(10, 0.2))
+    wide = box_overlap(edges[:-1], edges[1:], np.full(10, 3.0))
     assert narrow[5, 5] > 0.8 > 0.2 > wide[5, 5]
 
 

@@ -43,12 +43,14 @@ def test_guard_bins_keep_the_band_ends_blur_across_the_streak(calibrated_sim):
     geo = streak_geometry(bundle, [200, 10], [320, 600])
     band = np.asarray(bundle.blur_width(bundle.wavelengths))
     # Across the streak (the row unmixing's blur) the guards hold the band end's tail...
-    assert np.all(geo.sigma[: geo.guard] == band[0]) and np.all(geo.sigma[-geo.guard :] == band[-1])
-    assert np.array_equal(geo.sigma[geo.core], band)
+    assert geo.sigma.shape == geo.y.shape  # per pixel and bin
+    assert np.all(geo.sigma[:, : geo.guard] == band[0])
+    assert np.all(geo.sigma[:, -geo.guard :] == band[-1])
+    assert np.array_equal(geo.sigma[:, geo.core], np.broadcast_to(band, (2, band.size)))
     # ...along it (the deblur's unknowns) each guard takes the blur at its own wavelength.
     lam = bin_wavelengths(bundle, geo)
     assert np.array_equal(lam[:, geo.core], np.broadcast_to(bundle.wavelengths, (2, band.size)))
     assert np.all(np.diff(lam[:, geo.core.stop - 1 :], axis=1) > 0)
-    along = clipped_blur(bundle, lam)
-    assert np.all(along[:, -1] > 1.2 * geo.sigma[-1])
+    along = clipped_blur(bundle, geo.rows[:, None], geo.cols[:, None], lam)
+    assert np.all(along[:, -1] > 1.2 * geo.sigma[:, -1])
     assert np.allclose(along[:, geo.core], band)

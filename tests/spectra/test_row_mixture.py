@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from scipy.special import ndtr
 
-from sassi_bench.spectra import _kernels, _mixture_kernels
+from sassi_bench.maths.normal import NORMAL_CDF_TABLE, box_overlap
+from sassi_bench.spectra import _mixture_kernels
 from sassi_bench.spectra.cells import cell_layout, unmix_rows
-from sassi_bench.spectra.forward import StreakForwardModel, spill_matrix
+from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.geometry import StreakGeometry
 from sassi_bench.spectra.row_mixture import RowMixture, unmix_rows_mixed
 
@@ -22,7 +23,7 @@ def _column(sigma, rng, stack=12):
     geo = StreakGeometry(
         np.arange(stack) * 5, np.zeros(stack, np.intp), x_left, x_left + 1.0, y, sigma, guard=0
     )
-    spill = spill_matrix(x_left[0], x_left[0] + 1.0, sigma)  # C[b, k]
+    spill = box_overlap(x_left[0], x_left[0] + 1.0, sigma)  # C[b, k]
     model = StreakForwardModel(
         np.zeros(1), np.zeros(1), np.zeros((1, bins)), sigma[None], spill[None], guard=0
     )
@@ -156,7 +157,7 @@ def test_mixed_systems_match_dense_solves(pitch):
     sums = rng.uniform(0.0, 1e4, (rows.size, bins))
     out = np.full((rows.size, bins), -1.0)
     _mixture_kernels.unmix_mixed(
-        sums, layout.lo, layout.hi, layout.index, chosen, reach, nodes, _kernels.CDF_TABLE, out
+        sums, layout.lo, layout.hi, layout.index, chosen, reach, nodes, NORMAL_CDF_TABLE, out
     )
     assert (out[:, [0, 3]] == -1.0).all()  # other bins untouched
     for group in layout.index:

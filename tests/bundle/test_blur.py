@@ -1,0 +1,90 @@
+"""The blur object's contract, held by every registered form (:data:`BLUR_FORMS`).
+
+A new form adds its example here (one instance per manifest name it answers to); every
+test below then holds it to the same behaviour: per-point spots that broadcast like their
+arguments, a widest width no spot exceeds, a PSF no wider than its spot, a manifest round
+trip, and profile integrals that conserve light.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.special import ndtr
+
+from sassi_bench.bundle import BundleSchemaError
+from sassi_bench.bundle.blur import BLUR_FORMS, GAUSSIAN, QuadraticBlur, blur_from_manifest
+
+#: One example per manifest name a registered form answers to.
+EXAMPLES = {
+    "psf_quadratic": QuadraticBlur(
+        (0.45, 0.1, 1.3), 530.0, 150.0, 3.0, pixel_variance_px2=0.08, relative_error=0.01
+    ),
+    "quadratic": QuadraticBlur((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5),
+}
+
+LAM = np.linspace(400.0, 700.0, 31)
+U = np.array([0.0, 319.5, 639.0])[:, None, None]
+V = np.array([0.0, 199.5, 399.0])[None, :, None]
+
+
+def test_every_registered_form_has_an_example():
+    assert sorted(BLUR_FORMS) == sorted(EXAMPLES)
+
+
+@pytest.fixture(params=sorted(EXAMPLES))
+def blur(request):
+    return EXAMPLES[request.param]
+
+
+def test_spots_broadcast_like_their_arguments_and_stay_under_the_widest(blur):
+    spot = blur.spot(U, V, LAM[None, None, :])
+    for width in (spot.along, spot.across):
+        assert width.shape == (3, 3, LAM.size)
+        assert np.all(width > 0)
+        assert np.all(width <= blur.sigma(LAM)[None, None, :] + 1e-12)
+    assert np.all(np.abs(spot.correlation) < 1)
+
+
+def test_the_psf_is_the_spot_without_its_pixel_boxes(blur):
+    spot = blur.spot(U, V, LAM[None, None, :])
+    psf = blur.psf(U, V, LAM[None, None, :], slm_pixel_variance_px2=0.07)
+    assert np.all(psf.along <= spot.along) and np.all(psf.along >= 0.2)
+
+
+def test_the_manifest_entry_builds_the_same_blur(blur):
+    again = blur_from_manifest(blur.to_manifest())
+    assert type(again) is type(blur) and again.kind == blur.kind
+    np.testing.assert_array_equal(again.sigma(LAM), blur.sigma(LAM))
+    np.testing.assert_array_equal(again.window_half_width(LAM), blur.window_half_width(LAM))
+    assert again.relative_error == blur.relative_error
+
+
+def test_an_unknown_form_is_refused_naming_the_known_ones():
+    with pytest.raises(BundleSchemaError, match="psf_quadratic"):
+        blur_from_manifest({"model": "zernike"})
+
+
+def test_the_profile_conserves_light(blur):
+    profile = blur.profile
+    # Across: the shares of a row partition sum to one.
+    edges = np.arange(-20.0, 21.0) - 0.3
+    shares = np.diff(profile.cdf(edges / 1.7))
+    assert abs(shares.sum() - 1.0) < 1e-9
+    # Along: a bin's light blurred into its neighbours' boxes is all there, inside.
+    bins = np.arange(0.0, 41.0)
+    spill = profile.box_overlap(bins[:-1], bins[1:], np.full(40, 1.5))
+    np.testing.assert_allclose(spill[:, 20].sum(), 1.0, atol=1e-12)
+    # A pixel's spot sums to one over whole pixels.
+    value = profile.pixel_spot(np.arange(-15, 16) + 0.25, 1.1, 1.2)[0]
+    assert abs(value.sum() - 1.0) < 1e-9
+
+
+def test_the_gaussian_profiles_table_is_its_cdf():
+    z = np.linspace(-8.0, 8.0, 4001)
+    cubic = GAUSSIAN.cdf_table
+    t = (z + 9.0) * 64.0
+    i = t.astype(int)
+    u = t - i
+    table = cubic[i, 0] + u * (cubic[i, 1] + u * (cubic[i, 2] + u * cubic[i, 3]))
+    assert np.abs(table - ndtr(z)).max() < 1e-10
