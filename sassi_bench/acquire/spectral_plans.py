@@ -22,6 +22,7 @@ from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.lamps import LineList
 from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.lights import laser_light
 
 __all__ = [
     "LAMP_PINHOLE_PITCH_PX",
@@ -32,7 +33,6 @@ __all__ = [
     "lamp_band",
     "lamp_pinholes",
     "lamp_plan",
-    "laser_light",
     "sweep_plan",
 ]
 
@@ -41,27 +41,6 @@ __all__ = [
 LAMP_PINHOLE_PITCH_PX = (100, 24)
 #: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last.
 LAMP_REACH_SIGMAS = 4.0
-
-
-def laser_light(wavelength_nm: float) -> str:
-    """Light name of a laser line, e.g. ``laser:532``.
-
-    Parameters
-    ----------
-    wavelength_nm
-        The laser's labelled wavelength, nm.
-
-    Returns
-    -------
-    str
-        ``"laser:<nm>"``, the wavelength in its shortest form.
-
-    Examples
-    --------
-    >>> laser_light(532.0)
-    'laser:532'
-    """
-    return f"laser:{float(wavelength_nm):g}"
 
 
 def grey_levels(count: int) -> list[int]:

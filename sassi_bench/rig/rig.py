@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 from sassi_bench.errors import ProcedureError, did_you_mean, step_error
 from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.lights import kind_of
 from sassi_bench.rig.protocols import Camera, LightSource, Slm, Trigger
 from sassi_bench.rig.scene_pose import ScenePose
 
@@ -55,9 +56,8 @@ def check_light(name: str, available: tuple[str, ...], step: str = "light select
     sassi_bench.errors.ProcedureError: light select: ... (did you mean 'laser:532'?). Fix: ...
     """
     key = str(name).strip().lower()
-    if key.startswith("laser:"):
-        with contextlib.suppress(ValueError):
-            key = f"laser:{float(key[6:]):g}"
+    with contextlib.suppress(KeyError):
+        key = kind_of(key).canonical(key)
     canonical = {light.lower(): light for light in available}
     if key not in canonical:
         raise ProcedureError(

@@ -30,7 +30,6 @@ from sassi_bench.acquire.spectral_plans import (
     grey_plan,
     lamp_pinholes,
     lamp_plan,
-    laser_light,
     sweep_plan,
 )
 from sassi_bench.bundle.jsonio import thaw
@@ -41,6 +40,7 @@ from sassi_bench.reduce.spectral import SpectralCalibration, SpectralSweeps, ana
 from sassi_bench.reduce.spectral_bundle import publish_spectral, render_figures
 from sassi_bench.reduce.sweep_stream import DecodedSweep, SweepStream
 from sassi_bench.reduce.sweeps import measure_response
+from sassi_bench.rig.lights import laser_light
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
 from sassi_bench.workflows.steps import run_steps

@@ -390,3 +390,19 @@ class TestHardwareRigTrigger(TriggerContract):
     @pytest.fixture()
     def pulse(self, hardware_rig):
         return rig_pulse(hardware_rig)
+
+
+#: The camera contract's test class of every registered camera kind: a new kind adds its own.
+CAMERA_CONTRACTS = {
+    "bench": TestSimCamera,
+    "genicam": TestGenICamCameraOnFakeNodes,
+    "dcam": TestDcamCamera,
+}
+
+
+def test_every_camera_kind_is_held_to_the_camera_contract():
+    from sassi_bench.rig.cameras import CAMERA_KINDS
+
+    assert sorted(CAMERA_KINDS) == sorted(CAMERA_CONTRACTS)
+    for kind, tests in CAMERA_CONTRACTS.items():
+        assert issubclass(tests, CameraContract), kind

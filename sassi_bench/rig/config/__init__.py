@@ -43,7 +43,6 @@ from sassi_bench.rig.config.description import (
     SlmConfig,
     SpectralCameraConfig,
     SpectralGridConfig,
-    light_names,
     rig_relative_path,
 )
 from sassi_bench.rig.config.loader import (
@@ -68,7 +67,6 @@ __all__ = [
     "SpectralCameraConfig",
     "SpectralGridConfig",
     "available_rigs",
-    "light_names",
     "load_rig_description",
     "rig_description_from_dict",
     "rig_relative_path",

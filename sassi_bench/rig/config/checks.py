@@ -18,7 +18,9 @@ from sassi_bench.optics.glass import Glass
 from sassi_bench.optics.lamps import lamp_name, load_line_list
 from sassi_bench.optics.relay import BAND_NM
 from sassi_bench.optics.sensor import qe_curve
+from sassi_bench.rig.cameras import hardware_camera_kinds
 from sassi_bench.rig.config.description import RigDescription, rig_relative_path
+from sassi_bench.rig.lights import light_kinds
 
 __all__ = ["check_description"]
 
@@ -45,6 +47,15 @@ def _check_backend(desc: RigDescription) -> None:
             f"only read with backend 'hardware' (this rig's backend is {desc.backend!r})",
             "remove the section or change the backend",
         )
+    for camera in ("spectral_camera", "guide_camera"):
+        kind = ((desc.hardware or {}).get(camera) or {}).get("kind")
+        if kind is not None and kind not in (kinds := hardware_camera_kinds()):
+            raise _error(
+                desc,
+                f"hardware.{camera}.kind",
+                f"unknown camera kind {kind!r}{did_you_mean(kind, kinds)}",
+                f"use one of {', '.join(kinds)}",
+            )
 
 
 def _check_bench_sections(desc: RigDescription) -> None:
@@ -135,10 +146,8 @@ def _check_named_data(desc: RigDescription) -> None:
         qe_curve(desc.spectral_camera.qe, key="spectral_camera.qe")
     if desc.guide_camera.sensitivities is not None:
         require_dataset("camera", desc.guide_camera.sensitivities, "guide_camera.sensitivities")
-    for key in ("led", "fluorescent"):
-        name = getattr(desc.light, key)
-        if name is not None:
-            require_dataset("illuminant", name, f"light.{key}")
+    for kind in light_kinds():  # the data sets each kind of light names
+        kind.check(desc)
     if desc.backend == "sim":  # the scenes are the virtual bench's
         require_dataset("colourchecker", desc.scenes.colorchecker_data, "scenes.colorchecker_data")
         photo_loader(desc.scenes.natural_image)

@@ -5,10 +5,9 @@ only a virtual bench reads stay raw in :attr:`RigDescription.bench_sections`.
 
 Examples
 --------
->>> light_names((450.0,))
-('off', 'laser:450', 'led', 'halogen', 'fluorescent')
->>> light_names((450.0,), ("HgAr",))[-1]
-'lamp:HgAr'
+>>> from sassi_bench.rig.config import load_rig_description
+>>> load_rig_description("sim").light_names[-1]
+'lamp:Ne'
 """
 
 from __future__ import annotations
@@ -20,8 +19,9 @@ from typing import Any
 
 from sassi_bench._shared.canonical_json import canonical_sha256
 from sassi_bench.optics.glass import Glass, get_glass
-from sassi_bench.optics.lamps import LineList, lamp_name, load_line_list
+from sassi_bench.optics.lamps import LineList, load_line_list
 from sassi_bench.optics.relay import SpectralRelay
+from sassi_bench.rig.lights import light_names
 
 __all__ = [
     "DEFAULT_LASER_TOLERANCE_NM",
@@ -36,40 +36,12 @@ __all__ = [
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
-    "light_names",
     "rig_relative_path",
 ]
 
 #: How far a laser's true line may be from its label, nm: a catalogue diode module's
 #: data sheet tolerance (a rig's ``laser_tolerance_nm`` overrides it).
 DEFAULT_LASER_TOLERANCE_NM = 5.0
-
-
-def light_names(lasers_nm: tuple[float, ...], lamps: tuple[str, ...] = ()) -> tuple[str, ...]:
-    """The light names of a rig with these laser lines and wavelength lamps.
-
-    Parameters
-    ----------
-    lasers_nm
-        The laser labels, nm.
-    lamps
-        ``wavelength_lamps`` entries (shipped lamp names or CSV paths).
-
-    Examples
-    --------
-    >>> light_names((450.0, 532.5))
-    ('off', 'laser:450', 'laser:532.5', 'led', 'halogen', 'fluorescent')
-    >>> light_names((450.0,), ("hgar", "lab/Kr.csv"))[-2:]
-    ('lamp:HgAr', 'lamp:Kr')
-    """
-    return (
-        "off",
-        *(f"laser:{x:g}" for x in lasers_nm),
-        "led",
-        "halogen",
-        "fluorescent",
-        *(f"lamp:{lamp_name(entry)}" for entry in lamps),
-    )
 
 
 @dataclass(frozen=True)
@@ -220,7 +192,8 @@ class RigDescription:
     @property
     def light_names(self) -> tuple[str, ...]:
         """The names of the rig's lights: ``off``, ``laser:<nm>`` per line, ``led``,
-        ``halogen`` and ``fluorescent``.
+        ``halogen``, ``fluorescent`` and ``lamp:<name>`` per wavelength lamp
+        (:mod:`sassi_bench.rig.lights`).
 
         Examples
         --------

@@ -1,7 +1,8 @@
 """Build a :class:`~sassi_bench.rig.Rig` of real devices from a rig description.
 
-Each device is opened by the adapter its ``hardware.<device>.kind`` names; adapters
-(and their vendor SDKs) are imported only when used.
+Each camera is opened by the class its ``hardware.<camera>.kind`` names
+(:data:`~sassi_bench.rig.cameras.CAMERA_KINDS`); vendor SDKs are imported only when a
+device opens.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from collections.abc import Callable
 from typing import Any
 
 from sassi_bench.errors import ConfigError
+from sassi_bench.rig.cameras import CAMERA_KINDS, hardware_camera_kinds
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.protocols import Camera
 from sassi_bench.rig.rig import Rig
@@ -20,19 +22,13 @@ __all__ = ["build_hardware_rig", "open_camera"]
 def open_camera(
     name: str, spec: dict[str, Any], state: Callable[[], tuple[int | None, str]]
 ) -> Camera:
-    """Open the camera that ``spec`` (a ``hardware.<camera>`` section) describes."""
+    """Open the camera that ``spec`` (a ``hardware.<camera>`` section) describes, by the
+    class of its kind (:data:`~sassi_bench.rig.cameras.CAMERA_KINDS`)."""
     options = {k: v for k, v in spec.items() if k != "kind"}
-    if spec["kind"] == "genicam":
-        from sassi_bench.rig.hardware.genicam import open_genicam
-
-        cti = options.pop("cti")
-        device = options.pop("device", 0)
-        return open_genicam(name, cti, device, state=state, **options)
-    if spec["kind"] == "dcam":
-        from sassi_bench.rig.hardware.dcam import open_dcam
-
-        return open_dcam(name, state=state, **options)
-    raise ConfigError(f"hardware.{name}_camera.kind: unknown camera kind {spec['kind']!r}")
+    kind = spec["kind"]
+    if kind not in hardware_camera_kinds():
+        raise ConfigError(f"hardware.{name}_camera.kind: unknown camera kind {kind!r}")
+    return CAMERA_KINDS[kind].open(name, options, state)
 
 
 def build_hardware_rig(desc: RigDescription, prompt: Callable[[str], None] | None = None) -> Rig:

@@ -14,6 +14,7 @@ import numpy as np
 
 from sassi_bench.errors import DeviceError, step_error
 from sassi_bench.rig.base import CameraBase, Exposure
+from sassi_bench.rig.cameras import CAMERA_KINDS
 from sassi_bench.rig.hardware import require
 
 __all__ = ["DcamCamera", "open_dcam"]
@@ -27,6 +28,7 @@ _DCAM_FIX = (
 State = Callable[[], tuple[int | None, str]]
 
 
+@CAMERA_KINDS.register("dcam")
 class DcamCamera(CameraBase):
     """A Hamamatsu camera behind a ``pylablib.devices.DCAM.DCAMCamera``.
 
@@ -57,6 +59,15 @@ class DcamCamera(CameraBase):
     >>> cam.capture().shape  # doctest: +SKIP
     (2048, 2048)
     """
+
+    #: A rig's ``hardware`` section may name it.
+    hardware = True
+
+    @classmethod
+    def open(cls, name: str, options: dict[str, Any], context: State) -> DcamCamera:
+        """Open the camera a ``hardware.<camera>`` section of kind ``dcam`` describes
+        (:func:`open_dcam`; ``context`` gives each frame's SLM pattern and light)."""
+        return open_dcam(name, state=context, **options)
 
     def __init__(
         self,

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.errors import DeviceError, step_error
 from sassi_bench.rig.base import CameraBase, Exposure
+from sassi_bench.rig.cameras import CAMERA_KINDS
 from sassi_bench.rig.hardware import require
 
 __all__ = ["PIXEL_FORMATS", "GenICamCamera", "frame_from_component", "open_genicam"]
@@ -94,6 +95,7 @@ def frame_from_component(
     return np.ascontiguousarray(image)
 
 
+@CAMERA_KINDS.register("genicam")
 class GenICamCamera(CameraBase):
     """A camera behind a harvesters ``ImageAcquirer``.
 
@@ -133,6 +135,18 @@ class GenICamCamera(CameraBase):
     >>> cam.capture().shape  # doctest: +SKIP
     (1080, 1440, 3)
     """
+
+    #: A rig's ``hardware`` section may name it.
+    hardware = True
+
+    @classmethod
+    def open(cls, name: str, options: dict[str, Any], context: State) -> GenICamCamera:
+        """Open the camera a ``hardware.<camera>`` section of kind ``genicam`` describes
+        (:func:`open_genicam`; ``context`` gives each frame's SLM pattern and light)."""
+        options = dict(options)
+        cti = options.pop("cti")
+        device = options.pop("device", 0)
+        return open_genicam(name, cti, device, state=context, **options)
 
     def __init__(
         self,

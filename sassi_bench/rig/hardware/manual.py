@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 from sassi_bench.errors import DeviceError, step_error
 from sassi_bench.rig.base import LightSourceBase
-from sassi_bench.rig.config import light_names
+from sassi_bench.rig.lights import kind_of, light_names
 
 __all__ = ["ManualLight", "ask_operator"]
 
@@ -67,12 +67,4 @@ class ManualLight(LightSourceBase):
     def _switch(self, name: str) -> None:
         if name == self.current:
             return
-        if name == "off":
-            self._prompt("Switch every light off")
-        elif name.startswith("laser:"):
-            self._prompt(f"Switch on the {name[6:]} nm laser only")
-        elif name.startswith("lamp:"):
-            # A pen-ray lamp's spectrum settles over its first minutes (argon first).
-            self._prompt(f"Switch on the {name[5:]} lamp only (let it warm up for 2 minutes)")
-        else:
-            self._prompt(f"Switch on the {name} only")
+        self._prompt(kind_of(name).instruction(name))

@@ -11,14 +11,13 @@ Examples
 
 from __future__ import annotations
 
+from sassi_bench.rig.cameras import CAMERA_KINDS
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.sim.bench import VirtualBench
 from sassi_bench.rig.sim.devices import (
-    SimGuideCamera,
     SimLight,
     SimSlm,
-    SimSpectralCamera,
     SimTrigger,
 )
 from sassi_bench.rig.sim.ground_truth import BenchTruth, register_bench, truth
@@ -35,8 +34,8 @@ def build_sim_rig(desc: RigDescription, sparse_limit: int | None = None) -> Rig:
     rig = Rig(
         description=desc,
         slm=slm,
-        spectral_camera=SimSpectralCamera(bench, slm, light),
-        guide_camera=SimGuideCamera(bench, slm, light),
+        spectral_camera=CAMERA_KINDS["bench"].open("spectral", {}, (bench, slm, light)),
+        guide_camera=CAMERA_KINDS["bench"].open("guide", {}, (bench, slm, light)),
         light=light,
         trigger=trigger,
         scene_setter=bench.set_scene,

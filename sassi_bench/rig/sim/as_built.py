@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import dataclasses
 import zlib
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,6 +40,7 @@ __all__ = [
     "lamp_lines",
     "laser_centre_nm",
     "led",
+    "light_settings",
     "prism_apex_deg",
     "prism_glass",
     "slm_gamma",
@@ -150,6 +153,33 @@ def led(desc: RigDescription) -> str:
     """
     true = as_built_section(desc).led
     return true if true is not None else desc.light.led
+
+
+def light_settings(
+    desc: RigDescription, light: str, described: Mapping[str, Any]
+) -> dict[str, Any]:
+    """A light's settings as built (its kind's :meth:`~sassi_bench.rig.lights.LightKind.settings`
+    as described, with the bench's deviations): a laser's true centre, the LED's true
+    spectrum, the halogen lamp's true temperature, a lamp's lines at their true
+    intensities; any other setting as described.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> light_settings(load_rig_description("sim"), "laser:532", {"centre_nm": 532.0})
+    {'centre_nm': 532.0}
+    """
+    true = _AS_BUILT_LIGHTS.get(light.split(":")[0])
+    return dict(described) if true is None else {**described, **true(desc, light, described)}
+
+
+#: The as-built settings of each kind of light (by the lights' name prefix).
+_AS_BUILT_LIGHTS = {
+    "laser": lambda desc, light, s: {"centre_nm": laser_centre_nm(desc, s["centre_nm"])},
+    "led": lambda desc, light, s: {"illuminant": led(desc)},
+    "halogen": lambda desc, light, s: {"temperature_k": halogen_k(desc)},
+    "lamp": lambda desc, light, s: {"lines": lamp_lines(desc, light[5:])},
+}
 
 
 def slm_gamma(desc: RigDescription) -> float:

@@ -9,18 +9,14 @@ from numpy.typing import NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.blur import PsfSigmaCurve
-from sassi_bench.optics.lamps import lamp_samples
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
     SpectralSamples,
-    blackbody_power,
-    broadband_samples,
     coarser_samples,
-    colour_illuminant_power,
-    laser_samples,
     wavelength_grid,
 )
 from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.lights import kind_of
 from sassi_bench.rig.sim import as_built
 from sassi_bench.rig.sim.drift import DriftModel, DriftState, drifted_relay
 from sassi_bench.rig.sim.geometry import bench_relay
@@ -176,36 +172,20 @@ class VirtualBench:
     def samples(self, light: str) -> SpectralSamples:
         """The spectral samples of light ``light``."""
         if light not in self._samples:
-            cfg = self.description.light
-            if light == "off":
-                samples = SpectralSamples(np.array([550.0]), np.array([0.0]))
-            elif light.startswith("laser:"):
-                centre = as_built.laser_centre_nm(self.description, float(light[6:]))
-                samples = laser_samples(centre, cfg.laser_fwhm_nm, cfg.laser_flux)
-            elif light == "led":
-                power = colour_illuminant_power(
-                    as_built.led(self.description), self.grid, "light.led"
-                )
-                samples = broadband_samples(power, self.grid, cfg.broadband_flux)
-            elif light == "fluorescent":
-                power = colour_illuminant_power(cfg.fluorescent, self.grid, "light.fluorescent")
-                samples = broadband_samples(power, self.grid, cfg.broadband_flux)
-            elif light.startswith("lamp:"):
-                # Lamps render at the lasers' flux: pen-ray lines through the diffuser.
-                lines = as_built.lamp_lines(self.description, light[5:])
-                samples = lamp_samples(lines, cfg.laser_flux)
-            elif light == "halogen":
-                power = blackbody_power(self.grid, as_built.halogen_k(self.description))
-                samples = broadband_samples(power, self.grid, cfg.broadband_flux)
-            else:  # pragma: no cover - the light device validates names
+            try:
+                kind = kind_of(light)
+            except KeyError:  # pragma: no cover - the light device validates names
                 raise ProcedureError(
                     step_error(
                         "light select",
                         f"unknown light {light!r}",
                         "select one of " + ", ".join(self.lights),
                     )
-                )
-            self._samples[light] = samples
+                ) from None
+            settings = as_built.light_settings(
+                self.description, light, kind.settings(light, self.description)
+            )
+            self._samples[light] = kind.samples(light, self.grid, settings)
         return self._samples[light]
 
     # -- noise ------------------------------------------------------------------------------
@@ -262,7 +242,7 @@ class VirtualBench:
         if key not in self._background:
             closed = np.full(self.slm_shape, np.float32(self.eps))
             samples = self.samples(self.light)
-            if not self.light.startswith("laser:"):
+            if not kind_of(self.light).coherent:
                 samples = coarser_samples(samples, _BACKGROUND_EVERY)
             self._background[key] = self.renderer.render_dense(closed, self.scene, samples)
         return self._background[key]

@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.rig.base import CameraBase, Exposure, LightSourceBase, SlmBase, TriggerBase
+from sassi_bench.rig.cameras import CAMERA_KINDS
 from sassi_bench.rig.sim.bench import VirtualBench
 
 __all__ = ["SimGuideCamera", "SimLight", "SimSlm", "SimSpectralCamera", "SimTrigger"]
@@ -59,7 +60,23 @@ class SimLight(LightSourceBase):
         self._bench.set_light(name)
 
 
-class SimSpectralCamera(CameraBase):
+@CAMERA_KINDS.register("bench")
+class BenchCamera(CameraBase):
+    """A camera of the virtual bench: :meth:`open` gives the spectral or the guide one."""
+
+    #: The bench's cameras come with a ``backend: sim`` rig, not a ``hardware`` section.
+    hardware = False
+
+    @classmethod
+    def open(cls, name: str, options: dict, context: tuple) -> BenchCamera:
+        """The bench's camera ``name`` (``"spectral"`` or ``"guide"``); ``context`` is the
+        bench, its SLM and its light."""
+        bench, slm, light = context
+        role = {"spectral": SimSpectralCamera, "guide": SimGuideCamera}[name]
+        return role(bench, slm, light)
+
+
+class SimSpectralCamera(BenchCamera):
     """The monochrome spectral camera behind the prism."""
 
     def __init__(self, bench: VirtualBench, slm: SimSlm, light: SimLight) -> None:
@@ -80,7 +97,7 @@ class SimSpectralCamera(CameraBase):
         )
 
 
-class SimGuideCamera(CameraBase):
+class SimGuideCamera(BenchCamera):
     """The RGB guide camera (sees the scene before the SLM)."""
 
     def __init__(self, bench: VirtualBench, slm: SimSlm, light: SimLight) -> None:

@@ -39,6 +39,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench.rig.lights import kind_of
 from sassi_bench.rig.sim.sections import NuisanceConfig
 
 __all__ = ["BenchNuisances", "crosstalk", "speckle_field"]
@@ -177,7 +178,7 @@ class BenchNuisances:
         rate
             Electron rate of the scene light (e-/s), as the renderer makes it.
         light
-            The light that is on (``laser:<nm>`` lights get speckle and jitter).
+            The light that is on (coherent lights, lasers, get speckle and jitter).
         rng
             The frame's noise stream (drawn from only when jitter is on).
 
@@ -190,7 +191,7 @@ class BenchNuisances:
         if not self.active:
             return rate
         c = self.config
-        laser = light.startswith("laser:")
+        laser = kind_of(light).coherent
         out = rate
         if laser and c.speckle_contrast > 0:
             out = out * self.speckle(light)
