@@ -22,7 +22,7 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def _snapshot(args: argparse.Namespace) -> int:
-    from sassi_bench.acquire.snapshot import take_snapshot
+    from sassi_bench.acquire.views import save_views
     from sassi_bench.rig import load_rig_description, open_rig
     from sassi_bench.rig.rig import check_light, check_scene
 
@@ -30,7 +30,7 @@ def _snapshot(args: argparse.Namespace) -> int:
     check_scene(args.scene, step="rig snapshot")
     check_light(args.light, desc.light_names, step="rig snapshot")
     rig = open_rig(desc)
-    files = take_snapshot(rig, Path(args.out), scene=args.scene, light=args.light)
+    files = save_views(rig, Path(args.out), scene=args.scene, light=args.light)
     for path in files:
         print(path)
     return 0

@@ -1,4 +1,4 @@
-"""Snapshots: a few frames of a rig saved as images, so a person can look."""
+"""Views of a rig: a few frames saved as images (PNG and 16-bit TIFF), so a person can look."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from sassi_bench.errors import ProcedureError, SassiBenchError, step_error
 from sassi_bench.rig.frame import Frame
 from sassi_bench.rig.rig import Rig
 
-__all__ = ["VIEWS", "save_frame", "take_snapshot"]
+__all__ = ["VIEWS", "save_frame", "save_views"]
 
 
 def _display_8bit(data: NDArray) -> NDArray[np.uint8]:
@@ -22,7 +22,7 @@ def _display_8bit(data: NDArray) -> NDArray[np.uint8]:
     return (np.clip(scaled, 0, 1) ** (1 / 2.2) * 255).round().astype(np.uint8)
 
 
-#: The views :func:`take_snapshot` saves, each as ``<name>.tiff`` and ``<name>.png``.
+#: The views :func:`save_views` saves, each as ``<name>.tiff`` and ``<name>.png``.
 VIEWS = ("guide", "spectral_all_open", "spectral_pinholes")
 
 
@@ -61,9 +61,7 @@ def save_frame(frame: Frame, stem: Path) -> list[Path]:
     return [tiff, png]
 
 
-def take_snapshot(
-    rig: Rig, out: Path, scene: str = "colorchecker", light: str = "led"
-) -> list[Path]:
+def save_views(rig: Rig, out: Path, scene: str = "colorchecker", light: str = "led") -> list[Path]:
     """Capture a guide image and spectral frames (all-open SLM, pinholes) into ``out``.
 
     Returns
@@ -74,7 +72,7 @@ def take_snapshot(
     Examples
     --------
     >>> from sassi_bench import open_rig
-    >>> files = take_snapshot(open_rig("sim"), Path("snapshot"))  # doctest: +SKIP
+    >>> files = save_views(open_rig("sim"), Path("snapshot"))  # doctest: +SKIP
     """
     out = Path(out)
     if out.exists() and not out.is_dir():

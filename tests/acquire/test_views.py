@@ -3,13 +3,13 @@ import pytest
 import tifffile
 
 from sassi_bench import open_rig
-from sassi_bench.acquire.snapshot import take_snapshot
+from sassi_bench.acquire.views import save_views
 from sassi_bench.errors import SassiBenchError
 
 
 def test_snapshot_writes_frames_and_never_overwrites(tmp_path):
     rig = open_rig("sim")
-    files = take_snapshot(rig, tmp_path, scene="white", light="laser:532")
+    files = save_views(rig, tmp_path, scene="white", light="laser:532")
     assert {f.name for f in files} == {
         "guide.png", "guide.tiff", "spectral_all_open.png", "spectral_all_open.tiff",
         "spectral_pinholes.png", "spectral_pinholes.tiff",
@@ -19,7 +19,7 @@ def test_snapshot_writes_frames_and_never_overwrites(tmp_path):
     assert raw.max() > 10 * np.median(raw)  # the pinholes' spots stand out
     before = (tmp_path / "guide.tiff").read_bytes()
     with pytest.raises(SassiBenchError, match="already exists"):
-        take_snapshot(rig, tmp_path, scene="white", light="laser:532")
+        save_views(rig, tmp_path, scene="white", light="laser:532")
     assert (tmp_path / "guide.tiff").read_bytes() == before
 
 
@@ -45,6 +45,6 @@ def test_snapshot_refuses_an_existing_image_before_capturing(tmp_path):
     )
     (tmp_path / "spectral_pinholes.png").write_bytes(b"an earlier image")
     with pytest.raises(SassiBenchError, match=r"spectral_pinholes\.png already exists"):
-        take_snapshot(spied, tmp_path, scene="white", light="led")
+        save_views(spied, tmp_path, scene="white", light="led")
     assert captured == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["spectral_pinholes.png"]
