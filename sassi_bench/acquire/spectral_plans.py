@@ -19,8 +19,8 @@ import numpy as np
 from sassi_bench.acquire.patterns import gray_bit_count
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
-from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.lamps import LineList
+from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.lights import laser_light
 

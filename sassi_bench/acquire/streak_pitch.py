@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.rig.config import RigDescription
 
 __all__ = ["PitchRoom", "check_scan_pitch", "scan_pitch_room"]

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from sassi_bench.errors import ConfigError
-from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.sources import (
     blackbody_power,
     broadband_samples,

@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
-from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.datasets import photo_loader, require_dataset
 from sassi_bench.optics.glass import Glass
 from sassi_bench.optics.lamps import lamp_name, load_line_list
+from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import BAND_NM
 from sassi_bench.optics.sensor import qe_curve
 from sassi_bench.rig.cameras import hardware_camera_kinds

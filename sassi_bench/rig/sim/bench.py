@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.optics.blur import PsfSigmaCurve
+from sassi_bench.optics.psf import PsfSigmaCurve
 from sassi_bench.optics.sensor import SensorModel
 from sassi_bench.optics.sources import (
     SpectralSamples,

@@ -2,7 +2,7 @@
 
 Two exact-in-expectation renderers share one optical model (the ray-traced relay of
 :mod:`~sassi_bench.optics.relay`, as built: :func:`~sassi_bench.rig.sim.geometry.bench_relay`;
-and the spot width of :func:`~sassi_bench.optics.blur.line_spread_sigma`):
+and the spot width of :func:`~sassi_bench.optics.psf.line_spread_sigma`):
 
 * **dense** (:meth:`SpectralRenderer.render_dense`), for patterns with many open
   pixels: for every wavelength sample the SLM image is warped onto the camera through
@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench.optics.blur import PsfSigmaCurve, line_spread_sigma
+from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim._splat import PAD, splat, table_width

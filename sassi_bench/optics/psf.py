@@ -1,11 +1,12 @@
-"""Wavelength-dependent blur of the relay optics, as a rig describes it.
+"""The relay optics' point-spread width over wavelength, as a rig describes it.
 
 A lab describes the optics' point-spread width at a few wavelengths (Gaussian sigma in
 spectral-camera pixels). Through three points the curve is the quadratic the SASSI paper
 fits; through more it is a shape-preserving PCHIP interpolant, so a quadratic fit is
-an approximation the calibration has to earn. (What the calibration fits and a bundle
-stores is another thing: :class:`sassi_bench.bundle.BlurModel`, the quadratic of the
-recorded spot width with its summation window.)
+an approximation the calibration has to earn. The virtual bench renders its spots with
+it, and the capture plans' checks judge streak footprints by it before any calibration;
+what the calibration fits and the procedures use is another thing: the bundle's blur
+object (:mod:`sassi_bench.bundle.blur`).
 
 What a camera records for one SLM pixel is wider than the optics' PSF: the pixel's
 square aperture and the camera pixel's own area add to it. :func:`line_spread_sigma`
