@@ -283,3 +283,22 @@ def test_the_table_refuses_the_virtual_bench_to_procedures():
     assert violation("sassi_bench.rig.config", "sassi_bench.rig.sim.geometry")
     assert violation("sassi_bench.rig", "sassi_bench.rig.sim") is None  # open_rig
     assert violation("sassi_bench.workflows.full", "sassi_bench.rig.rig") is None
+
+
+def used_edges() -> dict[str, set[str]]:
+    """``{row: rows its modules import}``, from the code (a face's own subpackages aside)."""
+    used: dict[str, set[str]] = {row: set() for row in TABLE}
+    for module, imported in GRAPH.items():
+        mine = row_of(module)
+        for name in imported:
+            theirs = row_of(name)
+            if mine and theirs and mine != theirs and violation(module, name) is None:
+                used[mine].add(theirs)
+    return used
+
+
+@pytest.mark.parametrize("package", list(TABLE), ids=str)
+def test_the_table_permits_only_edges_the_code_uses(package):
+    """The table stays the map of the code: an import that goes removes its row's entry."""
+    unused = sorted(set(TABLE[package]) - used_edges()[package])
+    assert not unused, f"{package} is allowed {unused} but imports none of them; strike them"
