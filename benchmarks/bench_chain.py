@@ -73,8 +73,8 @@ MARKERS = (
     ("sassi_bench.reduce.spectral", "measure_response", "grey response"),
     ("sassi_bench.reduce.sweeps", "_structured_decode", "sweeps and decoding"),
     ("sassi_bench.reduce.sweeps", "_line_decode", "sweeps and decoding"),
-    ("sassi_bench.workflows.scan", "publish_derived", "publishing"),
-    ("sassi_bench.workflows.guide", "publish_derived", "publishing"),
+    ("sassi_bench.reduce.response", "publish_derived", "publishing"),
+    ("sassi_bench.reduce.guide", "publish_derived", "publishing"),
 )
 
 
