@@ -2,7 +2,11 @@
 put together (the layout is described in :mod:`sassi_bench.acquire.session`).
 
 It creates, opens and resumes sessions, writes each frame then its event under the write
-lock, reads frames back and verifies them against their events.
+lock, and reads frames back, each checked against its event as it is read: a frame that
+is missing or damaged raises :class:`FrameDamagedError` naming the session, the step, the
+frame's file and what is wrong, so nothing is ever computed from it. :meth:`Session.verify`
+checks every frame on demand; :meth:`Session.set_aside` moves damaged frames out of the
+way so that resuming the capture takes them again.
 """
 
 from __future__ import annotations
@@ -13,15 +17,20 @@ import hashlib
 import os
 import warnings
 from collections.abc import Callable, Iterable, Iterator
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.atomic import fsync_dir
 from sassi_bench._shared.lock import LockHeldError, WriteLock
+from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session.errors import (
+    FrameDamage,
+    FrameDamagedError,
     SessionError,
     SessionIntegrityError,
     SessionLockedError,
@@ -36,12 +45,21 @@ from sassi_bench.acquire.session.folder import (
     read_header,
     session_folder,
 )
-from sassi_bench.acquire.session.frames import FRAMES_DIR, FrameStore, check_frame
-from sassi_bench.acquire.session.header import check_resumable
+from sassi_bench.acquire.session.frames import (
+    FRAMES_DIR,
+    STORED_BYTES_KEY,
+    FrameProblem,
+    FrameStore,
+    check_frame,
+)
+from sassi_bench.acquire.session.header import check_resumable, utc_stamp
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.frame import Frame
 
-__all__ = ["Session"]
+__all__ = ["DAMAGED_DIR", "Session"]
+
+#: Folder of a session where frames set aside are kept (see :meth:`Session.set_aside`).
+DAMAGED_DIR = "damaged"
 
 
 def _camera_slots(plan: Plan) -> tuple[dict[str, list[int]], list[tuple[str, int]]]:
@@ -380,14 +398,20 @@ class Session:
         check_frame(where, step.camera, frame.meta.camera, data)
         event = frame_event(i, step, self._log.slots[i][1], data, frame.meta, where)
         camera_logged = any(self._plan.steps[j].camera == step.camera for j in self._log.completed)
-        self._frames.write(
+        event[STORED_BYTES_KEY] = self._frames.write(
             step.camera, event["slot"], data, replace_ok=not camera_logged, where=where
         )
         self._log.append(event)
 
     # -- reading ----------------------------------------------------------------------
     def read_frame(self, step_index: int) -> NDArray[Any]:
-        """The stored frame of step ``step_index`` (a read-only array).
+        """The stored frame of step ``step_index`` (a read-only array), checked against
+        the checksum its event recorded.
+
+        Raises
+        ------
+        FrameDamagedError
+            If the frame is missing or damaged (naming the step, its file and how).
 
         Examples
         --------
@@ -395,12 +419,16 @@ class Session:
         """
         i = self._check_index(step_index)
         camera, slot = self._locate(i, "read")
-        out = self._frames.read(camera, slot)
+        try:
+            out = self._frames.read(camera, slot, self._log.event(i))
+        except FrameProblem as problem:
+            raise self._damaged(i, camera, problem, "read") from None
         out.setflags(write=False)
         return out
 
     def read_frames(self, step_indices: Iterable[int]) -> NDArray[Any]:
-        """Frames of several steps of one camera, stacked along a new first axis.
+        """Frames of several steps of one camera, stacked along a new first axis, each
+        checked as :meth:`read_frame` checks it.
 
         Examples
         --------
@@ -429,7 +457,14 @@ class Session:
                 f"steps {indices} mix cameras {sorted(cameras)}",
                 "read each camera's steps separately (plan.select / step.camera)",
             )
-        out = self._frames.read_slots(located[0][0], [slot for _, slot in located])
+        camera = located[0][0]
+        try:
+            out = self._frames.read_slots(
+                camera, [slot for _, slot in located], [self._log.event(i) for i in indices]
+            )
+        except FrameProblem as problem:
+            step = indices[[slot for _, slot in located].index(problem.slot)]
+            raise self._damaged(step, camera, problem, "read") from None
         out.setflags(write=False)
         return out
 
@@ -482,8 +517,13 @@ class Session:
             h.update(line)
         return h.hexdigest()
 
-    def verify(self) -> int:
-        """Re-hash every stored frame against its event.
+    def verify(self, on_frame: Callable[[int], None] | None = None) -> int:
+        """Check every stored frame: read whole, against its checksum and its SHA-256.
+
+        Parameters
+        ----------
+        on_frame
+            Called with each step once its frame is checked (a progress bar).
 
         Returns
         -------
@@ -492,15 +532,95 @@ class Session:
 
         Raises
         ------
-        SessionIntegrityError
-            Naming the first step whose stored data changed or cannot be read.
+        FrameDamagedError
+            Naming the first damaged frame (and how many others are).
         """
-        for i in sorted(self._log.completed):
-            event = self._log.event(i)
-            camera, slot = self._locate(i, "verify")
-            where = f"session {self.id!r} verify step {i}"
-            self._frames.check(camera, slot, event["sha256"], event["shape"], where)
+        found = self.find_damage(on_frame=on_frame)
+        if found:
+            first = found[0]
+            more = f" ({len(found) - 1} more frames are damaged)" if len(found) > 1 else ""
+            raise self._damage_error(first, "verify", more)
         return len(self._log)
+
+    def find_damage(
+        self, *, thorough: bool = True, on_frame: Callable[[int], None] | None = None
+    ) -> list[FrameDamage]:
+        """Every stored frame that is missing or damaged, in step order.
+
+        Parameters
+        ----------
+        thorough
+            Read every frame and check it against its checksum and SHA-256; else look at
+            the chunk files only (one ``stat`` each: a chunk gone or of another size than
+            stored, where the event recorded it), which is quick.
+        on_frame
+            Called with each step once its frame is checked.
+
+        Examples
+        --------
+        >>> session.find_damage(thorough=False)  # doctest: +SKIP
+        [FrameDamage(session=..., step=3, camera='spectral', slot=2, ..., kind='missing', ...)]
+        """
+        found = []
+        for i in sorted(self._log.completed):
+            camera, slot = self._plan.steps[i].camera, self._log.slots[i][1]
+            event = self._log.event(i)
+            if thorough:
+                problem = self._frames.inspect(camera, slot, event)
+            else:
+                problem = self._frames.quick_inspect(camera, slot, event)
+            if problem is not None:
+                found.append(self._damage(i, camera, problem))
+            if on_frame is not None:
+                on_frame(i)
+        return found
+
+    @property
+    def set_aside_frames(self) -> tuple[dict[str, Any], ...]:
+        """The records of frames set aside (:meth:`set_aside`): step, SHA-256, reason,
+        where the damaged chunk was kept, when."""
+        return tuple(copy.deepcopy(r) for r in self._log.set_aside)
+
+    def set_aside(self, damages: Iterable[FrameDamage]) -> list[dict[str, Any]]:
+        """Set damaged frames aside, so that resuming the capture takes them again.
+
+        Each frame's chunk file (when there is one) is moved to ``damaged/`` in the
+        session folder, kept as found, and a line in ``retakes.jsonl`` sets its event
+        aside: the step counts as not captured, and the capture's next run (the same
+        command with the same session id) captures it again. Nothing is deleted.
+
+        Raises
+        ------
+        SessionLockedError
+            If another process is writing the session.
+
+        Examples
+        --------
+        >>> session.set_aside(session.find_damage())  # doctest: +SKIP
+        """
+        records = []
+        with self.writing():
+            for damage in damages:
+                if damage.step not in self._log:
+                    continue  # set aside already
+                with deferred_stop_signals():  # the move and its record go together
+                    kept = self._keep_damaged(damage)
+                    reason = f"{damage.kind}: {damage.detail}"
+                    records.append(self._log.set_event_aside(damage.step, reason, kept))
+        return records
+
+    def _keep_damaged(self, damage: FrameDamage) -> str | None:
+        """Move a damaged frame's chunk file into ``damaged/``; its new place, if any."""
+        chunk = self._path / damage.chunk
+        if not chunk.exists():
+            return None
+        stamp = utc_stamp(datetime.now(UTC)).replace(":", "").replace("-", "")
+        kept = Path(DAMAGED_DIR) / damage.camera / f"slot{damage.slot}-step{damage.step}-{stamp}"
+        (self._path / kept).parent.mkdir(parents=True, exist_ok=True)
+        os.rename(chunk, self._path / kept)
+        fsync_dir((self._path / kept).parent)
+        fsync_dir(chunk.parent)
+        return kept.as_posix()
 
     # -- internals --------------------------------------------------------------------
     def _check_index(self, step_index: int) -> int:
@@ -538,6 +658,32 @@ class Session:
                 SessionIntegrityError,
             )
         return camera, self._log.slots[i][1]
+
+    def _damage(self, i: int, camera: str, problem: FrameProblem) -> FrameDamage:
+        chunk = self._frames.chunk_file(camera, problem.slot).relative_to(self._path)
+        return FrameDamage(self._path, i, camera, problem.slot, chunk, problem.kind, problem.detail)
+
+    def _damaged(
+        self, i: int, camera: str, problem: FrameProblem, action: str
+    ) -> FrameDamagedError:
+        return self._damage_error(self._damage(i, camera, problem), action)
+
+    def _damage_error(self, damage: FrameDamage, action: str, more: str = "") -> FrameDamagedError:
+        """The error that names a damaged frame, and what to do about it."""
+        chunk = damage.chunk.as_posix()
+        fix = (
+            f"nothing is computed from a damaged frame. Restore {self._path / chunk} from a "
+            f"backup, or set the frame aside so that the capture takes it again: "
+            f"`sassi-bench data verify {self.id} --retake`, then run the capture that made "
+            "the session again with the same session id"
+        )
+        message = session_error(
+            f"session {self.id!r} {action} step {damage.step}",
+            f"the {damage.camera} frame (slot {damage.slot}, {chunk}) is {damage.kind}: "
+            f"{damage.detail}{more}",
+            fix,
+        )
+        return FrameDamagedError(str(message), damage)
 
     def _warn_problems(self, stacklevel: int) -> None:
         """Warn about the log's problems; ``stacklevel`` counts from this method's caller."""
