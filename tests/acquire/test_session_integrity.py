@@ -12,7 +12,9 @@ import pytest
 
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session import FrameDamagedError, Session, SessionWarning
+from sassi_bench.acquire.session.errors import SessionDamagedError
 from sassi_bench.acquire.session.events import RETAKES_FILE
+from sassi_bench.acquire.session.salvage import check_logged_frames
 
 
 @pytest.fixture()
@@ -119,3 +121,42 @@ def test_set_aside_keeps_the_damaged_chunk_and_the_capture_takes_the_step_again(
     np.testing.assert_array_equal(reopened.read_frame(2), retaken.data)
     assert len((session.path / RETAKES_FILE).read_text().splitlines()) == 1
     assert reopened.sha256() != session.sha256()  # another frame: another content hash
+
+
+# -- a damaged header or log -------------------------------------------------------------
+@pytest.mark.parametrize("damage", ["truncated", "deleted"])
+def test_a_damaged_header_is_named_with_what_the_frames_and_log_still_hold(
+    session, rig_description, damage
+):
+    header = session.path / "session.json"
+    if damage == "truncated":
+        header.write_bytes(header.read_bytes()[:300])
+        cause = "session.json is not JSON ("
+    else:
+        header.unlink()
+        cause = "session.json is missing"
+    data, plan = session.path.parents[1], session.plan
+    attempts = {
+        "open": lambda: Session.open("s1", data=data),
+        "resume": lambda: Session.open_or_create(rig_description, plan, session_id="s1", data=data),
+        "resume or plan": lambda: Session.resume_or_plan(
+            rig_description, lambda: pytest.fail("planned anew"), session_id="s1", data=data
+        ),
+    }  # fmt: skip
+    for attempt in attempts.values():
+        with pytest.raises(SessionDamagedError) as caught:
+            attempt()
+        message = str(caught.value)
+        assert message.startswith(f"session 's1' open: {cause}")
+        assert "events.jsonl holds 5 readable frame events" in message
+        assert "frames.zarr 5 chunk files" in message
+        assert f"the plan's SHA-256, {plan.sha256()[:12]}" in message
+        assert "already exists" not in message and "restore session.json" in message
+    assert check_logged_frames(session.path) == (5, [])
+    chunk(session, 1).unlink()
+    checked, problems = check_logged_frames(session.path)
+    assert checked == 5 and len(problems) == 1
+    assert problems[0].startswith(
+        "step 1: the spectral frame (slot 1, frames.zarr/spectral/c/1/0/0)"
+    )
+    assert "is missing" in problems[0]

@@ -33,7 +33,10 @@ missing (its chunk file gone, which Zarr would read as zeros), truncated, undeco
 changed raises :class:`FrameDamagedError` naming the session, the step, the chunk file and
 what is wrong. :meth:`Session.verify` and :meth:`Session.find_damage` check every frame
 on demand; :meth:`Session.set_aside` moves damaged frames to ``damaged/`` so that the
-capture, resumed, takes them again.
+capture, resumed, takes them again. A session whose ``session.json``, event log or frame
+store cannot be read raises :class:`SessionDamagedError` when opened or resumed, saying
+what is unreadable and what the frames and the log still hold
+(:mod:`~sassi_bench.acquire.session.salvage`).
 
 One writer at a time: :meth:`Session.writing` (which
 :func:`~sassi_bench.acquire.runner.run_plan` holds for a whole run) and every
@@ -63,6 +66,7 @@ Examples
 from sassi_bench.acquire.session.errors import (
     FrameDamage,
     FrameDamagedError,
+    SessionDamagedError,
     SessionError,
     SessionIntegrityError,
     SessionLockedError,
@@ -73,11 +77,12 @@ from sassi_bench.acquire.session.header import SCHEMA_NAME, SCHEMA_VERSION, chec
 from sassi_bench.acquire.session.session import Session
 
 __all__ = [
-    "FrameDamage",
-    "FrameDamagedError",
     "SCHEMA_NAME",
     "SCHEMA_VERSION",
+    "FrameDamage",
+    "FrameDamagedError",
     "Session",
+    "SessionDamagedError",
     "SessionError",
     "SessionIntegrityError",
     "SessionLockedError",

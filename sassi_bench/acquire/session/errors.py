@@ -10,6 +10,7 @@ from sassi_bench.errors import SassiBenchError, step_error
 __all__ = [
     "FrameDamage",
     "FrameDamagedError",
+    "SessionDamagedError",
     "SessionError",
     "SessionIntegrityError",
     "SessionLockedError",
@@ -76,6 +77,16 @@ class FrameDamagedError(SessionIntegrityError):
     def __init__(self, message: str, damage: FrameDamage) -> None:
         super().__init__(message)
         self.damage = damage
+
+
+class SessionDamagedError(SessionIntegrityError):
+    """A session's ``session.json``, event log or frame store cannot be read;
+    ``condition`` (a :class:`~sassi_bench.acquire.session.salvage.SessionCondition`)
+    says what is unreadable and what is left."""
+
+    def __init__(self, message: str, condition: object) -> None:
+        super().__init__(message)
+        self.condition = condition
 
 
 class SessionLockedError(SessionError):

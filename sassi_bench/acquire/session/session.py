@@ -31,13 +31,14 @@ from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session.errors import (
     FrameDamage,
     FrameDamagedError,
+    SessionDamagedError,
     SessionError,
     SessionIntegrityError,
     SessionLockedError,
     SessionWarning,
     session_error,
 )
-from sassi_bench.acquire.session.events import EventLog, frame_event
+from sassi_bench.acquire.session.events import EVENTS_FILE, EventLog, frame_event
 from sassi_bench.acquire.session.folder import (
     LOCK_FILE,
     create_session_folder,
@@ -52,7 +53,9 @@ from sassi_bench.acquire.session.frames import (
     FrameStore,
     check_frame,
 )
-from sassi_bench.acquire.session.header import check_resumable, utc_stamp
+from sassi_bench.acquire.session.header import SESSION_FILE, check_resumable, utc_stamp
+from sassi_bench.acquire.session.salvage import examine
+from sassi_bench.errors import step_error
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.frame import Frame
 
@@ -60,6 +63,39 @@ __all__ = ["DAMAGED_DIR", "Session"]
 
 #: Folder of a session where frames set aside are kept (see :meth:`Session.set_aside`).
 DAMAGED_DIR = "damaged"
+
+
+def _headless_folder(
+    path_or_id: str | os.PathLike[str], data: str | os.PathLike[str] | None
+) -> Path | None:
+    """A session folder whose ``session.json`` is gone but whose log or frames are there."""
+    candidates = [Path(path_or_id)]
+    with contextlib.suppress(SessionError):
+        candidates.insert(0, session_folder(str(path_or_id), data))
+    for folder in candidates:
+        if (folder / EVENTS_FILE).is_file() or (folder / FRAMES_DIR).is_dir():
+            return folder
+    return None
+
+
+def _damaged_session(path: Path, exc: BaseException) -> SessionDamagedError:
+    """The error for a session whose header, log or frame store cannot be read: what is
+    unreadable, and what its frames and log still hold."""
+    condition = examine(path)
+    unreadable = condition.unreadable() or str(exc).split(". Fix: ", 1)[0]
+    parts = [
+        name for name, bad in ((SESSION_FILE, condition.header), (EVENTS_FILE, condition.log),
+                               (FRAMES_DIR, condition.frames)) if bad
+    ]  # fmt: skip
+    restore = " and ".join(parts) or "the session folder"
+    message = step_error(
+        f"session {path.name!r} open",
+        f"{unreadable}; {condition.salvage()}",
+        f"the session is kept as it is (`sassi-bench data clean` leaves damaged sessions "
+        f"alone); restore {restore} from a backup to use it again, or capture into a new "
+        f"session id. `sassi-bench data verify {path.name}` checks its frames against the log",
+    )
+    return SessionDamagedError(message, condition)
 
 
 def _camera_slots(plan: Plan) -> tuple[dict[str, list[int]], list[tuple[str, int]]]:
@@ -85,7 +121,15 @@ class Session:
         self._header_bytes = header_bytes
         self._plan = Plan.from_dict(header["plan"])
         steps_of_camera, slots = _camera_slots(self._plan)
-        self._frames = FrameStore(path, steps_of_camera)
+        try:
+            self._frames = FrameStore(path, steps_of_camera)
+        except Exception as exc:  # whatever zarr raises for a store it cannot open
+            raise session_error(
+                f"session {self.id!r} open",
+                f"{FRAMES_DIR} cannot be opened ({type(exc).__name__}: {exc})",
+                "restore the session folder from a backup",
+                SessionIntegrityError,
+            ) from exc
         self._log = EventLog(path, slots, f"session {self.id!r}")
         self._lock = WriteLock(path / LOCK_FILE)
         self._warn_problems(stacklevel=3)  # at the caller of open/create
@@ -144,6 +188,14 @@ class Session:
     ) -> Session:
         """Open an existing session by folder path or by id under ``<data>/sessions/``.
 
+        Raises
+        ------
+        SessionDamagedError
+            If its ``session.json``, event log or frame store cannot be read: the message
+            says what is unreadable and what the frames and the log still hold.
+        SessionError
+            If there is no session there.
+
         Examples
         --------
         >>> import tempfile
@@ -157,8 +209,16 @@ class Session:
         (True, 'd')
         >>> tmp.cleanup()
         """
-        path = find_session(path_or_id, data)
-        return cls(path, *read_header(path))
+        try:
+            path = find_session(path_or_id, data)
+        except SessionError:
+            path = _headless_folder(path_or_id, data)
+            if path is None:
+                raise
+        try:
+            return cls(path, *read_header(path))
+        except (SessionIntegrityError, OSError) as exc:
+            raise _damaged_session(path, exc) from exc
 
     @classmethod
     def resume_or_plan(
@@ -190,6 +250,8 @@ class Session:
         """
         try:
             existing = cls.open(session_id, data=data)
+        except SessionDamagedError:
+            raise  # never planned anew over a session that is there but damaged
         except SessionError:
             existing = None  # planned outside the handler: its errors are not chained to this
         if existing is None:
