@@ -42,7 +42,8 @@ from sassi_bench.commands.interrupts import (
     signal_name,
     stop_signals,
 )
-from sassi_bench.commands.options import PROG, resume_command
+from sassi_bench.commands.options import PROG, holding_rig, resume_command
+from sassi_bench.commands.typos import check_options
 from sassi_bench.errors import SassiBenchError
 from sassi_bench.paths import data_root
 
@@ -97,10 +98,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
+    check_options(parser, argv)  # a mistyped option is named before any positional is judged
     args = parser.parse_args(argv)
     args.argv, args.on_session = argv, record_start
     try:
-        with stop_signals():
+        with stop_signals(), holding_rig(args):
             status = int(args.func(args) or 0)
     except SassiBenchError as exc:
         _say(f"error: {exc}")

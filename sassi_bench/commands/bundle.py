@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sassi_bench.commands.options import DATA_HELP, load_bundle_ref
+from sassi_bench.commands.options import DATA_HELP, load_bundle_ref, program
 from sassi_bench.errors import ProcedureError, step_error
 
 if TYPE_CHECKING:
@@ -475,5 +475,5 @@ def _export_sassi_mat(bundle: CalibrationBundle, args: argparse.Namespace) -> in
     if not bundle.passed:
         print("  note: this bundle FAILED its quality checks (published with an override)")
     print(f"next: read {done.folder / 'README.txt'}, copy both .mat files to <root>/calibration/")
-    print("      and export a capture with: sassi-bench snapshot export --format sassi-mat ...")
+    print(f"      and export a capture with: {program()} snapshot export --format sassi-mat ...")
     return 0
