@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import hashlib
+import json
 import os
 import warnings
 from collections.abc import Callable, Iterable, Iterator
@@ -24,7 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sassi_bench._shared.atomic import fsync_dir
+from sassi_bench._shared.atomic import atomic_write_bytes, fsync_dir
+from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench._shared.lock import LockHeldError, WriteLock
 from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.acquire.plan import Plan
@@ -59,10 +61,12 @@ from sassi_bench.errors import step_error
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.frame import Frame
 
-__all__ = ["DAMAGED_DIR", "Session"]
+__all__ = ["DAMAGED_DIR", "VERIFY_FILE", "Session"]
 
 #: Folder of a session where frames set aside are kept (see :meth:`Session.set_aside`).
 DAMAGED_DIR = "damaged"
+#: The record of a session's last full check (see :meth:`Session.record_verification`).
+VERIFY_FILE = "verify.json"
 
 
 def _headless_folder(
@@ -636,6 +640,48 @@ class Session:
             if on_frame is not None:
                 on_frame(i)
         return found
+
+    def record_verification(self, found: Iterable[FrameDamage]) -> Path:
+        """Keep the outcome of a full check (:meth:`find_damage`) in ``verify.json``, so a
+        listing can show the damage found without reading every frame again.
+
+        Returns
+        -------
+        pathlib.Path
+            The record's file.
+        """
+        damaged = [
+            {
+                "step": d.step,
+                "sha256": self._log.event(d.step)["sha256"],
+                "kind": d.kind,
+                "detail": d.detail,
+                "chunk": d.chunk.as_posix(),
+            }
+            for d in found
+            if d.step in self._log
+        ]
+        record = {
+            "checked": utc_stamp(datetime.now(UTC)),
+            "frames": len(self._log),
+            "damaged": damaged,
+        }
+        return atomic_write_bytes(self._path / VERIFY_FILE, canonical_json(record), overwrite=True)
+
+    def last_verification(self) -> dict[str, Any] | None:
+        """The record of the last full check, its ``damaged`` list cut to the frames that
+        are still the ones checked (a frame set aside or captured again since is not);
+        None when the session was never checked, or its record does not read."""
+        try:
+            record = json.loads((self._path / VERIFY_FILE).read_bytes())
+            damaged = [
+                d
+                for d in record["damaged"]
+                if d["step"] in self._log and self._log.event(d["step"])["sha256"] == d["sha256"]
+            ]
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        return {**record, "damaged": damaged}
 
     @property
     def set_aside_frames(self) -> tuple[dict[str, Any], ...]:
