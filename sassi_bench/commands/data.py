@@ -73,7 +73,14 @@ def _print_runs(runs: list[RunRecord]) -> None:
             print(f"  {run.command}")
 
 
-def _print_damaged(entries: list[DataEntry]) -> None:
+def _data_option(args: argparse.Namespace) -> str:
+    """`` --data DIR`` when the command was given one (for the commands it prints)."""
+    import shlex
+
+    return f" --data {shlex.quote(args.data)}" if args.data else ""
+
+
+def _print_damaged(entries: list[DataEntry], args: argparse.Namespace) -> None:
     """The damaged sessions, what is wrong with each, and what to do."""
     damaged = [e for e in entries if e.damaged]
     if not damaged:
@@ -84,7 +91,11 @@ def _print_damaged(entries: list[DataEntry]) -> None:
     )
     for entry in damaged:
         print(f"  {entry.name}: {entry.damage}")
-    print(f"  each frame checked, and what is left of each: {program()} data verify NAME")
+    names = " ".join(e.name for e in damaged) if len(damaged) <= 3 else "NAME"
+    print(
+        f"  each frame checked, and what is left of each: "
+        f"{program()} data verify {names}{_data_option(args)}"
+    )
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -101,10 +112,13 @@ def cmd_list(args: argparse.Namespace) -> int:
         return 0
     print(f"data root {root.resolve()}")
     print(_table(entries, runs))
-    _print_damaged(entries)
+    _print_damaged(entries, args)
     _print_runs(runs)
     total = sum(e.size_bytes for e in entries)
-    print(f"total {format_size(total)}; `{program()} data clean` shows what can be removed")
+    print(
+        f"total {format_size(total)}; `{program()} data clean{_data_option(args)}` shows what "
+        "can be removed"
+    )
     return 0
 
 
@@ -201,7 +215,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
         print(f"no sessions under {root}")
         return 0
     total = sum(e.frames[0] if e.frames else 0 for e in chosen)
-    damaged = 0
+    damaged: list[str] = []
     bar = tqdm(total=total, desc="frames", unit="frame", disable=args.quiet)
     with bar:
         for entry in chosen:
@@ -209,7 +223,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
             if result.whole:
                 bar.write(f"ok       {entry.name}: {result.checked} frames")
                 continue
-            damaged += 1
+            damaged.append(entry.name)
             if result.unreadable is not None:
                 bar.write(f"DAMAGED  {entry.name}: {result.unreadable}")
                 bar.write(f"         what is left: {result.salvage}")
@@ -229,12 +243,14 @@ def cmd_verify(args: argparse.Namespace) -> int:
                     "the same session id"
                 )
     if damaged:
-        print(f"{damaged} of {len(chosen)} session(s) damaged; nothing was changed"
+        print(f"{len(damaged)} of {len(chosen)} session(s) damaged; nothing was changed"
               + (" but the frames set aside" if args.retake else ""))  # fmt: skip
         if not args.retake:
+            names = " ".join(damaged) if len(damaged) <= 3 else "NAME"
             print(
                 "restore the files named from a backup, or set the damaged frames aside so "
-                f"the capture takes them again: {program()} data verify NAME --retake"
+                f"the capture takes them again: {program()} data verify {names} --retake"
+                f"{_data_option(args)}"
             )
         return 1
     print(f"{len(chosen)} session(s), {total} frames: every frame is as it was stored")

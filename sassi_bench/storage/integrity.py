@@ -11,8 +11,13 @@ goes (:func:`~sassi_bench.acquire.session.salvage.check_logged_frames`).
 
 Examples
 --------
->>> session_damage(Path("/nonexistent"))
-'session.json is missing; events.jsonl is missing; frames.zarr/zarr.json is missing'
+>>> import tempfile
+>>> folder = Path(tempfile.mkdtemp())
+>>> _ = (folder / "events.jsonl").write_text("")
+>>> session_damage(folder)
+'session.json is missing; frames.zarr/zarr.json is missing'
+>>> session_damage(Path("/nonexistent")) is None  # not a session at all
+True
 """
 
 from __future__ import annotations
@@ -31,7 +36,10 @@ from sassi_bench.acquire.session import (
 )
 from sassi_bench.acquire.session.salvage import check_logged_frames, examine
 
-__all__ = ["VerifyResult", "open_quietly", "session_damage", "verify_session"]
+#: The parts of a session folder: a folder with none of them is no session.
+SESSION_PARTS = ("session.json", "events.jsonl", "frames.zarr")
+
+__all__ = ["SESSION_PARTS", "VerifyResult", "open_quietly", "session_damage", "verify_session"]
 
 
 def open_quietly(folder: Path) -> Session:
@@ -62,8 +70,11 @@ def session_damage(folder: Path) -> str | None:
     Returns
     -------
     str or None
-        In words: what does not read, or which frames are missing or damaged.
+        In words: what does not read, or which frames are missing or damaged; None also
+        for a folder with no part of a session (no ``session.json``, event log or frames).
     """
+    if not any((folder / part).exists() for part in SESSION_PARTS):
+        return None
     try:
         session = open_quietly(folder)
     except SessionDamagedError as exc:

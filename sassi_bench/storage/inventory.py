@@ -146,7 +146,8 @@ def format_size(size: int) -> str:
 
 def session_progress(folder: Path) -> tuple[str, tuple[int, int]] | None:
     """A session folder's plan name and (stored, planned) frames, read without verifying
-    the frames; None when its ``session.json`` cannot be read.
+    the frames (frames set aside to be captured again are not stored); None when its
+    ``session.json`` cannot be read.
 
     Examples
     --------
@@ -158,12 +159,28 @@ def session_progress(folder: Path) -> tuple[str, tuple[int, int]] | None:
         name, planned = str(plan["name"]), len(plan["steps"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
+    aside = set()
+    try:
+        with open(folder / "retakes.jsonl", "rb") as retakes:
+            for line in retakes:
+                try:
+                    record = json.loads(line)
+                    aside.add((record["step"], record["sha256"], record.get("written")))
+                except (ValueError, KeyError, TypeError):
+                    continue
+    except OSError:
+        pass
     stored: set[int] = set()
     try:
         with open(folder / "events.jsonl", "rb") as log:
             for line in log:
                 try:
-                    stored.add(int(json.loads(line)["step"]))
+                    event = json.loads(line)
+                    key = (event["step"], event["sha256"], event.get("written"))
+                    if key in aside:  # set aside to be captured again
+                        stored.discard(int(event["step"]))
+                    else:
+                        stored.add(int(event["step"]))
                 except (ValueError, KeyError, TypeError):
                     continue  # a torn last line: that frame is captured again on resume
     except OSError:

@@ -148,9 +148,9 @@ def test_a_damaged_header_is_named_with_what_the_frames_and_log_still_hold(
             attempt()
         message = str(caught.value)
         assert message.startswith(f"session 's1' open: {cause}")
-        assert "events.jsonl holds 5 readable frame events" in message
-        assert "frames.zarr 5 chunk files" in message
-        assert f"the plan's SHA-256, {plan.sha256()[:12]}" in message
+        assert "5 readable frame events in events.jsonl" in message
+        assert "5 frame chunk files in frames.zarr" in message
+        assert f"hash its plan to {plan.sha256()[:12]}" in message
         assert "already exists" not in message and "restore session.json" in message
     assert check_logged_frames(session.path) == (5, [])
     chunk(session, 1).unlink()

@@ -348,11 +348,9 @@ class FrameStore:
             return FrameProblem(problem.kind, detail, slot)
         return FrameProblem("unreadable", f"its chunk file does not decode ({cause})", slot)
 
-    def _gone(self, chunk: Path) -> str:
-        return (
-            f"its chunk file is gone ({chunk.relative_to(self._root.parent).as_posix()}; "
-            "Zarr would read it as zeros)"
-        )
+    @staticmethod
+    def _gone(chunk: Path) -> str:
+        return "its chunk file is gone (Zarr would read it as zeros)"
 
     @staticmethod
     def _size_problem(size: int, record: Mapping[str, Any], slot: int) -> FrameProblem | None:

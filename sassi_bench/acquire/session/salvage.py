@@ -81,29 +81,35 @@ class SessionCondition:
         return "; ".join(p for p in (self.header, self.log, self.frames) if p is not None)
 
     def salvage(self) -> str:
-        """What the frames and the log still hold, and what is lost, in words."""
-        left = (
-            f"events.jsonl holds {self.events} readable frame events (each frame's step, "
-            f"pattern, light, exposure, tags and hashes) and {FRAMES_DIR} {self.chunks} "
-            "chunk files"
+        """What the frames and the log still hold, what can be rebuilt from them, and what
+        cannot, in words."""
+        held = (
+            f"what is left: {self.chunks} frame chunk files in {FRAMES_DIR} and "
+            f"{self.events} readable frame events in {EVENTS_FILE}, each with its step, "
+            "camera, pattern, light, exposure, tags and hashes: the frames can be checked "
+            "against them (`data verify`)"
         )
-        lost = []
+        parts = [held]
         if self.header is not None:
             recorded = (
-                f" ({FRAMES_DIR} recorded the plan's SHA-256, {self.plan_sha256[:12]}: a "
-                f"restored {SESSION_FILE} must match it)"
+                f"; a restored {SESSION_FILE} must hash its plan to {self.plan_sha256[:12]}, "
+                f"as {FRAMES_DIR} recorded"
                 if self.plan_sha256
                 else ""
             )
-            lost.append(f"lost: the rig description and the plan's settings{recorded}")
+            parts.append(
+                "the captured steps of the plan can be rebuilt from the log; the rig "
+                f"description and the plan's name, parameters and uncaptured steps cannot"
+                f"{recorded}"
+            )
         if self.damaged_lines:
             lines = ", ".join(str(n) for n in self.damaged_lines[:5])
             more = " ..." if len(self.damaged_lines) > 5 else ""
-            lost.append(
-                f"the frames of the damaged event lines ({lines}{more}) are in {FRAMES_DIR} "
-                "without their hashes"
+            parts.append(
+                f"the frames of the damaged event lines ({lines}{more}) are in {FRAMES_DIR}, "
+                "but their hashes and metadata cannot be rebuilt"
             )
-        return "; ".join([left, *lost])
+        return "; ".join(parts)
 
 
 def examine(folder: Path) -> SessionCondition:
