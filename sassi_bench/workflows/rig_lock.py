@@ -156,15 +156,15 @@ def _lock_plan(
     """The lock files of a rig with what each one guards, in the order they are taken."""
     desc = _description(rig)
     name = desc.name
-    plan = [(data_root(data) / LOCKS_DIR / f"{name}.lock", f"rig {name!r}")]
-    if desc.backend != "sim":
+    plan = []
+    if desc.backend != "sim":  # first: a refusal there leaves the data root untouched
         machine = machine_lock_dir()
         plan.append((machine / f"{name}.lock", f"rig {name!r}"))
         plan += [
             (machine / _lock_name(identity), f"the {what} of rig {name!r} ({identity})")
             for what, identity in device_identities(desc)
         ]
-    return plan
+    return [*plan, (data_root(data) / LOCKS_DIR / f"{name}.lock", f"rig {name!r}")]
 
 
 def rig_lock_files(
@@ -242,9 +242,11 @@ def _acquire(
     rig: Rig | RigDescription, data: str | os.PathLike[str] | None, step: str
 ) -> list[WriteLock]:
     taken: list[WriteLock] = []
-    for index, (file, what) in enumerate(_lock_plan(rig, data)):
+    machine = machine_lock_dir()
+    for file, what in _lock_plan(rig, data):
+        shared = file.parent == machine
         try:
-            _make_folder(file.parent, shared=index > 0)
+            _make_folder(file.parent, shared=shared)
             lock = WriteLock(file)
             lock.acquire()
         except LockHeldError as exc:
@@ -259,7 +261,7 @@ def _acquire(
                 ),
                 exc.holder,
             ) from None
-        if index > 0:
+        if shared:
             with contextlib.suppress(OSError):
                 file.chmod(0o666)
         taken.append(lock)

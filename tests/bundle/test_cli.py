@@ -144,3 +144,23 @@ def test_bundle_options_of_other_commands_use_the_same_rule(data_root: Path, syn
                     ["calibrate", "guide"], ["validate", "macbeth", "--out", "r"]):  # fmt: skip
         args = build_parser().parse_args([*command, "--bundle", "v0001", "--bundle-rig", "sim"])
         assert (args.bundle, args.bundle_rig) == ("v0001", "sim")
+
+
+def test_list_names_an_unreadable_manifest_and_a_latest_naming_a_missing_version(
+    capsys, data_root: Path, synthetic
+):
+    synthetic.publish_synthetic(data_root)
+    synthetic.publish_synthetic(data_root)
+    manifest = data_root / "sim" / "v0001" / "manifest.json"
+    manifest.write_bytes(manifest.read_bytes()[:40])
+    (data_root / "sim" / "LATEST").write_text("v0009\n")
+    code, out, _ = run(capsys, "bundle", "list", "--data", str(data_root))
+    assert code == 0
+    lines = out.splitlines()
+    assert "UNREADABLE" in lines[1] and lines[2].split()[1] == "v0002*"
+    assert "UNREADABLE sim/v0001: manifest.json is not JSON (" in out
+    assert "no command loads this bundle. Fix: restore the folder" in out
+    assert "bundle verify v0001 --rig sim` checks it" in out
+    latest = data_root / "sim" / "LATEST"
+    assert f"warning: {latest} names 'v0009', which is not there; `latest` means v0002" in out
+    assert "bundle import ZIP" in out
