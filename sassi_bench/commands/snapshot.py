@@ -221,7 +221,7 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
     """(session, output folder) pairs: one per frame of a snapshot video (each into its
     own ``OUT/<frame id>``, as cassi.py reads one capture per folder), or the one frame
     or raw session named (into ``OUT``)."""
-    from sassi_bench.acquire.session import Session, SessionError
+    from sassi_bench.acquire.session import Session, SessionDamagedError, SessionError
     from sassi_bench.workflows.snapshot_ids import resolve_snapshot, unknown_snapshot
 
     out, step = Path(args.out), "snapshot export"
@@ -229,6 +229,8 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
     if selection is None:
         try:
             return [(Session.open(args.session, data=args.data), out)]
+        except SessionDamagedError:
+            raise  # it is there, damaged: say so, not that there is none
         except SessionError:
             raise unknown_snapshot(args.session, data=args.data, step=step) from None
     if selection.by_frame:
@@ -237,7 +239,7 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
 
 
 def _snapshot_export(args: argparse.Namespace) -> int:
-    from sassi_bench.acquire.session import Session, SessionError
+    from sassi_bench.acquire.session import Session, SessionDamagedError, SessionError
     from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
 
     check_output_folder("snapshot export", args.out)
@@ -246,6 +248,8 @@ def _snapshot_export(args: argparse.Namespace) -> int:
     if args.guide_session is not None:
         try:
             guide_override = Session.open(args.guide_session, data=args.data)
+        except SessionDamagedError:
+            raise
         except SessionError:
             raise ProcedureError(
                 step_error(
