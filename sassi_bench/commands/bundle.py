@@ -31,7 +31,14 @@ if TYPE_CHECKING:
 
     from sassi_bench.bundle import CalibrationBundle
 
-__all__ = ["describe", "offset_text", "parse_quantum", "parse_wavelengths", "register"]
+__all__ = [
+    "describe",
+    "latest_problem",
+    "offset_text",
+    "parse_quantum",
+    "parse_wavelengths",
+    "register",
+]
 
 DEFAULT_RIG = "sim"
 
@@ -167,9 +174,16 @@ def _why(exc: Exception) -> str:
     return f"is not JSON ({exc})"
 
 
-def _latest_problem(folder: Path) -> str | None:
-    """What is wrong with a rig folder's ``LATEST`` (None: it names a version there, or
-    there is none)."""
+def latest_problem(folder: Path) -> str | None:
+    """What is wrong with a rig folder's ``LATEST``, with the fix (None: it names a
+    version there, or there is none): ``bundle list`` and every command that takes the
+    ``latest`` bundle print it as a warning.
+
+    Examples
+    --------
+    >>> latest_problem(Path("/nonexistent")) is None
+    True
+    """
     from sassi_bench.bundle.layout import LATEST_NAME, latest_version, versions
 
     file = folder / LATEST_NAME
@@ -208,7 +222,7 @@ def cmd_list(args: argparse.Namespace) -> int:
             rows.append(row)
             if problem is not None:
                 problems.append((rig, version, problem))
-        if (warning := _latest_problem(folder)) is not None:
+        if (warning := latest_problem(folder)) is not None:
             warnings.append(warning)
     if not rows:
         where = rig_dir(args.rig, args.data) if args.rig else data_root(args.data)

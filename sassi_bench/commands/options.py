@@ -162,6 +162,12 @@ def bundle_from_args(
         step=step,
     )
     print(f"bundle: {choice}", flush=True)
+    if args.bundle in (None, "latest", "LATEST"):
+        from sassi_bench.commands.bundle import latest_problem
+
+        warning = latest_problem(choice.path.parent)  # the rig folder
+        if warning is not None:
+            print(f"warning: {warning}", flush=True)
     return load(choice.path)
 
 

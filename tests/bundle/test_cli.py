@@ -164,3 +164,19 @@ def test_list_names_an_unreadable_manifest_and_a_latest_naming_a_missing_version
     latest = data_root / "sim" / "LATEST"
     assert f"warning: {latest} names 'v0009', which is not there; `latest` means v0002" in out
     assert "bundle import ZIP" in out
+
+
+def test_a_command_taking_the_latest_bundle_warns_of_a_broken_latest(
+    capsys, data_root: Path, synthetic
+):
+    import argparse
+
+    from sassi_bench.commands.options import bundle_from_args
+
+    synthetic.publish_synthetic(data_root)
+    (data_root / "sim" / "LATEST").write_text("v0007\n")
+    args = argparse.Namespace(bundle=None, bundle_rig=None, data=str(data_root))
+    assert bundle_from_args(args, "sim", step="scan").version == "v0001"
+    out = capsys.readouterr().out
+    assert "names 'v0007', which is not there; `latest` means v0001" in out
+    assert out.splitlines()[1].startswith("warning: ")
