@@ -214,6 +214,7 @@ def bad_value(words, action, world):
         "older_than": "-3",
         "sessions": "no-such-scan-*",
         "scheduler": "not-an-address",
+        "dashboard": "8787",
         "workers": "0",
         "frames": "0",
         "frame": "99",
