@@ -160,3 +160,15 @@ def test_a_damaged_header_is_named_with_what_the_frames_and_log_still_hold(
         "step 1: the spectral frame (slot 1, frames.zarr/spectral/c/1/0/0)"
     )
     assert "is missing" in problems[0]
+
+
+@pytest.mark.parametrize("field", ["xxh3_64", "sha256"])
+def test_a_damaged_hash_in_the_log_is_told_from_a_damaged_frame(session, field):
+    log = session.path / "events.jsonl"
+    events = [json.loads(line) for line in log.read_text().splitlines()]
+    events[2][field] = "0" * len(events[2][field])
+    log.write_text("".join(json.dumps(e, sort_keys=True) + "\n" for e in events))
+    reopened = Session.open("s1", data=session.path.parents[1])
+    reopened.read_frame(2)  # the pixels are the frame stored: reads go on
+    (found,) = reopened.find_damage()
+    assert found.kind == "mislogged" and "the event line is damaged, not the frame" in found.detail

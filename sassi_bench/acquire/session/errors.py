@@ -43,7 +43,9 @@ class FrameDamage:
         The frame's chunk file, relative to the session folder.
     kind
         ``"missing"`` (the chunk file is gone), ``"truncated"`` (shorter than stored),
-        ``"unreadable"`` (it does not decode) or ``"changed"`` (it decodes to other pixels).
+        ``"unreadable"`` (it does not decode), ``"changed"`` (it decodes to other pixels)
+        or ``"mislogged"`` (the frame is intact, one of the hashes its event records is
+        damaged: found by a full check only, reads use the frame).
     detail
         What was found, in words.
 

@@ -22,7 +22,8 @@ Examples
 >>> store = FrameStore(folder, {"spectral": [0, 1]})
 >>> pixels = np.full((2, 3), 7, np.uint16)
 >>> stored = store.write("spectral", 1, pixels, replace_ok=True, where="demo")
->>> record = {"shape": [2, 3], "xxh3_64": frame_checksum(pixels), "stored_bytes": stored}
+>>> record = {"shape": [2, 3], "sha256": frame_sha256(pixels),
+...           "xxh3_64": frame_checksum(pixels), "stored_bytes": stored}
 >>> store.read("spectral", 1, record).tolist(), store.array("guide") is None
 ([[7, 7, 7], [7, 7, 7]], True)
 >>> store.chunk_file("spectral", 1).unlink()
@@ -284,14 +285,25 @@ class FrameStore:
             data = self.read(camera, slot, record)
         except FrameProblem as found:
             return found
-        if frame_sha256(data) != record["sha256"]:
+        sha_ok = frame_sha256(data) == record["sha256"]
+        sum_ok = CHECKSUM_KEY not in record or frame_checksum(data) == record[CHECKSUM_KEY]
+        if sha_ok and sum_ok:
+            return None
+        if sha_ok or sum_ok:  # one recorded hash holds: the other is what was damaged
+            wrong = "checksum" if sha_ok else "SHA-256"
+            right = "SHA-256" if sha_ok else "checksum"
             return FrameProblem(
-                "changed",
-                f"its pixels' SHA-256 is {frame_sha256(data)[:12]}, "
-                f"{record['sha256'][:12]} was recorded at capture",
+                "mislogged",
+                f"its event in events.jsonl records another {wrong}, but its pixels match "
+                f"the {right} recorded: the event line is damaged, not the frame",
                 slot,
             )
-        return None
+        return FrameProblem(
+            "changed",
+            f"its pixels' SHA-256 is {frame_sha256(data)[:12]}, "
+            f"{record['sha256'][:12]} was recorded at capture",
+            slot,
+        )
 
     def quick_inspect(
         self, camera: str, slot: int, record: Mapping[str, Any]
@@ -318,6 +330,8 @@ class FrameStore:
         if CHECKSUM_KEY in record:
             if frame_checksum(data) == record[CHECKSUM_KEY]:
                 return
+            if frame_sha256(data) == record.get("sha256"):
+                return  # the pixels are the frame stored; the logged checksum is damaged
             found = f"its pixels' checksum is {frame_checksum(data)}, {record[CHECKSUM_KEY]}"
         else:  # logged before the checksum existed: its SHA-256, the slower check
             if frame_sha256(data) == record["sha256"]:
