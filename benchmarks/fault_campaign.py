@@ -192,17 +192,20 @@ def _names(text: str, path: Path, data: Path) -> bool:
 def damage_round(template: Path, into: Path, rng: random.Random, baseline: dict) -> list[str]:
     """One round: a random stored file damaged, every command reading it run and judged.
     Prints one line per command; returns the problems."""
-    places = kit.fresh_lab(template, into)
-    data = places["data"]
-    target = rng.choice(damage_targets(data))
-    group = _group(target, data)
-    what = damage(target, rng.choice(DAMAGES), rng)
-    print(f"  {target.relative_to(data)}: {what}")
+    damaged = into / "damaged"  # the lab with the damage, copied for each command
+    shutil.copytree(template, damaged)
+    stored = damaged / "data"
+    chosen = rng.choice(damage_targets(stored))
+    group = _group(chosen, stored)
+    what = damage(chosen, rng.choice(DAMAGES), rng)
+    print(f"  {chosen.relative_to(stored)}: {what}")
     problems = []
     for name, argv, output in DAMAGE_READERS[group]:
-        out = into / "out" / name.split()[0]
-        out.mkdir(parents=True, exist_ok=True)
-        run = kit.run_command(kit.fill(argv, {**places, "out": out}), data, timeout=1800)
+        # each command meets the damage as the disk left it (a capture repairs it)
+        places = kit.fresh_lab(damaged, into / "".join(c if c.isalnum() else "-" for c in name))
+        data, out = places["data"], places["out"]
+        target = data / chosen.relative_to(stored)
+        run = kit.run_command(kit.fill(argv, places), data, timeout=1800)
         text = run.stdout + run.stderr
         if "Traceback" in run.stderr:
             verdict = "PROBLEM: a traceback"
@@ -225,7 +228,7 @@ def damage_round(template: Path, into: Path, rng: random.Random, baseline: dict)
             verdict = "recovered" if "captured again" in run.stderr else "unaffected"
         print(f"    {name:22s} exit {run.returncode}: {verdict}")
         if verdict.startswith("PROBLEM"):
-            problems.append(f"{target.relative_to(data)} ({what}): {name}: {verdict[9:]}")
+            problems.append(f"{chosen.relative_to(stored)} ({what}): {name}: {verdict[9:]}")
     return problems
 
 
