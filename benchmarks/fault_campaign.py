@@ -13,10 +13,20 @@ kill point and a table per command; exit status 1 if anything was found.
 The unit suite (``tests/faults/test_kill_points.py``) runs fixed kill points on the
 quicker commands; this is the long version, over every command, run on demand.
 
+``--damage`` is the failing disk instead: each round, in a fresh copy of the lab, one
+stored file of the finished results (a session's frame chunk, header, event log or frame
+store metadata; a published bundle's file) chosen at random is deleted, truncated at a
+random length or has one random byte flipped. Then every command that reads that file
+runs (``DAMAGE_READERS``), and each must either name the file (a non-zero exit whose
+message holds its name, nothing written under its output's name, no traceback) or
+recover (exit 0 with the result it gives on the undamaged lab: the same arrays; a capture
+that takes a damaged frame again says so). A command that ends 0 with another result than
+the undamaged lab's computed it from damaged data: that is the failure this looks for.
+
 Run: ``python benchmarks/fault_campaign.py [--rounds 5] [--seed 0] [--bundle DIR]
-[--case NAME ...]`` (``--bundle``: a published sim bundle with a guide homography, e.g.
-from ``sassi-bench calibrate``; without it one is calibrated first, with the bench's
-true homography).
+[--case NAME ...] [--damage]`` (``--bundle``: a published sim bundle with a guide
+homography, e.g. from ``sassi-bench calibrate``; without it one is calibrated first, with
+the bench's true homography).
 """
 
 from __future__ import annotations
@@ -84,6 +94,174 @@ def _one(case: kit.Case, template: Path, into: Path, signame: str, trigger: str)
     return outcome
 
 
+# -- disk damage ---------------------------------------------------------------------------
+
+#: The commands that read each group of stored files (``{out}`` a fresh folder per run),
+#: with the output to compare with the undamaged lab's (None: the command writes none).
+#: ``world-scan`` is a ColorChecker scan, ``world-snap`` a one-frame snapshot, ``bundle``
+#: the published bundle (``fault_kit.build_world``).
+DAMAGE_READERS = {
+    "world-scan": (
+        ("scan (resumed)", ("scan", "--rig", "sim", "--session", "world-scan", "--out",
+                            "{out}/cube.nc", "--quiet"), "cube.nc"),
+        ("batch assemble", ("batch", "assemble", "--sessions", "world-scan", "--out",
+                            "{out}/cubes", "--workers", "1", "--quiet"), "cubes/world-scan.nc"),
+        ("data verify", ("data", "verify", "world-scan", "--quiet"), None),
+    ),
+    "world-snap": (
+        ("snapshot reconstruct", ("snapshot", "reconstruct", "--session", "world-snap",
+                                  "--out", "{out}/rec", "--no-envi", "--quiet"), "rec"),
+        ("data verify", ("data", "verify", "--quiet"), None),
+    ),
+    "bundle": (
+        ("bundle verify", ("bundle", "verify", "v0001"), None),
+        ("bundle show", ("bundle", "show", "v0001"), None),
+        ("batch assemble", ("batch", "assemble", "--sessions", "world-scan", "--out",
+                            "{out}/cubes", "--workers", "1", "--quiet"), "cubes/world-scan.nc"),
+    ),
+}  # fmt: skip
+DAMAGES = ("delete", "truncate", "flip")
+#: Files that hold no result (locks, a check's own record).
+_NOT_RESULTS = ("write.lock", "verify.json")
+
+
+def _group(path: Path, data: Path) -> str | None:
+    """Which readers' group a stored file belongs to (None: no reader is listed)."""
+    parts = path.relative_to(data).parts
+    if parts[0] == "sessions" and parts[1] == "world-scan":
+        return "world-scan"
+    if parts[0] == "sessions" and parts[1].startswith("world-snap"):
+        return "world-snap"
+    if parts[:2] == ("sim", "v0001"):
+        return "bundle"
+    return None
+
+
+def damage_targets(data: Path) -> list[Path]:
+    """The stored files of the finished results that a listed command reads."""
+    return sorted(
+        p for p in data.rglob("*")
+        if p.is_file() and p.name not in _NOT_RESULTS and _group(p, data) is not None
+    )  # fmt: skip
+
+
+def damage(path: Path, how: str, rng: random.Random) -> str:
+    """Damage one file as a failing disk would; what was done, in words."""
+    raw = path.read_bytes()
+    if how == "delete" or not raw:
+        path.unlink()
+        return "deleted"
+    if how == "truncate":
+        keep = rng.randrange(len(raw))
+        path.write_bytes(raw[:keep])
+        return f"truncated to {keep} of {len(raw)} bytes"
+    at = rng.randrange(len(raw))
+    flipped = bytearray(raw)
+    flipped[at] ^= 1 << rng.randrange(8)
+    path.write_bytes(bytes(flipped))
+    return f"byte {at} of {len(raw)} flipped"
+
+
+def _arrays(path: Path) -> dict[str, object]:
+    """The arrays of an output (NetCDF variables, every .nc of a folder), for comparing."""
+    import xarray as xr
+
+    files = sorted(path.rglob("*.nc")) if path.is_dir() else [path]
+    found = {}
+    for file in files:
+        with xr.open_dataset(file) as ds:
+            for name, variable in ds.data_vars.items():
+                found[f"{file.name}:{name}"] = variable.values
+    return found
+
+
+def _same(a: dict, b: dict) -> bool:
+    import numpy as np
+
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k], equal_nan=True) for k in a)
+
+
+def _names(text: str, path: Path, data: Path) -> bool:
+    """Whether a command's words name the damaged file (its path in the session or
+    bundle, or its file name for one that is not a frame chunk)."""
+    rel = path.relative_to(data)
+    inner = Path(*rel.parts[2:]).as_posix()  # frames.zarr/spectral/c/3/0/0, session.json
+    return inner in text or ("/c/" not in inner and path.name in text)
+
+
+def damage_round(template: Path, into: Path, rng: random.Random, baseline: dict) -> list[str]:
+    """One round: a random stored file damaged, every command reading it run and judged.
+    Prints one line per command; returns the problems."""
+    damaged = into / "damaged"  # the lab with the damage, copied for each command
+    shutil.copytree(template, damaged)
+    stored = damaged / "data"
+    chosen = rng.choice(damage_targets(stored))
+    group = _group(chosen, stored)
+    what = damage(chosen, rng.choice(DAMAGES), rng)
+    print(f"  {chosen.relative_to(stored)}: {what}")
+    problems = []
+    for name, argv, output in DAMAGE_READERS[group]:
+        # each command meets the damage as the disk left it (a capture repairs it)
+        places = kit.fresh_lab(damaged, into / "".join(c if c.isalnum() else "-" for c in name))
+        data, out = places["data"], places["out"]
+        target = data / chosen.relative_to(stored)
+        run = kit.run_command(kit.fill(argv, places), data, timeout=1800)
+        text = run.stdout + run.stderr
+        if "Traceback" in run.stderr:
+            verdict = "PROBLEM: a traceback"
+        elif run.returncode not in (0, 1, 2):
+            verdict = f"PROBLEM: exit {run.returncode}"
+        elif run.returncode != 0:
+            written = output is not None and (out / output).exists()
+            named = _names(text, target, data)
+            verdict = (
+                "named it"
+                if named and not written
+                else "PROBLEM: " + ("wrote its output" if written else "did not name it")
+            )
+        elif output is None:
+            seen = name == "data verify" and "/c/" in target.as_posix()
+            verdict = "PROBLEM: a damaged frame passed" if seen else "unaffected"
+        elif not _same(_arrays(out / output), baseline[(group, name)]):
+            verdict = "PROBLEM: a result computed from damaged data"
+        else:
+            verdict = "recovered" if "captured again" in run.stderr else "unaffected"
+        print(f"    {name:22s} exit {run.returncode}: {verdict}")
+        if verdict.startswith("PROBLEM"):
+            problems.append(f"{chosen.relative_to(stored)} ({what}): {name}: {verdict[9:]}")
+    return problems
+
+
+def run_damage(template: Path, work: Path, rounds: int, rng: random.Random, keep: bool) -> int:
+    """The disk-damage campaign; exit status 1 if anything was found."""
+    baseline = {}
+    for group, readers in DAMAGE_READERS.items():
+        for name, argv, output in readers:
+            if output is None:
+                continue
+            into = work / f"baseline-{group}-{name.split()[0]}"
+            places = kit.fresh_lab(template, into)
+            out = places["out"]
+            run = kit.run_command(kit.fill(argv, places), places["data"], timeout=1800)
+            if run.returncode != 0:
+                print(f"baseline {name} failed: {run.stderr.strip().splitlines()[-1:]}")
+                return 1
+            baseline[(group, name)] = _arrays(out / output)
+            shutil.rmtree(into, ignore_errors=True)
+    problems = []
+    for k in range(rounds):
+        print(f"round {k + 1}:")
+        into = work / f"damage-{k}"
+        found = damage_round(template, into, rng, baseline)
+        problems += found
+        if not found and not keep:
+            shutil.rmtree(into, ignore_errors=True)
+    print(f"\n{rounds} damaged files, {len(problems)} problems")
+    for problem in problems:
+        print(f"  {problem}")
+    return 1 if problems else 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rounds", type=int, default=5, help="kill points per command")
@@ -91,6 +269,9 @@ def main() -> int:
     parser.add_argument("--bundle", help="a sim bundle folder with a guide homography")
     parser.add_argument("--case", action="append", choices=sorted(kit.CASES))
     parser.add_argument("--keep", action="store_true", help="keep the work folder")
+    parser.add_argument(
+        "--damage", action="store_true", help="damage stored files instead of killing commands"
+    )
     args = parser.parse_args()
     rng = random.Random(args.seed)
     work = Path(tempfile.mkdtemp(prefix="sassi-faults-"))
@@ -98,6 +279,11 @@ def main() -> int:
     bundle = Path(args.bundle) if args.bundle else _guided_bundle(work)
     template = work / "template"
     kit.build_world(template, bundle)
+    if args.damage:
+        status = run_damage(template, work, args.rounds, rng, args.keep)
+        if not args.keep and status == 0:
+            shutil.rmtree(work, ignore_errors=True)
+        return status
     found: dict[str, list[kit.Outcome]] = defaultdict(list)
     for name in args.case or sorted(kit.CASES):
         case = kit.CASES[name]

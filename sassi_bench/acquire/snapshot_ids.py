@@ -18,7 +18,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from sassi_bench.acquire.session import Session, SessionError
+from sassi_bench.acquire.session import Session, SessionDamagedError, SessionError
 from sassi_bench.acquire.snapshots import SnapshotVideo
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.paths import data_root
@@ -66,6 +66,8 @@ def open_snapshots(
     root = data_root(data) / "sessions"
     try:
         preview = Session.open(f"{prefix}-preview", data=data)
+    except SessionDamagedError:
+        raise  # it is there but damaged: the error says what is unreadable
     except SessionError as exc:
         raise ProcedureError(
             step_error(

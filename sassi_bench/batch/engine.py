@@ -23,9 +23,25 @@ from tqdm.auto import tqdm
 from sassi_bench.batch.tasks import SessionResult, TaskSpec, run_task
 from sassi_bench.errors import ProcedureError, step_error
 
-__all__ = ["batch_client", "check_scheduler", "default_workers", "run_tasks"]
+__all__ = [
+    "DASHBOARD_ADDRESS",
+    "LOCAL_HOST",
+    "batch_client",
+    "check_dashboard",
+    "check_scheduler",
+    "default_workers",
+    "run_tasks",
+]
 
 _ADDRESS = re.compile(r"^(tcp|tls|ws|wss)://[^\s:/]+:\d{1,5}$")
+_HOST_PORT = re.compile(r"^(?P<host>[^\s:/]*|\[[0-9A-Fa-f:]+\]):(?P<port>\d{1,5})$")
+
+#: Where the local cluster's scheduler, workers and nannies listen: this machine only.
+LOCAL_HOST = "127.0.0.1"
+#: Where the local cluster's dashboard listens unless asked otherwise: this machine only,
+#: any free port (several people share a machine). The dashboard shows task names, paths,
+#: logs and profiles: opening it to the lab's network is a choice (``--dashboard``).
+DASHBOARD_ADDRESS = f"{LOCAL_HOST}:0"
 
 #: Seconds to wait for a lab's scheduler to answer.
 CONNECT_TIMEOUT_S = 20
@@ -69,6 +85,44 @@ def check_scheduler(address: str) -> str:
     return address
 
 
+def check_dashboard(address: str) -> str | None:
+    """The dashboard address ``--dashboard`` gives: ``host:port`` (port 0: any free one),
+    or None for ``none`` (no dashboard).
+
+    Parameters
+    ----------
+    address
+        ``127.0.0.1:0`` (the default: this machine only), ``0.0.0.0:8787`` (every
+        interface: anyone on the network can read it), ``none``.
+
+    Raises
+    ------
+    ProcedureError
+        If ``address`` is neither.
+
+    Examples
+    --------
+    >>> check_dashboard("127.0.0.1:0"), check_dashboard("none")
+    ('127.0.0.1:0', None)
+    >>> check_dashboard("8787")  # doctest: +IGNORE_EXCEPTION_DETAIL
+    Traceback (most recent call last):
+    ProcedureError: batch dashboard: '8787' is not host:port...
+    """
+    if address.strip().lower() == "none":
+        return None
+    match = _HOST_PORT.match(address.strip())
+    if match is None or int(match["port"]) > 65535:
+        raise ProcedureError(
+            step_error(
+                "batch dashboard",
+                f"{address!r} is not host:port",
+                f"give e.g. {DASHBOARD_ADDRESS} (this machine only, any free port), "
+                "0.0.0.0:8787 to open it to the network on purpose, or none",
+            )
+        )
+    return address.strip()
+
+
 def default_workers() -> int:
     """Workers of the local cluster: one single-threaded process per CPU available here.
 
@@ -89,13 +143,19 @@ def default_workers() -> int:
 
 
 @contextmanager
-def batch_client(scheduler: str | None = None, workers: int | None = None) -> Iterator:
+def batch_client(
+    scheduler: str | None = None,
+    workers: int | None = None,
+    dashboard: str | None = DASHBOARD_ADDRESS,
+) -> Iterator:
     """A ``distributed.Client``: of the scheduler at ``scheduler``, else of a new
     ``LocalCluster`` of ``workers`` single-threaded worker processes (default: one per
     CPU), closed on exit.
 
     Worker processes (not threads): assembly holds the GIL in parts (Python between
-    compiled passes, NetCDF writes), and a process can be killed alone.
+    compiled passes, NetCDF writes), and a process can be killed alone. Everything the
+    local cluster serves listens on the loopback address only (scheduler, workers,
+    nannies and, unless ``dashboard`` says otherwise, the dashboard).
 
     Parameters
     ----------
@@ -103,6 +163,9 @@ def batch_client(scheduler: str | None = None, workers: int | None = None) -> It
         Address of a running scheduler (``tcp://host:port``), or None for a local cluster.
     workers
         Worker processes of the local cluster (ignored with ``scheduler``).
+    dashboard
+        ``host:port`` of the local cluster's dashboard (default: this machine only, any
+        free port; see :func:`check_dashboard`), or None for none.
 
     Yields
     ------
@@ -142,7 +205,8 @@ def batch_client(scheduler: str | None = None, workers: int | None = None) -> It
         n_workers=workers or default_workers(),
         threads_per_worker=1,
         processes=True,
-        dashboard_address=":0",  # any free port: several people share a machine
+        host=LOCAL_HOST,
+        dashboard_address=dashboard,
         silence_logs=logging.ERROR,
     )
     with cluster, Client(cluster) as client:

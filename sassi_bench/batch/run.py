@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sassi_bench.batch.engine import batch_client, run_tasks
+from sassi_bench.batch.engine import DASHBOARD_ADDRESS, batch_client, run_tasks
 from sassi_bench.batch.summary import summary_csv, summary_html
 from sassi_bench.batch.tasks import Kind, SessionResult, TaskSpec
 from sassi_bench.bundle import CalibrationBundle
@@ -83,6 +83,7 @@ def run_batch(
     corners: Sequence[Sequence[float]] | None = None,
     progress: bool = True,
     client=None,
+    dashboard: str | None = DASHBOARD_ADDRESS,
 ) -> BatchResult:
     """Assemble (or validate) ``sessions`` with ``bundle``, one dask task per session.
 
@@ -114,6 +115,9 @@ def run_batch(
         Progress bar and the dashboard's address on the terminal.
     client
         An open ``distributed.Client`` to use instead (notebooks, tests).
+    dashboard
+        ``host:port`` of a local cluster's dashboard (default: this machine only), or
+        None for none.
 
     Returns
     -------
@@ -141,7 +145,7 @@ def run_batch(
     ]
     start = time.perf_counter()
     if client is None:
-        with batch_client(scheduler, workers) as own:
+        with batch_client(scheduler, workers, dashboard) as own:
             return _run(kind, specs, own, folder, bundle, progress, start)
     return _run(kind, specs, client, folder, bundle, progress, start)
 

@@ -42,7 +42,8 @@ from sassi_bench.commands.interrupts import (
     signal_name,
     stop_signals,
 )
-from sassi_bench.commands.options import PROG, resume_command
+from sassi_bench.commands.options import PROG, holding_rig, resume_command
+from sassi_bench.commands.typos import check_options
 from sassi_bench.errors import SassiBenchError
 from sassi_bench.paths import data_root
 
@@ -97,11 +98,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
+    check_options(parser, argv)  # a mistyped option is named before any positional is judged
     args = parser.parse_args(argv)
     args.argv, args.on_session = argv, record_start
     try:
-        with stop_signals():
-            status = int(args.func(args) or 0)
+        with stop_signals(), holding_rig(args):
+            status = _run_retaking(args)
     except SassiBenchError as exc:
         _say(f"error: {exc}")
         _ended_on_error(args)
@@ -126,6 +128,55 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + int(signum)
     record_end(args)
     return status
+
+
+#: Damaged frames a capture command sets aside and captures again in one run, at most.
+MAX_RETAKES = 50
+
+
+def _run_retaking(args) -> int:
+    """Run the command. A command that captures and meets a missing or damaged frame of
+    one of its own sessions (``FrameDamagedError``, raised before anything is computed
+    from it) sets that frame aside (kept in the session's ``damaged/``) with any other
+    frame of the session whose chunk file is gone or cut short, and runs again: resumed,
+    the capture takes them again. Any other command stops on it (the error names the
+    frame and the fix)."""
+    retaken: set[tuple[str, int]] = set()
+    while True:
+        try:
+            return int(args.func(args) or 0)
+        except SassiBenchError as exc:
+            damage = getattr(exc, "damage", None)
+            if damage is None or not getattr(args, "resume_options", ()):
+                raise
+            if damage.session.name not in _own_sessions(args):
+                raise
+            if (str(damage.session), damage.step) in retaken or len(retaken) >= MAX_RETAKES:
+                raise
+            for kept in _set_aside(damage):
+                retaken.add((str(damage.session), kept["step"]))
+                where = f" (the damaged file kept as {kept['kept']})" if kept["kept"] else ""
+                _say(
+                    f"session {damage.session.name!r} step {kept['step']}: {kept['reason']}; "
+                    f"set aside{where} and captured again"
+                )
+
+
+def _own_sessions(args) -> set[str]:
+    """Names of the session folders this run captures into, as they are on disk now."""
+    from sassi_bench.commands.interrupts import run_session_folders
+
+    return {folder.name for folder in run_session_folders(args)}
+
+
+def _set_aside(damage) -> list[dict]:
+    """Set a damaged frame aside, with its session's other frames whose chunk files are
+    gone or cut short; the records of what was set aside."""
+    from sassi_bench.storage.integrity import open_quietly
+
+    session = open_quietly(damage.session)
+    others = [d for d in session.find_damage(thorough=False) if d.step != damage.step]
+    return session.set_aside([damage, *others])
 
 
 def _ended_on_error(args) -> None:

@@ -11,12 +11,16 @@ from sassi_bench.commands.options import (
 )
 from sassi_bench.errors import ProcedureError, step_error
 
+#: The local dashboard's default address (as :data:`sassi_bench.batch.engine.DASHBOARD_ADDRESS`,
+#: repeated so that building the parser imports no more than argparse).
+DASHBOARD_ADDRESS = "127.0.0.1:0"
+
 __all__ = ["register"]
 
 
 def _batch(args: argparse.Namespace) -> int:
     from sassi_bench.acquire.scan_plans import check_roi
-    from sassi_bench.batch.engine import check_scheduler
+    from sassi_bench.batch.engine import check_dashboard, check_scheduler
     from sassi_bench.batch.run import check_out, run_batch
     from sassi_bench.batch.select import scan_scenes, select_sessions
     from sassi_bench.rig.config import load_rig_description
@@ -25,6 +29,7 @@ def _batch(args: argparse.Namespace) -> int:
     rig_name = load_rig_description(args.rig).name
     if args.scheduler is not None:
         check_scheduler(args.scheduler)
+    dashboard = check_dashboard(args.dashboard)
     if args.workers is not None and args.workers < 1:
         raise ProcedureError(
             step_error("batch workers", f"--workers {args.workers}", "give 1 or more")
@@ -57,7 +62,7 @@ def _batch(args: argparse.Namespace) -> int:
     batch = run_batch(
         args.kind, sessions, bundle, out, data=args.data, scheduler=args.scheduler,
         workers=args.workers, roi=roi, procedure=procedure, corners=corners,
-        progress=not args.quiet,
+        progress=not args.quiet, dashboard=dashboard,
     )  # fmt: skip
     counts = {s: sum(r.status == s for r in batch.results) for s in ("done", "skipped", "failed")}
     print(
@@ -97,6 +102,12 @@ def register(sub: argparse._SubParsersAction) -> None:
             "(default: a local cluster on this machine)",
         )  # fmt: skip
         p.add_argument("--workers", type=int, help="local cluster workers (default: one per CPU)")
+        p.add_argument(
+            "--dashboard", metavar="HOST:PORT", default=DASHBOARD_ADDRESS,
+            help=f"the local cluster's dashboard (default {DASHBOARD_ADDRESS}: this machine "
+            "only, any free port); 0.0.0.0:8787 opens it to the network on purpose (it shows "
+            "task names, paths and logs); none: no dashboard",
+        )  # fmt: skip
         p.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
         if kind == "validate":
             p.add_argument("--procedure", help="procedure YAML (default: macbeth_validation)")

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sassi_bench.commands.options import DATA_HELP, load_bundle_ref
+from sassi_bench.commands.options import DATA_HELP, load_bundle_ref, program
 from sassi_bench.errors import ProcedureError, step_error
 
 if TYPE_CHECKING:
@@ -31,7 +31,14 @@ if TYPE_CHECKING:
 
     from sassi_bench.bundle import CalibrationBundle
 
-__all__ = ["describe", "offset_text", "parse_quantum", "parse_wavelengths", "register"]
+__all__ = [
+    "describe",
+    "latest_problem",
+    "offset_text",
+    "parse_quantum",
+    "parse_wavelengths",
+    "register",
+]
 
 DEFAULT_RIG = "sim"
 
@@ -134,8 +141,11 @@ def register(subparsers: Any) -> None:
 # -- list ---------------------------------------------------------------------------------------
 
 
-def _summary_row(folder: Path, rig: str, version: str, latest: str | None) -> list[str]:
-    """One row of ``bundle list``, read from the manifest without full verification."""
+def _summary_row(
+    folder: Path, rig: str, version: str, latest: str | None
+) -> tuple[list[str], str | None]:
+    """One row of ``bundle list``, read from the manifest without full verification, and
+    why the manifest does not read (None: it does)."""
     from sassi_bench.bundle.integrity import MANIFEST_NAME
 
     marker = "*" if version == latest else ""
@@ -149,29 +159,85 @@ def _summary_row(folder: Path, rig: str, version: str, latest: str | None) -> li
         else:
             status = "?"
         parent = str(manifest.get("parent") or "-")
-    except (OSError, ValueError, AttributeError):
-        created, status, parent = "?", "unreadable", "?"
-    return [rig, version + marker, created, status, parent]
+        problem = None
+    except (OSError, ValueError, AttributeError) as exc:
+        created, status, parent = "?", "UNREADABLE", "?"
+        problem = f"{MANIFEST_NAME} {_why(exc)}"
+    return [rig, version + marker, created, status, parent], problem
+
+
+def _why(exc: Exception) -> str:
+    if isinstance(exc, FileNotFoundError):
+        return "is missing"
+    if isinstance(exc, OSError):
+        return f"cannot be read ({exc.strerror or exc})"
+    return f"is not JSON ({exc})"
+
+
+def latest_problem(folder: Path) -> str | None:
+    """What is wrong with a rig folder's ``LATEST``, with the fix (None: it names a
+    version there, or there is none): ``bundle list`` and every command that takes the
+    ``latest`` bundle print it as a warning.
+
+    Examples
+    --------
+    >>> latest_problem(Path("/nonexistent")) is None
+    True
+    """
+    from sassi_bench.bundle.layout import LATEST_NAME, latest_version, versions
+
+    file = folder / LATEST_NAME
+    try:
+        named = file.read_text("utf-8").strip()
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as exc:
+        named, why = None, f"cannot be read ({exc})"
+    else:
+        why = None if (folder / named).is_dir() else f"names {named!r}, which is not there"
+    if why is None or not versions(folder):
+        return None
+    taken = latest_version(folder)
+    return (
+        f"{file} {why}; `latest` means {taken} (the highest version here) until it is fixed. "
+        f"Fix: restore {named or 'that version'} from a backup or its exported zip "
+        f"(`{program()} bundle import ZIP`), or write the version to use into {file}"
+    )
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    """``bundle list``: a table of versions (``*`` marks LATEST)."""
+    """``bundle list``: a table of versions (``*`` marks LATEST), each unreadable manifest
+    named with its fix, and a ``LATEST`` that names a missing version warned about."""
     from sassi_bench._shared.tables import text_table
     from sassi_bench.bundle.layout import latest_version, rig_dir, rig_names, versions
     from sassi_bench.paths import data_root
 
     rigs = [args.rig] if args.rig else rig_names(args.data)
-    rows = []
+    rows, problems, warnings = [], [], []
     for rig in rigs:
         folder = rig_dir(rig, args.data)
         latest = latest_version(folder)
-        rows.extend(_summary_row(folder, rig, version, latest) for version in versions(folder))
+        for version in versions(folder):
+            row, problem = _summary_row(folder, rig, version, latest)
+            rows.append(row)
+            if problem is not None:
+                problems.append((rig, version, problem))
+        if (warning := latest_problem(folder)) is not None:
+            warnings.append(warning)
     if not rows:
         where = rig_dir(args.rig, args.data) if args.rig else data_root(args.data)
         print(f"no calibration bundles under {where}")
         return 0
     print(text_table(["RIG", "VERSION", "CREATED", "STATUS", "PARENT"], rows))
     print("(* = LATEST)")
+    for rig, version, problem in problems:
+        print(
+            f"UNREADABLE {rig}/{version}: {problem}; no command loads this bundle. Fix: "
+            f"restore the folder from a backup or its exported zip (`{program()} bundle "
+            f"import ZIP`); `{program()} bundle verify {version} --rig {rig}` checks it"
+        )
+    for warning in warnings:
+        print(f"warning: {warning}")
     return 0
 
 
@@ -475,5 +541,5 @@ def _export_sassi_mat(bundle: CalibrationBundle, args: argparse.Namespace) -> in
     if not bundle.passed:
         print("  note: this bundle FAILED its quality checks (published with an override)")
     print(f"next: read {done.folder / 'README.txt'}, copy both .mat files to <root>/calibration/")
-    print("      and export a capture with: sassi-bench snapshot export --format sassi-mat ...")
+    print(f"      and export a capture with: {program()} snapshot export --format sassi-mat ...")
     return 0

@@ -69,6 +69,7 @@ def _full(args: argparse.Namespace) -> int:
 
 def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -> None:
     """Where the run's raw data went, how big it is, and how to clean up."""
+    from sassi_bench.commands.options import program
     from sassi_bench.storage.inventory import folder_size, format_size
 
     size, _ = folder_size(staging)
@@ -76,8 +77,8 @@ def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -
     where = f" --data {data}" if data else ""
     print(f"  raw data: {staging} ({format_size(size)}: this run's sessions{kept})")
     print(
-        f"  disk: `sassi-bench data list{where}` shows everything kept; "
-        f"`sassi-bench data clean{where}` what can go (a dry run; its raw frames need "
+        f"  disk: `{program()} data list{where}` shows everything kept; "
+        f"`{program()} data clean{where}` what can go (a dry run; its raw frames need "
         "--include-referenced)"
     )
 
@@ -184,7 +185,7 @@ def _run_arguments(parser: argparse.ArgumentParser, kind: str | None, publish: b
     if publish:
         parser.add_argument("--no-publish", action="store_true", help="do not publish a bundle")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
-    parser.set_defaults(resume_options=(("session", "--session"),))
+    parser.set_defaults(resume_options=(("session", "--session"),), drives_rig=True)
 
 
 def _register_response(groups: argparse._SubParsersAction) -> None:

@@ -11,7 +11,12 @@ from __future__ import annotations
 
 import argparse
 
-from sassi_bench.commands.options import add_bundle_options, add_data_option, add_rig_option
+from sassi_bench.commands.options import (
+    add_bundle_options,
+    add_data_option,
+    add_rig_option,
+    program,
+)
 
 __all__ = ["register"]
 
@@ -35,9 +40,9 @@ def _run(args: argparse.Namespace) -> int:
     path = history_path(args.data)
     HealthHistory(path).append(check.record())
     print(f"recorded in {path}")
-    print(f"trend: sassi-bench check history --rig {args.rig}")
+    print(f"trend: {program()} check history --rig {args.rig}")
     if not check.holds:
-        print(f"next: sassi-bench calibrate spectral --rig {args.rig}")
+        print(f"next: {program()} calibrate spectral --rig {args.rig}")
     return 0 if check.holds else 1
 
 
@@ -70,7 +75,7 @@ def _history(args: argparse.Namespace) -> int:
             step_error(
                 "check history",
                 f"no health check of rig {name!r} is recorded in {path}",
-                f"run sassi-bench check --rig {args.rig} first",
+                f"run {program()} check --rig {args.rig} first",
             )
         )
     # By default beside the history, one page per drawing: a page once written is kept.
@@ -96,7 +101,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--light", help="lamp to check under (lamp:<name>; default: the rig's first lamp)"
     )
     check.add_argument("--procedure", help="health-check procedure YAML (default: shipped)")
-    check.set_defaults(func=_run)
+    check.set_defaults(func=_run, drives_rig=True)
     check_sub = check.add_subparsers(dest="check_command", metavar="SUBCOMMAND")
     history = check_sub.add_parser("history", help="write the trend of the checks as HTML")
     add_rig_option(history)
@@ -105,4 +110,4 @@ def register(sub: argparse._SubParsersAction) -> None:
     history.add_argument(
         "--out", help="HTML file (default: <data>/health/<rig>-trend-<UTC time>.html)"
     )
-    history.set_defaults(func=_history)
+    history.set_defaults(func=_history, drives_rig=False)

@@ -35,6 +35,7 @@ __all__ = [
     "incomplete_sessions",
     "record_end",
     "record_start",
+    "run_session_folders",
     "signal_name",
     "stop_signals",
 ]
@@ -160,24 +161,34 @@ def record_end(args: argparse.Namespace, interrupted: str | None = None) -> None
         end_run(getattr(args, "data", None), sessions[0], interrupted)
 
 
-def incomplete_sessions(args: argparse.Namespace) -> list[str]:
-    """The run's sessions on disk with fewer frames stored than planned."""
+def run_session_folders(args: argparse.Namespace) -> list[Path]:
+    """The session folders on disk of the run of ``args``: its session ids, the sessions
+    named after them (``<id>-...``) and a chain's staged sessions."""
     from sassi_bench.paths import data_root
-    from sassi_bench.storage.inventory import session_progress
 
     try:
         root = data_root(getattr(args, "data", None))
     except SassiBenchError:
         return []
-    found = []
+    found: list[Path] = []
     for run in _sessions(args):
-        candidates = [
+        for folder in (
             *root.glob(f"sessions/{run}"),
             *root.glob(f"sessions/{run}-*"),
             *root.glob(f"staging/{run}/sessions/*"),
-        ]
-        for folder in candidates:
-            progress = session_progress(folder)
-            if progress is not None and progress[1][0] < progress[1][1]:
-                found.append(folder.name)
+        ):
+            if folder not in found:
+                found.append(folder)
+    return found
+
+
+def incomplete_sessions(args: argparse.Namespace) -> list[str]:
+    """The run's sessions on disk with fewer frames stored than planned."""
+    from sassi_bench.storage.inventory import session_progress
+
+    found = []
+    for folder in run_session_folders(args):
+        progress = session_progress(folder)
+        if progress is not None and progress[1][0] < progress[1][1]:
+            found.append(folder.name)
     return found

@@ -13,8 +13,11 @@ Examples
 from __future__ import annotations
 
 import argparse
+import contextlib
 import shlex
-from collections.abc import Iterable, Sequence
+import shutil
+import sys
+from collections.abc import Iterable, Iterator, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -33,15 +36,43 @@ __all__ = [
     "check_new_files",
     "check_output_file",
     "check_output_folder",
+    "holding_rig",
     "load_bundle_ref",
     "new_session",
     "print_checks",
+    "program",
     "resume_command",
 ]
 
 PROG = "sassi-bench"
 
 DATA_HELP = "data root (default: $SASSI_BENCH_DATA, else the checkout's calib_data/)"
+
+
+def program() -> str:
+    """How to run this command line again, as shell words for a printed command.
+
+    ``sassi-bench`` when that name on ``PATH`` is the very program that runs; else the
+    path it was started by, made absolute (a virtual environment's ``.venv/bin/sassi-bench``
+    is not on ``PATH`` until the environment is activated, and a bare name pasted from a
+    printed line would then not be found); ``python -m sassi_bench`` as started so.
+
+    Examples
+    --------
+    >>> program()  # in a test run, not started as sassi-bench
+    'sassi-bench'
+    """
+    started = Path(sys.argv[0]) if sys.argv and sys.argv[0] else None
+    if started is None:
+        return PROG
+    if started.name == PROG:
+        found = shutil.which(PROG)
+        if found is not None and Path(found).resolve() == started.resolve():
+            return PROG
+        return shlex.quote(str(started.absolute()))
+    if started.name == "__main__.py" and started.parent.name == "sassi_bench":
+        return f"{shlex.quote(sys.executable)} -m sassi_bench"
+    return PROG
 
 
 def add_rig_option(parser: argparse.ArgumentParser, default: str | None = "sim") -> None:
@@ -131,7 +162,43 @@ def bundle_from_args(
         step=step,
     )
     print(f"bundle: {choice}", flush=True)
+    if args.bundle in (None, "latest", "LATEST"):
+        from sassi_bench.commands.bundle import latest_problem
+
+        warning = latest_problem(choice.path.parent)  # the rig folder
+        if warning is not None:
+            print(f"warning: {warning}", flush=True)
     return load(choice.path)
+
+
+@contextlib.contextmanager
+def holding_rig(args: argparse.Namespace) -> Iterator[None]:
+    """Hold the rig lock of a command that drives a rig (``args.drives_rig``, set by its
+    parser) for the whole command, taken before its start-up work: another procedure
+    driving the rig (or, on hardware, one of its devices) is refused at once, before the
+    rig is opened, a bundle loaded or anything planned (see
+    :mod:`sassi_bench.workflows.rig_lock`). Any other command runs as it is.
+
+    Examples
+    --------
+    >>> with holding_rig(argparse.Namespace(command="data")):
+    ...     pass
+    """
+    if not getattr(args, "drives_rig", False):
+        yield
+        return
+    from sassi_bench.rig import load_rig_description
+    from sassi_bench.workflows.rig_lock import driving
+
+    words = [getattr(args, "command", PROG)]
+    words += [
+        str(getattr(args, dest))
+        for dest in ("calibrate_command", "kind", "rig_command", "snapshot_command",
+                     "validate_command", "check_command")
+        if getattr(args, dest, None)
+    ]  # fmt: skip
+    with driving(load_rig_description(args.rig), getattr(args, "data", None), " ".join(words)):
+        yield
 
 
 def new_session(args: argparse.Namespace, dest: str, prefix: str) -> str:
@@ -217,7 +284,8 @@ def check_new_files(step: str, files: Iterable[str | Path], where: str = "--out 
 def resume_command(argv: Sequence[str], args: argparse.Namespace) -> str | None:
     """The command line that resumes an interrupted run: the one that started it, with the
     session options (``args.resume_options``: (dest, flag) pairs) set to the sessions the
-    run used. None for a command that keeps nothing to resume.
+    run used, and the program named as it was started (:func:`program`). None for a
+    command that keeps nothing to resume.
 
     Examples
     --------
@@ -244,7 +312,7 @@ def resume_command(argv: Sequence[str], args: argparse.Namespace) -> str | None:
         value = getattr(args, dest, None)
         if value is not None:
             kept += [flag, str(value)]
-    return shlex.join([PROG, *kept])
+    return f"{program()} {shlex.join(kept)}"
 
 
 def print_checks(checks: Iterable[Any], name_width: int = 40) -> None:

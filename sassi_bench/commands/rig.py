@@ -50,4 +50,4 @@ def register(sub: argparse._SubParsersAction) -> None:
     snap.add_argument("--out", required=True, help="output directory")
     snap.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
     snap.add_argument("--light", default="led", help="light (default: led)")
-    snap.set_defaults(func=_snapshot)
+    snap.set_defaults(func=_snapshot, drives_rig=True)

@@ -13,6 +13,7 @@ from sassi_bench.commands.options import (
     bundle_from_args,
     check_output_file,
     new_session,
+    program,
 )
 
 __all__ = ["register"]
@@ -65,7 +66,7 @@ def next_step(args: argparse.Namespace, out: Path) -> str:
     options.update({"--data": args.data, "--bundle": args.bundle, "--bundle-rig": args.bundle_rig})
     argv = [str(part) for option, value in options.items() if value is not None
             for part in (option, value)]  # fmt: skip
-    return "next: score snapshots against this cube: sassi-bench validate snapshot " + (
+    return f"next: score snapshots against this cube: {program()} validate snapshot " + (
         shlex.join(argv)
     )
 
@@ -107,4 +108,4 @@ def register(sub: argparse._SubParsersAction) -> None:
     scan.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
     scan.add_argument("--out", required=True, help="NetCDF file to write")
     scan.add_argument("--envi", help="also export ENVI (.hdr/.img) at this path")
-    scan.set_defaults(func=_scan, resume_options=(("session", "--session"),))
+    scan.set_defaults(func=_scan, resume_options=(("session", "--session"),), drives_rig=True)

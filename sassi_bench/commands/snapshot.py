@@ -28,6 +28,7 @@ from sassi_bench.commands.options import (
     bundle_from_args,
     check_output_folder,
     new_session,
+    program,
 )
 from sassi_bench.commands.snapshot_live import register_live
 from sassi_bench.errors import ProcedureError, step_error
@@ -94,14 +95,14 @@ def _take(args: argparse.Namespace) -> int:
     print(
         f"snapshot id: {snapshot_id} (frames {snapshot_id}-f000"
         + (f"..{snapshot_id}-f{last:03d}" if last else "")
-        + "); every `sassi-bench snapshot` command takes the id or one frame's"
+        + f"); every `{program()} snapshot` command takes the id or one frame's"
     )
     selection = SnapshotSelection(snapshot_id, video, tuple(range(len(video.frames))), False)
     _write(selection, bundle, procedure, args.out, not args.no_envi, args.quiet)
     print(
-        f"next: files for the SASSI authors' code: `sassi-bench snapshot export --session "
+        f"next: files for the SASSI authors' code: `{program()} snapshot export --session "
         f"{snapshot_id} --out DIR`;\n      score snapshots against a pinhole scan: "
-        f"`sassi-bench validate snapshot --rig {args.rig} --scene {args.scene} --out REPORT`"
+        f"`{program()} validate snapshot --rig {args.rig} --scene {args.scene} --out REPORT`"
     )
     return 0
 
@@ -221,7 +222,7 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
     """(session, output folder) pairs: one per frame of a snapshot video (each into its
     own ``OUT/<frame id>``, as cassi.py reads one capture per folder), or the one frame
     or raw session named (into ``OUT``)."""
-    from sassi_bench.acquire.session import Session, SessionError
+    from sassi_bench.acquire.session import Session, SessionDamagedError, SessionError
     from sassi_bench.acquire.snapshot_ids import resolve_snapshot, unknown_snapshot
 
     out, step = Path(args.out), "snapshot export"
@@ -229,6 +230,8 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
     if selection is None:
         try:
             return [(Session.open(args.session, data=args.data), out)]
+        except SessionDamagedError:
+            raise  # it is there, damaged: say so, not that there is none
         except SessionError:
             raise unknown_snapshot(args.session, data=args.data, step=step) from None
     if selection.by_frame:
@@ -237,7 +240,7 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
 
 
 def _snapshot_export(args: argparse.Namespace) -> int:
-    from sassi_bench.acquire.session import Session, SessionError
+    from sassi_bench.acquire.session import Session, SessionDamagedError, SessionError
     from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
 
     check_output_folder("snapshot export", args.out)
@@ -246,6 +249,8 @@ def _snapshot_export(args: argparse.Namespace) -> int:
     if args.guide_session is not None:
         try:
             guide_override = Session.open(args.guide_session, data=args.data)
+        except SessionDamagedError:
+            raise
         except SessionError:
             raise ProcedureError(
                 step_error(
@@ -293,7 +298,7 @@ def _snapshot_export(args: argparse.Namespace) -> int:
     names = ", ".join(folder.name for _, folder, *_ in plans)
     one = len(plans) == 1
     print(
-        "next: put the calibration files of `sassi-bench bundle export --format sassi-mat` in "
+        f"next: put the calibration files of `{program()} bundle export --format sassi-mat` in "
         f"<root>/calibration/ and {'this capture folder' if one else 'these capture folders'} "
         f"({names}) in <root>/, and run cassi.py with expname set to "
         f"{'its' if one else 'each'} name"
@@ -342,7 +347,7 @@ def register(subparsers: Any) -> None:
     )
     take.add_argument("--session", help="session id prefix; an existing one resumes")
     _common(take)
-    take.set_defaults(func=_take, resume_options=(("session", "--session"),))
+    take.set_defaults(func=_take, resume_options=(("session", "--session"),), drives_rig=True)
 
     rec = sub.add_parser(
         "reconstruct",

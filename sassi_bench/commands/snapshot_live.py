@@ -25,6 +25,7 @@ from sassi_bench.commands.options import (
     bundle_from_args,
     check_output_folder,
     load_bundle_ref,
+    program,
 )
 
 __all__ = ["register_live"]
@@ -70,7 +71,7 @@ def _live(args: argparse.Namespace) -> int:
     )
     print(f"  video store: {run.store}\n  quick look: {run.animation}")
     print(
-        f"next: one frame as a cube: `sassi-bench snapshot video-frame --video {args.out} "
+        f"next: one frame as a cube: `{program()} snapshot video-frame --video {args.out} "
         f"--frame 0 --out {Path(args.out) / 'f000.nc'}`"
     )
     return 0
@@ -128,7 +129,7 @@ def register_live(sub: Any) -> None:
     live.add_argument("--out", required=True, help="a new folder for the video store")
     live.add_argument("--quiet", action="store_true", help="no progress line")
     add_data_option(live)
-    live.set_defaults(func=_live)
+    live.set_defaults(func=_live, drives_rig=True)
 
     frame = sub.add_parser(
         "video-frame",

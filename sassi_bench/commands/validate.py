@@ -178,6 +178,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     macbeth.set_defaults(
         func=_macbeth,
         resume_options=(("session", "--session"), ("white_session", "--white-session")),
+        drives_rig=True,
     )
 
     snapshot = groups.add_parser(
@@ -202,4 +203,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     snapshot.add_argument("--session", help="session id prefix; an existing one resumes")
     snapshot.add_argument("--quiet", action="store_true", help="no progress bars")
-    snapshot.set_defaults(func=_snapshot, resume_options=(("session", "--session"),))
+    snapshot.set_defaults(
+        func=_snapshot, resume_options=(("session", "--session"),), drives_rig=True
+    )

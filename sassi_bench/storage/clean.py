@@ -9,7 +9,11 @@ kind with its own option:
   and snapshots are measurements in their own right, not calibration by-products;
 - sessions of an interrupted run, and any session with fewer frames than planned
   (``include_interrupted``): the run resumes from them. The sessions of a run that is
-  still going are never removed.
+  still going are never removed;
+- damaged sessions (``include_damaged``): a header or log that does not read, frames
+  missing or damaged. What is left of them (the frames, the log) is the only copy of a
+  measurement until it is restored or taken again; a damaged session that is also a
+  bundle input, a measurement or part of an interrupted run needs that option too.
 
 What remains removable: a calibration chain's intermediate (staged) bundles, calibration
 captures no published bundle uses (a failed or abandoned calibration), and hidden
@@ -36,6 +40,7 @@ KEEP_REASONS = {
     "bundle": ("published bundles", None),
     "running": ("sessions of a run still going", None),
     "referenced": ("sessions that published bundles use as inputs", "--include-referenced"),
+    "damaged": ("damaged sessions (see `data verify`)", "--include-damaged"),
     "interrupted": ("sessions of interrupted runs (they resume)", "--include-interrupted"),
     "measurement": ("scans and snapshots taken by commands", "--include-measurements"),
     "report": ("report folders", "--reports"),
@@ -58,6 +63,7 @@ def keep_reason(
     include_referenced: bool = False,
     include_measurements: bool = False,
     include_interrupted: bool = False,
+    include_damaged: bool = False,
     reports: bool = False,
     cutoff: datetime | None = None,
     runs: Sequence[RunRecord] = (),
@@ -71,6 +77,10 @@ def keep_reason(
     ...                  plan="pinhole-scan", frames=(501, 501))
     >>> keep_reason(scan), keep_reason(scan, include_measurements=True) is None
     ('measurement', True)
+    >>> broken = DataEntry("session", "sessions/old", Path("x"), 1, datetime.now(UTC),
+    ...                    damage="session.json is not JSON")
+    >>> keep_reason(broken), keep_reason(broken, include_damaged=True) is None
+    ('damaged', True)
     """
     if entry.kind == "bundle":
         return "bundle"
@@ -83,6 +93,8 @@ def keep_reason(
         return None
     if entry.kind == "report":
         return None if reports else "report"
+    if entry.damaged and not include_damaged:
+        return "damaged"
     if entry.used_by and not include_referenced:
         return "referenced"
     if (owner is not None or entry.incomplete) and not include_interrupted:
@@ -98,6 +110,7 @@ def clean_candidates(
     include_referenced: bool = False,
     include_measurements: bool = False,
     include_interrupted: bool = False,
+    include_damaged: bool = False,
     reports: bool = False,
     older_than_days: float = 0.0,
     runs: Sequence[RunRecord] = (),
@@ -115,6 +128,8 @@ def clean_candidates(
         Also scans and snapshots taken by commands.
     include_interrupted
         Also sessions of interrupted runs and incomplete sessions.
+    include_damaged
+        Also damaged sessions (each still needs the option of what else it is).
     reports
         Also report folders.
     older_than_days
@@ -132,6 +147,7 @@ def clean_candidates(
         "include_referenced": include_referenced,
         "include_measurements": include_measurements,
         "include_interrupted": include_interrupted,
+        "include_damaged": include_damaged,
         "reports": reports,
     }
     return [e for e in entries if keep_reason(e, cutoff=cutoff, runs=runs, **options) is None]

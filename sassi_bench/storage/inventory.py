@@ -10,7 +10,9 @@
 
 A session is *used* by every published bundle that lists its id among its ``inputs``. Its
 plan name and how many of its planned frames are stored are read from ``session.json``
-and ``events.jsonl`` (an incomplete session is an interrupted capture that resumes).
+and ``events.jsonl`` (an incomplete session is an interrupted capture that resumes). A
+session whose header or log does not read, or whose frames are missing or damaged, is
+marked with what is wrong (:func:`~sassi_bench.storage.integrity.session_damage`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from pathlib import Path
 from sassi_bench.bundle.integrity import MANIFEST_NAME
 from sassi_bench.bundle.layout import rig_dir, rig_names, version_number, versions
 from sassi_bench.paths import data_root
+from sassi_bench.storage.integrity import session_damage
 
 __all__ = [
     "MEASUREMENT_PLANS",
@@ -63,6 +66,9 @@ class DataEntry:
         A session's plan name (None: not a session, or unreadable).
     frames
         A session's stored and planned frames (None: not a session, or unreadable).
+    damage
+        What is wrong with a session, in words (None: nothing seen; see
+        :func:`~sassi_bench.storage.integrity.session_damage`).
     """
 
     kind: str
@@ -73,6 +79,12 @@ class DataEntry:
     used_by: tuple[str, ...] = ()
     plan: str | None = None
     frames: tuple[int, int] | None = None
+    damage: str | None = None
+
+    @property
+    def damaged(self) -> bool:
+        """A session whose header or log does not read, or with frames missing or damaged."""
+        return self.damage is not None
 
     @property
     def staged(self) -> bool:
@@ -134,7 +146,8 @@ def format_size(size: int) -> str:
 
 def session_progress(folder: Path) -> tuple[str, tuple[int, int]] | None:
     """A session folder's plan name and (stored, planned) frames, read without verifying
-    the frames; None when its ``session.json`` cannot be read.
+    the frames (frames set aside to be captured again are not stored); None when its
+    ``session.json`` cannot be read.
 
     Examples
     --------
@@ -146,12 +159,28 @@ def session_progress(folder: Path) -> tuple[str, tuple[int, int]] | None:
         name, planned = str(plan["name"]), len(plan["steps"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
+    aside = set()
+    try:
+        with open(folder / "retakes.jsonl", "rb") as retakes:
+            for line in retakes:
+                try:
+                    record = json.loads(line)
+                    aside.add((record["step"], record["sha256"], record.get("written")))
+                except (ValueError, KeyError, TypeError):
+                    continue
+    except OSError:
+        pass
     stored: set[int] = set()
     try:
         with open(folder / "events.jsonl", "rb") as log:
             for line in log:
                 try:
-                    stored.add(int(json.loads(line)["step"]))
+                    event = json.loads(line)
+                    key = (event["step"], event["sha256"], event.get("written"))
+                    if key in aside:  # set aside to be captured again
+                        stored.discard(int(event["step"]))
+                    else:
+                        stored.add(int(event["step"]))
                 except (ValueError, KeyError, TypeError):
                     continue  # a torn last line: that frame is captured again on resume
     except OSError:
@@ -163,9 +192,10 @@ def _entry(kind: str, root: Path, path: Path, used_by=()) -> DataEntry:
     size, newest = folder_size(path)
     modified = datetime.fromtimestamp(newest or path.stat().st_mtime, UTC)
     name = path.relative_to(root).as_posix()
-    if kind != "session" or (progress := session_progress(path)) is None:
+    if kind != "session":
         return DataEntry(kind, name, path, size, modified, used_by)
-    return DataEntry(kind, name, path, size, modified, used_by, *progress)
+    plan, frames = session_progress(path) or (None, None)
+    return DataEntry(kind, name, path, size, modified, used_by, plan, frames, session_damage(path))
 
 
 def session_users(data: str | os.PathLike[str] | None = None) -> dict[str, tuple[str, ...]]:

@@ -405,7 +405,7 @@ def test_verify_detects_a_modified_chunk(rig_description, mixed_plan, data, make
     raw[len(raw) // 2] ^= 0xFF
     raw[-3] ^= 0x5A
     chunk.write_bytes(bytes(raw))
-    with pytest.raises(SessionIntegrityError, match=r"verify step 3: .*spectral frame \(slot 2\)"):
+    with pytest.raises(SessionIntegrityError, match=r"verify step 3: .*spectral frame \(slot 2, "):
         Session.open("s1", data=data).verify()
 
 
@@ -413,7 +413,7 @@ def test_verify_detects_a_deleted_chunk(rig_description, mixed_plan, data, make_
     session = new_session(rig_description, mixed_plan, data)
     fill(session, make_frame)
     (session.path / "frames.zarr" / "guide" / "c" / "1" / "0" / "0" / "0").unlink()
-    with pytest.raises(SessionIntegrityError, match=r"verify step 4: .*changed since capture"):
+    with pytest.raises(SessionIntegrityError, match=r"verify step 4: .* is missing: its chunk"):
         session.verify()
 
 
@@ -483,4 +483,5 @@ def test_frames_are_byte_shuffled_and_stores_of_an_earlier_codec_still_read(tmp_
         "spectral", shape=(1, *frame.shape), chunks=(1, *frame.shape), dtype=frame.dtype,
         compressors=ZstdCodec(level=3), attributes={"camera": "spectral", "steps": [0]},
     )[0] = frame  # fmt: skip
-    assert np.array_equal(FrameStore(old, {"spectral": [0]}).read("spectral", 0), frame)
+    record = {"shape": list(frame.shape), "sha256": frame_sha256(frame)}  # no checksum then
+    assert np.array_equal(FrameStore(old, {"spectral": [0]}).read("spectral", 0, record), frame)

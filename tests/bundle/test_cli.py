@@ -144,3 +144,39 @@ def test_bundle_options_of_other_commands_use_the_same_rule(data_root: Path, syn
                     ["calibrate", "guide"], ["validate", "macbeth", "--out", "r"]):  # fmt: skip
         args = build_parser().parse_args([*command, "--bundle", "v0001", "--bundle-rig", "sim"])
         assert (args.bundle, args.bundle_rig) == ("v0001", "sim")
+
+
+def test_list_names_an_unreadable_manifest_and_a_latest_naming_a_missing_version(
+    capsys, data_root: Path, synthetic
+):
+    synthetic.publish_synthetic(data_root)
+    synthetic.publish_synthetic(data_root)
+    manifest = data_root / "sim" / "v0001" / "manifest.json"
+    manifest.write_bytes(manifest.read_bytes()[:40])
+    (data_root / "sim" / "LATEST").write_text("v0009\n")
+    code, out, _ = run(capsys, "bundle", "list", "--data", str(data_root))
+    assert code == 0
+    lines = out.splitlines()
+    assert "UNREADABLE" in lines[1] and lines[2].split()[1] == "v0002*"
+    assert "UNREADABLE sim/v0001: manifest.json is not JSON (" in out
+    assert "no command loads this bundle. Fix: restore the folder" in out
+    assert "bundle verify v0001 --rig sim` checks it" in out
+    latest = data_root / "sim" / "LATEST"
+    assert f"warning: {latest} names 'v0009', which is not there; `latest` means v0002" in out
+    assert "bundle import ZIP" in out
+
+
+def test_a_command_taking_the_latest_bundle_warns_of_a_broken_latest(
+    capsys, data_root: Path, synthetic
+):
+    import argparse
+
+    from sassi_bench.commands.options import bundle_from_args
+
+    synthetic.publish_synthetic(data_root)
+    (data_root / "sim" / "LATEST").write_text("v0007\n")
+    args = argparse.Namespace(bundle=None, bundle_rig=None, data=str(data_root))
+    assert bundle_from_args(args, "sim", step="scan").version == "v0001"
+    out = capsys.readouterr().out
+    assert "names 'v0007', which is not there; `latest` means v0001" in out
+    assert out.splitlines()[1].startswith("warning: ")

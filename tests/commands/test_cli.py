@@ -12,6 +12,7 @@ import dataclasses
 import importlib.util
 import re
 import shlex
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -213,6 +214,7 @@ def bad_value(words, action, world):
         "older_than": "-3",
         "sessions": "no-such-scan-*",
         "scheduler": "not-an-address",
+        "dashboard": "8787",
         "workers": "0",
         "frames": "0",
         "frame": "99",
@@ -435,7 +437,9 @@ def test_ctrl_c_in_a_real_calibration_prints_the_resume_command(tmp_path):
     assert process.returncode == 130, err
     assert "Traceback" not in err
     tokens = shlex.split(err.strip().splitlines()[-1])
-    assert tokens[: len(argv) + 1] == [PROG, *argv] and tokens[-2] == "--session"
+    found = shutil.which(PROG)  # printed as started: see commands.options.program
+    started = PROG if found and Path(found).resolve() == script.resolve() else str(script)
+    assert tokens[: len(argv) + 1] == [started, *argv] and tokens[-2] == "--session"
     staged = data / "staging" / tokens[-1] / "sessions"
     frames = [p for p in staged.glob("*/events.jsonl") if p.stat().st_size]
     assert frames, "the resume command names the session the frames went to"

@@ -4,12 +4,17 @@
 import json
 import os
 import re
+import shutil
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from sassi_bench.acquire.plan import Plan, Step
+from sassi_bench.acquire.session import Session
 from sassi_bench.commands import main
+from sassi_bench.rig import Frame, FrameMeta, load_rig_description
 from sassi_bench.storage.runs import record_run
 
 
@@ -20,21 +25,25 @@ def _folder(path: Path, size: int) -> Path:
 
 
 def _session(path: Path, size: int, plan: str, steps: int, stored: int) -> Path:
-    """A session folder as the workbench writes it: its plan in session.json and one event
-    per stored frame."""
-    _folder(path, size)
-    header = {"plan": {"name": plan, "steps": [{}] * steps, "parameters": {}}}
-    (path / "session.json").write_text(json.dumps(header))
-    (path / "events.jsonl").write_text("".join(f'{{"step": {i}}}\n' for i in range(stored)))
+    """A session as the workbench writes it (a plan of ``steps`` tiny frames, ``stored`` of
+    them stored), with ``size`` bytes of other files beside."""
+    steps_ = [Step("spectral", "off", 0.01, {"kind": "blank"})] * steps
+    session = Session.create(
+        load_rig_description("sim"), Plan(plan, steps_), session_id=path.name, data=path.parents[1]
+    )
+    for i in range(stored):
+        pixels = np.full((2, 2), i, np.uint16)
+        session.write_frame(i, Frame(pixels, FrameMeta("spectral", 0.01, 0.0, i, "off", i)))
+    (path / "frames.bin").write_bytes(b"\0" * size)
     return path
 
 
-@pytest.fixture
-def root(tmp_path: Path) -> Path:
+@pytest.fixture(scope="module")
+def template(tmp_path_factory) -> Path:
     """A published bundle using one session, an orphan calibration session, a chain's
     staging folder (a session the bundle uses, one it does not, intermediate bundles), a
     report, a ground-truth scan, a snapshot, and an interrupted scan with its run record."""
-    root = tmp_path / "data"
+    root = tmp_path_factory.mktemp("lab") / "data"
     bundle = _folder(root / "sim" / "v0001", 100)
     manifest = {"inputs": [{"id": "used"}, {"id": "run-sweep"}]}
     (bundle / "manifest.json").write_text(json.dumps(manifest))
@@ -52,6 +61,12 @@ def root(tmp_path: Path) -> Path:
     raw = json.loads(record.read_text())
     record.write_text(json.dumps({**raw, "pid": 2**22 + 17}))  # its process is gone
     return root
+
+
+@pytest.fixture
+def root(template: Path, tmp_path: Path) -> Path:
+    """A fresh copy of the lab's data root."""
+    return Path(shutil.copytree(template, tmp_path / "data"))
 
 
 def _run(capsys, *argv) -> str:

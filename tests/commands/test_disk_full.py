@@ -58,7 +58,9 @@ def _calibrate_on_tmpfs(data: Path, size: str) -> tuple[list[str], str]:
 
 def _resume(err: str, data: Path) -> None:
     resume = shlex.split(err.split("Resume with:\n", 1)[1].strip())
-    assert resume[: len(ARGV) + 3] == [PROG, *ARGV, "--data", str(data)]
+    found = shutil.which(PROG)  # printed as started: see commands.options.program
+    started = PROG if found and Path(found).resolve() == SCRIPT.resolve() else str(SCRIPT)
+    assert resume[: len(ARGV) + 3] == [started, *ARGV, "--data", str(data)]
     assert resume[-2] == "--session"
 
 

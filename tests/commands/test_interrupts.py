@@ -9,6 +9,7 @@ import ctypes
 import json
 import os
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -23,6 +24,16 @@ from sassi_bench.commands import PROG
 from sassi_bench.commands.interrupts import Stopped, stop_signals
 
 SCRIPT = Path(sys.executable).with_name("sassi-bench")
+
+
+def _started_as(script: Path) -> str:
+    """How the command line names itself in printed commands when started as ``script``
+    (``commands.options.program``): the bare name only if PATH finds that very file."""
+    found = shutil.which(PROG)
+    return PROG if found and Path(found).resolve() == script.resolve() else str(script.absolute())
+
+
+STARTED = _started_as(SCRIPT)
 
 
 def _start(argv: list[str]) -> subprocess.Popen:
@@ -66,7 +77,7 @@ def test_a_second_calibration_is_refused_and_sigterm_stops_the_first_like_ctrl_c
     assert first.returncode == 128 + signal.SIGTERM, err
     assert "Traceback" not in err and "stopped by SIGTERM" in err
     tokens = shlex.split(err.strip().splitlines()[-1])
-    assert tokens[: len(argv) + 1] == [PROG, *argv] and tokens[-2] == "--session"
+    assert tokens[: len(argv) + 1] == [STARTED, *argv] and tokens[-2] == "--session"
     (record,) = (data / "runs").glob("*.json")
     saved = json.loads(record.read_text())
     assert saved["status"] == "interrupted" and saved["note"] == "SIGTERM"
@@ -99,7 +110,7 @@ def test_sigkill_leaves_a_record_that_data_list_reads(tmp_path):
     run = sessions[0].name.rsplit("-", 1)[0]  # spectral-<time>-grey: the run is spectral-<time>
     assert f"run {run}: interrupted (its process is gone)" in out
     resume = out.split("Resume with:\n", 1)[1].splitlines()[0].strip()
-    assert shlex.split(resume) == [PROG, *argv, "--session", run]
+    assert shlex.split(resume) == [STARTED, *argv, "--session", run]
     assert "INCOMPLETE" in out
 
 

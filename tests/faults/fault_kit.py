@@ -291,8 +291,11 @@ def incomplete_sessions(after: Snapshot) -> list[Path]:
 def resume_command(outcome: Outcome, data: Path) -> list[str] | None:
     """The resume command the run printed, else the one it recorded."""
     lines = outcome.stderr.strip().splitlines()
-    if "Resume with:" in outcome.stderr and lines and lines[-1].strip().startswith(PROG):
-        return shlex.split(lines[-1].strip())
+    # the program is named as it was started: sassi-bench, or its path when not on PATH
+    if "Resume with:" in outcome.stderr and lines:
+        words = shlex.split(lines[-1].strip())
+        if words and Path(words[0]).name == PROG:
+            return words
     records = sorted((data / "runs").glob("*.json")) if (data / "runs").is_dir() else []
     for record in records:
         saved = json.loads(record.read_text("utf-8"))

@@ -10,8 +10,12 @@ Layout of ``<data_root>/sessions/<session_id>/``, one module per part:
                      frame: ``spectral`` (n, H, W), ``guide`` (n, H, W, 3); a step's slot
                      is its rank among the plan's steps for that camera   (frames)
     events.jsonl     one JSON line per stored frame, appended and fsync'd after its
-                     chunk, so an event exists only for a fully written frame (events)
+                     chunk, so an event exists only for a fully written frame, with the
+                     frame's SHA-256, read checksum and chunk size (events)
     events.torn      (only after a crash) bytes of a torn last event line, kept aside
+    retakes.jsonl    (only once frames were set aside) the events whose damaged frames
+                     are to be captured again                            (events)
+    damaged/         (idem) the damaged chunk files, kept as they were found
     write.lock       advisory lock of the session's writer (``fcntl.flock``), holding
                      its pid, host, command and start time (_shared.lock)
 
@@ -23,6 +27,16 @@ and dtype; later frames must match. A step is *completed* when its event is in t
 A torn last line (a crash while appending) is ignored, reported as a
 :class:`SessionWarning`, and moved to ``events.torn`` before the next append; its step
 is simply captured again. Completed steps are never overwritten. Metadata is JSON only.
+
+Every frame read back is checked against its event (shape and checksum): a frame that is
+missing (its chunk file gone, which Zarr would read as zeros), truncated, undecodable or
+changed raises :class:`FrameDamagedError` naming the session, the step, the chunk file and
+what is wrong. :meth:`Session.verify` and :meth:`Session.find_damage` check every frame
+on demand; :meth:`Session.set_aside` moves damaged frames to ``damaged/`` so that the
+capture, resumed, takes them again. A session whose ``session.json``, event log or frame
+store cannot be read raises :class:`SessionDamagedError` when opened or resumed, saying
+what is unreadable and what the frames and the log still hold
+(:mod:`~sassi_bench.acquire.session.salvage`).
 
 One writer at a time: :meth:`Session.writing` (which
 :func:`~sassi_bench.acquire.runner.run_plan` holds for a whole run) and every
@@ -50,23 +64,30 @@ Examples
 """
 
 from sassi_bench.acquire.session.errors import (
+    FrameDamage,
+    FrameDamagedError,
+    SessionDamagedError,
     SessionError,
     SessionIntegrityError,
     SessionLockedError,
     SessionWarning,
 )
-from sassi_bench.acquire.session.frames import frame_sha256
+from sassi_bench.acquire.session.frames import frame_checksum, frame_sha256
 from sassi_bench.acquire.session.header import SCHEMA_NAME, SCHEMA_VERSION, check_session_id
 from sassi_bench.acquire.session.session import Session
 
 __all__ = [
     "SCHEMA_NAME",
     "SCHEMA_VERSION",
+    "FrameDamage",
+    "FrameDamagedError",
     "Session",
+    "SessionDamagedError",
     "SessionError",
     "SessionIntegrityError",
     "SessionLockedError",
     "SessionWarning",
     "check_session_id",
+    "frame_checksum",
     "frame_sha256",
 ]

@@ -5,6 +5,11 @@ event exists only for a fully written frame; a step is *completed* when its even
 the log. A torn last line (a crash while appending) is ignored, reported, and moved to
 ``events.torn`` before the next append; its step is simply captured again. A damaged line
 before the last is an integrity error. A step logged twice keeps its later event.
+
+A frame found damaged can be *set aside* (:meth:`EventLog.set_aside`): a line in
+``retakes.jsonl`` names its event (step, SHA-256 and time written), and that event no
+longer counts, so the step is captured again when the capture resumes; the retaken
+frame's event, appended later, is the step's event from then on.
 """
 
 from __future__ import annotations
@@ -21,14 +26,16 @@ from numpy.typing import NDArray
 from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench.acquire.plan import PlanError, Step, to_json_value
 from sassi_bench.acquire.session.errors import SessionIntegrityError, session_error
-from sassi_bench.acquire.session.frames import frame_sha256
+from sassi_bench.acquire.session.frames import CHECKSUM_KEY, frame_checksum, frame_sha256
 from sassi_bench.acquire.session.header import utc_stamp
 from sassi_bench.rig.frame import FrameMeta
 
-__all__ = ["EVENTS_FILE", "TORN_FILE", "EventLog", "frame_event"]
+__all__ = ["EVENTS_FILE", "RETAKES_FILE", "TORN_FILE", "EventLog", "frame_event"]
 
 EVENTS_FILE = "events.jsonl"
 TORN_FILE = "events.torn"
+#: The events set aside for their frames to be captured again, one JSON line each.
+RETAKES_FILE = "retakes.jsonl"
 
 _EVENT_KEYS = ("step", "camera", "slot", "meta", "pattern", "tags", "sha256", "dtype", "shape")
 
@@ -49,8 +56,8 @@ def frame_event(
     >>> step = Step("spectral", "off", 0.1, {"kind": "blank"})
     >>> meta = FrameMeta("spectral", 0.1, 0.0, 0, "off", 0)
     >>> event = frame_event(0, step, 0, np.zeros((2, 2), np.uint16), meta, "write")
-    >>> event["dtype"], event["shape"], event["sha256"][:12]
-    ('<u2', [2, 2], 'af5570f5a181')
+    >>> event["dtype"], event["shape"], event["sha256"][:12], event["xxh3_64"]
+    ('<u2', [2, 2], 'af5570f5a181', 'c77b3abb6f87acd9')
     """
     try:
         meta_json = to_json_value(meta.to_dict(), "frame.meta")
@@ -70,6 +77,7 @@ def frame_event(
         "pattern": step_dict["pattern"],
         "tags": step_dict["tags"],
         "sha256": frame_sha256(data),
+        CHECKSUM_KEY: frame_checksum(data),
         "dtype": data.dtype.str,
         "shape": list(data.shape),
         "written": utc_stamp(datetime.now(UTC)),
@@ -105,6 +113,7 @@ class EventLog:
     def __init__(self, folder: Path, slots: Sequence[tuple[str, int]], owner: str) -> None:
         self._file = folder / EVENTS_FILE
         self._torn_file = folder / TORN_FILE
+        self._retakes_file = folder / RETAKES_FILE
         self.slots = tuple(slots)
         self._owner = owner
         # step -> (raw line bytes incl. newline, parsed event)
@@ -144,13 +153,25 @@ class EventLog:
         return (self._events[step][0] for step in sorted(self._events))
 
     def changed_on_disk(self) -> bool:
-        """Whether the file grew or shrank since it was read (another writer appended)."""
-        return self._file.stat().st_size != self._good_size + len(self._torn)
+        """Whether the log (or its retakes) grew or shrank since it was read (another
+        writer appended)."""
+        return (
+            self._file.stat().st_size != self._good_size + len(self._torn)
+            or _size(self._retakes_file) != self._retakes_size
+        )
+
+    @property
+    def set_aside(self) -> tuple[dict[str, Any], ...]:
+        """The retake records of events set aside (see :meth:`set_event_aside`)."""
+        return tuple(self._retakes)
 
     def reload(self) -> None:
         """Read the log from disk again, forgetting what was read before."""
         self._events, self._order = {}, []
         self._good_size, self._torn, self._problems = 0, b"", []
+        self._retakes_size = _size(self._retakes_file)
+        self._retakes = self._read_retakes()
+        aside = {_event_key(record) for record in self._retakes}
         lines = self._file.read_bytes().split(b"\n")
         # A complete log ends with a newline, leaving an empty last piece.
         tail = lines.pop()
@@ -174,6 +195,12 @@ class EventLog:
                 )
                 break
             step = event["step"]
+            self._good_size += len(line)
+            if _event_key(event) in aside:
+                self._events.pop(step, None)  # set aside: the step is to be captured again
+                if step in self._order:
+                    self._order.remove(step)
+                continue
             if step in self._events:
                 self._problems.append(
                     f"{EVENTS_FILE}: step {step} is logged twice; the later event is used "
@@ -182,7 +209,57 @@ class EventLog:
                 self._order.remove(step)
             self._events[step] = (line, event)
             self._order.append(step)
-            self._good_size += len(line)
+
+    def set_event_aside(self, step: int, reason: str, kept: str | None) -> dict[str, Any]:
+        """Set the event of ``step`` aside so the step is captured again; the record of it.
+
+        Parameters
+        ----------
+        step
+            A logged step.
+        reason
+            Why (what was found wrong with its frame).
+        kept
+            Where its damaged chunk file was moved, relative to the session folder (None:
+            there was none).
+        """
+        event = self._events[step][1]
+        record = {
+            "step": step,
+            "sha256": event["sha256"],
+            "written": event.get("written"),
+            "reason": reason,
+            "kept": kept,
+            "set_aside": utc_stamp(datetime.now(UTC)),
+        }
+        line = canonical_json(record) + b"\n"
+        _append_synced(self._retakes_file, line)
+        self._retakes_size += len(line)
+        self._retakes.append(record)
+        del self._events[step]
+        self._order.remove(step)
+        return record
+
+    def _read_retakes(self) -> list[dict[str, Any]]:
+        """The retake records on disk. A damaged line (a crash while appending) is ignored
+        and reported: its event then still counts, and its frame, already moved aside,
+        reads as missing until it is set aside again."""
+        try:
+            raw = self._retakes_file.read_bytes()
+        except FileNotFoundError:
+            return []
+        records = []
+        for k, body in enumerate(raw.split(b"\n")):
+            if not body.strip():
+                continue
+            try:
+                record = json.loads(body.decode("utf-8"))
+                _event_key(record)
+            except (UnicodeDecodeError, ValueError, KeyError, TypeError):
+                self._problems.append(f"{RETAKES_FILE}: line {k + 1} is damaged and ignored")
+                continue
+            records.append(record)
+        return records
 
     def append(self, event: dict[str, Any]) -> None:
         """Append ``event`` as one canonical-JSON line and fsync it.
@@ -229,6 +306,18 @@ class EventLog:
         if (event["camera"], event["slot"]) != self.slots[step]:
             return None, f"step {step}'s camera or slot disagrees with the plan"
         return event, ""
+
+
+def _size(file: Path) -> int:
+    try:
+        return file.stat().st_size
+    except FileNotFoundError:
+        return 0
+
+
+def _event_key(event: dict[str, Any]) -> tuple[int, str, str | None]:
+    """What names one logged event: its step, frame hash and time written."""
+    return int(event["step"]), str(event["sha256"]), event.get("written")
 
 
 def _append_synced(file: Path, data: bytes) -> None:

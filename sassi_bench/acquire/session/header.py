@@ -133,21 +133,23 @@ def parse_header(raw: bytes, file: Path) -> dict[str, Any]:
 
     Raises
     ------
-    SessionError
-        If it is not JSON, not a session header, lacks keys or has another major version.
     SessionIntegrityError
-        If the stored plan or rig no longer matches its recorded SHA-256.
+        If it is not JSON, not a session header, lacks keys, or its stored plan or rig no
+        longer matches its recorded SHA-256 (the file is damaged).
+    SessionError
+        If it has another major version.
     """
     fix = "restore the session folder from a backup"
+    damaged = SessionIntegrityError
     try:
         header = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
-        raise session_error("session open", f"{file} is not JSON ({exc})", fix) from exc
+        raise session_error("session open", f"{file} is not JSON ({exc})", fix, damaged) from exc
     if not isinstance(header, dict) or header.get("schema") != SCHEMA_NAME:
-        raise session_error("session open", f"{file} is not a {SCHEMA_NAME} file", fix)
+        raise session_error("session open", f"{file} is not a {SCHEMA_NAME} file", fix, damaged)
     missing = [key for key in _HEADER_KEYS if key not in header]
     if missing:
-        raise session_error("session open", f"{file} lacks {', '.join(missing)}", fix)
+        raise session_error("session open", f"{file} lacks {', '.join(missing)}", fix, damaged)
     major = str(header["version"]).split(".")[0]
     if major != SCHEMA_VERSION.split(".")[0]:
         raise session_error(
@@ -156,7 +158,10 @@ def parse_header(raw: bytes, file: Path) -> dict[str, Any]:
             f"{SCHEMA_VERSION.split('.')[0]}.x",
             "upgrade sassi_bench",
         )
-    plan = Plan.from_dict(header["plan"])
+    try:
+        plan = Plan.from_dict(header["plan"])
+    except ValueError as exc:  # a PlanError: the stored plan is not a plan
+        raise session_error("session open", f"{file}: {exc}", fix, damaged) from exc
     if (
         plan.sha256() != header["plan_sha256"]
         or canonical_sha256(header["rig"]) != header["rig_sha256"]

@@ -2,7 +2,11 @@
 put together (the layout is described in :mod:`sassi_bench.acquire.session`).
 
 It creates, opens and resumes sessions, writes each frame then its event under the write
-lock, reads frames back and verifies them against their events.
+lock, and reads frames back, each checked against its event as it is read: a frame that
+is missing or damaged raises :class:`FrameDamagedError` naming the session, the step, the
+frame's file and what is wrong, so nothing is ever computed from it. :meth:`Session.verify`
+checks every frame on demand; :meth:`Session.set_aside` moves damaged frames out of the
+way so that resuming the capture takes them again.
 """
 
 from __future__ import annotations
@@ -10,25 +14,33 @@ from __future__ import annotations
 import contextlib
 import copy
 import hashlib
+import json
 import os
 import warnings
 from collections.abc import Callable, Iterable, Iterator
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench._shared.atomic import atomic_write_bytes, fsync_dir
+from sassi_bench._shared.canonical_json import canonical_json
 from sassi_bench._shared.lock import LockHeldError, WriteLock
+from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session.errors import (
+    FrameDamage,
+    FrameDamagedError,
+    SessionDamagedError,
     SessionError,
     SessionIntegrityError,
     SessionLockedError,
     SessionWarning,
     session_error,
 )
-from sassi_bench.acquire.session.events import EventLog, frame_event
+from sassi_bench.acquire.session.events import EVENTS_FILE, EventLog, frame_event
 from sassi_bench.acquire.session.folder import (
     LOCK_FILE,
     create_session_folder,
@@ -36,12 +48,58 @@ from sassi_bench.acquire.session.folder import (
     read_header,
     session_folder,
 )
-from sassi_bench.acquire.session.frames import FRAMES_DIR, FrameStore, check_frame
-from sassi_bench.acquire.session.header import check_resumable
+from sassi_bench.acquire.session.frames import (
+    FRAMES_DIR,
+    STORED_BYTES_KEY,
+    FrameProblem,
+    FrameStore,
+    check_frame,
+)
+from sassi_bench.acquire.session.header import SESSION_FILE, check_resumable, utc_stamp
+from sassi_bench.acquire.session.salvage import examine
+from sassi_bench.errors import step_error
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.frame import Frame
 
-__all__ = ["Session"]
+__all__ = ["DAMAGED_DIR", "VERIFY_FILE", "Session"]
+
+#: Folder of a session where frames set aside are kept (see :meth:`Session.set_aside`).
+DAMAGED_DIR = "damaged"
+#: The record of a session's last full check (see :meth:`Session.record_verification`).
+VERIFY_FILE = "verify.json"
+
+
+def _headless_folder(
+    path_or_id: str | os.PathLike[str], data: str | os.PathLike[str] | None
+) -> Path | None:
+    """A session folder whose ``session.json`` is gone but whose log or frames are there."""
+    candidates = [Path(path_or_id)]
+    with contextlib.suppress(SessionError):
+        candidates.insert(0, session_folder(str(path_or_id), data))
+    for folder in candidates:
+        if (folder / EVENTS_FILE).is_file() or (folder / FRAMES_DIR).is_dir():
+            return folder
+    return None
+
+
+def _damaged_session(path: Path, exc: BaseException) -> SessionDamagedError:
+    """The error for a session whose header, log or frame store cannot be read: what is
+    unreadable, and what its frames and log still hold."""
+    condition = examine(path)
+    unreadable = condition.unreadable() or str(exc).split(". Fix: ", 1)[0]
+    parts = [
+        name for name, bad in ((SESSION_FILE, condition.header), (EVENTS_FILE, condition.log),
+                               (FRAMES_DIR, condition.frames)) if bad
+    ]  # fmt: skip
+    restore = " and ".join(parts) or "the session folder"
+    message = step_error(
+        f"session {path.name!r} open",
+        f"{unreadable}; {condition.salvage()}",
+        f"the session is kept as it is (`sassi-bench data clean` leaves damaged sessions "
+        f"alone); restore {restore} from a backup to use it again, or capture into a new "
+        f"session id. `sassi-bench data verify {path.name}` checks its frames against the log",
+    )
+    return SessionDamagedError(message, condition)
 
 
 def _camera_slots(plan: Plan) -> tuple[dict[str, list[int]], list[tuple[str, int]]]:
@@ -67,7 +125,15 @@ class Session:
         self._header_bytes = header_bytes
         self._plan = Plan.from_dict(header["plan"])
         steps_of_camera, slots = _camera_slots(self._plan)
-        self._frames = FrameStore(path, steps_of_camera)
+        try:
+            self._frames = FrameStore(path, steps_of_camera)
+        except Exception as exc:  # whatever zarr raises for a store it cannot open
+            raise session_error(
+                f"session {self.id!r} open",
+                f"{FRAMES_DIR} cannot be opened ({type(exc).__name__}: {exc})",
+                "restore the session folder from a backup",
+                SessionIntegrityError,
+            ) from exc
         self._log = EventLog(path, slots, f"session {self.id!r}")
         self._lock = WriteLock(path / LOCK_FILE)
         self._warn_problems(stacklevel=3)  # at the caller of open/create
@@ -126,6 +192,14 @@ class Session:
     ) -> Session:
         """Open an existing session by folder path or by id under ``<data>/sessions/``.
 
+        Raises
+        ------
+        SessionDamagedError
+            If its ``session.json``, event log or frame store cannot be read: the message
+            says what is unreadable and what the frames and the log still hold.
+        SessionError
+            If there is no session there.
+
         Examples
         --------
         >>> import tempfile
@@ -139,8 +213,16 @@ class Session:
         (True, 'd')
         >>> tmp.cleanup()
         """
-        path = find_session(path_or_id, data)
-        return cls(path, *read_header(path))
+        try:
+            path = find_session(path_or_id, data)
+        except SessionError:
+            path = _headless_folder(path_or_id, data)
+            if path is None:
+                raise
+        try:
+            return cls(path, *read_header(path))
+        except (SessionIntegrityError, OSError) as exc:
+            raise _damaged_session(path, exc) from exc
 
     @classmethod
     def resume_or_plan(
@@ -172,6 +254,8 @@ class Session:
         """
         try:
             existing = cls.open(session_id, data=data)
+        except SessionDamagedError:
+            raise  # never planned anew over a session that is there but damaged
         except SessionError:
             existing = None  # planned outside the handler: its errors are not chained to this
         if existing is None:
@@ -380,14 +464,20 @@ class Session:
         check_frame(where, step.camera, frame.meta.camera, data)
         event = frame_event(i, step, self._log.slots[i][1], data, frame.meta, where)
         camera_logged = any(self._plan.steps[j].camera == step.camera for j in self._log.completed)
-        self._frames.write(
+        event[STORED_BYTES_KEY] = self._frames.write(
             step.camera, event["slot"], data, replace_ok=not camera_logged, where=where
         )
         self._log.append(event)
 
     # -- reading ----------------------------------------------------------------------
     def read_frame(self, step_index: int) -> NDArray[Any]:
-        """The stored frame of step ``step_index`` (a read-only array).
+        """The stored frame of step ``step_index`` (a read-only array), checked against
+        the checksum its event recorded.
+
+        Raises
+        ------
+        FrameDamagedError
+            If the frame is missing or damaged (naming the step, its file and how).
 
         Examples
         --------
@@ -395,12 +485,16 @@ class Session:
         """
         i = self._check_index(step_index)
         camera, slot = self._locate(i, "read")
-        out = self._frames.read(camera, slot)
+        try:
+            out = self._frames.read(camera, slot, self._log.event(i))
+        except FrameProblem as problem:
+            raise self._damaged(i, camera, problem, "read") from None
         out.setflags(write=False)
         return out
 
     def read_frames(self, step_indices: Iterable[int]) -> NDArray[Any]:
-        """Frames of several steps of one camera, stacked along a new first axis.
+        """Frames of several steps of one camera, stacked along a new first axis, each
+        checked as :meth:`read_frame` checks it.
 
         Examples
         --------
@@ -429,7 +523,14 @@ class Session:
                 f"steps {indices} mix cameras {sorted(cameras)}",
                 "read each camera's steps separately (plan.select / step.camera)",
             )
-        out = self._frames.read_slots(located[0][0], [slot for _, slot in located])
+        camera = located[0][0]
+        try:
+            out = self._frames.read_slots(
+                camera, [slot for _, slot in located], [self._log.event(i) for i in indices]
+            )
+        except FrameProblem as problem:
+            step = indices[[slot for _, slot in located].index(problem.slot)]
+            raise self._damaged(step, camera, problem, "read") from None
         out.setflags(write=False)
         return out
 
@@ -482,8 +583,13 @@ class Session:
             h.update(line)
         return h.hexdigest()
 
-    def verify(self) -> int:
-        """Re-hash every stored frame against its event.
+    def verify(self, on_frame: Callable[[int], None] | None = None) -> int:
+        """Check every stored frame: read whole, against its checksum and its SHA-256.
+
+        Parameters
+        ----------
+        on_frame
+            Called with each step once its frame is checked (a progress bar).
 
         Returns
         -------
@@ -492,15 +598,137 @@ class Session:
 
         Raises
         ------
-        SessionIntegrityError
-            Naming the first step whose stored data changed or cannot be read.
+        FrameDamagedError
+            Naming the first damaged frame (and how many others are).
         """
-        for i in sorted(self._log.completed):
-            event = self._log.event(i)
-            camera, slot = self._locate(i, "verify")
-            where = f"session {self.id!r} verify step {i}"
-            self._frames.check(camera, slot, event["sha256"], event["shape"], where)
+        found = self.find_damage(on_frame=on_frame)
+        if found:
+            first = found[0]
+            more = f" ({len(found) - 1} more frames are damaged)" if len(found) > 1 else ""
+            raise self._damage_error(first, "verify", more)
         return len(self._log)
+
+    def find_damage(
+        self, *, thorough: bool = True, on_frame: Callable[[int], None] | None = None
+    ) -> list[FrameDamage]:
+        """Every stored frame that is missing or damaged, in step order.
+
+        Parameters
+        ----------
+        thorough
+            Read every frame and check it against its checksum and SHA-256; else look at
+            the chunk files only (one ``stat`` each: a chunk gone or of another size than
+            stored, where the event recorded it), which is quick.
+        on_frame
+            Called with each step once its frame is checked.
+
+        Examples
+        --------
+        >>> session.find_damage(thorough=False)  # doctest: +SKIP
+        [FrameDamage(session=..., step=3, camera='spectral', slot=2, ..., kind='missing', ...)]
+        """
+        found = []
+        for i in sorted(self._log.completed):
+            camera, slot = self._plan.steps[i].camera, self._log.slots[i][1]
+            event = self._log.event(i)
+            if thorough:
+                problem = self._frames.inspect(camera, slot, event)
+            else:
+                problem = self._frames.quick_inspect(camera, slot, event)
+            if problem is not None:
+                found.append(self._damage(i, camera, problem))
+            if on_frame is not None:
+                on_frame(i)
+        return found
+
+    def record_verification(self, found: Iterable[FrameDamage]) -> Path:
+        """Keep the outcome of a full check (:meth:`find_damage`) in ``verify.json``, so a
+        listing can show the damage found without reading every frame again.
+
+        Returns
+        -------
+        pathlib.Path
+            The record's file.
+        """
+        damaged = [
+            {
+                "step": d.step,
+                "sha256": self._log.event(d.step)["sha256"],
+                "kind": d.kind,
+                "detail": d.detail,
+                "chunk": d.chunk.as_posix(),
+            }
+            for d in found
+            if d.step in self._log
+        ]
+        record = {
+            "checked": utc_stamp(datetime.now(UTC)),
+            "frames": len(self._log),
+            "damaged": damaged,
+        }
+        return atomic_write_bytes(self._path / VERIFY_FILE, canonical_json(record), overwrite=True)
+
+    def last_verification(self) -> dict[str, Any] | None:
+        """The record of the last full check, its ``damaged`` list cut to the frames that
+        are still the ones checked (a frame set aside or captured again since is not);
+        None when the session was never checked, or its record does not read."""
+        try:
+            record = json.loads((self._path / VERIFY_FILE).read_bytes())
+            damaged = [
+                d
+                for d in record["damaged"]
+                if d["step"] in self._log and self._log.event(d["step"])["sha256"] == d["sha256"]
+            ]
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        return {**record, "damaged": damaged}
+
+    @property
+    def set_aside_frames(self) -> tuple[dict[str, Any], ...]:
+        """The records of frames set aside (:meth:`set_aside`): step, SHA-256, reason,
+        where the damaged chunk was kept, when."""
+        return tuple(copy.deepcopy(r) for r in self._log.set_aside)
+
+    def set_aside(self, damages: Iterable[FrameDamage]) -> list[dict[str, Any]]:
+        """Set damaged frames aside, so that resuming the capture takes them again.
+
+        Each frame's chunk file (when there is one) is moved to ``damaged/`` in the
+        session folder, kept as found, and a line in ``retakes.jsonl`` sets its event
+        aside: the step counts as not captured, and the capture's next run (the same
+        command with the same session id) captures it again. Nothing is deleted.
+
+        Raises
+        ------
+        SessionLockedError
+            If another process is writing the session.
+
+        Examples
+        --------
+        >>> session.set_aside(session.find_damage())  # doctest: +SKIP
+        """
+        records = []
+        with self.writing():
+            for damage in damages:
+                if damage.step not in self._log:
+                    continue  # set aside already
+                with deferred_stop_signals():  # the move and its record go together
+                    kept = self._keep_damaged(damage)
+                    reason = f"{damage.kind}: {damage.detail}"
+                    records.append(self._log.set_event_aside(damage.step, reason, kept))
+        return records
+
+    def _keep_damaged(self, damage: FrameDamage) -> str | None:
+        """Move a damaged frame's chunk file into ``damaged/``; its new place, if any."""
+        chunk = self._path / damage.chunk
+        if not chunk.exists():
+            return None
+        stamp = utc_stamp(datetime.now(UTC)).replace(":", "").replace("-", "")
+        kept = Path(DAMAGED_DIR) / damage.camera / f"slot{damage.slot}-step{damage.step}-{stamp}"
+        (self._path / kept).parent.mkdir(parents=True, exist_ok=True)
+        os.rename(chunk, self._path / kept)
+        fsync_dir((self._path / kept).parent)
+        fsync_dir(chunk.parent)
+        return kept.as_posix()
 
     # -- internals --------------------------------------------------------------------
     def _check_index(self, step_index: int) -> int:
@@ -538,6 +766,32 @@ class Session:
                 SessionIntegrityError,
             )
         return camera, self._log.slots[i][1]
+
+    def _damage(self, i: int, camera: str, problem: FrameProblem) -> FrameDamage:
+        chunk = self._frames.chunk_file(camera, problem.slot).relative_to(self._path)
+        return FrameDamage(self._path, i, camera, problem.slot, chunk, problem.kind, problem.detail)
+
+    def _damaged(
+        self, i: int, camera: str, problem: FrameProblem, action: str
+    ) -> FrameDamagedError:
+        return self._damage_error(self._damage(i, camera, problem), action)
+
+    def _damage_error(self, damage: FrameDamage, action: str, more: str = "") -> FrameDamagedError:
+        """The error that names a damaged frame, and what to do about it."""
+        chunk = damage.chunk.as_posix()
+        fix = (
+            f"nothing is computed from a damaged frame. Restore {self._path / chunk} from a "
+            f"backup, or set the frame aside so that the capture takes it again: "
+            f"`sassi-bench data verify {self.id} --retake`, then run the capture that made "
+            "the session again with the same session id"
+        )
+        message = session_error(
+            f"session {self.id!r} {action} step {damage.step}",
+            f"the {damage.camera} frame (slot {damage.slot}, {chunk}) is {damage.kind}: "
+            f"{damage.detail}{more}",
+            fix,
+        )
+        return FrameDamagedError(str(message), damage)
 
     def _warn_problems(self, stacklevel: int) -> None:
         """Warn about the log's problems; ``stacklevel`` counts from this method's caller."""
