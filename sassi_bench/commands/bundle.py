@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from sassi_bench.commands.options import DATA_HELP, load_bundle_ref, program
+from sassi_bench.commands.options import DATA_HELP, latest_problem, load_bundle_ref, program
 from sassi_bench.errors import ProcedureError, step_error
 
 if TYPE_CHECKING:
@@ -33,7 +33,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "describe",
-    "latest_problem",
     "offset_text",
     "parse_quantum",
     "parse_wavelengths",
@@ -172,37 +171,6 @@ def _why(exc: Exception) -> str:
     if isinstance(exc, OSError):
         return f"cannot be read ({exc.strerror or exc})"
     return f"is not JSON ({exc})"
-
-
-def latest_problem(folder: Path) -> str | None:
-    """What is wrong with a rig folder's ``LATEST``, with the fix (None: it names a
-    version there, or there is none): ``bundle list`` and every command that takes the
-    ``latest`` bundle print it as a warning.
-
-    Examples
-    --------
-    >>> latest_problem(Path("/nonexistent")) is None
-    True
-    """
-    from sassi_bench.bundle.layout import LATEST_NAME, latest_version, versions
-
-    file = folder / LATEST_NAME
-    try:
-        named = file.read_text("utf-8").strip()
-    except FileNotFoundError:
-        return None
-    except (OSError, UnicodeDecodeError) as exc:
-        named, why = None, f"cannot be read ({exc})"
-    else:
-        why = None if (folder / named).is_dir() else f"names {named!r}, which is not there"
-    if why is None or not versions(folder):
-        return None
-    taken = latest_version(folder)
-    return (
-        f"{file} {why}; `latest` means {taken} (the highest version here) until it is fixed. "
-        f"Fix: restore {named or 'that version'} from a backup or its exported zip "
-        f"(`{program()} bundle import ZIP`), or write the version to use into {file}"
-    )
 
 
 def cmd_list(args: argparse.Namespace) -> int:

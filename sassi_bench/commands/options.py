@@ -37,6 +37,7 @@ __all__ = [
     "check_output_file",
     "check_output_folder",
     "holding_rig",
+    "latest_problem",
     "load_bundle_ref",
     "new_session",
     "print_checks",
@@ -163,8 +164,6 @@ def bundle_from_args(
     )
     print(f"bundle: {choice}", flush=True)
     if args.bundle in (None, "latest", "LATEST"):
-        from sassi_bench.commands.bundle import latest_problem
-
         warning = latest_problem(choice.path.parent)  # the rig folder
         if warning is not None:
             print(f"warning: {warning}", flush=True)
@@ -330,3 +329,34 @@ def print_checks(checks: Iterable[Any], name_width: int = 40) -> None:
         mark = "PASS" if check.passed else "FAIL"
         limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
         print(f"  {mark}  {check.name:{name_width}s} {check.value:10.4f} {limit}")
+
+
+def latest_problem(folder: Path) -> str | None:
+    """What is wrong with a rig folder's ``LATEST``, with the fix (None: it names a
+    version there, or there is none): ``bundle list`` and every command that takes the
+    ``latest`` bundle print it as a warning.
+
+    Examples
+    --------
+    >>> latest_problem(Path("/nonexistent")) is None
+    True
+    """
+    from sassi_bench.bundle.layout import LATEST_NAME, latest_version, versions
+
+    file = folder / LATEST_NAME
+    try:
+        named = file.read_text("utf-8").strip()
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as exc:
+        named, why = None, f"cannot be read ({exc})"
+    else:
+        why = None if (folder / named).is_dir() else f"names {named!r}, which is not there"
+    if why is None or not versions(folder):
+        return None
+    taken = latest_version(folder)
+    return (
+        f"{file} {why}; `latest` means {taken} (the highest version here) until it is fixed. "
+        f"Fix: restore {named or 'that version'} from a backup or its exported zip "
+        f"(`{program()} bundle import ZIP`), or write the version to use into {file}"
+    )
