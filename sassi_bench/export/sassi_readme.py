@@ -3,7 +3,9 @@ call with which files.
 
 The calls are those of ``cassi.py``'s ``__main__`` (Image-Science-Lab-cmu/SASSI), with
 the blur list and the row window read from the exported files instead of its
-hard-coded ``ksizes`` and ``vsize = 3``. ``tests/export/test_sassi_upstream.py`` runs
+hard-coded ``ksizes`` and ``vsize = 3``, and the cube cropped to ``limits`` like the
+mask and guide (``__main__`` passes it whole, which works only for the whole SLM, the
+export's default). ``tests/export/test_sassi_upstream.py`` runs
 the Python block of this text verbatim against the authors' code.
 """
 
@@ -45,7 +47,7 @@ cube = cassi.get_cassi_cube(cassi_img, mask, Xl, Yl, calibstack_row,
                             calibstack_col, vsize, ksizes)
 cube /= cube.max()
 L, N = cassi.slic_update(imrgb, mask[h1:h2, w1:w2].astype(np.uint8), 10.0)
-cube_rec = cassi.recon_superpixel(cube, mask[h1:h2, w1:w2], L,
+cube_rec = cassi.recon_superpixel(cube[h1:h2, w1:w2], mask[h1:h2, w1:w2], L,
                                   imrgb.astype(np.float32).mean(2) / 255, N,
                                   renorm=True, net=None, lr_filter=True, rank=6,
                                   recon_3d=False)

@@ -120,7 +120,7 @@ def test_readme_names_the_bundle_and_the_calls(exported, sim_bundle):
         "ksizes = calibdata['ksizes'].ravel()",
         "vsize = int(data['vsize'].item())",
         "cassi.slic_update(imrgb,",
-        "cassi.recon_superpixel(cube,",
+        "cassi.recon_superpixel(cube[h1:h2, w1:w2], mask[h1:h2, w1:w2], L,",
         "rounded to 0.015625 px",
     ):
         assert needle in text, needle
