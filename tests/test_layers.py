@@ -96,7 +96,10 @@ def imported_names(source: str, module: str, is_package: bool = False) -> set[st
 
 
 def package_files() -> list[Path]:
-    return sorted(p for p in PACKAGE.rglob("*.py") if "procedures" not in p.parts)
+    """The package's modules (the SASSI authors' vendored files are data the export
+    compiles functions from, not modules of the package)."""
+    skip = {"procedures", "sassi_upstream"}
+    return sorted(p for p in PACKAGE.rglob("*.py") if not skip.intersection(p.parts))
 
 
 MODULES = {module_name(p): p for p in package_files()}

@@ -116,13 +116,6 @@ def register(subparsers: Any) -> None:
         "bundle's bins)",
     )
     p.add_argument(
-        "--vsize",
-        type=int,
-        metavar="ROWS",
-        help="sassi-mat row window for cassi.py's get_cassi_cube, odd (default: the one the "
-        "bundle's blur implies; see README.txt of the export)",
-    )
-    p.add_argument(
         "--position-quantum",
         metavar="PX",
         help="sassi-mat: round stored positions to this power of two of a pixel, at most "
@@ -370,7 +363,6 @@ def cmd_export(args: argparse.Namespace) -> int:
     sassi_only = {
         "--out": args.out,
         "--wavelengths": args.wavelengths,
-        "--vsize": args.vsize,
         "--position-quantum": args.position_quantum,
     }
     for option, value in sassi_only.items():
@@ -489,7 +481,7 @@ def _export_sassi_mat(bundle: CalibrationBundle, args: argparse.Namespace) -> in
             step_error("bundle export", "--format sassi-mat needs --out DIR", "add --out DIR")
         )
     done = export_sassi_mat(
-        bundle, args.out, wavelengths=parse_wavelengths(args.wavelengths), vsize=args.vsize,
+        bundle, args.out, wavelengths=parse_wavelengths(args.wavelengths),
         position_quantum_px=parse_quantum(args.position_quantum), progress=not args.quiet,
     )  # fmt: skip
     lam = done.wavelengths
@@ -499,11 +491,7 @@ def _export_sassi_mat(bundle: CalibrationBundle, args: argparse.Namespace) -> in
         f"{lam.size} bands {lam[0]:.1f}-{lam[-1]:.1f} nm, camera {done.camera_shape}, "
         f"SLM {done.slm_shape}, {done.seconds:.1f} s"
     )
-    print(
-        f"  row window vsize {done.vsize} (keeps {done.row_window_share.min():.0%}-"
-        f"{done.row_window_share.max():.0%} of a band's light: divide by row_window_share); "
-        + (f"positions rounded to {quantum:g} px" if quantum else "positions exact")
-    )
+    print("  " + (f"positions rounded to {quantum:g} px" if quantum else "positions exact"))
     for name, size in done.sizes.items():
         print(f"  {done.folder / name}  ({size / 1e6:.1f} MB)")
     if not bundle.passed:

@@ -241,9 +241,11 @@ def _sessions_to_export(args: argparse.Namespace) -> list[tuple[Any, Path]]:
 
 def _snapshot_export(args: argparse.Namespace) -> int:
     from sassi_bench.acquire.session import Session, SessionDamagedError, SessionError
-    from sassi_bench.export.adaptive_cassi import export_adaptive_cassi, select_steps
+    from sassi_bench.export.adaptive_cassi import check_vsize, export_adaptive_cassi, select_steps
 
     check_output_folder("snapshot export", args.out)
+    if args.vsize is not None:
+        check_vsize(args.vsize)
     targets = _sessions_to_export(args)
     guide_override = None
     if args.guide_session is not None:
@@ -283,7 +285,7 @@ def _snapshot_export(args: argparse.Namespace) -> int:
     for session, folder, spectral, guide_session, guides, darks in plans:
         done = export_adaptive_cassi(
             bundle, session, spectral, folder, guide_steps=guides, guide_session=guide_session,
-            guide_dark_steps=darks, limits=args.limits,
+            guide_dark_steps=darks, limits=args.limits, vsize=args.vsize,
         )  # fmt: skip
         h1, h2, w1, w2 = done.limits
         print(
@@ -293,6 +295,17 @@ def _snapshot_export(args: argparse.Namespace) -> int:
             + f", bundle {bundle.rig_name}/{bundle.version}, limits [{h1} {h2} {w1} {w2}]"
         )
         print(f"  {done.path}")
+        choice = done.vsize_choice
+        if choice is None:
+            print(f"  vsize {done.vsize} (as given)")
+        else:
+            tried = ", ".join(
+                f"{w}: {d:.1f}" for w, d in zip(choice.candidates, choice.scores_db, strict=True)
+            )
+            print(
+                f"  vsize {done.vsize}, chosen by the authors' get_cassi_cube on this frame "
+                f"(agreement with sassi-bench's spectra, dB, per window: {tried})"
+            )
         for note in done.notes:
             print(f"  note: {note}")
     names = ", ".join(folder.name for _, folder, *_ in plans)
@@ -410,6 +423,11 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--limits", type=int, nargs=4, metavar=("H1", "H2", "W1", "W2"),
         help="SLM crop as Python slice bounds (default: the whole SLM, which cassi.py needs)",
+    )  # fmt: skip
+    p.add_argument(
+        "--vsize", type=int, metavar="ROWS",
+        help="row window for cassi.py's get_cassi_cube, odd (default: chosen by running "
+        "their get_cassi_cube on the frame, which needs PyTorch: sassi-bench[sassi])",
     )  # fmt: skip
     p.add_argument("--out", required=True, help="folder to write adaptive_cassi.mat into")
     p.add_argument("--data", metavar="DIR", default=None, help=DATA_HELP)

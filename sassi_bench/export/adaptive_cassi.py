@@ -21,6 +21,10 @@ capture with:
     ``cv2.COLOR_RGB2Lab``, ``__main__`` uses ``mean(2) / 255`` as the panchromatic guide).
     The averaged (optionally dark-subtracted) guide frames are scaled linearly so that
     the 99.9th percentile of the crop maps to 255 (``guide_white_level`` records it).
+``vsize``
+    int32 ``(1, 1)``: the row window to pass to ``get_cassi_cube`` for this capture,
+    chosen by running the authors' own extraction on this frame
+    (:mod:`sassi_bench.export.window_choice`) unless given.
 ``limits``
     ``[h1, h2, w1, w2]`` int32, used as Python slice bounds ``mask[h1:h2, w1:w2]``
     (0-based, end exclusive; no 1 is subtracted). ``__main__`` passes the *uncropped*
@@ -58,11 +62,14 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.export.matfile import write_mat
-from sassi_bench.export.sassi_mat import camera_shape_of
+from sassi_bench.export.sassi_mat import camera_shape_of, sassi_tables, suggested_ksizes
+from sassi_bench.export.window_choice import VsizeChoice, choose_vsize
 
 __all__ = [
     "ADAPTIVE_CASSI_FILE",
     "AdaptiveCassiExport",
+    "capture_vsize",
+    "check_vsize",
     "export_adaptive_cassi",
     "guide_to_uint8",
     "lcos_mask",
@@ -86,6 +93,10 @@ class AdaptiveCassiExport:
         ``(h1, h2, w1, w2)``.
     open_pixels
         Number of open SLM pixels in ``lcos_mask``.
+    vsize
+        The row window written.
+    vsize_choice
+        How it was chosen (None when it was given).
     notes
         Things the user should know (e.g. the session's rig differs from the bundle's).
     """
@@ -93,6 +104,8 @@ class AdaptiveCassiExport:
     path: Path
     limits: tuple[int, int, int, int]
     open_pixels: int
+    vsize: int
+    vsize_choice: VsizeChoice | None = None
     notes: tuple[str, ...] = field(default=())
 
 
@@ -225,6 +238,70 @@ def _limits(limits: Sequence[int] | None, slm_shape: tuple[int, int]) -> tuple[i
     return values
 
 
+def capture_vsize(
+    bundle: CalibrationBundle,
+    frame: ArrayLike,
+    mask: ArrayLike,
+    exposure_s: float,
+) -> VsizeChoice:
+    """The row window for the authors' ``get_cassi_cube`` on this frame, chosen by their
+    own extraction against this package's spectra of the same frame.
+
+    Parameters
+    ----------
+    bundle
+        The calibration bundle the capture is exported with.
+    frame
+        The raw spectral frame.
+    mask
+        The SLM pattern shown (nonzero: open).
+    exposure_s
+        The frame's exposure.
+
+    Returns
+    -------
+    VsizeChoice
+
+    Examples
+    --------
+    >>> capture_vsize(bundle, frame, mask, 0.01).vsize  # doctest: +SKIP
+    9
+    """
+    from sassi_bench.snapshot.reconstruct import measure_samples
+
+    pattern = np.asarray(mask) > 0
+    if not pattern.any():
+        raise _fail("the pattern opens no SLM pixel", "export a frame of a snapshot mask")
+    spectra, _ = measure_samples(frame, pattern, bundle, exposure_s=exposure_s)
+    if bundle.response is not None:  # back to camera units, as the authors' cube is
+        spectra = spectra * np.asarray(bundle.response)
+    sigma = np.asarray(bundle.blur_width(bundle.wavelengths), dtype=np.float64)
+    return choose_vsize(
+        sassi_tables(bundle), frame, pattern.astype(np.float32), spectra,
+        suggested_ksizes(sigma), sigma_px=sigma,
+    )  # fmt: skip
+
+
+def check_vsize(vsize: int) -> int:
+    """``vsize`` as a positive odd int, else a :class:`ProcedureError`.
+
+    An even window is refused: ``convolve2d(..., 'same')`` with an even kernel sums rows
+    ``r - vsize/2 .. r + vsize/2 - 1``, half a row off the streak.
+
+    Examples
+    --------
+    >>> check_vsize(5)
+    5
+    """
+    if int(vsize) != vsize or vsize < 1 or vsize % 2 == 0:
+        raise _fail(
+            f"vsize {vsize} is not a positive odd number of rows",
+            "pass an odd window (1, 3, 5, ...), or leave it out to let the authors' "
+            "extraction choose it on the frame",
+        )
+    return int(vsize)
+
+
 def _mean_frame(session: Session, steps: Sequence[int]) -> NDArray[np.float64]:
     return np.mean([session.read_frame(i).astype(np.float64) for i in steps], axis=0)
 
@@ -239,6 +316,7 @@ def export_adaptive_cassi(
     guide_session: Session | None = None,
     guide_dark_steps: Sequence[int] = (),
     limits: Sequence[int] | None = None,
+    vsize: int | None = None,
 ) -> AdaptiveCassiExport:
     """Write ``<out>/adaptive_cassi.mat`` from a spectral frame, its mask and guide frames.
 
@@ -261,6 +339,9 @@ def export_adaptive_cassi(
     limits
         ``(h1, h2, w1, w2)`` crop of the SLM (default: the whole SLM; see the module
         docstring for why).
+    vsize
+        The row window to write (odd); default: chosen by :func:`capture_vsize`, which
+        needs PyTorch (``sassi-bench[sassi]``).
 
     Returns
     -------
@@ -270,6 +351,14 @@ def export_adaptive_cassi(
     --------
     >>> export_adaptive_cassi(bundle, session, 0, "exp1", guide_steps=[1])  # doctest: +SKIP
     """
+    target = Path(out) / ADAPTIVE_CASSI_FILE
+    if target.exists():  # checked before the window is chosen, which takes a while
+        raise _fail(
+            f"{target} already exists (exports are never overwritten)",
+            "choose a new output folder",
+        )
+    if vsize is not None:
+        check_vsize(vsize)
     guide_session = session if guide_session is None else guide_session
     spectral = select_steps(session, "spectral", step=step)[0]
     guides = [select_steps(guide_session, "guide", step=i)[0] for i in guide_steps]
@@ -311,6 +400,12 @@ def export_adaptive_cassi(
     )
     mask = lcos_mask(session.event(spectral)["pattern"], slm_shape)
     crop = _limits(limits, slm_shape)
+    choice = None
+    if vsize is None:
+        choice = capture_vsize(bundle, frame, mask, session.plan.steps[spectral].exposure_s)
+        window = choice.vsize
+    else:
+        window = check_vsize(vsize)
     h1, h2, w1, w2 = crop
     guide = _mean_frame(guide_session, guides)
     if darks:
@@ -318,11 +413,12 @@ def export_adaptive_cassi(
     warped = bundle.warp_guide_to_slm(guide.astype(np.float32))[h1:h2, w1:w2]
     guide_rec, white = guide_to_uint8(warped)
     path = write_mat(
-        Path(out) / ADAPTIVE_CASSI_FILE,
+        target,
         {
             "lcos_mask": mask,
             "cassi_img": np.asarray(frame),
             "guide_img_rec": guide_rec,
+            "vsize": np.array([[window]], dtype=np.int32),
             "limits": np.array(crop, dtype=np.int32),
             "guide_white_level": white,
             "session_id": session.id,
@@ -331,4 +427,4 @@ def export_adaptive_cassi(
             "bundle_version": f"{bundle.rig_name}/{bundle.version}",
         },
     )
-    return AdaptiveCassiExport(path, crop, int((mask > 0).sum()), tuple(notes))
+    return AdaptiveCassiExport(path, crop, int((mask > 0).sum()), window, choice, tuple(notes))

@@ -45,10 +45,11 @@ bundle's blur per band) and ``ksizes`` whose windows reach 3 sigma, for whoever 
 to replace that line; the code ignores variables it does not read.
 
 Row window: ``__main__`` hard-codes ``vsize = 3``, the rows ``_get_cassi_cube`` sums
-around each streak. ``calibstack.mat`` adds ``vsize`` (int32, odd; the window the
-bundle's blur implies, :func:`~sassi_bench.export.row_window.default_vsize`) and
-``row_window_share`` (per band, the share of the light that window keeps, to divide
-the cube by), and ``nm_per_column`` (what one sample of the cube integrates).
+around each streak. The best window depends on the capture's mask and exposure, so it is
+not written here but into each capture's ``adaptive_cassi.mat``, chosen by their own
+extraction on that capture (:mod:`sassi_bench.export.window_choice`).
+:func:`sassi_tables` gives the four tables in memory, as ``__main__`` hands them to
+``get_cassi_cube``, for that choice.
 
 Size: every variable is zlib-compressed (MAT v7 ``miCOMPRESSED``, which scipy and
 MATLAB read transparently). Sub-pixel float32 positions hardly compress (their low
@@ -84,13 +85,8 @@ from sassi_bench.bundle.integrity import MANIFEST_NAME, sha256_file
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.export.camera_lookup import CameraLookup, solve_camera_lookup
 from sassi_bench.export.matfile import BandStream, write_mat
-from sassi_bench.export.row_window import (
-    check_vsize,
-    default_vsize,
-    nm_per_column,
-    row_window_share,
-)
 from sassi_bench.export.sassi_readme import readme_text
+from sassi_bench.export.window_choice import SassiTables
 
 __all__ = [
     "CALIBSTACK_FILE",
@@ -102,6 +98,7 @@ __all__ = [
     "camera_shape_of",
     "export_sassi_mat",
     "preset_wavelengths",
+    "sassi_tables",
     "suggested_ksizes",
 ]
 
@@ -141,10 +138,6 @@ class SassiMatExport:
         Per band, the share of camera pixels no SLM pixel reaches (stored as 0).
     seconds
         Wall time of the export.
-    vsize
-        The row window written for the authors' ``get_cassi_cube``.
-    row_window_share
-        Per band, the share of the light that window keeps.
     position_quantum_px
         Rounding of the stored positions (0: exact).
     """
@@ -156,8 +149,6 @@ class SassiMatExport:
     slm_shape: tuple[int, int]
     unreached_fraction: NDArray[np.float64]
     seconds: float
-    vsize: int
-    row_window_share: NDArray[np.float64]
     position_quantum_px: float
 
     @property
@@ -345,13 +336,57 @@ def _band_major(buffer: NDArray[np.float32]) -> BandStream:
     return BandStream((height, width, bands), np.float32, lambda: (b.T for b in buffer))
 
 
+def sassi_tables(
+    bundle: CalibrationBundle,
+    wavelengths: ArrayLike | str | None = None,
+    *,
+    camera_shape: tuple[int, int] | None = None,
+    position_quantum_px: float = DEFAULT_QUANTUM_PX,
+    node_step: int = 8,
+) -> SassiTables:
+    """The four tables :func:`export_sassi_mat` writes, in memory and 0-based, as
+    ``cassi.py``'s ``__main__`` passes them to ``get_cassi_cube`` (the files' values
+    minus 1, float32).
+
+    Parameters
+    ----------
+    bundle, wavelengths, camera_shape, position_quantum_px, node_step
+        As for :func:`export_sassi_mat`.
+
+    Returns
+    -------
+    SassiTables
+
+    Examples
+    --------
+    >>> tables = sassi_tables(load(rig="sim"))  # doctest: +SKIP
+    >>> tables.xl.shape, tables.calibstack_row.shape  # doctest: +SKIP
+    ((400, 640, 68), (512, 800, 68))
+    """
+    lam = _bands(wavelengths, bundle)
+    shape = camera_shape_of(bundle) if camera_shape is None else tuple(int(n) for n in camera_shape)
+    quantum = _check_quantum(position_quantum_px)
+    lookup = solve_camera_lookup(bundle, shape, lam, step=node_step)
+    row = np.empty((*shape, lam.size), dtype=np.float32)
+    col = np.empty_like(row)
+    bar = tqdm(disable=True)
+    for t, plane in enumerate(_calibstack_planes(lookup, "v", bar, quantum)):
+        row[:, :, t] = plane - 1.0
+    for t, plane in enumerate(_calibstack_planes(lookup, "u", bar, quantum)):
+        col[:, :, t] = plane - 1.0
+    camera_rows, camera_cols = _reverse_lookup(bundle, lam, bar, quantum)  # (T, Wl, Hl)
+    xl = np.ascontiguousarray(np.transpose(camera_rows, (2, 1, 0))) - np.float32(1.0)
+    del camera_rows
+    yl = np.ascontiguousarray(np.transpose(camera_cols, (2, 1, 0))) - np.float32(1.0)
+    return SassiTables(xl=xl, yl=yl, calibstack_row=row, calibstack_col=col)
+
+
 def export_sassi_mat(
     bundle: CalibrationBundle,
     out: str | os.PathLike[str],
     *,
     wavelengths: ArrayLike | str | None = None,
     camera_shape: tuple[int, int] | None = None,
-    vsize: int | None = None,
     position_quantum_px: float = DEFAULT_QUANTUM_PX,
     node_step: int = 8,
     compression_level: int | None = None,
@@ -370,9 +405,6 @@ def export_sassi_mat(
         :data:`WAVELENGTH_PRESETS` name (default: the bundle's bin centres).
     camera_shape
         Spectral camera ``(H, W)`` (default: from the bundle's rig description).
-    vsize
-        Row window for the authors' ``get_cassi_cube`` (odd; default:
-        :func:`~sassi_bench.export.row_window.default_vsize` of the bundle's blur).
     position_quantum_px
         Store positions rounded to this (a power of two, px; at most half of it off);
         0 stores them exactly.
@@ -420,9 +452,6 @@ def export_sassi_mat(
         "position_quantum_px": quantum,
     }
     sigma = np.asarray(bundle.blur_width(lam), dtype=np.float64)
-    window = default_vsize(sigma) if vsize is None else check_vsize(vsize)
-    share = row_window_share(bundle, lam, window, shape)
-    columns = nm_per_column(bundle, lam, shape)
     unreached = np.zeros(lam.size)
     n = lam.size
     with tqdm(total=n, desc="invert dispersion", unit="band", disable=not progress) as bar:
@@ -435,9 +464,6 @@ def export_sassi_mat(
                 "wavelengths": lam,
                 "blur_sigma_px": sigma,
                 "ksizes": suggested_ksizes(sigma),
-                "vsize": np.array([[window]], dtype=np.int32),
-                "row_window_share": share,
-                "nm_per_column": columns,
                 **identity,
                 "calibstack_row": BandStream(
                     (*shape, n),
@@ -467,7 +493,7 @@ def export_sassi_mat(
     readme.write_text(
         readme_text(
             bundle, lookup, unreached, identity["bundle_manifest_sha256"],
-            vsize=window, share=share, columns=columns, quantum=quantum,
+            quantum=quantum,
         ),
         "utf-8",
     )  # fmt: skip
@@ -479,7 +505,5 @@ def export_sassi_mat(
         slm_shape=(slm_h, slm_w),
         unreached_fraction=unreached,
         seconds=time.perf_counter() - start,
-        vsize=window,
-        row_window_share=share,
         position_quantum_px=quantum,
     )

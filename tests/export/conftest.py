@@ -111,3 +111,33 @@ def synthetic():
     sys.modules[spec.name] = module  # the helpers look themselves up there
     spec.loader.exec_module(module)
     return module
+
+
+#: ``tests/export/vendored_sassi`` holds the SASSI authors' files, not tests.
+collect_ignore = ["vendored_sassi"]
+
+
+@pytest.fixture(scope="session")
+def sassi_root(calibrated_sim, sim_bundle, exported, tmp_path_factory):
+    """A lab's folder for the authors' code: the bundle export in ``calibration/`` and an
+    adaptive snapshot of the natural scene (the snapshot procedure's mask and light)
+    exported with its chosen window in ``exp1/``. Returns (root, export result, video)."""
+    import os
+
+    from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
+    from sassi_bench.export.adaptive_cassi import export_adaptive_cassi
+    from sassi_bench.workflows.procedure import load_procedure
+    from sassi_bench.workflows.snapshot import take_snapshots
+
+    rig = calibrated_sim[0]
+    bundle, data = sim_bundle
+    video = take_snapshots(
+        rig, bundle, load_procedure("snapshot_validation"), scene="natural",
+        session_id="natural", data=data, progress=False,
+    )  # fmt: skip
+    root = tmp_path_factory.mktemp("sassi-root")
+    os.symlink(exported.folder, root / "calibration")
+    done = export_adaptive_cassi(
+        bundle, video.frames[0], SPECTRAL_STEP, root / "exp1", guide_steps=[GUIDE_STEP]
+    )
+    return root, done, video

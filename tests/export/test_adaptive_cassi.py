@@ -16,7 +16,7 @@ def capture(sim_bundle, snapshot_session, tmp_path_factory):
     bundle, _ = sim_bundle
     out = tmp_path_factory.mktemp("exp1")
     done = export_adaptive_cassi(
-        bundle, snapshot_session, 0, out, guide_steps=[2, 3], guide_dark_steps=[4]
+        bundle, snapshot_session, 0, out, guide_steps=[2, 3], guide_dark_steps=[4], vsize=7
     )
     return done, loadmat(done.path)
 
@@ -36,6 +36,9 @@ def test_contents(capture, sim_bundle, snapshot_session):
     np.testing.assert_array_equal(mat["cassi_img"], frame)
     assert mat["limits"].dtype == np.int32
     np.testing.assert_array_equal(mat["limits"].ravel(), [0, hl, 0, wl])
+    # The window given; int32 (1, 1), which int(data['vsize'].item()) makes a Python int.
+    assert mat["vsize"].dtype == np.int32 and mat["vsize"].shape == (1, 1)
+    assert int(mat["vsize"].item()) == done.vsize == 7 and done.vsize_choice is None
     assert not done.notes  # the session and the bundle share the rig description
     guide = mat["guide_img_rec"]
     assert guide.dtype == np.uint8 and guide.shape == (hl, wl, 3)
@@ -54,7 +57,7 @@ def test_limits_crop_the_guide(sim_bundle, snapshot_session, capture, tmp_path):
     bundle, _ = sim_bundle
     done = export_adaptive_cassi(
         bundle, snapshot_session, 0, tmp_path, guide_steps=[2, 3], guide_dark_steps=[4],
-        limits=(50, 350, 100, 600),
+        limits=(50, 350, 100, 600), vsize=7,
     )  # fmt: skip
     mat = loadmat(done.path)
     np.testing.assert_array_equal(mat["limits"].ravel(), [50, 350, 100, 600])
@@ -62,8 +65,9 @@ def test_limits_crop_the_guide(sim_bundle, snapshot_session, capture, tmp_path):
     assert mat["lcos_mask"].shape == bundle.slm_shape  # the mask stays whole
     with pytest.raises(ProcedureError, match="not a crop"):
         export_adaptive_cassi(
-            bundle, snapshot_session, 0, tmp_path / "x", guide_steps=[2], limits=(0, 500, 0, 10)
-        )
+            bundle, snapshot_session, 0, tmp_path / "x", guide_steps=[2], limits=(0, 500, 0, 10),
+            vsize=7,
+        )  # fmt: skip
 
 
 def test_refusals(sim_bundle, snapshot_session, capture, tmp_path):
@@ -76,7 +80,11 @@ def test_refusals(sim_bundle, snapshot_session, capture, tmp_path):
     with pytest.raises(ProcedureError, match="no captured guide frame"):
         export_adaptive_cassi(bundle, snapshot_session, 0, tmp_path, guide_steps=[1])
     with pytest.raises(ProcedureError, match="already exists"):
-        export_adaptive_cassi(bundle, snapshot_session, 0, done.path.parent, guide_steps=[2])
+        export_adaptive_cassi(
+            bundle, snapshot_session, 0, done.path.parent, guide_steps=[2], vsize=7
+        )
+    with pytest.raises(ProcedureError, match="not a positive odd number of rows"):
+        export_adaptive_cassi(bundle, snapshot_session, 0, tmp_path, guide_steps=[2], vsize=4)
     with pytest.raises(ProcedureError, match="dark"):
         guide_to_uint8(np.zeros((4, 4, 3)))
 
@@ -88,10 +96,12 @@ def test_cli_snapshot_export(capsys, sim_bundle, snapshot_session, tmp_path):
     code = main([
         *base, "--tag", "role=snapshot", "--guide-tag", "role=guide",
         "--guide-dark-tag", "role=guide_dark", "--bundle", str(bundle.path), "--out", str(out),
+        "--vsize", "5",
     ])  # fmt: skip
     printed = capsys.readouterr().out
     assert code == 0, printed
     assert "step 0" in printed and "guide steps [2, 3]" in printed and "minus dark [4]" in printed
+    assert "vsize 5 (as given)" in printed
     mat = loadmat(out / "adaptive_cassi.mat")
     np.testing.assert_array_equal(mat["guide_steps"].ravel(), [2, 3])
     # Three guide frames in the session: which one to pair must be said.
@@ -123,7 +133,7 @@ def test_a_snapshot_session_exports_its_exact_mask(calibrated_sim, sim_bundle, t
     session = run_plan(
         rig, plan, Session.create(rig.description, plan, session_id="adaptive-f000", data=root)
     )
-    done = export_adaptive_cassi(bundle, session, 1, tmp_path, guide_steps=[0])
+    done = export_adaptive_cassi(bundle, session, 1, tmp_path, guide_steps=[0], vsize=9)
     mat = loadmat(done.path)
     np.testing.assert_array_equal(mat["lcos_mask"], np.where(mask, 255, 0).astype(np.uint8))
     np.testing.assert_array_equal(mat["cassi_img"], session.read_frame(1))

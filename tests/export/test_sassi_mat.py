@@ -13,7 +13,6 @@ from sassi_bench.bundle import load
 from sassi_bench.bundle.integrity import sha256_file
 from sassi_bench.commands import main
 from sassi_bench.errors import ProcedureError
-from sassi_bench.export.row_window import default_vsize
 from sassi_bench.export.sassi_mat import export_sassi_mat, preset_wavelengths, suggested_ksizes
 
 
@@ -39,17 +38,8 @@ def test_shapes_dtypes_and_bands(exported, loaded, sim_bundle):
         assert str(mat["bundle_version"][0]) == bundle.version
         assert str(mat["bundle_manifest_sha256"][0]) == sha
         assert mat["position_quantum_px"].item() == 1 / 64
-    # The row window: an int32 (1, 1) that int(...item()) turns into the Python int
-    # cassi.py's np.ones((vsize, 1)) needs; the blur's median sigma (1.03 px) gives 3.
-    assert calib["vsize"].dtype == np.int32 and calib["vsize"].shape == (1, 1)
-    assert int(calib["vsize"].item()) == exported.vsize == default_vsize(sigma) == 3
-    share = calib["row_window_share"]
-    assert share.shape == (1, t)
-    np.testing.assert_array_equal(share.ravel(), exported.row_window_share)
-    assert 0.3 < share.min() < 0.4 and share.max() <= 1.0  # a third of the red in 3 rows
-    assert share[0, -1] < share[0, t // 2]  # the red end's blur is the widest
-    # The sim bench's bins are one camera column wide.
-    np.testing.assert_allclose(calib["nm_per_column"].ravel(), np.diff(bundle.bin_edges), rtol=0.03)
+    # The row window depends on the capture: it is in adaptive_cassi.mat, not here.
+    assert "vsize" not in calib and "row_window_share" not in calib
 
 
 def test_reverse_lookup_is_the_bundle_map_one_based(loaded, sim_bundle, rng):
@@ -114,22 +104,27 @@ def test_unreached_camera_pixels_hold_zero(loaded, exported, sim_bundle):
     assert unreached[int(np.floor(y[0])) - 2, int(np.floor(x[0])) - 2, 0]
 
 
-def test_readme_names_the_bundle_and_the_contract(exported, sim_bundle):
+def test_readme_names_the_bundle_and_the_calls(exported, sim_bundle):
+    """README.txt: the bundle, the upstream commit, and the calls of cassi.py's __main__
+    with ksizes and vsize read from the files (tests/export/test_sassi_upstream.py runs
+    that block); no step of ours between their functions."""
+    from sassi_bench.export.sassi_readme import CALLS
+
     bundle, _ = sim_bundle
     text = (exported.folder / "README.txt").read_text()
     assert f"{bundle.rig_name}/{bundle.version}" in text
     assert sha256_file(bundle.path / "manifest.json") in text
-    for needle in ("1-based", "Xl holds rows and Yl columns", "0 (both arrays)", "float32"):
-        assert needle in text
-    # Which line of cassi.py the window feeds, how to pass it, and the evidence.
+    assert "commit 77d27e3" in text and CALLS in text
     for needle in (
-        "vsize = int(calibdata['vsize'].item())",
-        "signal.convolve2d(cassi_img, np.ones((vsize, 1)), 'same')",
-        "cube /= calibdata['row_window_share']",
-        "2 ceil(max sigma) + 1 = 9 rows",
-        "rounded to multiples of 0.015625 px",
+        "cassi.get_cassi_cube(cassi_img, mask, Xl, Yl, calibstack_row,",
+        "ksizes = calibdata['ksizes'].ravel()",
+        "vsize = int(data['vsize'].item())",
+        "cassi.slic_update(imrgb,",
+        "cassi.recon_superpixel(cube[h1:h2, w1:w2], mask[h1:h2, w1:w2], L,",
+        "rounded to 0.015625 px",
     ):
         assert needle in text, needle
+    assert "row_window_share" not in text
 
 
 def test_synthetic_bundle_magnified_relay(tmp_path, synthetic):
@@ -190,7 +185,7 @@ def test_octave_loads_the_files_as_matlab_would(exact_and_rounded):
         f"c = load('{rounded.folder / 'calibstack.mat'}'); "
         f"r = load('{rounded.folder / 'reverse_lookup.mat'}'); "
         "printf('%s %s %s %d %s\\n', class(c.calibstack_row), mat2str(size(c.calibstack_row)), "
-        "class(c.vsize), c.vsize, mat2str(size(r.Xl))); "
+        "class(c.ksizes), numel(c.ksizes), mat2str(size(r.Xl))); "
         "printf('%.6f\\n', r.Xl(1, 1, 1));"
     )
     done = subprocess.run(
@@ -199,7 +194,7 @@ def test_octave_loads_the_files_as_matlab_would(exact_and_rounded):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     first, value = done.stdout.strip().splitlines()[-2:]
-    assert first == f"single [512 800 2] int32 {rounded.vsize} [400 640 2]"
+    assert first == "single [512 800 2] double 2 [400 640 2]"
     xl = loadmat(rounded.folder / "reverse_lookup.mat")["Xl"][0, 0, 0]
     assert float(value) == pytest.approx(float(xl), abs=1e-6)
 
@@ -216,8 +211,6 @@ def test_paper_preset_takes_every_10_nm_inside_the_bundle(sim_bundle):
 
 def test_refuses_bands_outside_the_bundle_and_existing_files(exported, sim_bundle, tmp_path):
     bundle, _ = sim_bundle
-    with pytest.raises(ProcedureError, match="not a positive odd number of rows"):
-        export_sassi_mat(bundle, tmp_path, vsize=4, progress=False)
     with pytest.raises(ProcedureError, match="not 0 or a power of two"):
         export_sassi_mat(bundle, tmp_path, position_quantum_px=0.3, progress=False)
     with pytest.raises(ProcedureError, match="outside the bundle's calibrated range"):
@@ -233,20 +226,20 @@ def test_cli_bundle_export_sassi_mat(capsys, sim_bundle, tmp_path):
     out = tmp_path / "for_sassi"
     argv = ["bundle", "export", "latest", "--rig", "sim", "--data", str(root)]
     code = main([*argv, "--format", "sassi-mat", "--out", str(out), "--wavelengths",
-                 "450,532,635", "--vsize", "5", "--position-quantum", "1/256",
+                 "450,532,635", "--position-quantum", "1/256",
                  "--quiet"])  # fmt: skip
     printed = capsys.readouterr().out
     assert code == 0
     assert "3 bands 450.0-635.0 nm" in printed and "README.txt" in printed
-    assert "row window vsize 5" in printed and "rounded to 0.00390625 px" in printed
+    assert "rounded to 0.00390625 px" in printed
     calib = loadmat(out / "calibstack.mat")
     assert calib["calibstack_row"].shape == (512, 800, 3)
-    assert calib["vsize"].item() == 5 and calib["position_quantum_px"].item() == 1 / 256
+    assert calib["position_quantum_px"].item() == 1 / 256
     np.testing.assert_array_equal(calib["wavelengths"].ravel(), [450.0, 532.0, 635.0])
     # The zip export stays the default and still needs --zip.
     assert main(argv) == 2
     assert "--zip" in capsys.readouterr().err
     assert main([*argv, "--format", "sassi-mat"]) == 2
     assert "--out" in capsys.readouterr().err
-    assert main([*argv, "--zip", str(tmp_path / "b.zip"), "--vsize", "3"]) == 2
-    assert "--vsize 3 is read only with --format sassi-mat" in capsys.readouterr().err
+    assert main([*argv, "--zip", str(tmp_path / "b.zip"), "--wavelengths", "paper"]) == 2
+    assert "--wavelengths paper is read only with --format sassi-mat" in capsys.readouterr().err

@@ -474,7 +474,7 @@ CASES = {
         Case("snapshot reconstruct", ("snapshot", "reconstruct", "--session", "world-snap",
                                       "--out", "{out}/rec", "--quiet")),
         Case("snapshot export", ("snapshot", "export", "--session", "world-snap-f000",
-                                 "--step", "1", "--out", "{out}/exp"),
+                                 "--step", "1", "--vsize", "9", "--out", "{out}/exp"),
              outputs=("exp/adaptive_cassi.mat",)),
         Case("validate macbeth", ("validate", "macbeth", "--rig", "sim", "--white", "patch",
                                   "--out", "{out}/macbeth", "--quiet"), captures=True,

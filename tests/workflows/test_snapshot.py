@@ -122,7 +122,7 @@ def test_export_takes_the_id_as_printed_and_finds_the_frames_itself(taken, tmp_p
     guide the frame's guide step. The video's id exports one folder per frame (cassi.py
     reads one capture per folder); a frame's id exports that frame into --out."""
     _, bundle, root, _ = taken
-    common = ["--bundle", str(bundle.path), "--data", str(root)]
+    common = ["--bundle", str(bundle.path), "--data", str(root), "--vsize", "9"]
     assert main(["snapshot", "export", "--session", "mov", "--out", str(tmp_path / "all"),
                  *common]) == 0  # fmt: skip
     printed = capsys.readouterr().out
