@@ -116,10 +116,11 @@ def _child_capture(bundle_dir: str, session: str, data: str, out: str) -> None:
     """``snapshot export`` of one frame in this process; prints a JSON line."""
     start = time.perf_counter()
     cpu = time.process_time()
+    from sassi_bench.workflows.snapshot_ids import open_snapshots
+
     from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
     from sassi_bench.bundle import load
     from sassi_bench.export.adaptive_cassi import export_adaptive_cassi
-    from sassi_bench.workflows.snapshot_ids import open_snapshots
 
     video = open_snapshots(session, data=data)
     done = export_adaptive_cassi(
@@ -156,12 +157,12 @@ def rig_accuracy(rig_name: str, data: Path) -> None:
     import dataclasses
 
     import numpy as np
+    from sassi_bench.workflows.procedure import load_procedure
 
     from sassi_bench import open_rig
     from sassi_bench.bundle import load, publish
     from sassi_bench.bundle.errors import BundleError
     from sassi_bench.rig.sim import truth
-    from sassi_bench.workflows.procedure import load_procedure
     from sassi_bench.workflows.snapshot import reconstruct_snapshots, take_snapshots
     from sassi_bench.workflows.spectral import run_spectral_calibration
 

@@ -89,6 +89,7 @@ def scored(sassi_root, sim_bundle, calibrated_sim, tmp_path_factory):
     """Their extraction and rank-1 with the exported window and with the former 3 rows,
     and this package's rank-1 of the same snapshot, against the truth."""
     from sassi_bench.workflows.procedure import load_procedure
+
     from sassi_bench.workflows.snapshot import reconstruct_snapshots
 
     root, done, video = sassi_root
