@@ -49,7 +49,9 @@ def test_the_bundle_passes_and_records_every_laser_s_measured_line(anchored):
         assert 0 < line["sigma_nm"] < 0.5
     assert set(spectral["lamps"]) == {"HgAr", "Ne"}
     checks = {c["name"] for c in spectral["checks"]}
-    assert {"spectral.lamp_line_rms_nm", "spectral.lamp_line_max_nm"} <= checks
+    assert "spectral.lamp_line_rms_fwhm" in checks
+    # A lamp's uncertainty about a line is recorded, not graded (a lamp only adds information).
+    assert not any(name.startswith("spectral.laser_wavelength_sigma") for name in checks)
     assert "lamp_spectrum.png" in {p.name for p in (bundle.path / "report").iterdir()}
     assert [i["id"] for i in bundle.manifest["inputs"]][-1] == "acc-lamps"
 

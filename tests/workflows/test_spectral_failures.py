@@ -3,6 +3,7 @@
 import pytest
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import sweep_plan
@@ -42,7 +43,7 @@ def test_too_few_lasers_cannot_fix_the_dispersion(sim_rig, true_laser_maps):
 
 def test_saturated_laser_frames_are_refused_with_a_clear_error(tmp_path):
     rig = open_rig("sim")
-    proc = load_procedure("spectral_calibration")
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
     proc["blur"] = {**proc["blur"], "frames": 1}
     plan = sweep_plan(proc, rig.slm.shape, {532.0: 2.0}, list(range(0, 256, 16)))
     session = Session.create(rig.description, plan, session_id="saturated", data=tmp_path)
@@ -67,7 +68,7 @@ def test_procedure_rejects_unknown_keys(tmp_path):
 
 def test_resuming_with_another_procedure_is_refused(tmp_path):
     rig = open_rig("sim")
-    proc = load_procedure("spectral_calibration")
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
     plan = sweep_plan(proc, rig.slm.shape, {450.0: 0.01}, None, {})
     plan = type(plan)(plan.name, plan.steps[:2], {"procedure": {"lasers_nm": [450]}})
     Session.create(rig.description, plan, session_id="old-sweep", data=tmp_path)
