@@ -94,3 +94,24 @@ def test_fit_settings_may_change_between_capture_and_analysis():
     with pytest.raises(ConfigError, match="different lasers"):
         changed = {**proc, "exposure": {**proc["exposure"], "max_s": 1.0}}
         _check_same_procedure(session, changed, lasers)
+
+
+@pytest.mark.parametrize("rig_name", ["tests/rigs/prism-sf10.yaml", "tests/rigs/prism-nbk7.yaml"])
+def test_leave_one_out_grades_the_interior_lasers_and_catches_a_mislabelled_one(
+    rig_name, true_laser_maps
+):
+    """Four lasers: the end lasers' refits extrapolate and are recorded, not graded; the
+    interior lines' refits grade the map, and a line 1 or 2 nm off its label fails them."""
+    rig = open_rig(rig_name)
+    lasers = [405.0, 488.0, 561.0, 640.0]
+    glass, shape = rig.description.prism.glass, rig.slm.shape
+    tolerance = load_procedure("spectral_calibration")["tolerances"]["leave_one_out_rms_nm"]
+    right = fit_dispersion(true_laser_maps(rig, lasers), glass, shape)
+    assert right.interior_lines == [488.0, 561.0]
+    # Measured: interior 0.012 / 0.002 nm RMS; the end lasers' refits 0.44 / 0.11 px off.
+    assert right.leave_one_out_rms_nm < 0.05 and right.leave_one_out_max_px < 0.2
+    assert right.extrapolation_max_px > 2 * right.leave_one_out_max_px
+    for labels in ([405.0, 488.0, 560.0, 640.0], [405.0, 488.0, 561.0, 642.0]):
+        wrong = fit_dispersion(true_laser_maps(rig, labels, lasers), glass, shape)
+        # Measured: 0.99-1.00 nm (561 labelled 560), 0.62-0.63 nm (640 labelled 642).
+        assert wrong.leave_one_out_rms_nm > tolerance
