@@ -265,17 +265,18 @@ def scan_pitch(
     desc
         The rig's description.
     value
-        The procedure's ``pitch_px`` (``None``: derived).
+        The procedure's ``pitch_px`` (``None`` or empty: derived).
     stride
         A coarse scan's stride: a derived pitch is a multiple of it.
 
     Examples
     --------
     >>> from sassi_bench.rig.config import load_rig_description
-    >>> scan_pitch(load_rig_description("sim")), scan_pitch(load_rig_description("sim"), [96, 4])
-    ((100, 5), (96, 4))
+    >>> desc = load_rig_description("sim")
+    >>> scan_pitch(desc), scan_pitch(desc, ()), scan_pitch(desc, [96, 4])
+    ((100, 5), (100, 5), (96, 4))
     """
-    if value is not None:
+    if value is not None and len(value):
         return int(value[0]), int(value[1])
     sx, sy = max(1, int(stride[0])), max(1, int(stride[1]))
     geo = plan_geometry(desc, GUIDE_STRIDE * sx // math.gcd(GUIDE_STRIDE, sx))
