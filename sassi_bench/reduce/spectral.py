@@ -450,7 +450,7 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
             if float(label) in anchoring.confirmed:
                 note += "; label confirmed, fitted at it)"
             elif float(label) in anchoring.unpinned:
-                frames = anchoring.frames * math.ceil((sigma / tolerance) ** 2)
+                frames = math.ceil(anchoring.frames * (sigma / tolerance) ** 2)
                 note += (
                     f"; the lamps cannot pin it within {tolerance:g} nm, so it keeps its label: "
                     "the lamp lines near it blend at this dispersion or are faint. To measure "
