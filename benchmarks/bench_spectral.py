@@ -16,6 +16,7 @@ import tempfile
 import time
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import sweep_plan
@@ -44,7 +45,7 @@ def frames_per_laser(
 def bench(name: str) -> None:
     rig = open_rig(name)
     shape = rig.slm.shape
-    proc = load_procedure("spectral_calibration")
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
     print(f"\n== {name}: SLM {shape[1]}x{shape[0]} ==")
     rows = [
         ("structured light (Gray + phase)", "structured", 64, 8),

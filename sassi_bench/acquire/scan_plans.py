@@ -16,7 +16,7 @@ from typing import NamedTuple
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 
-__all__ = ["Roi", "check_pitch", "check_roi", "coarse_scan_plan", "scan_plan"]
+__all__ = ["Roi", "check_pitch", "check_roi", "check_stride", "coarse_scan_plan", "scan_plan"]
 
 
 class Roi(NamedTuple):
@@ -128,6 +128,33 @@ def scan_plan(
     return Plan("pinhole-scan", tuple(steps), parameters)
 
 
+def check_stride(pitch: Sequence[int], stride: Sequence[int]) -> tuple[int, int]:
+    """A coarse scan's stride, checked to divide the pinhole pitch on each axis.
+
+    Raises
+    ------
+    ConfigError
+        Naming both and the fix.
+
+    Examples
+    --------
+    >>> check_stride((100, 5), (4, 1))
+    (4, 1)
+    """
+    px, py = int(pitch[0]), int(pitch[1])
+    sx, sy = int(stride[0]), int(stride[1])
+    if px % sx or py % sy:
+        raise ConfigError(
+            step_error(
+                "guide registration",
+                f"scan stride {[sx, sy]} does not divide the pinhole pitch {[px, py]}",
+                "choose scan.stride_px dividing scan.pitch_px on each axis (or leave "
+                "scan.pitch_px null: it is then derived as a multiple of the stride)",
+            )
+        )
+    return sx, sy
+
+
 def coarse_scan_plan(
     slm_shape: tuple[int, int],
     light: str,
@@ -175,15 +202,7 @@ def coarse_scan_plan(
     (125, [4, 1])
     """
     px, py = int(pitch[0]), int(pitch[1])
-    sx, sy = int(stride[0]), int(stride[1])
-    if px % sx or py % sy:
-        raise ConfigError(
-            step_error(
-                "guide registration",
-                f"scan stride {[sx, sy]} does not divide the pinhole pitch {[px, py]}",
-                "choose scan.stride_px dividing scan.pitch_px on each axis",
-            )
-        )
+    sx, sy = check_stride(pitch, stride)
     plan = scan_plan(slm_shape, light, exposure_s, (px, py), scene=scene)
     keep = tuple(
         s

@@ -18,13 +18,14 @@ import numpy as np
 
 from sassi_bench.acquire.patterns import gray_bit_count
 from sassi_bench.acquire.plan import Plan, Step
+from sassi_bench.acquire.streak_pitch import pitch_room
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 from sassi_bench.optics.lamps import LineList
-from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.lights import laser_light
 
 __all__ = [
+    "LAMP_MARGIN_PX",
     "LAMP_PINHOLE_PITCH_PX",
     "LAMP_REACH_SIGMAS",
     "check_lamp_pitch",
@@ -39,8 +40,10 @@ __all__ = [
 #: Pinhole pitch (SLM px, [x, y]) of the lamp frames when the procedure leaves it out: a
 #: lamp streak's 400-710 nm lines and their blur must not reach the next pinhole's.
 LAMP_PINHOLE_PITCH_PX = (100, 24)
-#: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last.
+#: A lamp streak is cut from 4 spot sigmas before its first line to 4 after its last;
+#: its neighbours are kept this many camera px further away.
 LAMP_REACH_SIGMAS = 4.0
+LAMP_MARGIN_PX = 1.0
 
 
 def grey_levels(count: int) -> list[int]:
@@ -219,14 +222,31 @@ def sweep_plan(
 
     Examples
     --------
+    >>> from sassi_bench.acquire.plan_geometry import planned_spectral
     >>> from sassi_bench.procedure import load_procedure
-    >>> proc = load_procedure("spectral_calibration")
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> proc = planned_spectral(load_procedure("spectral_calibration"), load_rig_description("sim"))
     >>> plan = sweep_plan(proc, (400, 640), {532.0: 0.05}, list(range(0, 256, 16)))
     >>> len(plan.select(role="gray", laser=532.0)), len(plan.select(role="phase"))
     (26, 16)
     """
     sweep = procedure["sweep"]
     blur = procedure["blur"]
+    unplanned = [
+        f"{section}.{key}"
+        for section, key in (("sweep", "phase_period_px"), ("sweep", "gray_block_px"),
+                             ("blur", "pinhole_pitch_px"))
+        if procedure[section].get(key, 0) is None
+    ]  # fmt: skip
+    if unplanned:
+        raise ProcedureError(
+            step_error(
+                "sweep plan",
+                f"the procedure leaves {', '.join(unplanned)} to be derived from the rig",
+                "pass the procedure through "
+                "sassi_bench.acquire.plan_geometry.planned_spectral(procedure, rig.description)",
+            )
+        )
     blur_exposures = dict(blur_exposures or exposures)
     pitch = [int(p) for p in blur.get("pinhole_pitch_px", [40, 40])]
     lines = sorted(set(exposures) | set(blur_exposures))
@@ -270,7 +290,7 @@ def lamp_pinholes(procedure: Mapping[str, Any]) -> dict[str, Any]:
     {'kind': 'pinholes', 'pitch': [100, 24], 'offset': [50, 12]}
     """
     lamps = procedure.get("lamps") or {}
-    pitch = [int(p) for p in lamps.get("pinhole_pitch_px", LAMP_PINHOLE_PITCH_PX)]
+    pitch = [int(p) for p in lamps.get("pinhole_pitch_px") or LAMP_PINHOLE_PITCH_PX]
     return {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
 
 
@@ -335,8 +355,12 @@ def lamp_band(lines: LineList, desc: RigDescription) -> tuple[float, float]:
 def check_lamp_pitch(desc: RigDescription, procedure: Mapping[str, Any]) -> None:
     """Refuse a lamp pinhole pitch at which one pinhole's lines reach the next pinhole's.
 
-    Judged by the description's nominal optics (a ray trace) and described blur: from 4
-    spot sigmas before the first lamp line to 4 after the last, at the four SLM corners.
+    Judged by the description's nominal optics (a ray trace) and described blur, on a grid
+    of field points: each streak from 4 spot sigmas and 1 camera px before the first lamp
+    line to as far after the last, and one SLM pixel's step of free columns between
+    neighbouring streaks (:func:`~sassi_bench.acquire.streak_pitch.pitch_room`). A
+    procedure that leaves the pitch ``null`` gets the smallest that passes
+    (:func:`~sassi_bench.acquire.plan_geometry.plan_geometry`).
 
     Raises
     ------
@@ -357,24 +381,17 @@ def check_lamp_pitch(desc: RigDescription, procedure: Mapping[str, Any]) -> None
         return
     low = min(lamp_band(x, desc)[0] for x in lines.values())
     high = max(lamp_band(x, desc)[1] for x in lines.values())
-    relay = desc.nominal_relay()
-    h, w = desc.slm.height, desc.slm.width
-    u = np.array([0.0, w - 1, 0.0, w - 1])[:, None]
-    v = np.array([0.0, 0.0, h - 1, h - 1])[:, None]
-    x, _ = relay.forward(u, v, np.array([low, high])[None, :])
-    spot = line_spread_sigma(
-        PsfSigmaCurve(desc.blur.sigma_px)([low, high]), desc.relay.scale, desc.slm.fill_factor
-    )
-    extent = float(np.max(x[:, 1] - x[:, 0]) + LAMP_REACH_SIGMAS * (spot[0] + spot[1]))
     pitch = [int(p) for p in lamp_pinholes(procedure)["pitch"]]
-    needed = int(np.ceil(extent / desc.relay.scale)) + 2
-    if pitch[0] < needed:
+    room = pitch_room(desc, pitch[0], (low, high), LAMP_REACH_SIGMAS, LAMP_MARGIN_PX)
+    if pitch[0] < room.needed_pitch:
         raise ConfigError(
             step_error(
                 "lamp frames",
                 f"a {pitch[0]} SLM px pinhole pitch puts the lamp streaks into each other (each "
-                f"spans {extent:.0f} camera px from {low:.1f} to {high:.1f} nm with 4 sigma of "
-                "blur)",
-                f"set lamps.pinhole_pitch_px to at least [{needed}, {pitch[1]}]",
+                f"spans {room.footprint_px:.0f} camera px from {low:.1f} to {high:.1f} nm with "
+                f"{LAMP_REACH_SIGMAS:g} sigma of blur, neighbouring pinholes are "
+                f"{room.distance_px:.0f} camera px apart)",
+                f"set lamps.pinhole_pitch_px to at least [{room.needed_pitch}, {pitch[1]}], or "
+                "to null (derived from the rig's optics)",
             )
         )

@@ -2,15 +2,16 @@
 
 A pinhole scan's background is the mean, per camera pixel, over the frames in which no
 streak reaches it (:mod:`~sassi_bench.spectra.scan`); the reading pass marks each streak
-from its 400 nm edge to its 700 nm edge, widened by 3 camera px and 3 blur sigmas at each
-end (:func:`~sassi_bench.spectra.offset.footprint_rectangles`). If neighbouring pinholes
-of a row are closer on the camera than that footprint plus one SLM pixel's image, some
-camera columns are under a streak in every frame: their background can only be guessed
-from around, and the scan's spectra there carry the error. An 80 px SF10 streak at the
-100 px Nyquist pitch (``tests/rigs/prism-sf10-80px.yaml``: the streaks touch at the
-SLM's right edge, where the relay's distortion stretches them) ran the whole chain for
-seven minutes and then failed its Macbeth check (max dE00 3.0 against 2.5); this check
-refuses it before anything is captured.
+from its 400 nm edge to its 700 nm edge, widened by 6 camera px and 4 blur sigmas at each
+end (:data:`FOOTPRINT_MARGIN_PX`, :data:`FOOTPRINT_SIGMAS`: the reach the scan's reading
+pass gives :func:`~sassi_bench.spectra.offset.footprint_rectangles`, one constant for
+both). If neighbouring pinholes of a row are closer on the camera than that footprint plus
+one SLM pixel's image, some camera columns are under a streak in every frame: their
+background can only be guessed from around, and the scan's spectra there carry the error.
+An 80 px SF10 streak at the 100 px Nyquist pitch (``tests/rigs/prism-sf10-80px.yaml``: the
+streaks touch at the SLM's right edge, where the relay's distortion stretches them) ran the
+whole chain for seven minutes and then failed its Macbeth check (max dE00 3.0 against
+2.5); this check refuses it before anything is captured.
 
 Judged from the rig's description (a ray trace of the described relay and prism, the
 described blur), as :func:`~sassi_bench.acquire.spectral_plans.check_lamp_pitch` does
@@ -29,12 +30,24 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.psf import PsfSigmaCurve, line_spread_sigma
 from sassi_bench.rig.config import RigDescription
 
-__all__ = ["PitchRoom", "check_scan_pitch", "scan_pitch_room"]
+__all__ = [
+    "FOOTPRINT_MARGIN_PX",
+    "FOOTPRINT_SIGMAS",
+    "PitchRoom",
+    "check_scan_pitch",
+    "described_spot_sigma",
+    "pitch_room",
+    "scan_pitch_room",
+]
 
 #: The streak's footprint in a scan's reading pass: camera px beyond each end of the band,
-#: and blur sigmas at each end (as :func:`~sassi_bench.spectra.offset.footprint_rectangles`).
-FOOTPRINT_MARGIN_PX = 3.0
-FOOTPRINT_SIGMAS = 3.0
+#: and blur sigmas at each end. The reading pass marks this reach
+#: (:data:`~sassi_bench.spectra.scan.FOOTPRINT_REACH` is these two), so the pitch checked
+#: here is the pitch the scan's background needs: with 3 sigmas and 3 px the check passed
+#: pitches whose footprints, as the scan marks them, overlapped (``sim``: 86 SLM px here
+#: against 97 for the scan's own footprint).
+FOOTPRINT_MARGIN_PX = 6.0
+FOOTPRINT_SIGMAS = 4.0
 
 #: The band every streak is marked over (nm).
 BAND_NM = (400.0, 700.0)
@@ -76,7 +89,31 @@ class PitchRoom:
         return self.room_px >= self.step_px
 
 
-def _room(desc: RigDescription, pitch_u: int) -> tuple[float, float, float]:
+def described_spot_sigma(desc: RigDescription, wavelength_nm) -> np.ndarray:
+    """Sigma (camera px) of one SLM pixel's spot at some wavelengths, as described: the
+    described PSF, the SLM pixel's image and the camera pixel
+    (:func:`~sassi_bench.optics.psf.line_spread_sigma`).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> [round(float(s), 2) for s in described_spot_sigma(load_rig_description("sim"), [400, 550])]
+    [1.86, 0.65]
+    """
+    return line_spread_sigma(
+        PsfSigmaCurve(desc.blur.sigma_px)(np.asarray(wavelength_nm, dtype=np.float64)),
+        desc.relay.scale,
+        desc.slm.fill_factor,
+    )
+
+
+def _room(
+    desc: RigDescription,
+    pitch_u: int,
+    band: tuple[float, float],
+    reach_sigmas: float,
+    margin_px: float,
+) -> tuple[float, float, float]:
     """Footprint, distance and one pixel's step (camera px) at the tightest field point."""
     relay = desc.nominal_relay()
     h, w = desc.slm.height, desc.slm.width
@@ -85,42 +122,62 @@ def _room(desc: RigDescription, pitch_u: int) -> tuple[float, float, float]:
         np.linspace(0.0, h - 1, FIELD_POINTS[1]), np.linspace(0.0, last, FIELD_POINTS[0])
     )
     u, v = u.ravel()[:, None], v.ravel()[:, None]
-    band = np.asarray(BAND_NM)[None, :]
-    x, _ = relay.forward(u, v, band)
-    right, _ = relay.forward(u + pitch_u, v, band)
-    one, _ = relay.forward(u + 1.0, v, band)
-    spot = line_spread_sigma(
-        PsfSigmaCurve(desc.blur.sigma_px)(np.asarray(BAND_NM)),
-        desc.relay.scale,
-        desc.slm.fill_factor,
-    )
-    footprint = (
-        np.abs(x[:, 1] - x[:, 0]) + 2.0 * FOOTPRINT_MARGIN_PX + FOOTPRINT_SIGMAS * float(spot.sum())
-    )
+    ends = np.asarray(band, dtype=np.float64)[None, :]
+    x, _ = relay.forward(u, v, ends)
+    right, _ = relay.forward(u + pitch_u, v, ends)
+    one, _ = relay.forward(u + 1.0, v, ends)
+    spot = described_spot_sigma(desc, band)
+    footprint = np.abs(x[:, 1] - x[:, 0]) + 2.0 * margin_px + reach_sigmas * float(spot.sum())
     step = np.abs(one[:, 0] - x[:, 0])
     distance = np.abs(right[:, 0] - x[:, 0])
     worst = int(np.argmin(distance - footprint - step))
     return float(footprint[worst]), float(distance[worst]), float(step[worst])
 
 
+def pitch_room(
+    desc: RigDescription,
+    pitch_u: int,
+    band: tuple[float, float] = BAND_NM,
+    reach_sigmas: float = FOOTPRINT_SIGMAS,
+    margin_px: float = FOOTPRINT_MARGIN_PX,
+) -> PitchRoom:
+    """The room a horizontal pinhole pitch leaves between streaks of a band, each marked
+    ``reach_sigmas`` spot sigmas and ``margin_px`` camera px beyond the band's ends.
+
+    ``needed_pitch`` is the smallest pitch that leaves room (the SLM's width when none
+    does). :func:`scan_pitch_room` is this for a scan's 400-700 nm footprint; the lamp
+    frames ask it for their lines' band.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> room = pitch_room(load_rig_description("sim"), 100, (404.7, 706.7), 4.0, 1.0)
+    >>> room.fits, room.needed_pitch
+    (True, 87)
+    """
+    footprint, distance, step = _room(desc, int(pitch_u), band, reach_sigmas, margin_px)
+    needed = max(1, math.ceil((footprint + step) / step) - 2)
+    while needed < desc.slm.width:  # from just under the linear estimate, a few steps
+        f, d, s = _room(desc, needed, band, reach_sigmas, margin_px)
+        if d - f >= s:
+            break
+        needed += 1
+    return PitchRoom(footprint, distance, step, int(needed))
+
+
 def scan_pitch_room(desc: RigDescription, pitch_u: int) -> PitchRoom:
-    """The room a horizontal pinhole pitch leaves between the streaks' footprints.
+    """The room a horizontal pinhole pitch leaves between the streaks' footprints, as the
+    scan's reading pass marks them (400-700 nm, :data:`FOOTPRINT_SIGMAS` and
+    :data:`FOOTPRINT_MARGIN_PX` beyond each end).
 
     Examples
     --------
     >>> from sassi_bench.rig.config import load_rig_description
     >>> room = scan_pitch_room(load_rig_description("sim"), 100)
     >>> room.fits, round(room.room_px, 1), room.needed_pitch
-    (True, 16.1, 86)
+    (True, 4.6, 97)
     """
-    footprint, distance, step = _room(desc, int(pitch_u))
-    needed = max(1, math.ceil((footprint + step) / step) - 2)
-    while needed < desc.slm.width:  # from just under the linear estimate, a few steps
-        f, d, s = _room(desc, needed)
-        if d - f >= s:
-            break
-        needed += 1
-    return PitchRoom(footprint, distance, step, int(needed))
+    return pitch_room(desc, pitch_u)
 
 
 def check_scan_pitch(desc: RigDescription, pitch: tuple[int, int], what: str = "scan") -> None:

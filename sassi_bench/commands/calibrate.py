@@ -116,12 +116,13 @@ def _spectral(args: argparse.Namespace) -> int:
 
 
 def _response(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.plan_geometry import scan_pitch
     from sassi_bench.reduce.response import response_source
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.scan import check_scan, run_response
 
     rig = open_rig(args.rig)
-    check_scan(rig, "white", args.light, (100, 5))
+    check_scan(rig, "white", args.light, scan_pitch(rig.description))
     response_source(rig.description, args.temperature, args.reference)
     bundle = bundle_from_args(args, rig.description.name, step="calibrate response")
     new_session(args, "session", "response")

@@ -20,20 +20,22 @@ __all__ = ["register"]
 
 
 def _scan(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.plan_geometry import scan_pitch
     from sassi_bench.rig import open_rig
     from sassi_bench.spectra.cube_io import units_label, write_envi, write_netcdf
     from sassi_bench.workflows.scan import check_scan, run_scan
 
     rig = open_rig(args.rig)
     roi = tuple(args.roi) if args.roi else None
-    check_scan(rig, args.scene, args.light, tuple(args.pitch), roi)
+    pitch = scan_pitch(rig.description, args.pitch)
+    check_scan(rig, args.scene, args.light, pitch, roi)
     check_output_file("scan", args.out, "--out")
     if args.envi:
         check_output_file("scan", args.envi, "--envi", suffixes=(".hdr", ".img"))
     bundle = bundle_from_args(args, rig.description.name, step="scan", wants=("response",))
     new_session(args, "session", f"scan-{args.scene}")
     run = run_scan(
-        rig, bundle, scene=args.scene, light=args.light, pitch=tuple(args.pitch), roi=roi,
+        rig, bundle, scene=args.scene, light=args.light, pitch=pitch, roi=roi,
         session_id=args.session, data=args.data, progress=not args.quiet,
     )  # fmt: skip
     ds = run.dataset()
@@ -104,7 +106,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     scan.add_argument("--quiet", action="store_true", help="no progress bars")
     scan.add_argument("--scene", default="colorchecker", help="scene (default: colorchecker)")
     scan.add_argument("--light", default="led", help="light (default: led)")
-    scan.add_argument("--pitch", type=int, nargs=2, default=[100, 5], metavar=("PX", "PY"))
+    scan.add_argument(
+        "--pitch", type=int, nargs=2, default=None, metavar=("PX", "PY"),
+        help="pinhole pitch, SLM px (default: from the rig's optics, the streaks apart)",
+    )  # fmt: skip
     scan.add_argument("--roi", type=int, nargs=4, metavar=("ROW0", "COL0", "ROW1", "COL1"))
     scan.add_argument("--out", required=True, help="NetCDF file to write")
     scan.add_argument("--envi", help="also export ENVI (.hdr/.img) at this path")

@@ -37,6 +37,7 @@ def _procedure(args) -> dict:
 
 
 def _macbeth(args: argparse.Namespace) -> int:
+    from sassi_bench.acquire.plan_geometry import planned_macbeth
     from sassi_bench.rig import open_rig
     from sassi_bench.validate.locate import grid_from_corners
     from sassi_bench.validate.reference import reference_chart
@@ -44,8 +45,8 @@ def _macbeth(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.macbeth import run_macbeth
     from sassi_bench.workflows.scan import check_scan
 
-    procedure = _procedure(args)
     rig = open_rig(args.rig)
+    procedure = planned_macbeth(_procedure(args), rig.description)
     scan_cfg = procedure["scan"]
     roi = tuple(args.roi) if args.roi else None
     check_scan(rig, scan_cfg["scene"], scan_cfg["light"], tuple(scan_cfg["pitch_px"]), roi)

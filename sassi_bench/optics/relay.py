@@ -173,6 +173,49 @@ class SpectralRelay:
         built._to_camera = built._align_camera(float(glass.index(self.reference_nm)))
         return built
 
+    def with_relay(
+        self,
+        *,
+        scale: float | None = None,
+        rotation_deg: float | None = None,
+        offset_px: tuple[float, float] | None = None,
+        distortion_k1: float | None = None,
+    ) -> SpectralRelay:
+        """This relay, as aligned, with its SLM-side optics built otherwise.
+
+        The camera lens, the prism and its roll stay as solved; ``scale`` changes the
+        collimator's focal length (``f1 = f2 / scale``: the SLM's image grows, the streaks
+        keep the length the prism and camera lens give them), ``rotation_deg`` the SLM's
+        mount, ``offset_px`` where the optical centre lands on the camera, and
+        ``distortion_k1`` the lenses' radial distortion. None keeps a value.
+
+        Examples
+        --------
+        >>> from sassi_bench.optics.glass import get_glass
+        >>> relay = SpectralRelay((400, 640), (512, 800), scale=1.08, rotation_deg=0.0,
+        ...                       offset_px=(0.0, 0.0), distortion_k1=0.0,
+        ...                       glass=get_glass("N-BK7"), apex_deg=30.0, spread_px=68.0,
+        ...                       smile_px=0.0)
+        >>> x, _ = relay.with_relay(scale=1.1).forward([0.0, 639.0], 199.5, 550.0)
+        >>> x0, _ = relay.forward([0.0, 639.0], 199.5, 550.0)
+        >>> bool(x[1] - x[0] > x0[1] - x0[0])  # a larger image of the SLM
+        True
+        """
+        built = copy.copy(self)
+        if scale is not None:
+            built.scale = float(scale)
+        if rotation_deg is not None:
+            built.rotation_deg = float(rotation_deg)
+        if offset_px is not None:
+            hc, wc = self.camera_shape
+            built.optical_centre = (
+                (wc - 1) / 2.0 + float(offset_px[0]),
+                (hc - 1) / 2.0 + float(offset_px[1]),
+            )
+        if distortion_k1 is not None:
+            built.distortion_k1 = float(distortion_k1)
+        return built
+
     def _roll(self) -> NDArray[np.float64]:
         """The prism's roll about the optical axis (directions are row vectors)."""
         c, s = np.cos(self.roll_rad), np.sin(self.roll_rad)

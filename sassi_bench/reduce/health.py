@@ -18,7 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from sassi_bench.acquire.plan_geometry import planned_health_check
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import LAMP_PINHOLE_PITCH_PX
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.calibrate.lamp_streaks import signal_and_variance
 from sassi_bench.calibrate.streak_shift import (
@@ -170,17 +172,22 @@ def _map_rows(field_map: ShiftMap) -> list[str]:
     return out
 
 
-def health_lamps(procedure: Mapping[str, Any]) -> dict[str, Any]:
-    """The lamp-frame settings of a health check (as the spectral procedure's ``lamps``).
+def health_lamps(
+    procedure: Mapping[str, Any], desc: RigDescription | None = None
+) -> dict[str, Any]:
+    """The lamp-frame settings of a health check (as the spectral procedure's ``lamps``);
+    a pitch the procedure leaves ``null`` is the rig's derived lamp pitch (``desc``).
 
     Examples
     --------
     >>> health_lamps({"pinhole_pitch_px": [100, 24], "frames": 2})
     {'lamps': {'pinhole_pitch_px': [100, 24], 'frames': 2}}
     """
+    if desc is not None:
+        procedure = planned_health_check(procedure, desc)
     return {
         "lamps": {
-            "pinhole_pitch_px": list(procedure.get("pinhole_pitch_px", [100, 24])),
+            "pinhole_pitch_px": list(procedure.get("pinhole_pitch_px") or LAMP_PINHOLE_PITCH_PX),
             "frames": int(procedure.get("frames", 1)),
         }
     }
@@ -227,7 +234,7 @@ def check_session(
     ...  # doctest: +SKIP
     """
     started = time.perf_counter()
-    lamp_proc = health_lamps(procedure)
+    lamp_proc = health_lamps(procedure, desc)
     models = bundle.models
     (streaks,) = lamp_streaks(session, lamp_proc, desc, models.dispersion, models.blur)
     plan = session.plan

@@ -128,9 +128,7 @@ def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
             "measured_nm": float(measured),
             "sigma_nm": float(sigma),
             "fitted_nm": dispersion.wavelengths_nm.get(float(label), float(measured)),
-            "method": (
-                "lamp-confirmed label" if float(label) in anchoring.confirmed else "lamp-anchored"
-            ),
+            "method": anchoring.method(label),
             "anchors": sorted(fit.lamps),
         }
         for label, measured, sigma in zip(

@@ -51,6 +51,7 @@ from sassi_bench._shared.threads import run_in_order
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.scan_plans import Roi, check_roi
+from sassi_bench.acquire.streak_pitch import FOOTPRINT_MARGIN_PX, FOOTPRINT_SIGMAS
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra import _kernels
@@ -87,12 +88,13 @@ ROI_MARGIN_ROWS = 100
 
 #: How far a pinhole's streak footprint, which its frame's background samples avoid,
 #: reaches beyond the band's end bins: blur sigmas and camera px
-#: (:func:`~sassi_bench.spectra.offset.footprint_rectangles`). Under the blue end of a
+#: (:func:`~sassi_bench.spectra.offset.footprint_rectangles`); the plan-time pitch check
+#: reserves the same (:mod:`~sassi_bench.acquire.streak_pitch`). Under the blue end of a
 #: streak the background is 10-25 times the pinhole's own light on ``sim``, so samples
 #: still holding 1e-3 of another streak's red end bias those bins by several per cent:
 #: with 3 sigmas and 3 px a halogen white's column sums at 403-405 nm were 3.5 % under
 #: the forward model's (noise-free frames, the response's plan), with 4 and 6 within 0.05 %.
-FOOTPRINT_REACH = (4.0, 6.0)
+FOOTPRINT_REACH = (FOOTPRINT_SIGMAS, FOOTPRINT_MARGIN_PX)
 
 
 @dataclass

@@ -22,7 +22,15 @@ from typing import Any
 
 from sassi_bench._shared.atomic import atomic_write_bytes
 from sassi_bench._shared.memory import release_memory
+from sassi_bench.acquire.plan_geometry import (
+    planned_guide,
+    planned_macbeth,
+    planned_spectral,
+    scan_pitch,
+)
+from sassi_bench.acquire.scan_plans import check_stride
 from sassi_bench.acquire.session import Session
+from sassi_bench.acquire.spectral_plans import check_lamp_pitch
 from sassi_bench.acquire.streak_pitch import check_scan_pitch
 from sassi_bench.bundle import QualityCheck, load, publish_derived
 from sassi_bench.bundle.derive import derived_checks
@@ -79,6 +87,7 @@ class FullRun:
     progress: bool = True
     allow_failed: bool = False
     stage_procedures: dict[str, dict[str, Any]] = field(default_factory=dict)
+    response_pitch: tuple[int, int] | None = None
     spectral: Any = None
     guide: Any = None
     macbeth: Any = None
@@ -100,24 +109,31 @@ def check(run: FullRun) -> None:
     light and pitch, an unknown lamp spectrum, every scan's pitch against the streaks;
     and load the stages' procedures."""
     rig, procedure = run.rig, run.procedure
+    desc = rig.description
     response_cfg = procedure["response"]
-    check_scan(rig, "white", response_cfg["light"], (100, 5))
-    response_source(rig.description)  # the lamp's spectrum must be known before capturing
+    run.response_pitch = scan_pitch(desc, response_cfg.get("pitch_px"))
+    check_scan(rig, "white", response_cfg["light"], run.response_pitch)
+    response_source(desc)  # the lamp's spectrum must be known before capturing
+    # Every spacing a procedure leaves null is derived from the rig's optics here.
     stages = {
-        kind: _stage_procedure(kind, procedure[key])
-        for kind, key in (
-            ("spectral_calibration", "spectral_procedure"),
-            ("guide_registration", "guide_procedure"),
-            ("macbeth_validation", "macbeth_procedure"),
+        kind: plan(_stage_procedure(kind, procedure[key]), desc)
+        for kind, key, plan in (
+            ("spectral_calibration", "spectral_procedure", planned_spectral),
+            ("guide_registration", "guide_procedure", planned_guide),
+            ("macbeth_validation", "macbeth_procedure", planned_macbeth),
         )
     }
-    # Every scan of the chain, before anything is captured: a streak too long for a pitch
-    # would otherwise fail only at the scan that uses it.
+    # Every plan of the chain, before anything is captured: a streak too long for a pitch,
+    # or a guide stride that does not divide its pitch, would otherwise fail only at the
+    # stage that uses it.
+    check_lamp_pitch(desc, stages["spectral_calibration"])
+    guide_scan = stages["guide_registration"]["scan"]
+    check_stride(guide_scan["pitch_px"], guide_scan["stride_px"])
     for what, stage in (
         ("guide scan", stages["guide_registration"]),
         ("Macbeth scan", stages["macbeth_validation"]),
     ):
-        check_scan_pitch(rig.description, tuple(stage["scan"]["pitch_px"]), what)
+        check_scan_pitch(desc, tuple(stage["scan"]["pitch_px"]), what)
     macbeth = stages["macbeth_validation"]
     stages["macbeth_validation"] = with_changes(
         macbeth,
@@ -144,7 +160,8 @@ def response(run: FullRun) -> None:
     run.staged = load(
         run_response(
             run.rig, load(run.spectral.bundle_path), light=cfg["light"], every=int(cfg["every"]),
-            reflectance=float(cfg["reflectance"]), session_id=f"{run.base}-response",
+            reflectance=float(cfg["reflectance"]), pitch=run.response_pitch,
+            session_id=f"{run.base}-response",
             data=run.staging, progress=run.progress, allow_failed=True,
         )
     )  # fmt: skip

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan import Plan, Step
+from sassi_bench.acquire.plan_geometry import planned_guide
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.scan_plans import coarse_scan_plan
 from sassi_bench.acquire.session import Session
@@ -357,7 +358,9 @@ def run_guide_registration(
     >>> result.registration.quality.rms_px  # doctest: +SKIP
     0.69
     """
-    proc = {k: v for k, v in dict(procedure).items() if k != "source"}
+    proc = planned_guide(
+        {k: v for k, v in dict(procedure).items() if k != "source"}, rig.description
+    )
     run = GuideRun(
         rig, bundle, proc, session_id or _stamp(), data, progress, publish_bundle, allow_failed,
         reference,

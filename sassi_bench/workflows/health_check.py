@@ -143,7 +143,7 @@ def run_health_check(
     _check_same_rig(rig, bundle)
     light = check_light(rig.description, procedure)
     desc = rig.description
-    lamp_proc = health_lamps(procedure)
+    lamp_proc = health_lamps(procedure, desc)
     started = time.perf_counter()
     exposure = _lamp_exposure(bundle, light)
     if exposure is None:

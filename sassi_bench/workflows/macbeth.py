@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.acquire.exposure import auto_exposure
+from sassi_bench.acquire.plan_geometry import planned_macbeth
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
@@ -116,6 +117,7 @@ def run_macbeth(
     >>> result.passed, result.summary()["mean_de00"]  # doctest: +SKIP
     (True, 0.16)
     """
+    procedure = planned_macbeth(procedure, rig.description)
     scan_cfg = procedure["scan"]
     light, pitch = scan_cfg["light"], tuple(scan_cfg["pitch_px"])
     chart = run_scan(

@@ -26,6 +26,7 @@ from sassi_bench._shared.memory import release_memory
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.plan_geometry import scan_pitch
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.scan_plans import check_pitch, check_roi, scan_plan
 from sassi_bench.acquire.session import Session
@@ -158,7 +159,7 @@ def run_response(
     temperature_k: float | None = None,
     reference_csv: str | os.PathLike[str] | None = None,
     reflectance: float = 1.0,
-    pitch: tuple[int, int] = (100, 5),
+    pitch: tuple[int, int] | None = None,
     every: int = 25,
     session_id: str | None = None,
     data=None,
@@ -185,7 +186,8 @@ def run_response(
     reflectance
         Reflectance of the diffuser.
     pitch
-        (horizontal, vertical) pinhole pitch in SLM pixels.
+        (horizontal, vertical) pinhole pitch in SLM pixels; None: derived from the rig's
+        optics (:func:`~sassi_bench.acquire.plan_geometry.scan_pitch`).
     every
         Keep every n-th pinhole offset (a thinned scan is enough for a flat target).
     session_id
@@ -208,6 +210,7 @@ def run_response(
     >>> path = run_response(rig, bundle, temperature_k=3100)  # doctest: +SKIP
     """
     check_parent(bundle, "response", allow_failed=allow_failed)
+    pitch = scan_pitch(rig.description, pitch)
     check_scan(rig, "white", light, pitch)
     source = response_source(rig.description, temperature_k, reference_csv)
     session = Session.resume_or_plan(
@@ -230,7 +233,7 @@ def run_scan(
     *,
     scene: str = "colorchecker",
     light: str = "led",
-    pitch: tuple[int, int] = (100, 5),
+    pitch: tuple[int, int] | None = None,
     roi: Sequence[int] | None = None,
     session_id: str | None = None,
     data=None,
@@ -250,7 +253,8 @@ def run_scan(
     light
         The light to scan under.
     pitch
-        (horizontal, vertical) pinhole pitch in SLM pixels.
+        (horizontal, vertical) pinhole pitch in SLM pixels; None: derived from the rig's
+        optics (:func:`~sassi_bench.acquire.plan_geometry.scan_pitch`).
     roi
         Part of the SLM to assemble, or None for all of it.
     session_id
@@ -279,6 +283,7 @@ def run_scan(
     >>> run = run_scan(open_rig("sim"), load(rig="sim"), scene="white")  # doctest: +SKIP
     >>> run.scan.cube.shape  # doctest: +SKIP
     """
+    pitch = scan_pitch(rig.description, pitch)
     check_scan(rig, scene, light, pitch, roi)
     if tuple(bundle.slm_shape) != tuple(rig.slm.shape):
         raise ProcedureError(

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench.acquire.plan_geometry import scan_pitch
 from sassi_bench.acquire.snapshots import SnapshotVideo, capture_snapshots
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing, QualityCheck
 from sassi_bench.errors import ProcedureError, step_error
@@ -166,8 +167,8 @@ def run_snapshot(
     else:
         run = run_scan(
             rig, bundle, scene=scene, light=procedure["scan"]["light"],
-            pitch=tuple(procedure["scan"]["pitch_px"]), session_id=f"{prefix}-scan", data=data,
-            progress=progress,
+            pitch=scan_pitch(rig.description, procedure["scan"]["pitch_px"]),
+            session_id=f"{prefix}-scan", data=data, progress=progress,
         )  # fmt: skip
         ds = scan_dataset = run.dataset()
         # The reference is the dataset's radiance itself (float32 already, no copy).

@@ -23,6 +23,7 @@ from typing import Any
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.frame_feed import FrameFeed
+from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import (
@@ -345,7 +346,8 @@ def capture_spectral_sweeps(
     --------
     >>> sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")  # doctest: +SKIP
     """
-    run = SpectralRun(rig, dict(procedure), _session_id(session_id), data, progress)
+    proc = planned_spectral(procedure, rig.description)
+    run = SpectralRun(rig, proc, _session_id(session_id), data, progress)
     return run_steps(STEPS, run, CAPTURE_STEPS, procedure="spectral calibration").sweeps()
 
 
@@ -381,7 +383,8 @@ def run_spectral_calibration(
     PosixPath('calib_data/sim/v0001')
     """
     steps = [name for name in STEPS if publish_bundle or name != "publish"]
-    run = SpectralRun(rig, dict(procedure), _session_id(session_id), data, progress, allow_failed)
+    proc = planned_spectral(procedure, rig.description)
+    run = SpectralRun(rig, proc, _session_id(session_id), data, progress, allow_failed)
     return run_steps(STEPS, run, steps, procedure="spectral calibration").result
 
 

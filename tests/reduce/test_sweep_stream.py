@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from sassi_bench.acquire.frame_feed import FrameFeed
+from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import sweep_plan
@@ -19,7 +20,7 @@ from sassi_bench.reduce.sweeps import _structured_decode, pinhole_signal
 def interrupted_capture(sim_rig, tmp_path_factory):
     """A one-laser sweep captured in three runs (stopped twice), decoded as it came."""
     rig = sim_rig
-    proc = load_procedure("spectral_calibration")
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
     rig.set_scene("white")
     plan = sweep_plan(proc, rig.slm.shape, {532.0: 0.02}, sinusoid_profile(16).tolist())
     data = tmp_path_factory.mktemp("sweep-stream")

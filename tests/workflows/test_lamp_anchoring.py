@@ -2,10 +2,14 @@
 
 ``tests/rigs/lamps-diodes-off.yaml``: the 450, 520, 635 and 670 nm diodes sit 3.8-5 nm
 off their labels (532 nm exact), the HgAr and Ne lamps' lines are 30 % (log-normal) off
-their tables' intensities. One calibration, scored against the bench's truth.
+their tables' intensities. One calibration, scored against the bench's truth. And a noisy,
+low-dispersion bench whose lamps cannot pin its red lasers
+(``tests/rigs/lamps-noisy-nbk7.yaml``).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -13,8 +17,9 @@ import pytest
 from sassi_bench import open_rig
 from sassi_bench.bundle import load
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.spectral import analyse_spectral_sweeps, laser_line_notes
 from sassi_bench.rig.sim import truth
-from sassi_bench.workflows.spectral import run_spectral_calibration
+from sassi_bench.workflows.spectral import capture_spectral_sweeps, run_spectral_calibration
 
 RIG = "tests/rigs/lamps-diodes-off.yaml"
 
@@ -49,7 +54,9 @@ def test_the_bundle_passes_and_records_every_laser_s_measured_line(anchored):
         assert 0 < line["sigma_nm"] < 0.5
     assert set(spectral["lamps"]) == {"HgAr", "Ne"}
     checks = {c["name"] for c in spectral["checks"]}
-    assert {"spectral.lamp_line_rms_nm", "spectral.lamp_line_max_nm"} <= checks
+    assert "spectral.lamp_line_rms_fwhm" in checks
+    # A lamp's uncertainty about a line is recorded, not graded (a lamp only adds information).
+    assert not any(name.startswith("spectral.laser_wavelength_sigma") for name in checks)
     assert "lamp_spectrum.png" in {p.name for p in (bundle.path / "report").iterdir()}
     assert [i["id"] for i in bundle.manifest["inputs"]][-1] == "acc-lamps"
 
@@ -70,3 +77,60 @@ def test_the_wavelength_map_meets_the_goals_against_the_truth(anchored):
     assert np.sqrt(np.mean((xm - xt) ** 2)) <= 0.1
     assert result.dispersion.anchored
     assert result.dispersion.leave_one_out_max_px <= 0.5
+
+
+@pytest.fixture(scope="module")
+def noisy(tmp_path_factory):
+    """The noisy N-BK7 bench's sweeps and lamp frames (``tests/rigs/lamps-noisy-nbk7.yaml``:
+    52 px, 9 e- read noise, 20k e- full well, contrast 400), captured once."""
+    rig = open_rig("tests/rigs/lamps-noisy-nbk7.yaml")
+    data = tmp_path_factory.mktemp("noisy")
+    proc = load_procedure("spectral_calibration")
+    sweeps = capture_spectral_sweeps(rig, proc, session_id="noisy", data=data, progress=False)
+    return rig, sweeps
+
+
+def _map_error_nm(rig, result):
+    error = truth(rig).wavelength_map_error_nm(result.dispersion.model)
+    return float(np.sqrt(np.mean(error**2))), float(np.abs(error).max())
+
+
+def test_a_lamp_that_cannot_pin_a_laser_leaves_it_at_its_label(noisy):
+    """A lamp only adds information: at about 12 nm a pixel the Ne lines near 670 nm blend,
+    and the 670 nm line the lamps measure at +-0.42 nm keeps its label when the procedure
+    asks for 0.3 nm; the bundle publishes, the lamps' estimate recorded and explained."""
+    rig, sweeps = noisy
+    default = analyse_spectral_sweeps(
+        sweeps, load_procedure("spectral_calibration"), rig.description
+    )
+    assert default.passed, [c.describe() for c in default.checks if not c.passed]
+    # Measured: 0.015 nm RMS, 0.089 nm worst over the field.
+    rms, worst = _map_error_nm(rig, default)
+    assert rms <= 0.03 and worst <= 0.18
+    strict = load_procedure("spectral_calibration")
+    strict["tolerances"]["laser_wavelength_sigma_nm"] = 0.3
+    result = analyse_spectral_sweeps(sweeps, strict, rig.description)
+    assert result.passed, [c.describe() for c in result.checks if not c.passed]
+    assert 670.0 in result.anchoring.unpinned
+    assert result.dispersion.wavelengths_nm[670.0] == pytest.approx(670.0, abs=0.005)
+    assert result.anchoring.method(670.0) == "label (lamps cannot pin it)"
+    # Measured: 0.015 nm RMS, 0.090 nm worst, as with the line measured.
+    rms, worst = _map_error_nm(rig, result)
+    assert rms <= 0.03 and worst <= 0.18
+    (note,) = [n for n in laser_line_notes(result) if n.startswith("laser 670 nm")]
+    assert "cannot pin it within 0.3 nm" in note and "lamp frames" in note
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="no check catches a wrong glass in the description yet: with F2 for N-BK7 the map "
+    "is 1.25 nm RMS (4.0 nm worst) off the truth and every check passes "
+    "(lamp_line_rms_fwhm 0.0028)",
+)
+def test_a_wrong_glass_in_the_description_fails_a_check(noisy):
+    rig, sweeps = noisy
+    desc = rig.description
+    wrong = dataclasses.replace(desc, prism=dataclasses.replace(desc.prism, glass="F2"))
+    result = analyse_spectral_sweeps(sweeps, load_procedure("spectral_calibration"), wrong)
+    assert _map_error_nm(rig, result)[0] > 1.0
+    assert not result.passed

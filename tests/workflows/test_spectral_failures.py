@@ -3,6 +3,7 @@
 import pytest
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import sweep_plan
@@ -42,7 +43,7 @@ def test_too_few_lasers_cannot_fix_the_dispersion(sim_rig, true_laser_maps):
 
 def test_saturated_laser_frames_are_refused_with_a_clear_error(tmp_path):
     rig = open_rig("sim")
-    proc = load_procedure("spectral_calibration")
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
     proc["blur"] = {**proc["blur"], "frames": 1}
     plan = sweep_plan(proc, rig.slm.shape, {532.0: 2.0}, list(range(0, 256, 16)))
     session = Session.create(rig.description, plan, session_id="saturated", data=tmp_path)
@@ -67,7 +68,7 @@ def test_procedure_rejects_unknown_keys(tmp_path):
 
 def test_resuming_with_another_procedure_is_refused(tmp_path):
     rig = open_rig("sim")
-    proc = load_procedure("spectral_calibration")
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
     plan = sweep_plan(proc, rig.slm.shape, {450.0: 0.01}, None, {})
     plan = type(plan)(plan.name, plan.steps[:2], {"procedure": {"lasers_nm": [450]}})
     Session.create(rig.description, plan, session_id="old-sweep", data=tmp_path)
@@ -93,3 +94,24 @@ def test_fit_settings_may_change_between_capture_and_analysis():
     with pytest.raises(ConfigError, match="different lasers"):
         changed = {**proc, "exposure": {**proc["exposure"], "max_s": 1.0}}
         _check_same_procedure(session, changed, lasers)
+
+
+@pytest.mark.parametrize("rig_name", ["tests/rigs/prism-sf10.yaml", "tests/rigs/prism-nbk7.yaml"])
+def test_leave_one_out_grades_the_interior_lasers_and_catches_a_mislabelled_one(
+    rig_name, true_laser_maps
+):
+    """Four lasers: the end lasers' refits extrapolate and are recorded, not graded; the
+    interior lines' refits grade the map, and a line 1 or 2 nm off its label fails them."""
+    rig = open_rig(rig_name)
+    lasers = [405.0, 488.0, 561.0, 640.0]
+    glass, shape = rig.description.prism.glass, rig.slm.shape
+    tolerance = load_procedure("spectral_calibration")["tolerances"]["leave_one_out_rms_nm"]
+    right = fit_dispersion(true_laser_maps(rig, lasers), glass, shape)
+    assert right.interior_lines == [488.0, 561.0]
+    # Measured: interior 0.012 / 0.002 nm RMS; the end lasers' refits 0.44 / 0.11 px off.
+    assert right.leave_one_out_rms_nm < 0.05 and right.leave_one_out_max_px < 0.2
+    assert right.extrapolation_max_px > 2 * right.leave_one_out_max_px
+    for labels in ([405.0, 488.0, 560.0, 640.0], [405.0, 488.0, 561.0, 642.0]):
+        wrong = fit_dispersion(true_laser_maps(rig, labels, lasers), glass, shape)
+        # Measured: 0.99-1.00 nm (561 labelled 560), 0.62-0.63 nm (640 labelled 642).
+        assert wrong.leave_one_out_rms_nm > tolerance

@@ -173,9 +173,18 @@ def light_settings(
     return dict(described) if true is None else {**described, **true(desc, light, described)}
 
 
+def _laser_width(desc: RigDescription) -> dict[str, float]:
+    """The lasers' true line width, where the bench is built with another than described."""
+    true = as_built_section(desc).laser_fwhm_nm
+    return {} if true is None else {"fwhm_nm": float(true)}
+
+
 #: The as-built settings of each kind of light (by the lights' name prefix).
 _AS_BUILT_LIGHTS = {
-    "laser": lambda desc, light, s: {"centre_nm": laser_centre_nm(desc, s["centre_nm"])},
+    "laser": lambda desc, light, s: {
+        "centre_nm": laser_centre_nm(desc, s["centre_nm"]),
+        **_laser_width(desc),
+    },
     "led": lambda desc, light, s: {"illuminant": led(desc)},
     "halogen": lambda desc, light, s: {"temperature_k": halogen_k(desc)},
     "lamp": lambda desc, light, s: {"lines": lamp_lines(desc, light[5:])},

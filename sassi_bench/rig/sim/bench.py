@@ -24,12 +24,21 @@ from sassi_bench.rig.sim.guide import GuideOptics
 from sassi_bench.rig.sim.nuisance import BenchNuisances
 from sassi_bench.rig.sim.render import SpectralRenderer
 from sassi_bench.rig.sim.scenes import Scene, ScenePose, make_scene, posed_scene
-from sassi_bench.rig.sim.sections import check_bench_sections, nuisance_section
+from sassi_bench.rig.sim.sections import (
+    as_built_section,
+    check_bench_sections,
+    nuisance_section,
+)
 
 __all__ = ["VirtualBench"]
 
 # The closed-SLM background of a broadband light merges this many samples into one.
 _BACKGROUND_EVERY = 2
+
+
+def _either(true, described):
+    """The as-built value where the rig gives one, else the described one."""
+    return described if true is None else true
 
 
 class VirtualBench:
@@ -56,15 +65,17 @@ class VirtualBench:
         self.camera_shape = (desc.spectral_camera.height, desc.spectral_camera.width)
         g = desc.spectral_grid
         self.grid = wavelength_grid(g.start_nm, g.stop_nm, g.step_nm)
-        self.eps = 1.0 / desc.slm.contrast_ratio
+        true = as_built_section(desc)
+        self.eps = 1.0 / _either(true.contrast_ratio, desc.slm.contrast_ratio)
         cam = desc.spectral_camera
         self.sensor = SensorModel(
-            read_noise_e=cam.read_noise_e,
-            full_well_e=cam.full_well_e,
+            read_noise_e=_either(true.read_noise_e, cam.read_noise_e),
+            full_well_e=_either(true.full_well_e, cam.full_well_e),
             bit_depth=cam.bit_depth,
             dark_offset_adu=cam.dark_offset_adu,
             dark_current_e_per_s=cam.dark_current_e_per_s,
-            qe=cam.qe,
+            gain_e_per_adu=true.gain_e_per_adu,
+            qe=_either(true.qe, cam.qe),
         )
         gc = desc.guide_camera
         self.guide_sensor = SensorModel(
@@ -81,9 +92,13 @@ class VirtualBench:
         self.drift = DriftModel(drift, desc.seed) if drift is not None else None
         self.clock_h = drift.start_h if drift is not None else 0.0
         self._drift_state = DriftState()
-        self.blur = PsfSigmaCurve(desc.blur.sigma_px)
+        scale = _either(true.blur_scale, 1.0)
+        self.blur = PsfSigmaCurve({k: scale * v for k, v in desc.blur.sigma_px.items()})
         self.renderer = SpectralRenderer(
-            self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
+            self.relay,
+            self.blur,
+            _either(true.fill_factor, desc.slm.fill_factor),
+            self.sensor.quantum_efficiency,
         )
         self.guide = GuideOptics(
             gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)

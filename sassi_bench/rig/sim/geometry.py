@@ -6,7 +6,10 @@ incidence angle are solved with the described glass and apex. A bench built othe
 (``as_built.glass_index_offset``, ``as_built.apex_deg``: another melt, a prism ground to
 another angle) then traces its rays through the true prism, with the camera pointed where
 the true reference ray goes (a lab aligns its camera on the light), so its streaks differ
-in length, shape and position from what the description predicts.
+in length, shape and position from what the description predicts. The relay's SLM side
+can be built otherwise too (``as_built.relay_scale``, ``relay_rotation_deg``,
+``relay_offset_px``, ``relay_distortion_k1``:
+:meth:`~sassi_bench.optics.relay.SpectralRelay.with_relay`).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from __future__ import annotations
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim.as_built import prism_apex_deg, prism_glass
+from sassi_bench.rig.sim.sections import as_built_section
 
 __all__ = ["bench_relay"]
 
@@ -40,4 +44,11 @@ def bench_relay(desc: RigDescription) -> SpectralRelay:
     >>> round(float(x[1] - x[0]), 6)  # a bench built as described
     68.0
     """
-    return desc.nominal_relay().with_prism(prism_glass(desc), prism_apex_deg(desc))
+    true = as_built_section(desc)
+    relay = desc.nominal_relay().with_relay(
+        scale=true.relay_scale,
+        rotation_deg=true.relay_rotation_deg,
+        offset_px=true.relay_offset_px,
+        distortion_k1=true.relay_distortion_k1,
+    )
+    return relay.with_prism(prism_glass(desc), prism_apex_deg(desc))

@@ -75,7 +75,7 @@ class BenchTruth:
         return self._bench.guide.guide_to_slm.copy()
 
     def blur_sigma_px(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
-        """The optics' PSF sigma (camera px) at a wavelength, as the rig describes it."""
+        """The optics' PSF sigma (camera px) at a wavelength, as built."""
         return self._bench.blur(wavelength_nm)
 
     def line_spread_sigma_px(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:

@@ -57,6 +57,24 @@ class AsBuiltConfig:
     slm_gamma: float | None = None
     #: Log-normal sigma of each lamp line's true intensity against its table.
     lamp_intensity_spread: float = 0.0
+    #: The relay's true scale, rotation, offset and distortion (a collimator focal length,
+    #: a mount, an alignment off the drawing); the prism and camera lens as described.
+    relay_scale: float | None = None
+    relay_rotation_deg: float | None = None
+    relay_offset_px: tuple[float, float] | None = None
+    relay_distortion_k1: float | None = None
+    #: The SLM's true fill factor and contrast ratio.
+    fill_factor: float | None = None
+    contrast_ratio: float | None = None
+    #: The optics' true PSF sigma over the described curve.
+    blur_scale: float | None = None
+    #: The spectral camera's true read noise, gain, full well and QE curve.
+    read_noise_e: float | None = None
+    gain_e_per_adu: float | None = None
+    full_well_e: float | None = None
+    qe: str | None = None
+    #: The lasers' true line width (FWHM, nm).
+    laser_fwhm_nm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -117,6 +135,8 @@ def as_built_section(desc: RigDescription) -> AsBuiltConfig:
     """
     section = dict(desc.bench_sections.get("as_built", {}))
     section["lasers_nm"] = {float(k): float(v) for k, v in section.get("lasers_nm", {}).items()}
+    if section.get("relay_offset_px") is not None:
+        section["relay_offset_px"] = tuple(float(x) for x in section["relay_offset_px"])
     return AsBuiltConfig(**section)
 
 

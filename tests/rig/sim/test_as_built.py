@@ -70,3 +70,32 @@ def test_guide_sensitivities_from_a_csv(tmp_path):
     csv.write_text("wavelength_nm,r,g,b\n400,1,2\n")
     with pytest.raises(ConfigError, match=r"as_built\.guide_sensitivities: .* four columns"):
         as_built.guide_sensitivities(desc, grid)
+
+
+def test_the_bench_renders_the_stated_values_as_built():
+    """Every value a lab states from a datasheet or drawing can be built otherwise
+    (``tests/rigs/as-built-optics.yaml``); the description procedures read is unchanged."""
+    built = open_rig(RIGS + "as-built-optics.yaml")
+    described = open_rig("sim")
+    t, nominal = truth(built), truth(described)
+    assert built.description.relay.scale == described.description.relay.scale == 1.08
+    # The relay's scale 1.09: the SLM's image 1.09 / 1.08 as wide, the streak as long.
+    u, v = [0.0, 639.0], [199.5, 199.5]
+    x, _ = t.slm_to_camera(u, v, [550.0, 550.0])
+    x0, _ = nominal.slm_to_camera(u, v, [550.0, 550.0])
+    assert (x[1] - x[0]) / (x0[1] - x0[0]) == pytest.approx(1.09 / 1.08, rel=2e-3)
+    ends, _ = t.slm_to_camera([319.5, 319.5], [199.5, 199.5], [400.0, 700.0])
+    assert ends[1] - ends[0] == pytest.approx(68.0, abs=0.5)
+    # The PSF 10 % wider, the SLM pixel's aperture 0.91 of its pitch, the contrast 800.
+    assert t.blur_sigma_px(650.0) == pytest.approx(1.1 * nominal.blur_sigma_px(650.0))
+    spot = np.sqrt(t.blur_sigma_px(650.0) ** 2 + ((0.91 * 1.09) ** 2 + 1) / 12)
+    assert float(t.line_spread_sigma_px(650.0)) == pytest.approx(float(spot), rel=1e-6)
+    assert t.contrast_eps == pytest.approx(1 / 800)
+    # The camera: read noise, gain and full well as built.
+    sensor = t.bench.sensor
+    assert (sensor.read_noise_e, sensor.gain_e_per_adu, sensor.full_well_e) == (5.5, 0.47, 29000)
+    width = t.light_samples("laser:532")
+    spread = np.sqrt(np.average((width.wavelengths_nm - 532.0) ** 2, weights=width.weights))
+    narrow = nominal.light_samples("laser:532")
+    spread0 = np.sqrt(np.average((narrow.wavelengths_nm - 532.0) ** 2, weights=narrow.weights))
+    assert spread / spread0 == pytest.approx(1.3, rel=0.05)

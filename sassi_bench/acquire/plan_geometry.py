@@ -1,0 +1,371 @@
+"""Every spacing a capture plan needs, derived from the rig's nominal optics at plan time.
+
+A pinhole scan's pitch, the lamp frames' and the blur frames' pinhole pitch, the phase
+sweep's period and Gray block, and the guide registration's inlier count depend on the
+bench: how long a streak is on the camera, how wide a spot, how many camera rows an SLM
+row spans, how large the SLM field is. :func:`plan_geometry` derives them from the rig's
+description only: the described relay and prism (``RigDescription.nominal_relay()``, a
+ray trace; a rig described by its optical design comes through the same seam), the
+described PSF curve, the SLM and the camera. Never from how the bench is built.
+
+A procedure file gives these values as ``null`` (or leaves them out): the derived value is
+used. A number is an override; an override that would let streaks overlap is refused by
+the checks of :mod:`~sassi_bench.acquire.streak_pitch` and
+:func:`~sassi_bench.acquire.spectral_plans.check_lamp_pitch`. A spacing that cannot fit
+the SLM at all is refused here, naming the optical change that would make it fit.
+
+The rules (camera px unless said; ``s(l)`` the described spot sigma of one SLM pixel,
+``s_max`` its widest over 400-700 nm, ``s_las`` its widest at the lasers):
+
+- scan pitch, horizontal: the smallest pitch whose neighbouring streaks, each marked as
+  the scan's reading pass marks it (400-700 nm, 4 sigmas and 6 px beyond each end), leave
+  at least one SLM pixel's step of free columns everywhere on the field, rounded up to a
+  multiple of the guide scan's stride; vertical: ``ceil(1.5 s_max / (rows per SLM row))``
+  (stacked pinholes at least 1.5 of the widest row sigmas apart, what the row unmixing
+  needs; ``sim``'s 5);
+- lamp pitch, horizontal: as the scan's, over the lamps' lines on the spectral grid, 4
+  sigmas and 1 px beyond the first and last line; vertical: the rows the lamp reduction
+  cuts around a streak (3 ``s_max`` and half the streak's row drift, at most 10) and two
+  rows each side, over the rows one SLM row spans;
+- blur pitch: isolated laser spots, each read in a window of 4.5 sigmas each side
+  (:func:`~sassi_bench.calibrate.blur.measure_spot_widths`) with 2 px between windows;
+- phase period: the sinusoid keeps half its contrast through the widest laser spot
+  (``exp(-2 pi^2 s_las^2 / P^2) >= 0.5``), in whole phase steps, at least 16 SLM px; the
+  Gray block is half
+  the period (the Gray code must resolve one period);
+- guide inliers: 30 on a 640 x 400 SLM field, in proportion to the field's area, at
+  least 12 (a smaller field shows proportionally less texture; a homography has 8
+  unknowns).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from sassi_bench.acquire.spectral_plans import LAMP_MARGIN_PX, LAMP_REACH_SIGMAS
+from sassi_bench.acquire.streak_pitch import (
+    BAND_NM,
+    FOOTPRINT_MARGIN_PX,
+    FOOTPRINT_SIGMAS,
+    described_spot_sigma,
+    pitch_room,
+)
+from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.rig.config import RigDescription
+
+__all__ = [
+    "GUIDE_STRIDE",
+    "PlanGeometry",
+    "plan_geometry",
+    "planned_guide",
+    "planned_health_check",
+    "planned_macbeth",
+    "planned_spectral",
+    "scan_pitch",
+]
+
+#: The guide scan's default stride along the rows: derived scan pitches are multiples of it.
+GUIDE_STRIDE = 4
+#: Stacked pinholes of a scan are at least this many widest row sigmas apart.
+ROW_SEPARATION_SIGMAS = 1.5
+#: The lamp reduction cuts at most this many rows each side of a streak.
+LAMP_MAX_HALF_ROWS = 10
+#: Half-width of a blur spot's window, in spot sigmas.
+SPOT_WINDOW_SIGMAS = 4.5
+#: Sinusoid contrast kept through the widest laser spot.
+PHASE_CONTRAST = 0.5
+#: The shortest phase period derived (SLM px).
+MIN_PHASE_PERIOD = 16
+#: Guide inliers asked of a 640 x 400 SLM field, and the fewest asked of any field.
+GUIDE_INLIERS = (30, 640 * 400, 12)
+
+
+@dataclass(frozen=True)
+class PlanGeometry:
+    """The spacings derived from a rig's nominal optics, and what they were derived from.
+
+    Attributes
+    ----------
+    scan_pitch
+        (horizontal, vertical) pinhole pitch of every pinhole scan, SLM px.
+    lamp_pitch
+        The lamp frames' pinhole pitch (None on a rig without wavelength lamps).
+    blur_pitch
+        The blur frames' pinhole pitch.
+    phase_period, gray_block
+        The structured sweep's sinusoid period and Gray block, SLM px.
+    min_inliers
+        Guide matches that must agree on one homography.
+    streak_px
+        Camera columns a scan's 400-700 nm streak footprint spans at the tightest field
+        point (band, blur and margins).
+    spot_sigma_px
+        The described spot's narrowest and widest sigma over 400-700 nm.
+    laser_spot_sigma_px
+        The widest described spot at the rig's lasers.
+    rows_per_slm_px
+        Camera rows one SLM row spans (the fewest over the field).
+    """
+
+    scan_pitch: tuple[int, int]
+    lamp_pitch: tuple[int, int] | None
+    blur_pitch: tuple[int, int]
+    phase_period: int
+    gray_block: int
+    min_inliers: int
+    streak_px: float
+    spot_sigma_px: tuple[float, float]
+    laser_spot_sigma_px: float
+    rows_per_slm_px: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The geometry as JSON-compatible values (recorded with the plans)."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+def _field_points(desc: RigDescription) -> tuple[np.ndarray, np.ndarray]:
+    h, w = desc.slm.height, desc.slm.width
+    v, u = np.meshgrid(np.linspace(0.0, h - 1, 5), np.linspace(0.0, w - 2, 9))
+    return u.ravel()[:, None], v.ravel()[:, None]
+
+
+def _rows_per_slm_px(desc: RigDescription) -> float:
+    relay = desc.nominal_relay()
+    u, v = _field_points(desc)
+    mid = np.array([[sum(BAND_NM) / 2.0]])
+    _, y0 = relay.forward(u, v, mid)
+    _, y1 = relay.forward(u, v + 1.0, mid)
+    return float(np.abs(y1 - y0).min())
+
+
+def _row_drift_px(desc: RigDescription, band: tuple[float, float]) -> float:
+    """Rows a streak drifts over a band (the relay's rotation and the prism's smile)."""
+    u, v = _field_points(desc)
+    _, y = desc.nominal_relay().forward(u, v, np.asarray(band, dtype=np.float64)[None, :])
+    return float(np.abs(y[:, 1] - y[:, 0]).max())
+
+
+def _lamp_band(desc: RigDescription) -> tuple[float, float] | None:
+    grid = desc.spectral_grid
+    lines = [
+        float(x)
+        for table in desc.lamp_lines().values()
+        for x in table.wavelengths_nm
+        if grid.start_nm <= x <= grid.stop_nm
+    ]
+    return (min(lines), max(lines)) if lines else None
+
+
+def _refuse_too_long(desc: RigDescription, what: str, needed: int, footprint: float) -> None:
+    w = desc.slm.width
+    if needed < w:
+        return
+    raise ProcedureError(
+        step_error(
+            what,
+            f"one streak with its blur spans {footprint:.0f} camera px, more than the "
+            f"{w} px wide SLM's image leaves for two pinholes of a row (a pitch of {needed} "
+            "SLM px would be needed)",
+            "shorten the streak on the camera: a prism that disperses less (smaller "
+            "prism.spread_px, e.g. N-BK7 instead of SF10), a lower relay scale, or an SLM "
+            "with more columns",
+        )
+    )
+
+
+def plan_geometry(desc: RigDescription, guide_stride: int = GUIDE_STRIDE) -> PlanGeometry:
+    """Every spacing the capture plans need, from the rig's nominal description.
+
+    Parameters
+    ----------
+    desc
+        The rig's description (its relay and prism as described, PSF curve, SLM, lamps
+        and lasers).
+    guide_stride
+        The guide scan's stride along the rows: the scan pitch is a multiple of it.
+
+    Returns
+    -------
+    PlanGeometry
+
+    Raises
+    ------
+    ProcedureError
+        When a streak is too long for two pinholes of an SLM row, naming the optical
+        changes that shorten it.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> geo = plan_geometry(load_rig_description("sim"))
+    >>> geo.scan_pitch, geo.lamp_pitch, geo.phase_period, geo.gray_block, geo.min_inliers
+    ((100, 5), (87, 24), 16, 8, 30)
+    """
+    lam = np.linspace(BAND_NM[0], BAND_NM[1], 31)
+    spot = described_spot_sigma(desc, lam)
+    s_max = float(spot.max())
+    s_las = float(described_spot_sigma(desc, np.asarray(desc.lasers_nm, dtype=np.float64)).max())
+    rows = _rows_per_slm_px(desc)
+    scale = float(desc.relay.scale)
+
+    room = pitch_room(desc, 100, BAND_NM, FOOTPRINT_SIGMAS, FOOTPRINT_MARGIN_PX)
+    _refuse_too_long(desc, "pinhole scan", room.needed_pitch, room.footprint_px)
+    stride = max(1, int(guide_stride))
+    scan_u = stride * math.ceil(room.needed_pitch / stride)
+    scan_v = max(2, math.ceil(ROW_SEPARATION_SIGMAS * s_max / rows))
+
+    lamp_pitch = None
+    band = _lamp_band(desc)
+    if band is not None:
+        lamp_room = pitch_room(desc, 100, band, LAMP_REACH_SIGMAS, LAMP_MARGIN_PX)
+        _refuse_too_long(desc, "lamp frames", lamp_room.needed_pitch, lamp_room.footprint_px)
+        half = min(LAMP_MAX_HALF_ROWS, math.ceil(3.0 * s_max + _row_drift_px(desc, band) / 2.0))
+        lamp_v = math.ceil((2 * (half + 2) + 1) / min(rows, scale))
+        lamp_pitch = (lamp_room.needed_pitch, lamp_v)
+
+    window = 2 * math.ceil(SPOT_WINDOW_SIGMAS * s_las) + 3
+    blur = max(8, math.ceil(window / min(rows, scale)))
+
+    steps = 8
+    period_cam = 2.0 * math.pi * s_las / math.sqrt(2.0 * math.log(1.0 / PHASE_CONTRAST))
+    # Not below 16 SLM px (the period every test rig and the family's published rigs were
+    # calibrated with): shorter periods would also shrink the finest Gray block to 4 px,
+    # not tried here.
+    period = max(MIN_PHASE_PERIOD, steps * math.ceil(period_cam / scale / steps))
+
+    per, area, fewest = GUIDE_INLIERS
+    inliers = max(fewest, min(per, math.ceil(per * desc.slm.width * desc.slm.height / area)))
+    return PlanGeometry(
+        scan_pitch=(int(scan_u), int(scan_v)),
+        lamp_pitch=lamp_pitch,
+        blur_pitch=(int(blur), int(blur)),
+        phase_period=int(period),
+        gray_block=int(period // 2),
+        min_inliers=int(inliers),
+        streak_px=float(room.footprint_px),
+        spot_sigma_px=(float(spot.min()), s_max),
+        laser_spot_sigma_px=s_las,
+        rows_per_slm_px=rows,
+    )
+
+
+def scan_pitch(
+    desc: RigDescription, value: Any = None, stride: tuple[int, int] = (1, 1)
+) -> tuple[int, int]:
+    """A pinhole scan's pitch: ``value`` when the procedure gives one, else derived.
+
+    Parameters
+    ----------
+    desc
+        The rig's description.
+    value
+        The procedure's ``pitch_px`` (``None`` or empty: derived).
+    stride
+        A coarse scan's stride: a derived pitch is a multiple of it.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> desc = load_rig_description("sim")
+    >>> scan_pitch(desc), scan_pitch(desc, ()), scan_pitch(desc, [96, 4])
+    ((100, 5), (100, 5), (96, 4))
+    """
+    if value is not None and len(value):
+        return int(value[0]), int(value[1])
+    sx, sy = max(1, int(stride[0])), max(1, int(stride[1]))
+    geo = plan_geometry(desc, GUIDE_STRIDE * sx // math.gcd(GUIDE_STRIDE, sx))
+    return geo.scan_pitch[0], sy * math.ceil(geo.scan_pitch[1] / sy)
+
+
+def _filled(section: Mapping[str, Any] | None, key: str, derived: Any) -> Any:
+    value = (section or {}).get(key)
+    return derived if value is None else value
+
+
+def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
+    """The spectral procedure with every spacing it leaves out derived for this rig.
+
+    Fills ``sweep.phase_period_px``, ``sweep.gray_block_px``, ``blur.pinhole_pitch_px``
+    and ``lamps.pinhole_pitch_px`` where they are ``null`` or absent; numbers given stay.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> proc = planned_spectral({"sweep": {}, "blur": {}}, load_rig_description("sim"))
+    >>> proc["sweep"]["phase_period_px"], proc["blur"]["pinhole_pitch_px"]
+    (16, [26, 26])
+    """
+    out = copy.deepcopy(dict(procedure))
+    geo = plan_geometry(desc)
+    sweep = out.setdefault("sweep", {})
+    sweep["phase_period_px"] = int(_filled(sweep, "phase_period_px", geo.phase_period))
+    sweep["gray_block_px"] = int(_filled(sweep, "gray_block_px", sweep["phase_period_px"] // 2))
+    blur = out.setdefault("blur", {})
+    blur["pinhole_pitch_px"] = [int(p) for p in _filled(blur, "pinhole_pitch_px", geo.blur_pitch)]
+    if geo.lamp_pitch is not None:
+        lamps = out.setdefault("lamps", {}) or {}
+        out["lamps"] = lamps
+        lamps["pinhole_pitch_px"] = [
+            int(p) for p in _filled(lamps, "pinhole_pitch_px", geo.lamp_pitch)
+        ]
+    return out
+
+
+def planned_guide(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
+    """The guide procedure with its scan pitch (a multiple of its stride) and its inlier
+    count derived where ``null``.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> proc = planned_guide({"scan": {"stride_px": [4, 1]}, "tolerances": {}},
+    ...                      load_rig_description("sim"))
+    >>> proc["scan"]["pitch_px"], proc["tolerances"]["min_inliers"]
+    ([100, 5], 30)
+    """
+    out = copy.deepcopy(dict(procedure))
+    scan = out.setdefault("scan", {})
+    stride = tuple(scan.get("stride_px") or (GUIDE_STRIDE, 1))
+    scan["pitch_px"] = list(scan_pitch(desc, scan.get("pitch_px"), stride))
+    tol = out.setdefault("tolerances", {})
+    tol["min_inliers"] = int(_filled(tol, "min_inliers", plan_geometry(desc).min_inliers))
+    return out
+
+
+def planned_macbeth(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
+    """A procedure with a ``scan.pitch_px`` (Macbeth, snapshot validation) derived where
+    ``null``.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> planned_macbeth({"scan": {"pitch_px": None}}, load_rig_description("sim"))["scan"]
+    {'pitch_px': [100, 5]}
+    """
+    out = copy.deepcopy(dict(procedure))
+    scan = out.setdefault("scan", {})
+    scan["pitch_px"] = list(scan_pitch(desc, scan.get("pitch_px")))
+    return out
+
+
+def planned_health_check(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
+    """The health check's procedure with its lamp pinhole pitch derived where ``null``
+    (the calibration's lamp pitch).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> planned_health_check({"pinhole_pitch_px": None}, load_rig_description("sim"))
+    {'pinhole_pitch_px': [87, 24]}
+    """
+    out = copy.deepcopy(dict(procedure))
+    geo = plan_geometry(desc)
+    if out.get("pinhole_pitch_px") is None and geo.lamp_pitch is not None:
+        out["pinhole_pitch_px"] = list(geo.lamp_pitch)
+    return out

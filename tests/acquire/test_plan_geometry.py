@@ -1,0 +1,126 @@
+"""Plans from the rig's nominal optics: every spacing derived at plan time, YAML values
+overrides, a plan that cannot fit refused naming the optical change that fixes it."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sassi_bench.acquire.plan_geometry import (
+    plan_geometry,
+    planned_guide,
+    planned_health_check,
+    planned_macbeth,
+    planned_spectral,
+    scan_pitch,
+)
+from sassi_bench.acquire.scan_plans import check_stride
+from sassi_bench.acquire.spectral_plans import check_lamp_pitch
+from sassi_bench.acquire.streak_pitch import check_scan_pitch, scan_pitch_room
+from sassi_bench.errors import ConfigError, ProcedureError
+from sassi_bench.procedure import load_procedure
+from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
+
+RIGS = Path(__file__).resolve().parents[1] / "rigs"
+
+
+def _rig(**changes) -> dict:
+    """The SF10 80 px test rig (lamps added) with some sections changed."""
+    data = yaml.safe_load((RIGS / "prism-sf10-80px.yaml").read_text())
+    data["wavelength_lamps"] = ["HgAr", "Ne"]
+    for key, value in changes.items():
+        section, name = key.split("__")
+        data[section][name] = value
+    return data
+
+
+def test_sim_derives_the_spacings_it_was_calibrated_with():
+    geo = plan_geometry(load_rig_description("sim"))
+    # The Nyquist scan, the sweep's period and Gray block and the guide's inlier count
+    # of the shipped procedures before they were derived.
+    assert geo.scan_pitch == (100, 5)
+    assert (geo.phase_period, geo.gray_block, geo.min_inliers) == (16, 8, 30)
+    desc = load_rig_description("sim")
+    check_lamp_pitch(desc, planned_spectral(load_procedure("spectral_calibration"), desc))
+
+
+@pytest.mark.parametrize("spread", [60, 80, 110, 140])
+def test_derived_pitches_are_the_smallest_that_keep_the_streaks_apart(spread):
+    desc = rig_description_from_dict(_rig(prism__spread_px=spread, spectral_camera__width=1000))
+    geo = plan_geometry(desc)
+    check_scan_pitch(desc, geo.scan_pitch)
+    assert geo.scan_pitch[0] % 4 == 0  # the guide's stride divides it
+    assert geo.scan_pitch[0] - scan_pitch_room(desc, 100).needed_pitch < 4
+    with pytest.raises(ProcedureError):
+        check_scan_pitch(desc, (scan_pitch_room(desc, 100).needed_pitch - 1, 5))
+    lamps = {"lamps": {"pinhole_pitch_px": list(geo.lamp_pitch)}}
+    check_lamp_pitch(desc, lamps)
+    lamps["lamps"]["pinhole_pitch_px"][0] -= 1
+    with pytest.raises(ConfigError, match=r"lamp frames: .*Fix: set lamps.pinhole_pitch_px"):
+        check_lamp_pitch(desc, lamps)
+    # A longer streak needs a longer pitch.
+    assert geo.scan_pitch[0] > spread
+
+
+def test_the_spectral_procedure_gets_derived_values_and_keeps_overrides():
+    desc = load_rig_description(str(RIGS / "lamps-diodes-off-sf11.yaml"))
+    geo = plan_geometry(desc)
+    derived = planned_spectral(load_procedure("spectral_calibration"), desc)
+    assert derived["lamps"]["pinhole_pitch_px"] == list(geo.lamp_pitch)
+    assert derived["blur"]["pinhole_pitch_px"] == list(geo.blur_pitch)
+    assert derived["sweep"]["phase_period_px"] == geo.phase_period
+    assert derived["sweep"]["gray_block_px"] == geo.phase_period // 2
+    given = load_procedure("spectral_calibration")
+    given["blur"]["pinhole_pitch_px"] = [40, 40]
+    given["sweep"]["phase_period_px"] = 24
+    kept = planned_spectral(given, desc)
+    assert kept["blur"]["pinhole_pitch_px"] == [40, 40]
+    assert (kept["sweep"]["phase_period_px"], kept["sweep"]["gray_block_px"]) == (24, 12)
+    assert given["lamps"]["pinhole_pitch_px"] is None  # the procedure passed is not changed
+
+
+def test_an_override_below_the_derived_lamp_pitch_names_both():
+    desc = load_rig_description("sim")
+    needed = plan_geometry(desc).lamp_pitch[0]
+    with pytest.raises(ConfigError) as caught:
+        check_lamp_pitch(desc, {"lamps": {"pinhole_pitch_px": [60, 24]}})
+    assert f"at least [{needed}, 24]" in str(caught.value) and "null" in str(caught.value)
+
+
+def test_guide_macbeth_and_health_check_plans():
+    desc = rig_description_from_dict(_rig(prism__spread_px=110, spectral_camera__width=1000))
+    geo = plan_geometry(desc)
+    guide = planned_guide(load_procedure("guide_registration"), desc)
+    assert guide["scan"]["pitch_px"] == list(geo.scan_pitch)
+    check_stride(guide["scan"]["pitch_px"], guide["scan"]["stride_px"])
+    # A stride of 3 gets a pitch it divides, never shorter than the streaks need.
+    three = load_procedure("guide_registration")
+    three["scan"]["stride_px"] = [3, 1]
+    pitch = planned_guide(three, desc)["scan"]["pitch_px"]
+    assert pitch[0] % 3 == 0 and pitch[0] >= scan_pitch_room(desc, 100).needed_pitch
+    assert planned_macbeth(load_procedure("macbeth_validation"), desc)["scan"]["pitch_px"] == (
+        list(geo.scan_pitch)
+    )
+    health = planned_health_check(load_procedure("health_check"), desc)
+    assert health["pinhole_pitch_px"] == list(geo.lamp_pitch)
+    assert scan_pitch(desc, [200, 7]) == (200, 7)
+
+
+def test_a_smaller_slm_asks_fewer_guide_inliers():
+    small = rig_description_from_dict(
+        _rig(slm__width=320, slm__height=240, guide_camera__width=300, guide_camera__height=240)
+    )
+    # 30 on 640 x 400; a 320 x 240 field shows 0.3 of that texture: 9, at least 12.
+    assert plan_geometry(small).min_inliers == 12
+    assert plan_geometry(load_rig_description("sim")).min_inliers == 30
+
+
+def test_a_streak_too_long_for_the_slm_is_refused_naming_the_optics():
+    data = _rig(prism__spread_px=140, slm__width=160, spectral_camera__width=700)
+    data["guide_camera"]["width"] = 200
+    desc = rig_description_from_dict(data)
+    with pytest.raises(ProcedureError) as caught:
+        plan_geometry(desc)
+    message = str(caught.value)
+    assert message.startswith("pinhole scan: one streak with its blur spans")
+    assert "160 px wide SLM" in message and "prism that disperses less" in message
