@@ -15,9 +15,12 @@ from sassi_bench.rig.sim import truth
 
 ROOT = Path(__file__).parents[1]
 #: The README and the user pages (the dated notes are history, not examples to run).
-PAGES = [ROOT / "README.md"] + sorted(
-    p for p in (ROOT / "docs").rglob("*.md") if p.relative_to(ROOT / "docs").parts[0] != "notes"
-)
+PAGES = [
+    ROOT / "README.md",
+    *sorted(
+        p for p in (ROOT / "docs").rglob("*.md") if p.relative_to(ROOT / "docs").parts[0] != "notes"
+    ),
+]
 
 
 def python_blocks() -> list[tuple[Path, str]]:
