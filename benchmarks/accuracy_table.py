@@ -92,6 +92,26 @@ def _count(n: int) -> str:
     return words[n] if n < len(words) else str(n)
 
 
+def laser_cell(cal, t) -> str:
+    """The table's laser cell: with lamps, how many lines the anchored fit put at their
+    true wavelengths and how close; else the lines fitted at an estimate (or how far the
+    others put any line from its label). ``cal`` a spectral calibration result, ``t`` the
+    bench's truth."""
+    estimated = cal.dispersion.estimated_lines
+    used = cal.dispersion.wavelengths_nm
+    if cal.dispersion.anchored:
+        worst = max(abs(used[label] - t.laser_centre_nm(label)) for label in used)
+        lines = _count(len(used))
+        return f"lamp-anchored: all {lines} at their true lines (within {worst:.3f} nm)"
+    if estimated:
+        return ", ".join(
+            f"{label:g} nm at {used[label]:.2f} (true {t.laser_centre_nm(label):.2f})"
+            for label in estimated
+        )
+    agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
+    return f"none off label (max {agree:.3f} nm)"
+
+
 def score(rig, result) -> dict[str, str]:
     """Every model of a finished chain (``run_full_calibration``) against the bench's truth."""
     t = truth(rig)
@@ -104,21 +124,7 @@ def score(rig, result) -> dict[str, str]:
         corr_rms = max(corr_rms, float(np.sqrt(np.mean(error**2))))
     error_nm = t.wavelength_map_error_nm(cal.dispersion.model)
     map_rms, map_max = float(np.sqrt(np.mean(error_nm**2))), float(np.abs(error_nm).max())
-    estimated = cal.dispersion.estimated_lines
-    used = cal.dispersion.wavelengths_nm
-    if cal.dispersion.anchored:
-        worst = max(abs(used[label] - t.laser_centre_nm(label)) for label in used)
-        lines = _count(len(used))
-        laser = f"lamp-anchored: all {lines} at their true lines (within {worst:.3f} nm)"
-    elif estimated:
-        laser = ", ".join(
-            f"{label:g} nm at {cal.dispersion.wavelengths_nm[label]:.2f} "
-            f"(true {t.laser_centre_nm(label):.2f})"
-            for label in estimated
-        )
-    else:
-        agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
-        laser = f"none off label (max {agree:.3f} nm)"
+    laser = laser_cell(cal, t)
     band = np.linspace(420, 690, 28)
     # A "psf_quadratic" blur leaves the camera pixel to its users: compare the spot width
     # it predicts a camera measures.

@@ -111,6 +111,26 @@ def test_the_checks_fail_on_a_figure_that_differs(tmp_path):
     assert quoted_figures(text) == []
 
 
+def test_the_headline_laser_cell_is_the_benchmarks_own(calibrated_sim):
+    """The README's "all five at their true lines" is what accuracy_table.py writes for
+    the sim rig's lamp-anchored calibration, scored against the bench's truth."""
+    import sys
+
+    from sassi_bench.rig.sim import truth
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from accuracy_table import laser_cell
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    rig, result, _ = calibrated_sim
+    cell = laser_cell(result, truth(rig))
+    print(f"\nsim's laser cell: {cell}")
+    match = re.fullmatch(r"lamp-anchored: all five at their true lines \(within (\S+) nm\)", cell)
+    assert match, cell
+    assert float(match[1]) < 0.01  # measured 0.001 nm (0.005 in the transcribed table)
+
+
 def test_the_benchmarks_merge_their_columns_into_the_data_file(tmp_path):
     rows = ["a figure", "another"]
     figures.update_columns("t", "A table", rows, [{"key": "x", "values": {"a figure": "1 dB"}}],
