@@ -123,7 +123,7 @@ def test_the_pages_quote_the_data_files(site):
     html, _ = site
     accuracy = (html / "accuracy.html").read_text()
     assert "lamp-anchored: all five at their true lines" in accuracy
-    assert "python benchmarks/accuracy_table.py" in accuracy
+    assert "benchmarks/accuracy_table.py</span>" in accuracy  # the command, as code
 
 
 def test_the_front_page_renders_in_chromium(site, tmp_path):
