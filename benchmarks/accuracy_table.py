@@ -13,10 +13,13 @@ sensor, another SLM gamma), with the spectral procedure's
 the chart scan (re-assembled from the chain's session) too: its PSNR and per-band PSNR
 against the truth cube, and the Macbeth patches with the steepest spectral edges beside
 their noise floors.
-Prints a Markdown table, one column per rig. Each rig runs in its own process.
+Prints a Markdown table, one column per rig, and writes each rig's column, with the date,
+the machine and the command, into ``docs/_data/accuracy.json`` (the table the README and
+the accuracy page quote; ``python benchmarks/figures.py`` then rewrites the README's
+copy). Each rig runs in its own process.
 
-Run: ``python benchmarks/accuracy_table.py [--rigs sim tests/rigs/as-built-all.yaml]``
-(about 3 minutes a rig on two quiet cores).
+Run: ``python benchmarks/accuracy_table.py [--rigs sim tests/rigs/as-built-all.yaml]
+[--no-update]`` (about 3 minutes a rig on two quiet cores).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from figures import update_columns
 
 from sassi_bench import open_rig
 from sassi_bench.acquire.session import Session
@@ -82,6 +86,32 @@ def accuracy_procedure(procedure: dict, folder: Path) -> dict:
     return {**procedure, "spectral_procedure": str(spectral_path)}
 
 
+def _count(n: int) -> str:
+    """``n`` in words up to ten, as the table reads."""
+    words = ("zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine")
+    return words[n] if n < len(words) else str(n)
+
+
+def laser_cell(cal, t) -> str:
+    """The table's laser cell: with lamps, how many lines the anchored fit put at their
+    true wavelengths and how close; else the lines fitted at an estimate (or how far the
+    others put any line from its label). ``cal`` a spectral calibration result, ``t`` the
+    bench's truth."""
+    estimated = cal.dispersion.estimated_lines
+    used = cal.dispersion.wavelengths_nm
+    if cal.dispersion.anchored:
+        worst = max(abs(used[label] - t.laser_centre_nm(label)) for label in used)
+        lines = _count(len(used))
+        return f"lamp-anchored: all {lines} at their true lines (within {worst:.3f} nm)"
+    if estimated:
+        return ", ".join(
+            f"{label:g} nm at {used[label]:.2f} (true {t.laser_centre_nm(label):.2f})"
+            for label in estimated
+        )
+    agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
+    return f"none off label (max {agree:.3f} nm)"
+
+
 def score(rig, result) -> dict[str, str]:
     """Every model of a finished chain (``run_full_calibration``) against the bench's truth."""
     t = truth(rig)
@@ -94,16 +124,7 @@ def score(rig, result) -> dict[str, str]:
         corr_rms = max(corr_rms, float(np.sqrt(np.mean(error**2))))
     error_nm = t.wavelength_map_error_nm(cal.dispersion.model)
     map_rms, map_max = float(np.sqrt(np.mean(error_nm**2))), float(np.abs(error_nm).max())
-    estimated = cal.dispersion.estimated_lines
-    if estimated:
-        laser = ", ".join(
-            f"{label:g} nm at {cal.dispersion.wavelengths_nm[label]:.2f} "
-            f"(true {t.laser_centre_nm(label):.2f})"
-            for label in estimated
-        )
-    else:
-        agree = max(abs(line.offset_nm) for line in cal.laser_lines.values())
-        laser = f"none off label (max {agree:.3f} nm)"
+    laser = laser_cell(cal, t)
     band = np.linspace(420, 690, 28)
     # A "psf_quadratic" blur leaves the camera pixel to its users: compare the spot width
     # it predicts a camera measures.
@@ -176,10 +197,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rigs", nargs="+", default=RIGS)
     parser.add_argument("--jobs", type=int, default=2, help="rigs run at once")
+    parser.add_argument(
+        "--no-update", action="store_true", help="print only: leave docs/_data/accuracy.json"
+    )
     args = parser.parse_args()
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         columns = list(pool.map(measure, args.rigs))
     print(markdown(columns))
+    if not args.no_update:
+        rows = [key for key in columns[0] if key != "rig"]
+        path = update_columns(
+            "accuracy",
+            "The whole chain on a bench as described and as built, scored against the "
+            "virtual bench's truth",
+            rows,
+            [{"key": c["rig"], "values": {k: c[k] for k in rows}} for c in columns],
+            code_keys=True,
+        )
+        print(f"wrote {path}; `python benchmarks/figures.py` rewrites the README's copy")
 
 
 if __name__ == "__main__":

@@ -28,6 +28,9 @@ runs the chain with the accuracy table's procedure (``benchmarks/accuracy_table.
 laser wavelengths estimated) and prints the table's column for the rig, scored against
 the bench's truth, so one run gives both.
 
+Writes the table and the run's disk use to ``docs/_data/chain_<rig>.json`` (with the date,
+the machine and the command), which the performance page quotes, unless ``--no-update``.
+
 Run: ``python benchmarks/bench_chain.py [--rig sim-prototype] [--data DIR] [--accuracy]``
 (``--rig sim`` takes about two minutes on two quiet cores; ``sim-prototype`` about five).
 """
@@ -321,10 +324,8 @@ def read_back(sessions: dict[str, Path]) -> dict[str, float]:
     return per_frame
 
 
-def table(clock: StageClock, read_s: dict[str, float]) -> str:
-    """The per-stage Markdown table."""
-    from sassi_bench._shared.tables import text_table
-
+def table_rows(clock: StageClock, read_s: dict[str, float]) -> tuple[list[str], list[list[str]]]:
+    """The per-stage table: its header and one row per stage, the whole chain last."""
     header = [
         "stage", "frames", "wall s", "CPU s", "render CPU s", "store CPU s",
         "compile CPU s", "process CPU s", "read CPU ms", "process/read", "peak GB",
@@ -365,7 +366,45 @@ def table(clock: StageClock, read_s: dict[str, float]) -> str:
         f"{totals['cpu']:.1f}", f"{totals['render']:.1f}", f"{totals['store']:.1f}",
         f"{totals['compile']:.1f}", f"{process:.1f}", "-", "-", f"{peak / 1e9:.2f}",
     ])  # fmt: skip
-    return text_table(header, rows)
+    return header, rows
+
+
+def disk_totals(staging: Path) -> tuple[int, int]:
+    """Bytes of raw frames left in the staging folder: all of them, and those
+    ``keep: audit`` keeps (the grey and sweep frames)."""
+    from sassi_bench.storage.inventory import folder_size
+
+    total = audit = 0
+    for folder in sorted((staging / "sessions").iterdir()):
+        frames = folder / "frames.zarr"
+        size = folder_size(frames)[0] if frames.exists() else 0
+        total += size
+        audit += size if folder.name.endswith(("-spectral-grey", "-spectral-sweep")) else 0
+    return total, audit
+
+
+def update_figures(rig: str, header: list[str], rows: list[list[str]], staging: Path):
+    """Write the run's table and its disk use to ``docs/_data/chain_<rig>.json``, the
+    figures the performance page quotes."""
+    from figures import update_columns
+
+    from sassi_bench.storage.inventory import format_size
+
+    total, audit = disk_totals(staging)
+    stages = [row[0] for row in rows]
+    columns = [
+        {"key": name, "values": {row[0]: row[i] for row in rows}}
+        for i, name in enumerate(header[1:], start=1)
+    ]
+    stages += ["raw frames a run (keep: all)", "raw frames a run (keep: audit)"]
+    columns.append(
+        {
+            "key": "disk",
+            "values": {stages[-2]: format_size(total), stages[-1]: format_size(audit)},
+        }
+    )
+    title = f"The whole calibration chain on `{rig}`, stage by stage"
+    return update_columns(f"chain_{rig}", title, stages, columns, row_label="stage", replace=True)
 
 
 def disk_use(staging: Path) -> str:
@@ -393,10 +432,14 @@ def main() -> None:
     parser.add_argument(
         "--accuracy", action="store_true", help="also score the run against the truth"
     )
+    parser.add_argument(
+        "--no-update", action="store_true", help="print only: leave docs/_data/chain_<rig>.json"
+    )
     args = parser.parse_args()
     print(f"load average at start: {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
     clock = StageClock()
     from sassi_bench import open_rig
+    from sassi_bench._shared.tables import text_table
     from sassi_bench.procedure import load_procedure
     from sassi_bench.workflows.full import run_full_calibration
 
@@ -426,7 +469,8 @@ def main() -> None:
         print(f"\nrig {args.rig}: whole chain {chain_wall:.0f} s wall")
         failed = [c.name for c in result.checks if not c.passed]
         print("all checks pass" if not failed else "FAILED checks: " + ", ".join(failed))
-        print(table(clock, read_s))
+        header, rows = table_rows(clock, read_s)
+        print(text_table(header, rows))
         renders = {stage: entry for stage, entry in clock.render.items() if entry[2]}
         print("\nrendering per bench call (camera exposures and scene changes):")
         for stage, (wall, cpu, calls) in renders.items():
@@ -435,6 +479,8 @@ def main() -> None:
                 f"{1000 * wall / calls:.0f} ms wall each"
             )
         print(disk_use(staging))
+        if not args.no_update:
+            print(f"wrote {update_figures(args.rig, header, rows, staging)}")
         if args.accuracy:
             from accuracy_table import markdown, score
 

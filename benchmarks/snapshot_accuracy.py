@@ -7,6 +7,10 @@ a 100 x 5 pinhole scan of the whole SLM as the reference, the adaptive snapshot
 reconstructed by rank-1 and by the guided filter. Prints a Markdown table, one column per
 rig. The reconstruction never sees the bench's truth; the scan is the reference.
 
+Writes each rig's column, with the date, the machine and the command, into
+``docs/_data/snapshot_accuracy.json`` (the table the accuracy page quotes) unless
+``--no-update``.
+
 Run: ``python benchmarks/snapshot_accuracy.py [--rigs sim sim-prototype] [--data DIR]
 [--row-pitch N] [--scan CUBE.nc]``. With ``--data`` the scan is kept there as
 ``scan-<rig>-natural.nc``, for ``--scan`` in later runs. sim takes about 6 minutes on two
@@ -97,6 +101,11 @@ def main() -> None:
         help="the mask rule's row pitch (default: the procedure's; 0: footprints never overlap)",
     )  # fmt: skip
     parser.add_argument("--scan", help="a scan cube (NetCDF) of the natural scene, one rig only")
+    parser.add_argument(
+        "--no-update",
+        action="store_true",
+        help="print only: leave docs/_data/snapshot_accuracy.json",
+    )
     args = parser.parse_args()
     if args.scan and len(args.rigs) != 1:
         parser.error("--scan scores one rig: give one --rigs")
@@ -114,6 +123,17 @@ def main() -> None:
     print("| --- |" + " --- |" * len(columns))
     for row in rows:
         print(f"| {row} | " + " | ".join(col[row] for col in columns.values()) + " |")
+    if not args.no_update and args.row_pitch is None:  # the procedure's own setting only
+        from figures import update_columns
+
+        path = update_columns(
+            "snapshot_accuracy",
+            "Snapshots of the natural scene against a pinhole scan, with the whole chain's bundle",
+            list(rows),
+            [{"key": name, "values": dict(col)} for name, col in columns.items()],
+            code_keys=True,
+        )
+        print(f"wrote {path}")
 
 
 if __name__ == "__main__":

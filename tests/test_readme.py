@@ -1,4 +1,5 @@
-"""The README's Python examples run as written (they are doctests), on a real bundle."""
+"""The Python examples of the README and the user pages run as written (they are
+doctests), on a real bundle."""
 
 from __future__ import annotations
 
@@ -12,12 +13,23 @@ import pytest
 from sassi_bench.bundle import load, publish
 from sassi_bench.rig.sim import truth
 
-README = Path(__file__).parents[1] / "README.md"
+ROOT = Path(__file__).parents[1]
+#: The README and the user pages (the dated notes are history, not examples to run).
+PAGES = [
+    ROOT / "README.md",
+    *sorted(
+        p for p in (ROOT / "docs").rglob("*.md") if p.relative_to(ROOT / "docs").parts[0] != "notes"
+    ),
+]
 
 
-def python_blocks() -> list[str]:
-    """The README's ```python blocks."""
-    return re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+def python_blocks() -> list[tuple[Path, str]]:
+    """The ```python blocks of the README and the user pages, with their page."""
+    return [
+        (page, block)
+        for page in PAGES
+        for block in re.findall(r"```python\n(.*?)```", page.read_text(), flags=re.DOTALL)
+    ]
 
 
 @pytest.fixture(scope="module")
@@ -39,19 +51,20 @@ def data_with_a_sim_bundle(calibrated_sim, tmp_path_factory):
     return root
 
 
-def test_every_python_block_of_the_readme_is_a_doctest():
+def test_every_python_block_of_the_pages_is_a_doctest():
     blocks = python_blocks()
-    assert len(blocks) >= 2
-    for block in blocks:
+    assert {page.name for page, _ in blocks} >= {"getting_started.md", "bundle_api.md"}
+    for page, block in blocks:
         lines = [line for line in block.splitlines() if line.strip()]
-        assert lines[0].startswith(">>> "), block
+        assert lines[0].startswith(">>> "), (page, block)
 
 
 @pytest.mark.parametrize("index", range(len(python_blocks())))
-def test_readme_examples_run(index, data_with_a_sim_bundle, monkeypatch):
+def test_page_examples_run(index, data_with_a_sim_bundle, monkeypatch):
     monkeypatch.setenv("SASSI_BENCH_DATA", str(data_with_a_sim_bundle))
-    block = python_blocks()[index]
-    test = doctest.DocTestParser().get_doctest(block, {}, f"README block {index}", str(README), 0)
+    page, block = python_blocks()[index]
+    name = f"{page.relative_to(ROOT)} block {index}"
+    test = doctest.DocTestParser().get_doctest(block, {}, name, str(page), 0)
     runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
     failures = []
     runner.run(test, out=failures.append)

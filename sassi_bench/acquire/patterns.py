@@ -5,20 +5,28 @@ rather than as pixels: sessions stay small, and analysis code regenerates exactl
 pattern that was shown. :func:`render_pattern` turns a descriptor into a uint8 image
 (255 = fully open) with the renderer that :data:`PATTERN_RENDERERS` holds for its kind.
 
-Kinds (:data:`PATTERN_RENDERERS`)
----------------------------------
-``blank``                   all closed
-``full``                    all open
-``uniform``                 ``level``: one grey level everywhere
-``gray``                    ``axis`` ("x" columns or "y" rows), ``bit`` (0 = most
-                            significant), ``block`` (px per code word), ``inverse``
-``periodic``                ``axis``, ``profile`` (grey levels of one period), ``shift``
-                            (px): pixel ``p`` along the axis shows ``profile[(p - shift) % P]``
-``lines``                   ``axis``, ``offset``, ``spacing``, ``width`` (px)
-``pinholes``                ``pitch`` [px_x, px_y], ``offset`` [x, y]
-``pixels``                  ``rows``, ``cols``: the open pixels, listed one by one in
-                            row-major order (an adaptive snapshot mask, or any mask a
-                            user supplies; :func:`pixels_descriptor` makes one)
+Kinds (:data:`PATTERN_RENDERERS`), with their keys:
+
+``blank``
+    all closed
+``full``
+    all open
+``uniform``
+    ``level``: one grey level everywhere
+``gray``
+    ``axis`` ("x" columns or "y" rows), ``bit`` (0 = most significant), ``block`` (px
+    per code word), ``inverse``
+``periodic``
+    ``axis``, ``profile`` (grey levels of one period), ``shift`` (px): pixel ``p`` along
+    the axis shows ``profile[(p - shift) % P]``
+``lines``
+    ``axis``, ``offset``, ``spacing``, ``width`` (px)
+``pinholes``
+    ``pitch`` [px_x, px_y], ``offset`` [x, y]
+``pixels``
+    ``rows``, ``cols``: the open pixels, listed one by one in row-major order (an
+    adaptive snapshot mask, or any mask a user supplies; :func:`pixels_descriptor` makes
+    one)
 """
 
 from __future__ import annotations

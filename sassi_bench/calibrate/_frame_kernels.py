@@ -15,9 +15,9 @@ The grey response's trimmed mean (:func:`trimmed_ratio_mean`) replaces scipy's
 ``trim_mean`` on each level's normalised lit pixels: scipy partitions all of them (2.1
 million float64 ratios on a prototype frame, made by four whole-array numpy passes)
 where one fused pass counts and sums, and only the few per cent of ratios near the two
-cuts, bracketed by a strided sample, are partitioned. A prototype grey session's
-``measure_grey_response``: 45 -> 20 ms CPU a frame (one thread; the same values trimmed,
-summed in another order: equal to rounding, about 1e-15 here).
+cuts, bracketed by a strided sample, are partitioned (the same values trimmed, summed
+in another order: equal to rounding; timed in
+``docs/notes/2026-11-29-docstring-measurements.md``).
 
 Every function works on plain arrays, releases the GIL, and (but for the trimmed mean's
 summation order) gives the same numbers as the numpy expressions it replaces (the same

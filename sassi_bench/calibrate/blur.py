@@ -9,9 +9,8 @@ The SASSI paper fits those widths with a quadratic in wavelength. A spot is the 
 PSF convolved with the SLM pixel's image and the camera pixel, two boxes whose variance
 does not depend on the wavelength, so its width is ``sqrt(psf(λ)² + p)``: flat near the
 PSF's narrowest wavelength, steep away from it, a shape a quadratic in the spot width
-cannot follow between lasers far apart. Measured on ``sim`` (lasers 450 / 520 / 532 / 635 /
-670 nm, widths at the lasers within 0.2 % of the bench's): the quadratic through the spot
-widths was 2 % off at the lasers and +4.5 % at 580-600 nm, where no laser is.
+cannot follow between lasers far apart (measured:
+``docs/notes/2026-11-29-docstring-measurements.md``).
 
 Given the SLM pixel's image (:func:`fit_blur`'s ``aperture_px``) the quadratic is fitted
 to the PSF instead (:class:`~sassi_bench.bundle.QuadraticBlur` ``"psf_quadratic"``), and the
@@ -19,18 +18,12 @@ model is the spot *before* the camera pixel, ``sqrt(psf² + aperture²/12)``: ev
 the bundle's blur integrates its Gaussian over camera pixels (the scan's row unmixing over
 each cell's rows, the streak's forward model over each bin's columns, the lamp spots over
 a pixel box), so a width that held the camera pixel's ``1/12`` px² too would count it
-twice. The measured second moments are fitted as ``sqrt(model² + 1/12)``. On the ``sim``
-chain's ColorChecker scan the camera pixel counted once instead of twice took the
-500-600 nm bands from 55.7 to 59.6 dB.
+twice. The measured second moments are fitted as ``sqrt(model² + 1/12)``.
 
 Where no laser is, the curve is the model's guess. The fit states how good a guess it is
 (``relative_error``, from leaving each laser out), and the scan's anchor spectrum allows
-for the forward model's error by it. Fitted to the bench's widths at the five lasers, it
-was 0.56 % for 0.24 % RMS actual over 450-690 nm on ``sim`` and 11.5 % for 8.3 % on a rig
-whose blur no quadratic follows (``tests/rigs/prism-sf10.yaml``): pessimistic, as leaving
-a line out is, by a similar factor on both. Leaving out only the inner lasers judged the
-second at 3.7 %, half its error (that curve misses most between 532 and 635 nm, and
-beyond the last lasers).
+for the forward model's error by it; leaving a line out makes the figure pessimistic,
+by a similar factor on every rig measured (the note above).
 """
 
 from __future__ import annotations

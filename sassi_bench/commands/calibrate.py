@@ -64,7 +64,33 @@ def _full(args: argparse.Namespace) -> int:
     for line in result.kept.lines():
         print(f"  raw frames {line}")
     print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
+    _print_next(args, result.bundle_path, result.report_html)
     return 0 if result.passed else 1
+
+
+def _print_next(args: argparse.Namespace, bundle_path: Path | None, report: Path) -> None:
+    """The commands a lab runs after a calibration: a health check right away (the
+    baseline later checks are compared with), a snapshot with the new bundle, and the
+    report to read."""
+    import shlex
+
+    from sassi_bench.commands.options import program
+
+    where = f" --data {shlex.quote(args.data)}" if args.data else ""
+    print("next:")
+    if bundle_path is not None:
+        bundle = f"--rig {shlex.quote(args.rig)} --bundle {bundle_path.name}{where}"
+        print(f"  {program()} check {bundle}")
+        print("      a health check now: the baseline later checks are compared with")
+        print(f"  {program()} snapshot take {bundle} --out snapshots")
+        print("      a snapshot with the new bundle (cubes and a quick look in snapshots/)")
+    print(f"  open {Path(report).resolve().as_uri()}")
+    print("      the Macbeth validation report, with every quality check of the bundle")
+    if bundle_path is not None:
+        figures = sorted(p.name for p in (Path(bundle_path) / "report").glob("*.png"))
+        if figures:
+            print(f"  the bundle's figures, in {Path(bundle_path) / 'report'}:")
+            print("      " + ", ".join(figures))
 
 
 def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -> None:

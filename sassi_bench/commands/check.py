@@ -84,7 +84,8 @@ def _history(args: argparse.Namespace) -> int:
     check_output_file("check history", str(out), "--out")
     write_trend_html(rows, out, rig=name)
     last = rows[-1]
-    print(f"{len(rows)} checks of {name}; latest {last['checked_utc']}: {last['verdict']}")
+    count = f"{len(rows)} check" + ("" if len(rows) == 1 else "s")
+    print(f"{count} of {name}; latest {last['checked_utc']}: {last['verdict']}")
     print(f"trend written to {out.resolve()}")
     return 0
 

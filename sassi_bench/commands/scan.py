@@ -90,8 +90,8 @@ def _band_psnr_png(run, out):
     mid, red = (lam > 500) & (lam < 600), lam > 650
     print(
         f"per-band PSNR (noise only): {np.mean(band[mid]):.1f} dB at 500-600 nm, "
-        f"{np.mean(band[red]):.1f} dB beyond 650 nm; deblur {scan.deblur.rule} "
-        f"{scan.deblur.parameter} {scan.deblur.value:g}"
+        f"{np.mean(band[red]):.1f} dB beyond 650 nm; the deblur's {scan.deblur.parameter} "
+        f"{scan.deblur.value:.3g}, chosen by the {scan.deblur.rule} rule"
     )
     return path
 

@@ -118,7 +118,7 @@ def band_solve(a, x, size, p):  # pragma: no cover - compiled
 
 @njit(**_SUMS)
 def skyline_cholesky(envelope, start, values, first, stop):  # pragma: no cover - compiled
-    """The Cholesky factor ``L`` of rows ``first .. stop - 1`` of a skyline matrix, in place.
+    """The Cholesky factor ``L`` of rows ``first`` to ``stop - 1`` of a skyline matrix, in place.
 
     Row ``i`` holds ``A[i, envelope[i] .. i]`` at ``values[start[i] ..]`` on entry and
     ``L[i, envelope[i] .. i]`` on return, with ``1 / L[i, i]`` on the diagonal. A row
@@ -155,7 +155,7 @@ def skyline_cholesky(envelope, start, values, first, stop):  # pragma: no cover 
 
 @njit(**_SUMS)
 def skyline_solve(envelope, start, factor, x, first, stop):  # pragma: no cover - compiled
-    """Solve ``L Lᵀ y = x`` in place for rows ``first .. stop - 1`` with the factor of
+    """Solve ``L Lᵀ y = x`` in place for rows ``first`` to ``stop - 1`` with the factor of
     :func:`skyline_cholesky`."""
     # Forward: L z = x (rows stored left to right, 1 / diagonal last).
     for i in range(first, stop):

@@ -188,7 +188,8 @@ def write_trend_html(
         )
     body = (
         f"<h1>{html.escape(title)}</h1>"
-        f"<p>{len(rows)} checks. Tolerances as recorded with the latest check.</p>"
+        f"<p>{len(rows)} check{'' if len(rows) == 1 else 's'}. "
+        "Tolerances as recorded with the latest check.</p>"
         f"{image}<h2>Checks (newest first)</h2>{html_table(header, table_rows, left=3)}"
     )
     out = Path(path)

@@ -170,7 +170,7 @@ def check_rows(
             floor = floors.get(str(c["name"]))
             row.append("" if floor is None else f"{floor:{fmt}}{unit}")
         row += [
-            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:g}{unit}",
+            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:.3g}{unit}",
             "pass" if c["passed"] else '<td class="bad">FAIL</td>',
         ]
         rows.append(row)

@@ -355,9 +355,12 @@ def band_error_figure(result, errors) -> tuple[Any, dict[str, Any]]:
         ax.axhline(0.0, color="black", lw=0.6)
         ax.plot(lam, e.error, ".-", color="tab:red", label="measured - reference")
         shares = ", ".join(f"{100 * v:.0f} % {k}" for k, v in e.shares.items())
-        state = "fails" if e.failed else "worst patch, passes"
-        ax.set_title(f"Patch {e.patch + 1} {e.name} ({state}): {shares}", fontsize=9)
+        ax.set_title(
+            f"Patch {e.patch + 1} {e.name} ({e.state}): its error per band; {shares}",
+            fontsize=9,
+        )
         ax.set_ylabel("reflectance error")
+        ax.margins(y=0.15)  # the band's last point, often the largest, clear of the frame
         ax.grid(alpha=0.3)
         data["patches"].append(e.to_dict())
     axes[0].plot([], [], color="tab:orange", alpha=0.4, lw=6, label="band-edge zone")

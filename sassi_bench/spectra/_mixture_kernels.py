@@ -8,20 +8,18 @@ three quadrature nodes), followed by one banded solve; as numpy that is Python c
 system and (pixels x bins x sources) temporaries. Compiled on first use in a process
 (about 3 s; no on-disk cache, as for :mod:`sassi_bench.spectra._kernels`).
 
-How it is kept cheap (`sim`'s ColorChecker scan, 560 pixels x 36 mixed bins a frame;
-CPU a frame, one thread, all of :func:`~sassi_bench.spectra.row_mixture.unmix_rows_mixed`
-9.8 -> 5.1 ms measured in one run; the amplitudes are within 7e-15 of each frame's peak
-of those of the straightforward loops it replaced, one (pixel, bin) and one system at a
-time):
+How it is kept cheap (the amplitudes equal, to rounding, those of the straightforward
+loops it replaced, one (pixel, bin) and one system at a time; the timings behind each
+step: ``docs/notes/2026-11-29-docstring-measurements.md``):
 
 - the nodes: a pixel's sources are weighed once, into a buffer the recurrence reads; the
   steps of the recurrence run for all of the pixel's bins in turn, so the bins' chains of
   divisions and roots overlap; one function, as calls passing the arrays cost more than
-  the sums; one cosine and its sine for the three eigenvalues (about 4 -> 2.4 ms);
+  the sums; one cosine and its sine for the three eigenvalues;
 - the systems are built and solved as the separable kernel's are: each node's Gaussian
   integral at an edge two touching cells share is evaluated once, each node's 1 / sigma
   once per pixel, and the diagonally dominant systems of all bins of a column are
-  eliminated together (about 4 -> 2.3 ms).
+  eliminated together.
 
 Not taken: the nodes from six shifted power moments in a single pass over the sources
 (no faster here, and up to 1.3e-8 of the peak off where a third node is faint: the

@@ -16,22 +16,12 @@ matrix, built and Cholesky-factorised once per mask in compiled loops
 (:mod:`sassi_bench.spectra._crosstalk_kernels`) and solved again for each background
 refinement. Each bin's light is then the sum over its own columns (fractional end
 columns), exactly the quantity the row unmixing gives, so the within-streak deblur
-applies unchanged. A unit's profile is cut 4 sigmas from its centre: beyond, 6e-5 of its
-light; the spectra moved by under 1e-4 of their noise (RMS, 1.3 % at worst) against the
-former 6-sigma profiles on a moving ``sim`` scene.
+applies unchanged. A unit's profile is cut 4 sigmas from its centre (beyond, 6e-5 of its
+light).
 
-On the sim rig (301 open pixels at an 8-row pitch, a 512 x 800 window) a frame with 24
-background refinements from scratch takes 0.13 s of CPU and one refinement from the
-previous frame's background 14 ms, against 0.36 s and 59 ms with the former scipy sparse
-design and SuperLU factors (and the background refined over the whole window), with the
-same spectra (see above); they agree with the pinhole scan to 42.4 dB. At the SASSI
-paper's 698 x 931 crop (a 2048-column camera, 1096 open pixels at a 5-row pitch) a video
-frame's streak model takes 16 ms and its spectra 23 ms (``benchmarks/bench_snapshot.py``).
-The solve before the scipy one (GMRES on the cell sums of a bin model painted uniformly
-over each bin's columns, preconditioned per SLM column) took 120 s with 8 refinements for
-35.4 dB: its model also tried to undo the camera columns that neighbouring bins share,
-whose inverse amplifies noise (the deblur's job, with regularisation), and solved exactly
-it diverged at a 5 px pitch.
+Compiled skyline solves replace a scipy sparse design with SuperLU factors, which gave the
+same spectra at several times the CPU; ``benchmarks/bench_snapshot.py`` times them, and
+``docs/notes/2026-11-29-docstring-measurements.md`` holds the measurements behind these choices.
 """
 
 from __future__ import annotations

@@ -75,12 +75,10 @@ GUARD_WEIGHT = 0.05
 #: the snapshots' per-pixel deblur. Under a dense mask a streak's guard columns are shared
 #: with its neighbours' streaks (the column fit leaves their errors there), so the guards
 #: are nuisance parameters: a weak ridge lets them take that light instead of the band's
-#: end bins. Measured on the sim rig's adaptive snapshots (spectra at the open pixels
-#: against the pinhole scan there / as `benchmarks/snapshot_accuracy.py` scores them):
-#: natural 42.22 / 43.18 dB at :data:`GUARD_WEIGHT`, 42.50 / 43.39 dB at 0.003; ColorChecker 43.50 /
-#: 44.22 dB and 43.64 / 44.33 dB. 0.001-0.005 differ by under 0.2 dB; at 3e-4 and below
-#: the guards are barely held and the scores scatter by 0.5 dB. (Isolated streaks, a
-#: scan's, want the stronger ridge: there the guards hold the band end's own tail.)
+#: end bins; chosen on the sim rig's adaptive snapshots with
+#: `benchmarks/snapshot_accuracy.py` (``docs/notes/2026-11-29-docstring-measurements.md``).
+#: Isolated streaks, a scan's, want the stronger ridge: there the guards hold the band
+#: end's own tail.
 PIXEL_GUARD_WEIGHT = 0.003
 
 #: Weights a mean's deblur tries, and the weight its operators are built at.
@@ -97,15 +95,11 @@ MODEL_ERROR = 0.01
 #: Passes of a mean's weight choice when it allows for the blur's stated error
 #: (``model_error="blur"``): the forward model's error is then the spill's change under
 #: that error (the forward model's ``spill_error``) applied to the spectrum solved at the
-#: last pass's weight, the first at the noise alone. Measured as the scan's anchor on the
-#: chains' ColorChecker scans against the 1 % floor (PSNR / mean angle): sim 55.57 dB /
-#: 0.85 deg -> 56.87 / 0.78 (a stated blur error of about 0.6 %; the band beyond 650 nm
-#: 48.5 -> 50.8 dB), N-BK7 rig 54.93 / 0.88 -> 56.28 / 0.81, the SF10 rig 54.85 / 0.89 ->
-#: 54.82 / 0.90 (about 12 %); no floor at all gave the SF10 rig 54.06 dB. A third pass
-#: changed neither.
-#: As the response's white it let the first bins ring (N-BK7 rig: 1.2 -> 4.0 % off the
-#: truth near 411 nm, 1.0 -> 0.4 % beyond 640 nm): an error of the model there that is
-#: not the blur's, which the floor covers; so the response and the patches keep it.
+#: last pass's weight, the first at the noise alone; a third pass changed nothing. It
+#: serves the scan's anchor; as the response's white it let the first bins ring (an error
+#: of the model there that is not the blur's, which the floor covers), so the response and
+#: the patches keep the floor. Measured with `benchmarks/accuracy_table.py`
+#: (``docs/notes/2026-11-29-docstring-measurements.md``).
 MODEL_ERROR_PASSES = 2
 
 
@@ -334,10 +328,10 @@ class SpectralDeblur:
         it is taken as the same in every bin; ``covariance`` (N, K, B'), if given, that of
         each bin with its next K (the camera columns neighbouring bins share). A scan's
         noise is both: the row unmixing's gain and the cells' read noise grow toward the
-        band's red end, and neighbouring bins' sums correlate by about 0.25. On the sim
-        rig's ColorChecker scan, a variance averaged over the bins stated the cube's noise
-        6-8 dB under its pixels' scatter beyond 600 nm (and 2-3 dB over it in the blue);
-        per bin without the covariance, about 1.8 dB under it in every band.
+        band's red end, and neighbouring bins' sums correlate by about 0.25; a variance
+        averaged over the bins, or per bin without the covariance, misstates the cube's
+        noise (measured: ``tests/spectra/test_scan_accuracy.py`` and the note
+        ``docs/notes/2026-11-29-docstring-measurements.md``).
 
         Examples
         --------

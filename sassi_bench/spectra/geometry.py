@@ -8,11 +8,9 @@ spread of the light in each bin's columns, which the row unmixing
 guard bins beyond the band keep the blur of the band's end bin there: their columns hold
 mostly the blurred tail of the band's end (on the virtual bench no light lies past 720
 nm), whose vertical spread is the end bin's. Giving them the blur at their own
-wavelength instead (up to 5.8 px at the sim rig's last guard, 760 nm, for 5.4 camera
-rows between stacked pixels) made the row unmixing of those columns ill-conditioned: the
-ColorChecker scan's column-sum noise rose 19-fold (mean variance 2.7e6 -> 5.1e7 ADU^2),
-its PSNR in the accuracy benchmark (`benchmarks/accuracy_table.py`) fell from 54.7 to
-49.6 dB and its mean spectral angle rose from 1.07 to 2.59 degrees.
+wavelength instead (wider than the rows between stacked pixels at the last guards) made
+the row unmixing of those columns ill-conditioned and multiplied the scan's noise
+(measured with `benchmarks/accuracy_table.py`: ``docs/notes/2026-11-29-docstring-measurements.md``).
 
 *Along* the streak, where a guard bin is an unknown of the deblur (light at the guard's
 own wavelength), its blur is the one at that wavelength: :func:`bin_wavelengths` gives the

@@ -20,16 +20,9 @@ decide.
   wavelength, and a prism's pixel spans 2 nm at the blue end but 9-12 nm at the red
   (more on a low-dispersion glass): per pixel, the same reflectance is 20-30 times rougher
   at the red end, so a per-pixel prior smooths the red end far more than its data and
-  noise call for. Measured on the sim rig's ColorChecker with pinholes 15 rows apart
-  (no stacked streaks), noisy, per-band PSNR as that benchmark scores it, the strength
-  chosen by the same pooled discrepancy (``benchmarks/red_end_bound.py``): > 650 nm
-  50.5 -> 51.1 dB, 580-640 nm 53.0 -> 53.4, 500-600 nm 55.9 -> 56.1 (the best strength
-  per band apart gives 52.4 / 54.3 / 55.7); the chain's own scan (5-row pitch) 54.74 ->
-  54.94 dB PSNR, but its mean spectral angle 1.08 -> 1.11 degrees: a red end smoothed less
-  passes more of the row unmixing's error there. Curvature per nm^2 weighted by the blur
-  in pixels, or not weighted, reached 51.7 dB beyond 650 nm at the 15-row pitch but
-  smoothed the blue end (2 nm a pixel) nine times harder, and took the chain's scan to
-  1.16-1.29 degrees.
+  noise call for. Weighted by the blur in nm (not in pixels, not unweighted), it does not
+  smooth the blue end harder either. Measured with ``benchmarks/red_end_bound.py``
+  (``docs/notes/2026-11-29-docstring-measurements.md``, and ``docs/notes/2026-11-27-red-end.md``).
 """
 
 from __future__ import annotations

@@ -14,15 +14,14 @@ filter ``f = 1 / (1 + (alpha - a0) lambda)``,
 * the **discrepancy principle**: the ``alpha`` whose residual matches ``m sigma^2``.
 
 One spectrum has few bins (about 80), too few for GCV or the discrepancy principle to
-judge a weight per pixel (on the sim rig's ColorChecker they gave 13-29 dB against 55 dB),
-so the weight is chosen for many pixels at once: pooled over a scan's pixels (one
-relative smoothness for all, each pixel's weight following its own noise), or per mean
-spectrum, whose noise is its pixels' over their count. :data:`CHOICE_RULES` lists the
-rules. A mean is judged by REML. A scan's per-pixel strength is judged by the pooled
-discrepancy principle: on the sim rig's ColorChecker scan it gave 54.7 dB PSNR and a
-1.08 degree mean spectral angle against the bench's hidden scene, where pooled REML chose a weaker
-smoothing (54.3 dB, 1.32 degrees; the curvature prior is a poor model of a single
-pixel's spectrum, so its likelihood under-smooths).
+judge a weight per pixel, so the weight is chosen for many pixels at once: pooled over
+a scan's pixels (one relative smoothness for all, each pixel's weight following its own
+noise), or per mean spectrum, whose noise is its pixels' over their count.
+:data:`CHOICE_RULES` lists the rules. A mean is judged by REML. A scan's per-pixel
+strength is judged by the pooled discrepancy principle: pooled REML chose a weaker
+smoothing and scored worse against the bench's hidden scene (the curvature prior is a
+poor model of a single pixel's spectrum, so its likelihood under-smooths; measured:
+``docs/notes/2026-11-29-docstring-measurements.md``).
 """
 
 from __future__ import annotations

@@ -25,17 +25,12 @@ integrals (a dozen sources against three nodes). Only bins where the sources' bl
 more than :data:`MIXING_FLOOR` of a pixel's light across a cell edge are solved again
 (:meth:`RowMixture.mixed_bins`).
 
-On `sim`'s ColorChecker scan (``benchmarks/red_end_bound.py`` against its
-``--separable``) the red end beyond 650 nm goes from 48.2 to 49.7 dB as captured and,
-noise-free with the best strength per band, from 49.3 to 54.6 dB (55.6 dB without
-stacked pinholes). It costs about 5 ms of CPU a frame of 560 pixels (the quadrature nodes
-2.5 ms, the banded systems 2.3 ms, choosing the bins 0.4 ms;
-:mod:`~sassi_bench.spectra._mixture_kernels` says how): about
-1.6-1.7 times the assembly's CPU once compiled (2.1 before its kernels were reworked);
-the first scan of a process also compiles them (about 3 s). It is
-:func:`~sassi_bench.reduce.scan.assemble_scan`'s default: with the blur model fitted to
-the PSF the chain's chart scan on ``sim`` is 55.56 dB / 0.85 deg, against 54.33 dB / 1.17
-deg with the separable unmixing alone.
+It raises the red end of a scan of stacked pinholes toward that of unstacked ones, for
+about 1.6-1.7 times the assembly's CPU once compiled
+(:mod:`~sassi_bench.spectra._mixture_kernels` says how); it is
+:func:`~sassi_bench.reduce.scan.assemble_scan`'s default. Measured with
+``benchmarks/red_end_bound.py`` (and ``--separable``): ``docs/notes/2026-11-27-red-end.md``
+and ``docs/notes/2026-11-29-docstring-measurements.md``.
 """
 
 from __future__ import annotations

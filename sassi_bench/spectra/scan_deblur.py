@@ -230,9 +230,8 @@ def deblur_scan(
     values = sample.values.astype(np.float64)
     seconds, bin_var = sample.exposure, sample.variance
     # The weights are chosen for noise taken as white across bins, at its mean (a
-    # per-bin weighting of the data measured no better at the red end: 51.6 against
-    # 51.4 dB beyond 650 nm on the sim rig's chart at each one's best strength); the
-    # cube's stated noise takes each bin's own.
+    # per-bin weighting of the data measured no better at the red end: see
+    # docs/notes/2026-11-27-red-end.md); the cube's stated noise takes each bin's own.
     var = bin_var.mean(axis=1)
     # The anchor allows for the blur's stated error (the 1 % floor of a result's mean
     # smoothed its red end, and every pixel's prior with it).

@@ -27,10 +27,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["EDGE_NM", "PatchBandError", "failing_patches", "patch_band_error"]
+__all__ = [
+    "CLOSE_FRACTION",
+    "EDGE_NM",
+    "PatchBandError",
+    "close_to_tolerance",
+    "failing_patches",
+    "patch_band_error",
+]
 
 #: Width of the band-edge zones at both ends of the usable band (nm).
 EDGE_NM = 40.0
+
+#: A passing patch whose RMSE or dE00 reaches this fraction of its tolerance is close to
+#: failing: the report gives its advice; further below, it only says where the error lies.
+CLOSE_FRACTION = 0.75
 
 #: Advice per cause, for the report's sentence.
 _ADVICE = {
@@ -40,6 +51,14 @@ _ADVICE = {
     "steep reference": "the patch's steep spectral edge: the blur is wider than the feature; "
     "change the optics or the prism",
     "broad": "a smooth error across the band: re-take the white reference or the response",
+}
+
+#: Where the error lies, without advice (a patch well within its tolerances).
+_ZONE = {
+    "noise": "the noise",
+    "band edges": "the band-edge zones",
+    "steep reference": "the patch's steep spectral edge",
+    "broad": "a smooth error across the band",
 }
 
 
@@ -63,6 +82,9 @@ class PatchBandError:
         Cause -> share of the patch's squared error in the usable band.
     failed
         Whether the patch fails a per-patch tolerance.
+    close
+        Whether a passing patch is close to a tolerance (:data:`CLOSE_FRACTION`): the
+        report advises only on failing or close patches.
     """
 
     patch: int
@@ -72,6 +94,15 @@ class PatchBandError:
     zones: tuple[str, ...]
     shares: dict[str, float]
     failed: bool
+    close: bool = False
+
+    @property
+    def state(self) -> str:
+        """``"fails"``, ``"close to a tolerance"`` or, for the patch drawn when all pass
+        well, ``"largest RMSE, passes"``."""
+        if self.failed:
+            return "fails"
+        return "close to a tolerance" if self.close else "largest RMSE, passes"
 
     @property
     def cause(self) -> str:
@@ -88,12 +119,22 @@ class PatchBandError:
         ...                     "broad": 0.0}, True)
         >>> e.sentence()[:52]
         'Patch 9 Red fails: 70 % of its squared error lies in'
+        >>> from dataclasses import replace
+        >>> replace(e, failed=False).sentence()[:80]
+        'Patch 9 Red has the largest reflectance RMSE of the 24 patches, and every patch '
         """
-        verdict = "fails" if self.failed else "(the worst patch; all pass)"
         split = ", ".join(f"{100 * v:.0f} % {k}" for k, v in self.shares.items())
+        share = f"{100 * self.shares[self.cause]:.0f} % of its squared error lies in"
+        if self.failed or self.close:
+            verdict = "fails" if self.failed else "passes, close to a tolerance"
+            return (
+                f"Patch {self.patch + 1} {self.name} {verdict}: {share} "
+                f"{_ADVICE[self.cause]} ({split})."
+            )
         return (
-            f"Patch {self.patch + 1} {self.name} {verdict}: {100 * self.shares[self.cause]:.0f} % "
-            f"of its squared error lies in {_ADVICE[self.cause]} ({split})."
+            f"Patch {self.patch + 1} {self.name} has the largest reflectance RMSE of the 24 "
+            f"patches, and every patch is well within the per-patch tolerances: {share} "
+            f"{_ZONE[self.cause]} ({split}); no patch alone calls for a change."
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -102,6 +143,7 @@ class PatchBandError:
             "patch": self.patch + 1,
             "name": self.name,
             "failed": self.failed,
+            "close": self.close,
             "cause": self.cause,
             "shares": dict(self.shares),
             "error": self.error.tolist(),
@@ -127,8 +169,27 @@ def failing_patches(result: Any, tolerances: Mapping[str, Any]) -> list[int]:
     return [int(k) for k in np.argsort(-np.asarray(result.rmse)) if bad[k]]
 
 
-def patch_band_error(result: Any, patch: int, failed: bool) -> PatchBandError:
-    """The per-band error of ``patch`` of a :class:`~sassi_bench.validate.macbeth.MacbethResult`.
+def close_to_tolerance(result: Any, patch: int, tolerances: Mapping[str, Any]) -> bool:
+    """Whether ``patch``'s RMSE or dE00 reaches :data:`CLOSE_FRACTION` of its tolerance.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> r = SimpleNamespace(rmse=np.array([0.016, 0.002]), de00=np.array([0.2, 0.1]))
+    >>> close_to_tolerance(r, 0, {"max_rmse": 0.02, "max_de00": 1.0})
+    True
+    >>> close_to_tolerance(r, 1, {"max_rmse": 0.02, "max_de00": 1.0})
+    False
+    """
+    return bool(
+        result.rmse[patch] >= CLOSE_FRACTION * float(tolerances["max_rmse"])
+        or result.de00[patch] >= CLOSE_FRACTION * float(tolerances["max_de00"])
+    )
+
+
+def patch_band_error(result: Any, patch: int, failed: bool, close: bool = False) -> PatchBandError:
+    """The per-band error of ``patch`` of a :class:`~sassi_bench.validate.macbeth.MacbethResult`
+    (``failed``: it fails a per-patch tolerance; ``close``: it passes, close to one).
 
     Examples
     --------
@@ -167,4 +228,6 @@ def patch_band_error(result: Any, patch: int, failed: bool) -> PatchBandError:
         "" if not u else "edge" if e else "steep" if s else "interior"
         for u, e, s in zip(usable, edge, steep, strict=True)
     )
-    return PatchBandError(patch, result.patch_names[patch], error, se, zones, shares, bool(failed))
+    return PatchBandError(
+        patch, result.patch_names[patch], error, se, zones, shares, bool(failed), bool(close)
+    )

@@ -37,7 +37,11 @@ from sassi_bench.plots.html import (
 )
 from sassi_bench.plots.macbeth import macbeth_figures
 from sassi_bench.provenance import package_version
-from sassi_bench.validate.band_error import failing_patches, patch_band_error
+from sassi_bench.validate.band_error import (
+    close_to_tolerance,
+    failing_patches,
+    patch_band_error,
+)
 from sassi_bench.validate.macbeth import MacbethResult
 
 __all__ = ["MAX_DRAWN", "MacbethReport", "render_report", "report_data", "write_report"]
@@ -51,10 +55,15 @@ def report_data(
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The report's JSON document (without its ``bundle`` section) and the figures
     (name -> matplotlib figure)."""
-    failing = failing_patches(result, procedure["tolerances"])
-    # Failing patches, or else the worst one, so a lab sees where even a pass is weakest.
+    tolerances = procedure["tolerances"]
+    failing = failing_patches(result, tolerances)
+    # Failing patches, or else the one of largest RMSE, so a lab sees where even a pass is
+    # weakest (with advice only when it is close to a tolerance).
     drawn = failing[:MAX_DRAWN] or [int(np.argmax(result.rmse))]
-    band_errors = [patch_band_error(result, k, bool(failing)) for k in drawn]
+    band_errors = [
+        patch_band_error(result, k, bool(failing), close_to_tolerance(result, k, tolerances))
+        for k in drawn
+    ]
     figures = macbeth_figures(result, bundle, procedure, band_errors)
     doc = {
         "kind": "macbeth_validation",
@@ -127,6 +136,7 @@ def bundle_identity(
         "checks": [dict(c) for c in manifest["quality"]["checks"]],
         "scanned_with": scanned_from or f"{scanned_with['rig_name']}/{scanned_with['version']}",
         "models_identical": _array_hashes(manifest) == _array_hashes(scanned_with),
+        "staged": scanned_from is not None,
         "findings": bundle_findings(manifest["quality"]),
     }
 
@@ -160,20 +170,36 @@ def _setting(key: str, value: Any) -> str:
     return str(value)
 
 
+def _picture_kind(settings: Mapping[str, Any]) -> str:
+    """What the localisation picture shows, from the run's settings."""
+    if settings.get("localisation_image") == "guide":
+        return "the guide camera's image warped onto the SLM"
+    light = str(settings.get("light", "led"))
+    light = "the LED" if light == "led" else light
+    return f"the scan's raw radiance under {light}, rendered as RGB, before the white reference"
+
+
 def _bundle_paragraph(ident: Mapping[str, Any]) -> str:
     esc = html.escape
     checks = ident["checks"]
     passed = sum(1 for c in checks if c["passed"])
     status = "passed" if ident["passed"] else "FAILED (published with an override)"
     name = f"{ident['rig_name']}/{ident['version']}"
+    # A calibration run's own staged models are named as such, not by their staging path.
+    staged = ident.get("staged", False)
     if ident["version"] is None:
+        scanned = "this calibration run's models" if staged else esc(ident["scanned_with"])
         return (
             f"Not published: {len(checks) - passed} of {len(checks)} quality checks of the "
-            f"calibration failed (see below). The scans were assembled with "
-            f"{esc(ident['scanned_with'])}."
+            f"calibration failed (see below). The scans were assembled with {scanned}."
         )
     if ident["scanned_with"] == name:
         scan = "The scans were assembled with this bundle."
+    elif staged and ident["models_identical"]:
+        scan = (
+            "The scans were assembled with this calibration run's models before they were "
+            "published as this bundle (identical arrays)."
+        )
     elif ident["models_identical"]:
         scan = (
             f"The scans were assembled with {esc(ident['scanned_with'])}, whose model "
@@ -249,7 +275,9 @@ mean spectral angle {summary["mean_spectral_angle_deg"]:.2f}°, usable band
 <h2>Colour difference</h2>{img["de00"]}
 <h2>Measured chart and reference</h2>{img["chart"]}
 <div class="flex"><div><h2>Per patch</h2>{patches}</div>
-<div><h2>Patch localisation</h2>{img["localisation"]}</div></div>
+<div><h2>Patch localisation</h2>
+<p>The picture the chart was found on ({esc(_picture_kind(doc["settings"]))}), with the
+square measured in each patch.</p>{img["localisation"]}</div></div>
 <h2>The bundle: wavelength bins and quality checks</h2>
 <p>{len(wl["bin_centres_nm"])} bins from {wl["bin_edges_nm"][0]:.1f} to
 {wl["bin_edges_nm"][-1]:.1f} nm, resolution {res.min():.1f}-{res.max():.1f} nm per bin.</p>

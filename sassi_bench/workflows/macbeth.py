@@ -129,7 +129,11 @@ def run_macbeth(
     if corners is None and loc["method"] == "auto" and loc["image"] == "guide":
         picture = guide_picture(rig, bundle, light)
     white = None
-    settings: dict[str, Any] = {"chart_session": chart.session.id, "light": light}
+    settings: dict[str, Any] = {
+        "chart_session": chart.session.id,
+        "light": light,
+        "localisation_image": "guide" if picture is not None else "cube",
+    }
     if procedure["white_reference"]["source"] == "diffuser":
         diffuser = run_scan(
             rig, bundle, scene=procedure["white_reference"]["diffuser_scene"], light=light,

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 
 import numpy as np
 import pytest
@@ -157,6 +158,14 @@ def test_report_is_self_contained_and_renders(chart_scan, good, patch_procedure,
     # Where the worst patch's error lies (every patch passes here), in a sentence and drawn.
     assert len(doc["band_errors"]) == 1 and not doc["band_errors"][0]["failed"]
     assert doc["band_errors"][0]["patch"] == int(np.argmax(good.rmse)) + 1
+    # Far from every tolerance, the report says what "worst" means and gives no advice.
+    sentence = doc["band_errors"][0]["sentence"]
+    assert not doc["band_errors"][0]["close"]
+    assert "largest reflectance RMSE" in sentence and "recalibrate" not in sentence
+    # Tolerances are printed as set (a derived one to three digits), and the picture the
+    # patches were found on says what it is.
+    assert not re.search(r"&lt;= \d+\.\d{4,}", text)
+    assert "raw radiance under the LED" in text
     assert "Where the error lies" in text and doc["band_errors"][0]["name"] in text
     assert len(doc["figures"]["spectra"]["measured"]) == 24
     assert doc["figures"]["de00"]["de00"] == pytest.approx(good.de00.tolist())

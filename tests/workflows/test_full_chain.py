@@ -4,6 +4,7 @@ the bundle verifies and carries every stage, and its report names it."""
 from __future__ import annotations
 
 import json
+import shlex
 
 import numpy as np
 
@@ -47,3 +48,12 @@ def test_the_full_chain_publishes_a_passing_bundle_with_every_stage(tmp_path, ca
     report = json.loads((path / "report" / "macbeth_report.json").read_text())
     assert report["bundle"]["version"] == "v0001"
     assert [c["name"] for c in report["bundle"]["checks"]] == [c["name"] for c in checks]
+    # It ends with what to run next, and the first of those, a health check of the new
+    # bundle as a baseline, runs as printed and finds the bundle holds.
+    lines = out[out.index("next:") :].splitlines()
+    check = next(line.split() for line in lines if line.split()[1:2] == ["check"])
+    assert check[2:6] == ["--rig", "sim", "--bundle", "v0001"]
+    assert any(line.split()[1:3] == ["snapshot", "take"] for line in lines if line.strip())
+    assert any(line.strip().startswith("open file://") for line in lines)
+    assert "spectral_" in out[out.index("the bundle's figures") :]
+    assert main(shlex.split(" ".join(check[1:]))) == 0
