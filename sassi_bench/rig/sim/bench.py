@@ -18,6 +18,7 @@ from sassi_bench.optics.sources import (
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.lights import kind_of
 from sassi_bench.rig.sim import as_built
+from sassi_bench.rig.sim.design_render import DesignRenderer
 from sassi_bench.rig.sim.drift import DriftModel, DriftState, drifted_relay
 from sassi_bench.rig.sim.geometry import bench_relay
 from sassi_bench.rig.sim.guide import GuideOptics
@@ -82,9 +83,14 @@ class VirtualBench:
         self.clock_h = drift.start_h if drift is not None else 0.0
         self._drift_state = DriftState()
         self.blur = PsfSigmaCurve(desc.blur.sigma_px)
-        self.renderer = SpectralRenderer(
-            self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
-        )
+        if desc.design is not None:  # spots from the traced design, as built
+            self.renderer: SpectralRenderer = DesignRenderer(
+                self.relay, desc.slm.fill_factor, self.sensor.quantum_efficiency
+            )
+        else:
+            self.renderer = SpectralRenderer(
+                self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
+            )
         self.guide = GuideOptics(
             gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)
         )
