@@ -314,6 +314,19 @@ class RigDescription:
             reference_nm=prism.reference_nm,
         )
 
+    def nominal_optic(self) -> Any:
+        """The described design as an optiland optic (for drawing its layout); None for a
+        parametric rig. Needs the ``design`` extra."""
+        if self.design is None:
+            return None
+        from sassi_bench.optics.design.build import build_design
+
+        shapes = (
+            (self.slm.height, self.slm.width),
+            (self.spectral_camera.height, self.spectral_camera.width),
+        )
+        return build_design(self.design, *shapes).optic
+
     def nominal_psf(self) -> PsfSigmaCurve:
         """The optics' point-spread sigma over wavelength as described (camera px).
 
