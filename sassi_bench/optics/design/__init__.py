@@ -114,12 +114,14 @@ _RELAYS: dict[tuple[str, str], DesignRelay] = {}
 class NominalSummary:
     """A design condensed to the numbers a parametric description gives.
 
-    ``scale`` camera px per SLM px; ``apex_deg`` the prism's apex; ``spread_px`` and
+    ``scale`` camera px per SLM px; ``offset_px`` the SLM centre's image at the
+    reference wavelength from the camera's centre (x, y); ``apex_deg`` the prism's apex; ``spread_px`` and
     ``smile_px`` the 400-700 nm streak's length and row drop at the field centre;
     ``sigma_px`` the optics' widest spot sigma over the field at :data:`SUMMARY_NM`.
     """
 
     scale: float
+    offset_px: tuple[float, float]
     glass: str
     apex_deg: float
     spread_px: float
@@ -143,8 +145,11 @@ def nominal_summary(design: OpticalDesign, relay: DesignRelay) -> NominalSummary
     cu, cv = relay.slm_centre
     x, y = relay.forward(cu, cv, np.array([400.0, 700.0]))
     widest = relay.widest_sigma(np.array(SUMMARY_NM))
+    xr, yr = relay.forward(cu, cv, design.reference_nm)
+    hc, wc = relay.camera_shape
     return NominalSummary(
         scale=relay.scale,
+        offset_px=(float(xr) - (wc - 1) / 2.0, float(yr) - (hc - 1) / 2.0),
         glass=glass,
         apex_deg=apex,
         spread_px=float(x[1] - x[0]),

@@ -88,7 +88,7 @@ def _design_sections(data: dict[str, Any]) -> tuple[OpticalDesign, dict[str, Any
         "relay": {
             "scale": summary.scale,
             "rotation_deg": 0.0,
-            "offset_px": [0.0, 0.0],
+            "offset_px": list(summary.offset_px),
             "distortion_k1": 0.0,
         },
         "prism": {
