@@ -115,8 +115,9 @@ class NominalSummary:
     """A design condensed to the numbers a parametric description gives.
 
     ``scale`` camera px per SLM px; ``offset_px`` the SLM centre's image at the
-    reference wavelength from the camera's centre (x, y); ``apex_deg`` the prism's apex; ``spread_px`` and
-    ``smile_px`` the 400-700 nm streak's length and row drop at the field centre;
+    reference wavelength from the camera's centre (x, y); ``apex_deg`` the prism's apex;
+    ``spread_px`` and ``smile_px`` the 400-700 nm streak's length and row drop at the
+    field centre;
     ``sigma_px`` the optics' widest spot sigma over the field at :data:`SUMMARY_NM`.
     """
 
