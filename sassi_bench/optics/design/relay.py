@@ -168,6 +168,25 @@ class DesignRelay:
         core = self.diffraction_variance(np.asarray(wavelength_nm, dtype=np.float64).ravel())
         return np.maximum(out[..., 0], 0.0) + core, np.maximum(out[..., 1], 0.0) + core, out[..., 2]
 
+    def spots_grid(
+        self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike
+    ) -> tuple[NDArray[np.float64], ...]:
+        """Centroids, optics covariance and throughput of points (u[i], v[i]) at every
+        wavelength in one pass over the interpolants: (x, y, cxx, cyy, cxy, throughput),
+        each (P, K)."""
+        names = (*_POSITIONS, *_MOMENTS, "throughput")
+        out = self.spline.grid(names, u, v, wavelength_nm)
+        core = self.diffraction_variance(np.asarray(wavelength_nm, dtype=np.float64).ravel())
+        x, y, sxx, syy, sxy, throughput = (out[..., i] for i in range(len(names)))
+        return (
+            x,
+            y,
+            np.maximum(sxx, 0.0) + core,
+            np.maximum(syy, 0.0) + core,
+            sxy,
+            np.clip(throughput, 0.0, 1.0),
+        )
+
     def throughput(self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike) -> NDArray:
         """Share of the pupil that reaches the camera (1: no vignetting), broadcast."""
         return np.clip(self.spline.at("throughput", u, v, wavelength_nm), 0.0, 1.0)

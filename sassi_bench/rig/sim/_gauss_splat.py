@@ -32,9 +32,29 @@ _SQRT1_2 = 1.0 / math.sqrt(2.0)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 
+# The normal CDF tabulated every 1/256 sigma over +-8.5 sigma and interpolated linearly
+# (error < 5e-7): a spot is a few hundred CDF values, and the table reads them several
+# times faster than math.erf.
+_CDF_STEP = 1.0 / 256.0
+_CDF_REACH = 8.5
+_CDF_TABLE = np.array(
+    [
+        0.5 * (1.0 + math.erf(z * _SQRT1_2))
+        for z in np.arange(-_CDF_REACH, _CDF_REACH + _CDF_STEP, _CDF_STEP)
+    ]
+)
+
+
 @njit(inline="always")
 def _cdf(t):  # pragma: no cover - compiled
-    return 0.5 * (1.0 + math.erf(t * _SQRT1_2))
+    s = (t + _CDF_REACH) / _CDF_STEP
+    if s <= 0.0:
+        return 0.0
+    if s >= _CDF_TABLE.size - 1:
+        return 1.0
+    i = int(s)
+    f = s - i
+    return _CDF_TABLE[i] + f * (_CDF_TABLE[i + 1] - _CDF_TABLE[i])
 
 
 @njit(inline="always")

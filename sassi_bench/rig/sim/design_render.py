@@ -140,9 +140,8 @@ class DesignRenderer(SpectralRenderer):
         gain = samples.weights * self.quantum_efficiency(lam)
         spectra = scene.reflectance_at(rows + scene.margin, cols + scene.margin, lam)
         spectra = spectra * gain[None, :] * np.asarray(transmission, np.float64)[:, None]
-        spectra *= relay.throughput_grid(cols, rows, lam)
-        x, y = relay.forward_grid(cols, rows, lam)
-        cxx, cyy, cxy = relay.optics_covariance_grid(cols, rows, lam)
+        x, y, cxx, cyy, cxy, throughput = relay.spots_grid(cols, rows, lam)
+        spectra *= throughput
         cxx += self.aperture_variance
         cyy += self.aperture_variance
         splat_gaussians(x, y, cxx, cyy, cxy, spectra, total)
