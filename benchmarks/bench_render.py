@@ -21,7 +21,13 @@ Each row is the median of ``--frames`` frames after one warm-up (compilation) fr
 The target of the foundation issue is checked at the end: the default rig renders a
 500-frame pinhole scan in under 60 s on 2 cores (wall).
 
-Run: ``python benchmarks/bench_render.py [--rig sim] [--frames 5]``
+With ``--design`` it times the optical-design rigs (``sim-achromat``, ``sim-singlet``)
+against their parametric twins in the same run: the same rig with the relay, prism and
+blur its design condenses to (:func:`~sassi_bench.optics.design.nominal_summary`), so the
+same SLM, camera and streak length, rendered by the parametric bench; it prints each
+frame's ratio of the design bench's CPU time to the twin's (target: within 1.5x).
+
+Run: ``python benchmarks/bench_render.py [--rig sim] [--frames 5] [--design]``
 """
 
 from __future__ import annotations
@@ -64,8 +70,26 @@ def _expose_for(rig, pattern) -> None:
     rig.spectral_camera.set_exposure(min(max(exposure, lo), hi))
 
 
-def bench_rig(name: str, frames: int) -> dict[str, tuple[float, float]]:
+def parametric_twin(name: str):
+    """A design rig's description as a parametric rig: its derived relay, prism and blur
+    in place of the design (same SLM, camera, lights and seed)."""
+    from dataclasses import asdict
+
+    from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
+
+    desc = load_rig_description(name)
+    data = desc.to_dict()
+    data.pop("design")
+    data["name"] = f"{desc.name}-parametric"
+    for key in ("relay", "prism", "blur"):
+        data[key] = {k: v for k, v in asdict(getattr(desc, key)).items() if v is not None}
+    data["blur"]["sigma_px"] = {str(k): v for k, v in data["blur"]["sigma_px"].items()}
+    return rig_description_from_dict(data)
+
+
+def bench_rig(name, frames: int) -> dict[str, tuple[float, float]]:
     rig = open_rig(name)
+    name = rig.description.name
     bench = truth(rig).bench
     shape = rig.slm.shape
     camera = rig.spectral_camera
@@ -122,7 +146,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rig", action="append", help="rig(s) to time (default: both scales)")
     parser.add_argument("--frames", type=int, default=5, help="frames timed per kind")
+    parser.add_argument(
+        "--design", action="store_true", help="design rigs against their parametric twins"
+    )
     args = parser.parse_args()
+    if args.design:
+        for name in args.rig or ["sim-achromat", "sim-singlet"]:
+            design = bench_rig(name, args.frames)
+            twin = bench_rig(parametric_twin(name), args.frames)
+            print(f"\n{name}: CPU time per frame, design bench / parametric twin (target <= 1.5)")
+            for label in design:
+                ratio = design[label][0] / twin[label][0]
+                verdict = (
+                    ""
+                    if label.startswith(("sensor", "guide"))
+                    else (" ok" if ratio <= 1.5 else " OVER")
+                )
+                print(f"  {label:36s} {ratio:6.2f}{verdict}")
+        return
     rigs = args.rig or ["sim", "sim-prototype"]
     results = {name: bench_rig(name, args.frames) for name in rigs}
     if "sim" in results:

@@ -10,6 +10,40 @@ from sassi_bench import open_rig
 from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _design_cache(tmp_path_factory):
+    """Traced optical designs go to one folder per test session (traced once in it),
+    unless ``SASSI_BENCH_DESIGN_CACHE`` names a folder to keep them across runs."""
+    import os
+
+    if os.environ.get("SASSI_BENCH_DESIGN_CACHE"):
+        yield
+        return
+    os.environ["SASSI_BENCH_DESIGN_CACHE"] = str(tmp_path_factory.mktemp("design-cache"))
+    yield
+    os.environ.pop("SASSI_BENCH_DESIGN_CACHE", None)
+
+
+@pytest.fixture(scope="session")
+def design_rigs():
+    """The shipped design rigs, opened once per test session (skipped without optiland).
+
+    ``design_rigs(name)`` for ``"achromat"`` or ``"singlet"``.
+    """
+    pytest.importorskip(
+        "optiland",
+        reason='design rigs need the optiland ray tracer: pip install "sassi-bench[design]"',
+    )
+    opened = {}
+
+    def _open(name: str):
+        if name not in opened:
+            opened[name] = open_rig(f"sim-{name}")
+        return opened[name]
+
+    return _open
+
+
 @pytest.fixture(scope="session")
 def sim_rig():
     """The default virtual bench (tests set the scene, light and pattern they need)."""

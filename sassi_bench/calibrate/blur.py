@@ -35,10 +35,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import QuadraticBlur
+from sassi_bench.bundle.blur.field_covariance import FieldCovarianceBlur
 from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 
-__all__ = ["CAMERA_PIXEL_VARIANCE_PX2", "BlurFit", "SpotWidths", "fit_blur", "measure_spot_widths"]
+__all__ = [
+    "CAMERA_PIXEL_VARIANCE_PX2",
+    "BlurFit",
+    "SpotMoments",
+    "SpotWidths",
+    "fit_blur",
+    "fit_field_covariance",
+    "measure_spot_widths",
+]
 
 #: Variance (px²) one camera pixel's box adds to a spot's measured second moment.
 CAMERA_PIXEL_VARIANCE_PX2 = 1.0 / 12.0
@@ -51,6 +61,8 @@ class SpotWidths:
     sigma_x: NDArray[np.float64]
     sigma_y: NDArray[np.float64]
     valid: NDArray[np.bool_]
+    #: The second cross moment (camera px**2): negative when the spot leans the other way.
+    cov_xy: NDArray[np.float64] | None = None
 
     @property
     def median_sigma_y(self) -> float:
@@ -120,6 +132,9 @@ def measure_spot_widths(
             mx = (patches * cols).sum(axis=(1, 2)) / total
             vy = (patches * (rows - my[:, None, None]) ** 2).sum(axis=(1, 2)) / total
             vx = (patches * (cols - mx[:, None, None]) ** 2).sum(axis=(1, 2)) / total
+            vxy = (patches * (cols - mx[:, None, None]) * (rows - my[:, None, None])).sum(
+                axis=(1, 2)
+            ) / total
         valid = inside & (total > 0) & (vy > 0) & (vx > 0)
         if saturated is not None:
             sat = np.asarray(saturated, dtype=bool)
@@ -137,14 +152,16 @@ def measure_spot_widths(
         if abs(new_sigma - sigma) < 0.02 * sigma:
             break
         sigma = new_sigma
-    return SpotWidths(sigma_x=np.sqrt(np.abs(vx)), sigma_y=np.sqrt(np.abs(vy)), valid=valid)
+    return SpotWidths(
+        sigma_x=np.sqrt(np.abs(vx)), sigma_y=np.sqrt(np.abs(vy)), valid=valid, cov_xy=vxy
+    )
 
 
 @dataclass(frozen=True)
 class BlurFit:
     """Result of :func:`fit_blur`: the model and how well it fits the measurements."""
 
-    model: QuadraticBlur
+    model: QuadraticBlur | FieldCovarianceBlur
     wavelengths_nm: NDArray[np.float64]
     measured_sigma_px: NDArray[np.float64]
     residual_px: NDArray[np.float64]
@@ -166,7 +183,7 @@ class BlurFit:
         True
         """
         sigma = self.model.sigma(wavelength_nm)
-        if self.model.kind == "psf_quadratic":
+        if self.model.kind in ("psf_quadratic", "field_covariance"):
             return np.sqrt(sigma**2 + CAMERA_PIXEL_VARIANCE_PX2)
         return sigma
 
@@ -308,3 +325,119 @@ def _fit_psf_quadratic(
             break
     # The PSF's sign is free (only its square enters): keep it positive at the reference.
     return coeffs if coeffs[0] >= 0 else -coeffs
+
+
+@dataclass(frozen=True)
+class SpotMoments:
+    """Pinhole spots' measured second moments (camera px**2, camera pixel included), with
+    where they were: SLM pixel (u, v) and the line's wavelength, all (N,)."""
+
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    wavelength_nm: NDArray[np.float64]
+    cxx: NDArray[np.float64]
+    cyy: NDArray[np.float64]
+    cxy: NDArray[np.float64]
+
+
+def fit_field_covariance(
+    spots: SpotMoments,
+    slm_shape: tuple[int, int],
+    pixel_variance_px2: float,
+    window_sigmas: float = 3.0,
+    field_degree: int = 4,
+    wavelength_degree: int | None = None,
+) -> BlurFit:
+    """Fit the field-covariance blur (:class:`~sassi_bench.bundle.blur.field_covariance.
+    FieldCovarianceBlur`) to pinhole spots' second moments over the field and lines.
+
+    Each component of the spot's covariance before the camera pixel (the measured moment
+    less ``1/12`` px**2 on each axis) is a Legendre series of ``field_degree`` over the SLM
+    whose coefficients are polynomials in wavelength, fitted linearly by least squares.
+
+    Parameters
+    ----------
+    spots
+        The measured moments (the line's own spectral width already taken out of ``cxx``).
+    slm_shape
+        SLM (height, width).
+    pixel_variance_px2
+        The SLM pixel image's variance inside the spot (kept with the model for its PSF).
+    window_sigmas
+        The model's summation window, in sigmas.
+    field_degree
+        Total degree of the field series.
+    wavelength_degree
+        Degree in wavelength; None: one less than the number of lines, at most 3.
+
+    Returns
+    -------
+    BlurFit
+        ``measured_sigma_px`` and ``residual_px`` per line: the median measured width
+        across the streak and the model's median error there. ``relative_error`` is the
+        RMS, relative to the widths, of each line's spots predicted by the fit to the
+        other lines (capped at 0.5).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u, v = rng.uniform(0, 319, 200), rng.uniform(0, 199, 200)
+    >>> lam = rng.choice([450.0, 520.0, 532.0, 635.0, 670.0], 200)
+    >>> cxx = 1.0 + 0.004 * u + ((lam - 550) / 100) ** 2
+    >>> cyy = 0.8 + 0.002 * v
+    >>> cxy = 0.001 * (u - 160)
+    >>> spots = SpotMoments(u, v, lam, cxx + 1 / 12, cyy + 1 / 12, cxy)
+    >>> fit = fit_field_covariance(spots, (200, 320), 0.07, field_degree=2)
+    >>> spot = fit.model.spot(300.0, 20.0, 600.0)
+    >>> round(float(spot.along), 4) == round(float(np.sqrt(1 + 1.2 + 0.25)), 4)
+    True
+    """
+    lam = np.asarray(spots.wavelength_nm, dtype=np.float64)
+    lines = np.unique(lam)
+    if lines.size < 3:
+        raise ProcedureError(
+            step_error(
+                "blur fit",
+                f"only {lines.size} line(s) measured; the field blur needs three",
+                "measure the blur under at least three laser lines",
+            )
+        )
+    degree = min(3, lines.size - 2) if wavelength_degree is None else int(wavelength_degree)
+    t = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
+    u_hat, v_hat = field_coordinates(spots.u, spots.v, slm_shape)
+    field = legendre2d_design(u_hat, v_hat, field_degree)  # (N, F)
+    powers = t[:, None] ** np.arange(degree + 1)  # (N, L)
+    design = (field[:, :, None] * powers[:, None, :]).reshape(lam.size, -1)
+    pixel = CAMERA_PIXEL_VARIANCE_PX2
+    targets = np.stack([spots.cxx - pixel, spots.cyy - pixel, spots.cxy], axis=1)  # (N, 3)
+
+    def solve(rows: NDArray[np.bool_]) -> NDArray[np.float64]:
+        coeffs = np.linalg.lstsq(design[rows], targets[rows], rcond=None)[0]  # (F*L, 3)
+        return coeffs.T.reshape(3, field.shape[1], degree + 1)
+
+    def model(coeffs: NDArray[np.float64]) -> FieldCovarianceBlur:
+        return FieldCovarianceBlur(
+            coeffs, field_degree, slm_shape, LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas,
+            pixel_variance_px2=pixel_variance_px2,
+        )  # fmt: skip
+
+    everything = np.ones(lam.size, dtype=bool)
+    fitted = model(solve(everything))
+    measured_across = np.sqrt(np.maximum(spots.cyy, 1e-6))
+    error = None
+    if lines.size >= 4:
+        missed = []
+        for line in lines:
+            out = lam == line
+            left = model(solve(~out))
+            cyy = left.covariance(spots.u[out], spots.v[out], lam[out])[1]
+            missed.append((np.sqrt(cyy + pixel) - measured_across[out]) / measured_across[out])
+        error = min(float(np.sqrt(np.mean(np.concatenate(missed) ** 2))), 0.5)
+    final = FieldCovarianceBlur(
+        fitted.coeffs, field_degree, slm_shape, LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas,
+        pixel_variance_px2=pixel_variance_px2, relative_error=error,
+    )  # fmt: skip
+    predicted = np.sqrt(final.covariance(spots.u, spots.v, lam)[1] + pixel)
+    medians = np.array([np.median(measured_across[lam == line]) for line in lines])
+    residual = np.array([np.median((predicted - measured_across)[lam == line]) for line in lines])
+    return BlurFit(final, lines, medians, residual)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sassi_bench.commands import options
 from sassi_bench.commands.options import add_rig_option
 
 __all__ = ["register"]
@@ -18,6 +19,25 @@ def _show(args: argparse.Namespace) -> int:
     desc = load_rig_description(args.rig)
     print(f"# rig {desc.name} ({desc.source}), sha256 {desc.sha256()[:12]}")
     print(yaml.safe_dump(desc.to_dict(), sort_keys=False), end="")
+    if desc.design is None:
+        if args.figure:
+            print("# no figure: the rig has no design: section (see docs/optical_design.md)")
+        return 0
+    relay = desc.nominal_relay()
+    print(
+        f"# as designed: {relay.scale:.4f} camera px per SLM px, 400-700 nm over "
+        f"{desc.prism.spread_px:.1f} px at the field centre, widest spot "
+        + ", ".join(f"{s:.2f} px at {lam:g} nm" for lam, s in desc.blur.sigma_px.items())
+    )
+    if args.figure:
+        from sassi_bench.plots.design import design_figure
+
+        out = Path(args.figure)
+        figure = design_figure(relay, desc.nominal_optic(), title=f"{desc.name}: as designed")
+        figure.savefig(out, dpi=110)
+        print(f"# layout, spots and dispersion: {out}")
+    else:
+        print(f"# draw it: {options.program()} rig show --rig {args.rig} --figure {desc.name}.png")
     return 0
 
 
@@ -42,6 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     rig_sub = rig.add_subparsers(dest="rig_command", metavar="SUBCOMMAND", required=True)
     show = rig_sub.add_parser("show", help="print the validated rig description")
     add_rig_option(show)
+    show.add_argument(
+        "--figure", help="a design rig: write its layout, spots and dispersion to this PNG"
+    )
     show.set_defaults(func=_show)
     snap = rig_sub.add_parser(
         "snapshot", help="save a guide image and spectral frames as PNG and 16-bit TIFF"

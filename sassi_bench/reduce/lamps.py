@@ -35,7 +35,7 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.lamps import LineList
 from sassi_bench.reduce.sweep_stream import PinholeSignal
-from sassi_bench.reduce.sweeps import blur_from_pinholes
+from sassi_bench.reduce.sweeps import blur_form, blur_from_pinholes
 from sassi_bench.rig.config import RigDescription
 
 __all__ = [
@@ -340,8 +340,9 @@ def anchor_wavelengths(
     shape = {"field_degree": field_degree, "order": order}
     start = fit_dispersion(maps, desc.prism.glass, slm_shape, **shape)
     blur = blur_from_pinholes(
-        sweep, procedure, start, slm_shape, saturation, pinholes, desc.slm.fill_factor
-    )
+        sweep, procedure, start, slm_shape, saturation, pinholes, desc.slm.fill_factor,
+        form=blur_form(procedure, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
+    )  # fmt: skip
     streaks = lamp_streaks(lamps, procedure, desc, start.model, blur.model)
     tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
     glass = get_glass(desc.prism.glass)

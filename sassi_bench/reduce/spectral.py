@@ -38,6 +38,7 @@ from sassi_bench.reduce.sweep_stream import DecodedSweep
 from sassi_bench.reduce.sweeps import (
     LaserDecode,
     analyse_sweep,
+    blur_form,
     blur_from_pinholes,
     measure_response,
 )
@@ -319,8 +320,9 @@ def analyse_spectral_sweeps(
             **shape,
         )
         blur = blur_from_pinholes(
-            sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor
-        )
+            sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor,
+            form=blur_form(proc, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
+        )  # fmt: skip
         tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
         return SpectralCalibration(
@@ -345,8 +347,9 @@ def analyse_spectral_sweeps(
         **shape,
     )
     blur = blur_from_pinholes(
-        sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor
-    )
+        sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor,
+        form=blur_form(proc, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
+    )  # fmt: skip
     checks = grade(decoded, dispersion, blur, proc["tolerances"], lines)
     return SpectralCalibration(
         proc,

@@ -18,7 +18,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sassi_bench.acquire.session import Session
-from sassi_bench.calibrate.blur import BlurFit, fit_blur, measure_spot_widths
+from sassi_bench.calibrate.blur import (
+    BlurFit,
+    SpotMoments,
+    fit_blur,
+    fit_field_covariance,
+    measure_spot_widths,
+)
 from sassi_bench.calibrate.dispersion import DispersionFit, LaserMap
 from sassi_bench.calibrate.field import fit_field
 from sassi_bench.calibrate.grey_response import GreyResponse, measure_grey_response
@@ -31,11 +37,13 @@ from sassi_bench.reduce.sweep_stream import (
     SweepStream,
     lit_pixels,
 )
+from sassi_bench.rig.config import RigDescription
 
 __all__ = [
     "LaserDecode",
     "SweepDecode",
     "analyse_sweep",
+    "blur_form",
     "blur_from_pinholes",
     "excluded_regions",
     "measure_response",
@@ -276,6 +284,23 @@ def pinhole_signal(session: Session, laser: float, saturation: float) -> Pinhole
     )
 
 
+def blur_form(procedure: Mapping[str, Any], desc: RigDescription) -> str:
+    """The blur form a spectral calibration fits: the procedure's ``blur.form``, and for
+    ``auto`` (the default) ``field_covariance`` on a rig described as an optical design
+    (whose spots change over the field and by direction), else ``psf_quadratic``.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> blur_form({"blur": {}}, load_rig_description("sim"))
+    'psf_quadratic'
+    """
+    form = str(procedure.get("blur", {}).get("form", "auto"))
+    if form != "auto":
+        return form
+    return "field_covariance" if desc.design is not None else "psf_quadratic"
+
+
 def blur_from_pinholes(
     session: Session,
     proc: Mapping[str, Any],
@@ -284,6 +309,8 @@ def blur_from_pinholes(
     saturation: float,
     pinholes: Mapping[float, PinholeSignal] | None = None,
     fill_factor: float | None = None,
+    form: str = "psf_quadratic",
+    laser_fwhm_nm: float = 0.0,
 ) -> BlurFit:
     """Fit the blur model to the spot widths of the sweep session's pinhole frames.
 
@@ -312,6 +339,14 @@ def blur_from_pinholes(
     fill_factor
         The SLM's fill factor (its pixels' open side over their pitch); None fits the
         paper's quadratic to the spot widths.
+    form
+        ``"psf_quadratic"`` (a round spot, the same over the field: the widths across
+        the streaks, their median per line) or ``"field_covariance"`` (every pinhole's
+        second moments, fitted over the field and the lines:
+        :func:`~sassi_bench.calibrate.blur.fit_field_covariance`; needs ``fill_factor``).
+    laser_fwhm_nm
+        The lasers' line width: its dispersed image widens a spot along the streak, and
+        is taken out of the moments along it (``field_covariance``).
 
     Returns
     -------
@@ -327,6 +362,7 @@ def blur_from_pinholes(
         {float(s.tags["laser"]) for s in plan.steps if s.tags.get("role") == "pinholes"}
     )
     sigmas = []
+    moments: list[tuple[NDArray[np.float64], ...]] = []
     for laser in lasers:
         known = (pinholes or {}).get(laser)
         if known is None:
@@ -338,8 +374,33 @@ def blur_from_pinholes(
         x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), wavelength)
         widths = measure_spot_widths(known.signal, x, y, 1.5, saturated=known.saturated)
         sigmas.append(widths.median_sigma_y)
+        if form == "field_covariance":
+            # the line's Gaussian profile, dispersed along the streak
+            x_hi, _ = dispersion.model.evaluate(
+                pattern_cols.ravel(), pattern_rows.ravel(), wavelength + 0.5
+            )
+            x_lo, _ = dispersion.model.evaluate(
+                pattern_cols.ravel(), pattern_rows.ravel(), wavelength - 0.5
+            )
+            line_px2 = ((x_hi - x_lo) * laser_fwhm_nm / (2.0 * np.sqrt(2.0 * np.log(2.0)))) ** 2
+            ok = widths.valid
+            moments.append(
+                (
+                    pattern_cols.ravel()[ok].astype(np.float64),
+                    pattern_rows.ravel()[ok].astype(np.float64),
+                    np.full(int(ok.sum()), wavelength),
+                    widths.sigma_x[ok] ** 2 - line_px2[ok],
+                    widths.sigma_y[ok] ** 2,
+                    widths.cov_xy[ok],
+                )
+            )
     wavelengths = [dispersion.wavelengths_nm.get(laser, laser) for laser in lasers]
     window = float(proc["blur"].get("window_sigmas", 3.0))
+    if form == "field_covariance" and fill_factor is not None:
+        aperture = slm_pixel_image_px(dispersion, slm_shape, fill_factor, wavelengths)
+        spots = SpotMoments(*(np.concatenate(parts) for parts in zip(*moments, strict=True)))
+        degree = int(proc["blur"].get("field_degree", 4))
+        return fit_field_covariance(spots, slm_shape, aperture**2 / 12.0, window, degree)
     if fill_factor is None:
         return fit_blur(wavelengths, sigmas, window)
     aperture = slm_pixel_image_px(dispersion, slm_shape, fill_factor, wavelengths)

@@ -14,6 +14,7 @@ from scipy.special import ndtr
 
 from sassi_bench.bundle import BundleSchemaError
 from sassi_bench.bundle.blur import BLUR_FORMS, GAUSSIAN, QuadraticBlur, blur_from_manifest
+from sassi_bench.bundle.blur.field_covariance import FieldCovarianceBlur
 
 #: One example per manifest name a registered form answers to.
 EXAMPLES = {
@@ -21,6 +22,22 @@ EXAMPLES = {
         (0.45, 0.1, 1.3), 530.0, 150.0, 3.0, pixel_variance_px2=0.08, relative_error=0.01
     ),
     "quadratic": QuadraticBlur((1.0, 0.0, 3.0 / 1.15**2), 520.0, 100.0, 2.5),
+    "field_covariance": FieldCovarianceBlur(
+        np.array(
+            [
+                [[1.2, 0.1, 0.8], [0.3, 0.0, 0.0], [0.0, 0.1, 0.0]],  # cxx: grows to the right
+                [[0.9, 0.0, 0.5], [0.0, 0.0, 0.0], [0.2, 0.0, 0.0]],  # cyy: grows downwards
+                [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.0, 0.0]],  # cxy: turns across
+            ]
+        ),
+        1,
+        (400, 640),
+        550.0,
+        150.0,
+        3.0,
+        pixel_variance_px2=0.08,
+        relative_error=0.02,
+    ),
 }
 
 LAM = np.linspace(400.0, 700.0, 31)

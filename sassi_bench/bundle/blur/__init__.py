@@ -1,5 +1,6 @@
 """The blur object (:class:`BlurModel`) and its forms, registered by name (:data:`BLUR_FORMS`)."""
 
+from sassi_bench.bundle.blur.field_covariance import FieldCovarianceBlur
 from sassi_bench.bundle.blur.model import (
     BLUR_FORMS,
     GAUSSIAN,
@@ -14,6 +15,7 @@ __all__ = [
     "BLUR_FORMS",
     "GAUSSIAN",
     "BlurModel",
+    "FieldCovarianceBlur",
     "GaussianProfile",
     "QuadraticBlur",
     "Spot",

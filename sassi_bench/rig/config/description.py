@@ -18,8 +18,11 @@ from pathlib import Path
 from typing import Any
 
 from sassi_bench._shared.canonical_json import canonical_sha256
+from sassi_bench.optics.design import OpticalDesign, design_relay
+from sassi_bench.optics.design.relay import DesignRelay
 from sassi_bench.optics.glass import Glass, get_glass
 from sassi_bench.optics.lamps import LineList, load_line_list
+from sassi_bench.optics.psf import PsfSigmaCurve
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.rig.lights import light_names
 
@@ -184,6 +187,11 @@ class RigDescription:
     #: line, or per label (a DPSS 532 nm line is exact); None: 5 nm for every line.
     laser_tolerance_nm: float | dict[float, float] | None = None
     source: str | None = None
+    #: The spectral arm as an optical design (``design:``), or None: the parametric
+    #: ``relay``, ``prism`` and ``blur`` sections describe it. With a design those three
+    #: sections are derived from it (:func:`~sassi_bench.optics.design.nominal_summary`)
+    #: and left out of :meth:`to_dict`.
+    design: OpticalDesign | None = None
     #: Sections the schema accepts beyond the description, kept raw for the virtual bench
     #: (parsed by :mod:`sassi_bench.rig.sim.sections`): not part of what procedures rely
     #: on, the dictionary form or the hash.
@@ -237,13 +245,19 @@ class RigDescription:
         data = asdict(self)
         for key in ("source", "bench_sections"):
             data.pop(key)
+        if self.design is None:
+            data.pop("design")
+        else:  # the design is the description; relay, prism and blur follow from it
+            data["design"] = self.design.to_mapping()
+            for key in ("relay", "prism", "blur"):
+                data.pop(key)
         for key in ("hardware", "laser_tolerance_nm"):
             if data[key] is None:
                 data.pop(key)
         if not data["wavelength_lamps"]:
             data.pop("wavelength_lamps")
-        if data["prism"]["sellmeier"] is None:  # a catalogue glass: as before the key existed
-            data["prism"].pop("sellmeier")
+        if "prism" in data and data["prism"]["sellmeier"] is None:
+            data["prism"].pop("sellmeier")  # a catalogue glass: as before the key existed
         return json.loads(json.dumps(data, sort_keys=True))
 
     def sha256(self) -> str:
@@ -257,8 +271,17 @@ class RigDescription:
             data["hardware"] = _without_connection(data["hardware"])
         return canonical_sha256(data)
 
-    def nominal_relay(self) -> SpectralRelay:
+    def nominal_relay(self) -> SpectralRelay | DesignRelay:
         """The SLM -> spectral camera optics as described: a ray trace of the relay and prism.
+
+        This is the one seam through which procedures (capture plans and their checks)
+        see the described optics. It returns a
+        :class:`~sassi_bench.optics.relay.SpectralRelay` for a parametric rig and a
+        :class:`~sassi_bench.optics.design.relay.DesignRelay` (the described ``design:``
+        traced by optiland, read through interpolants; never the bench's ``as_built``
+        one) for a design rig. Both answer ``forward(u, v, wavelength)``,
+        ``forward_grid``, ``inverse``, ``scale``, ``slm_shape``, ``camera_shape`` and
+        ``reference_nm``; :meth:`nominal_psf` gives the described spot width.
 
         Examples
         --------
@@ -268,6 +291,13 @@ class RigDescription:
         >>> round(float(x[1] - x[0]), 6)  # prism.spread_px
         68.0
         """
+        if self.design is not None:
+            return design_relay(
+                self.design,
+                (self.slm.height, self.slm.width),
+                (self.spectral_camera.height, self.spectral_camera.width),
+                (self.spectral_grid.start_nm, self.spectral_grid.stop_nm),
+            )
         relay, prism = self.relay, self.prism
         return SpectralRelay(
             (self.slm.height, self.slm.width),
@@ -283,6 +313,33 @@ class RigDescription:
             incidence_deg=prism.incidence_deg,
             reference_nm=prism.reference_nm,
         )
+
+    def nominal_optic(self) -> Any:
+        """The described design as an optiland optic (for drawing its layout); None for a
+        parametric rig. Needs the ``design`` extra."""
+        if self.design is None:
+            return None
+        from sassi_bench.optics.design.build import build_design
+
+        shapes = (
+            (self.slm.height, self.slm.width),
+            (self.spectral_camera.height, self.spectral_camera.width),
+        )
+        return build_design(self.design, *shapes).optic
+
+    def nominal_psf(self) -> PsfSigmaCurve:
+        """The optics' point-spread sigma over wavelength as described (camera px).
+
+        For a design rig, the widest spot over the SLM at each wavelength (what
+        footprints and spacing must reserve), from the described design's trace.
+
+        Examples
+        --------
+        >>> from sassi_bench.rig.config import load_rig_description
+        >>> round(float(load_rig_description("sim").nominal_psf()(550.0)), 3)
+        0.507
+        """
+        return PsfSigmaCurve(self.blur.sigma_px)
 
 
 _CONNECTION_KEYS = {"port", "baudrate", "timeout_s", "boot_s", "monitor", "cti", "library"}

@@ -18,6 +18,7 @@ from typing import Any
 
 from sassi_bench._shared.yaml_io import load_yaml_mapping
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
+from sassi_bench.optics.design import OpticalDesign, design_relay, nominal_summary
 from sassi_bench.rig.config.checks import check_description
 from sassi_bench.rig.config.description import (
     BlurConfig,
@@ -71,7 +72,42 @@ SIM_DEFAULTS: dict[str, dict[str, Any]] = {
 }
 
 
+def _design_sections(data: dict[str, Any]) -> tuple[OpticalDesign, dict[str, Any]]:
+    """A design rig's ``design`` and the ``relay``, ``prism`` and ``blur`` sections that
+    follow from it (the described design traced once, then read from the cache)."""
+    design = OpticalDesign.from_mapping(data["design"])
+    grid = {**{"start_nm": 390.0, "stop_nm": 720.0}, **data.get("spectral_grid", {})}
+    relay = design_relay(
+        design,
+        (data["slm"]["height"], data["slm"]["width"]),
+        (data["spectral_camera"]["height"], data["spectral_camera"]["width"]),
+        (float(grid["start_nm"]), float(grid["stop_nm"])),
+    )
+    summary = nominal_summary(design, relay)
+    sections = {
+        "relay": {
+            "scale": summary.scale,
+            "rotation_deg": 0.0,
+            "offset_px": list(summary.offset_px),
+            "distortion_k1": 0.0,
+        },
+        "prism": {
+            "glass": summary.glass,
+            "apex_deg": summary.apex_deg,
+            "spread_px": summary.spread_px,
+            "smile_px": summary.smile_px,
+            "reference_nm": design.reference_nm,
+        },
+        "blur": {"sigma_px": {str(k): v for k, v in summary.sigma_px.items()}},
+    }
+    return design, sections
+
+
 def _build(data: dict[str, Any], source: str | None) -> RigDescription:
+    design = None
+    if "design" in data:
+        design, derived = _design_sections(data)
+        data = {**{k: v for k, v in data.items() if k != "design"}, **derived}
     described = {f.name for f in fields(RigDescription)}
     kwargs: dict[str, Any] = {
         k: v for k, v in data.items() if k in described and k not in _SECTIONS
@@ -97,7 +133,7 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
     tolerance = data.get("laser_tolerance_nm")
     if isinstance(tolerance, dict):
         kwargs["laser_tolerance_nm"] = {float(k): float(v) for k, v in tolerance.items()}
-    return RigDescription(source=source, **kwargs)
+    return RigDescription(source=source, design=design, **kwargs)
 
 
 def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> RigDescription:

@@ -18,6 +18,7 @@ from sassi_bench.optics.sources import (
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.lights import kind_of
 from sassi_bench.rig.sim import as_built
+from sassi_bench.rig.sim.design_render import DesignRenderer
 from sassi_bench.rig.sim.drift import DriftModel, DriftState, drifted_relay
 from sassi_bench.rig.sim.geometry import bench_relay
 from sassi_bench.rig.sim.guide import GuideOptics
@@ -94,12 +95,15 @@ class VirtualBench:
         self._drift_state = DriftState()
         scale = _either(true.blur_scale, 1.0)
         self.blur = PsfSigmaCurve({k: scale * v for k, v in desc.blur.sigma_px.items()})
-        self.renderer = SpectralRenderer(
-            self.relay,
-            self.blur,
-            _either(true.fill_factor, desc.slm.fill_factor),
-            self.sensor.quantum_efficiency,
-        )
+        fill_factor = _either(true.fill_factor, desc.slm.fill_factor)
+        if desc.design is not None:  # spots from the traced design, as built
+            self.renderer: SpectralRenderer = DesignRenderer(
+                self.relay, fill_factor, self.sensor.quantum_efficiency
+            )
+        else:
+            self.renderer = SpectralRenderer(
+                self.relay, self.blur, fill_factor, self.sensor.quantum_efficiency
+            )
         self.guide = GuideOptics(
             gc, self.slm_shape, self.grid, as_built.guide_sensitivities(desc, self.grid)
         )

@@ -9,11 +9,14 @@ the true reference ray goes (a lab aligns its camera on the light), so its strea
 in length, shape and position from what the description predicts. The relay's SLM side
 can be built otherwise too (``as_built.relay_scale``, ``relay_rotation_deg``,
 ``relay_offset_px``, ``relay_distortion_k1``:
-:meth:`~sassi_bench.optics.relay.SpectralRelay.with_relay`).
+:meth:`~sassi_bench.optics.relay.SpectralRelay.with_relay`). A design rig's bench is its
+design with the surfaces ``as_built.design`` changes (a decentred lens, a defocused
+camera, a rolled prism), traced like the description.
 """
 
 from __future__ import annotations
 
+from sassi_bench.optics.design import DesignRelay, design_relay, with_override
 from sassi_bench.optics.relay import SpectralRelay
 from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.sim.as_built import prism_apex_deg, prism_glass
@@ -22,7 +25,7 @@ from sassi_bench.rig.sim.sections import as_built_section
 __all__ = ["bench_relay"]
 
 
-def bench_relay(desc: RigDescription) -> SpectralRelay:
+def bench_relay(desc: RigDescription) -> SpectralRelay | DesignRelay:
     """The virtual bench's SLM -> spectral camera optics: aligned as described, built with
     the true prism.
 
@@ -44,6 +47,8 @@ def bench_relay(desc: RigDescription) -> SpectralRelay:
     >>> round(float(x[1] - x[0]), 6)  # a bench built as described
     68.0
     """
+    if desc.design is not None:
+        return bench_design_relay(desc)
     true = as_built_section(desc)
     relay = desc.nominal_relay().with_relay(
         scale=true.relay_scale,
@@ -52,3 +57,25 @@ def bench_relay(desc: RigDescription) -> SpectralRelay:
         distortion_k1=true.relay_distortion_k1,
     )
     return relay.with_prism(prism_glass(desc), prism_apex_deg(desc))
+
+
+def bench_design_relay(desc: RigDescription) -> DesignRelay:
+    """A design rig's optics as built: the described design with the surfaces
+    ``as_built.design`` changes, traced (once, then from the cache).
+
+    Parameters
+    ----------
+    desc
+        A ``backend: sim`` rig description with a ``design:`` section.
+    """
+    assert desc.design is not None
+    design = desc.design
+    override = as_built_section(desc).design
+    if override:
+        design = with_override(design, override)
+    return design_relay(
+        design,
+        (desc.slm.height, desc.slm.width),
+        (desc.spectral_camera.height, desc.spectral_camera.width),
+        (desc.spectral_grid.start_nm, desc.spectral_grid.stop_nm),
+    )

@@ -82,6 +82,35 @@ class BenchTruth:
         """Sigma of the spot one SLM pixel makes, including pixel apertures."""
         return self._bench.renderer.spot_sigma(np.asarray(wavelength_nm, dtype=np.float64))
 
+    def spot_covariance(
+        self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Covariance (cxx, cyy, cxy; camera px**2) of the spot SLM pixel (u, v) makes at a
+        wavelength as the camera records it (optics, SLM pixel aperture and camera pixel),
+        broadcast. On a parametric bench the spot is round: ``cxy`` is 0.
+
+        Examples
+        --------
+        >>> from sassi_bench import open_rig
+        >>> from sassi_bench.rig.sim import truth
+        >>> cxx, cyy, cxy = truth(open_rig("sim")).spot_covariance(320, 200, 550.0)
+        >>> bool(cxx == cyy), float(cxy)
+        (True, 0.0)
+        """
+        renderer = self._bench.renderer
+        if hasattr(renderer, "spot_covariance"):
+            return renderer.spot_covariance(u, v, wavelength_nm)
+        u, v, lam = np.broadcast_arrays(
+            *(np.asarray(a, dtype=np.float64) for a in (u, v, wavelength_nm))
+        )
+        var = renderer.spot_sigma(lam.ravel()).reshape(lam.shape) ** 2
+        return var, var.copy(), np.zeros_like(var)
+
+    @property
+    def is_design(self) -> bool:
+        """Whether the bench renders a traced optical design (a ``design:`` rig)."""
+        return self._bench.description.design is not None
+
     @property
     def contrast_eps(self) -> float:
         """Closed-pixel transmission of the SLM (1 / contrast ratio)."""

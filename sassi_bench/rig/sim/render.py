@@ -235,6 +235,16 @@ class SpectralRenderer:
             self._tables[key] = table
         return table
 
+    def _dense_kernels(
+        self, wavelengths_nm: NDArray[np.float64]
+    ) -> list[tuple[int, NDArray[np.float32] | None]]:
+        """Per sample: the rows the dense renderer's blur reaches, and its kernel (a
+        separable 1-D kernel, or None where the warp's tent is blur enough)."""
+        extra = self._tent_blur(self.spot_sigma(wavelengths_nm))
+        return [
+            (int(np.ceil(4.0 * s)), _blur_kernel(float(s)) if s > 0.05 else None) for s in extra
+        ]
+
     def electrons_per_photon(self, samples: SpectralSamples) -> NDArray[np.float64]:
         """Photo-electron rate each sample delivers per unit reflectance and transmission."""
         return samples.weights * self.quantum_efficiency(samples.wavelengths_nm)
@@ -374,7 +384,7 @@ class SpectralRenderer:
         rows, cols = scene.slm_window(transmission.shape)
         rate = np.zeros(self.camera_shape, dtype=np.float32)
         gain = self.electrons_per_photon(samples)
-        extra = self._tent_blur(self.spot_sigma(samples.wavelengths_nm))
+        kernels = self._dense_kernels(samples.wavelengths_nm)
         lit = [k for k in range(gain.size) if gain[k] > 0]
         if not lit:
             return rate
@@ -384,7 +394,7 @@ class SpectralRenderer:
         reach = [r for r in reach if r[1] > r[0]]
         if not reach:
             return rate
-        taps = max(int(np.ceil(4.0 * s)) for s in extra[lit]) + 1
+        taps = max(kernels[k][0] for k in lit) + 1
         first = max(0, min(r[0] for r in reach) - taps)
         stop = min(self.camera_shape[0], max(r[1] for r in reach) + taps)
         transmission = np.ascontiguousarray(transmission, dtype=np.float32)
@@ -419,14 +429,17 @@ class SpectralRenderer:
                 borderValue=0.0,
             )
             cv2.multiply(band, area, dst=band, scale=float(gain[k]))
-            if extra[k] > 0.05:
-                kernel = _blur_kernel(float(extra[k]))
+            kernel = kernels[k][1]
+            if kernel is None:
+                np.add(lit_rows, band, out=lit_rows)
+                continue
+            if kernel.ndim == 1:
                 cv2.sepFilter2D(
                     band, -1, kernel, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT
                 )
-                np.add(lit_rows, blurred, out=lit_rows)
-            else:
-                np.add(lit_rows, band, out=lit_rows)
+            else:  # a correlated spot: its 2-D kernel (point-symmetric, so no flip)
+                cv2.filter2D(band, -1, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT)
+            np.add(lit_rows, blurred, out=lit_rows)
         return rate
 
     # -- sparse ---------------------------------------------------------------------

@@ -22,6 +22,7 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.optics.datasets import require_dataset
@@ -75,6 +76,9 @@ class AsBuiltConfig:
     qe: str | None = None
     #: The lasers' true line width (FWHM, nm).
     laser_fwhm_nm: float | None = None
+    #: A design rig built off its design: ``{surfaces: {N: {key: value}}, image: {...},
+    #: object_distance_mm: ...}`` (:func:`~sassi_bench.optics.design.with_override`).
+    design: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -191,6 +195,7 @@ def check_bench_sections(desc: RigDescription) -> None:
     sassi_bench.errors.ConfigError: rig description sim: as_built.lasers_nm: 640 nm are not ...
     """
     as_built = as_built_section(desc)
+    _check_design_sections(desc, as_built)
     unknown = sorted(set(as_built.lasers_nm) - set(desc.lasers_nm))
     if unknown:
         raise _error(
@@ -214,6 +219,39 @@ def check_bench_sections(desc: RigDescription) -> None:
             f"no such file {str(rig_relative_path(desc, curves))!r}",
             "give a CSV of wavelength_nm,r,g,b (relative to the rig YAML) or a "
             "colour-science camera name",
+        )
+
+
+def _check_design_sections(desc: RigDescription, as_built: AsBuiltConfig) -> None:
+    """A design rig is built off its design through ``as_built.design`` only; a
+    parametric rig has no design to build off."""
+    if desc.design is None:
+        if as_built.design is not None:
+            raise _error(
+                desc,
+                "as_built.design",
+                "the rig has no design: section",
+                "describe the arm as a design, or use as_built.glass_index_offset / apex_deg",
+            )
+        return
+    for key in ("glass_index_offset", "apex_deg"):
+        if getattr(as_built, key) not in (None, 0.0):
+            raise _error(
+                desc,
+                f"as_built.{key}",
+                "a design rig's prism is one of its surfaces",
+                "change the prism's surfaces under as_built.design.surfaces",
+            )
+    if as_built.design is not None:
+        from sassi_bench.optics.design import with_override
+
+        with_override(desc.design, as_built.design)  # numbers and keys checked here
+    if nuisance_section(desc).drift is not None:
+        raise _error(
+            desc,
+            "nuisance.drift",
+            "drift is rendered on the parametric relay only",
+            "leave nuisance.drift out of a design rig",
         )
 
 

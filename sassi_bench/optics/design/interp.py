@@ -1,0 +1,137 @@
+"""Smooth interpolants of a traced grid: tensor-product cubic splines over (u, v, lambda).
+
+Each quantity is interpolated by a not-a-knot cubic spline along every axis of the grid
+(SLM column, SLM row, wavelength), its tensor coefficients solved once, axis by axis. On
+the shipped designs a 17 x 11 field grid at 10 nm steps reproduces held-out traced
+positions to 0.005 px and spot widths to 0.006 px (docs/notes/optical_design.md).
+
+Evaluation goes through the B-spline design matrices: the field part (4 x 4 non-zero
+weights per point) and the wavelength part are separate, so a (points x wavelengths)
+block costs two small matrix products instead of a 64-term sum per (point, wavelength).
+Outside the grid's nodes a quantity continues linearly (with its mean slope over the
+field), so maps stay monotone where an inverse search strays off the field.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import BSpline, make_interp_spline
+
+__all__ = ["GridSpline"]
+
+
+def _basis(x: NDArray[np.float64], knots: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Dense cubic B-spline design matrix at ``x`` (already inside the knots' base)."""
+    return BSpline.design_matrix(x, knots, 3).toarray()
+
+
+class GridSpline:
+    """Cubic interpolants of quantities given on a regular (u, v, lambda) grid.
+
+    Parameters
+    ----------
+    u, v, wavelengths_nm
+        The grid's nodes (increasing).
+    values
+        Name -> array (u, v, wavelength).
+
+    Examples
+    --------
+    >>> u, v, lam = np.linspace(0, 10, 6), np.linspace(0, 5, 5), np.linspace(400, 700, 7)
+    >>> U, V, L = np.meshgrid(u, v, lam, indexing="ij")
+    >>> spline = GridSpline(u, v, lam, {"q": U * V + (L / 100) ** 3})
+    >>> float(np.round(spline.at("q", 3.3, 2.1, 512.0), 6)) == round(3.3 * 2.1 + 5.12**3, 6)
+    True
+    """
+
+    def __init__(
+        self,
+        u: ArrayLike,
+        v: ArrayLike,
+        wavelengths_nm: ArrayLike,
+        values: Mapping[str, NDArray[np.float64]],
+    ) -> None:
+        self.nodes = tuple(np.asarray(a, dtype=np.float64) for a in (u, v, wavelengths_nm))
+        self.names = tuple(values)
+        stacked = np.stack([np.asarray(values[n], dtype=np.float64) for n in self.names], -1)
+        if not np.all(np.isfinite(stacked)):
+            raise ValueError("GridSpline: the grid holds NaNs (rays that never arrived)")
+        coefficients = stacked
+        knots = []
+        for axis, nodes in enumerate(self.nodes):
+            spline = make_interp_spline(nodes, coefficients, k=3, axis=axis)
+            coefficients = np.moveaxis(np.asarray(spline.c), 0, axis) if axis else spline.c
+            knots.append(np.asarray(spline.t))
+        self._knots = tuple(knots)
+        nu, nv, nl = (n.size for n in self.nodes)
+        # (field basis u*v) x (wavelength basis) x quantity
+        self._coefficients = np.asarray(coefficients).reshape(nu * nv, nl, len(self.names))
+        # mean slopes over the field, per wavelength node, for the linear continuation
+        du = np.gradient(stacked, self.nodes[0], axis=0).mean(axis=(0, 1))
+        dv = np.gradient(stacked, self.nodes[1], axis=1).mean(axis=(0, 1))
+        self._slopes = (du, dv)  # (wavelength nodes, quantity)
+
+    def _field(self, u: NDArray, v: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        uc = np.clip(u, self.nodes[0][0], self.nodes[0][-1])
+        vc = np.clip(v, self.nodes[1][0], self.nodes[1][-1])
+        bu = _basis(uc, self._knots[0])
+        bv = _basis(vc, self._knots[1])
+        basis = (bu[:, :, None] * bv[:, None, :]).reshape(u.size, -1)
+        return basis, u - uc, v - vc
+
+    def _wavelength(self, lam: NDArray) -> NDArray:
+        nodes = self.nodes[2]
+        return _basis(np.clip(lam, nodes[0], nodes[-1]), self._knots[2])
+
+    def _select(self, names: tuple[str, ...]) -> list[int]:
+        return [self.names.index(n) for n in names]
+
+    def grid(
+        self, names: tuple[str, ...], u: ArrayLike, v: ArrayLike, wavelengths_nm: ArrayLike
+    ) -> NDArray[np.float64]:
+        """Quantities at points (u[i], v[i]) and every wavelength: (points, wavelengths, names)."""
+        u = np.asarray(u, dtype=np.float64).ravel()
+        v = np.asarray(v, dtype=np.float64).ravel()
+        lam = np.asarray(wavelengths_nm, dtype=np.float64).ravel()
+        q = self._select(names)
+        basis, eu, ev = self._field(u, v)
+        by_node = (basis @ self._coefficients[:, :, q].reshape(basis.shape[1], -1)).reshape(
+            u.size, -1, len(q)
+        )
+        bl = self._wavelength(lam)  # (K, nodes)
+        out = np.einsum("pnq,kn->pkq", by_node, bl, optimize=True)
+        if np.any(eu) or np.any(ev):
+            su, sv = (bl @ s[:, q] for s in self._slopes)  # (K, q)
+            out += eu[:, None, None] * su[None] + ev[:, None, None] * sv[None]
+        return out
+
+    def points(
+        self, names: tuple[str, ...], u: ArrayLike, v: ArrayLike, wavelengths_nm: ArrayLike
+    ) -> tuple[NDArray[np.float64], ...]:
+        """Quantities at (u, v, wavelength) broadcast together: one array per name."""
+        u, v, lam = np.broadcast_arrays(
+            *(np.asarray(a, dtype=np.float64) for a in (u, v, wavelengths_nm))
+        )
+        shape = u.shape
+        u, v, lam = u.ravel(), v.ravel(), lam.ravel()
+        q = self._select(names)
+        out = np.empty((u.size, len(q)))
+        unique, where = np.unique(lam, return_inverse=True)
+        bl = self._wavelength(unique)
+        basis, eu, ev = self._field(u, v)
+        continued = np.any(eu) or np.any(ev)
+        for k in range(unique.size):  # one field product per distinct wavelength
+            idx = np.flatnonzero(where == k)
+            coef = np.einsum("fnq,n->fq", self._coefficients[:, :, q], bl[k])
+            out[idx] = basis[idx] @ coef
+            if continued:
+                su, sv = (bl[k] @ s[:, q] for s in self._slopes)
+                out[idx] += eu[idx, None] * su[None] + ev[idx, None] * sv[None]
+        return tuple(out[:, i].reshape(shape) for i in range(len(q)))
+
+    def at(self, name: str, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike) -> NDArray:
+        """One quantity at (u, v, wavelength), broadcast."""
+        return self.points((name,), u, v, wavelength_nm)[0]
