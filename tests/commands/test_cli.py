@@ -183,6 +183,7 @@ def bad_value(words, action, world):
         "bundle_rig": "no-such-rig",
         "scene": "colorchekcer",
         "light": "lazer:532",
+        "lights": "lazer:532",
         "pitch": ["0", "5"],
         "roi": ["50", "50", "10", "10"],
         "temperature": "-5",
@@ -346,7 +347,7 @@ def test_the_console_script_prints_one_line(world):
 # -- Ctrl-C -------------------------------------------------------------------------------
 
 #: Commands that capture but keep nothing a later run could resume.
-NOTHING_TO_RESUME = {("rig", "snapshot"), ("rig", "check"), ("check",)}
+NOTHING_TO_RESUME = {("rig", "snapshot"), ("rig", "check"), ("align",), ("check",)}
 #: Commands whose interrupted run is complete as it stands: they say where it is.
 KEEPS_WHAT_IT_TOOK = {("snapshot", "live")}
 

@@ -81,7 +81,7 @@ class VirtualBench:
         self.drift = DriftModel(drift, desc.seed) if drift is not None else None
         self.clock_h = drift.start_h if drift is not None else 0.0
         self._drift_state = DriftState()
-        self.blur = PsfSigmaCurve(desc.blur.sigma_px)
+        self.blur = PsfSigmaCurve(as_built.blur_sigma_px(desc))
         self.renderer = SpectralRenderer(
             self.relay, self.blur, desc.slm.fill_factor, self.sensor.quantum_efficiency
         )

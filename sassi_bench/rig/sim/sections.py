@@ -57,6 +57,12 @@ class AsBuiltConfig:
     slm_gamma: float | None = None
     #: Log-normal sigma of each lamp line's true intensity against its table.
     lamp_intensity_spread: float = 0.0
+    #: The prism rolled about the optical axis beyond its described alignment (degrees).
+    prism_roll_deg: float = 0.0
+    #: The SLM's image on the spectral camera shifted from the described relay (px).
+    relay_offset_px: tuple[float, float] = (0.0, 0.0)
+    #: The camera at the best focus of another wavelength: the blur curve moved (nm).
+    focus_shift_nm: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -117,6 +123,8 @@ def as_built_section(desc: RigDescription) -> AsBuiltConfig:
     """
     section = dict(desc.bench_sections.get("as_built", {}))
     section["lasers_nm"] = {float(k): float(v) for k, v in section.get("lasers_nm", {}).items()}
+    if "relay_offset_px" in section:
+        section["relay_offset_px"] = tuple(float(v) for v in section["relay_offset_px"])
     return AsBuiltConfig(**section)
 
 
