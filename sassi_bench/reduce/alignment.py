@@ -21,7 +21,7 @@ Examples
 --------
 >>> from sassi_bench.rig import load_rig_description
 >>> alignment_pattern(load_rig_description("sim"))
-{'kind': 'pinholes', 'pitch': [72, 30], 'offset': [36, 15]}
+{'kind': 'pinholes', 'pitch': [76, 24], 'offset': [38, 12]}
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ class Reading:
     Examples
     --------
     >>> print(Reading("streak roll", "0.71 deg", "0.67 deg", True, "aligned").line())
-      ok    streak roll          0.71 deg    target 0.67 deg: aligned
+      ok    streak roll              0.71 deg      target 0.67 deg: aligned
     """
 
     name: str
