@@ -25,9 +25,20 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def run_child(code: str, tmp_path: Path, timeout: int = 900) -> str:
-    env = {**os.environ, "SASSI_BENCH_DATA": str(tmp_path / "data")}
+def child_env(tmp_path: Path) -> dict[str, str]:
+    """A data root and a rig-lock folder of the test's own (a hardware rig is locked
+    machine-wide), and no display: the simulated rig starts its own."""
+    env = {
+        **os.environ,
+        "SASSI_BENCH_DATA": str(tmp_path / "data"),
+        "SASSI_BENCH_LOCK_DIR": str(tmp_path / "locks"),
+    }
     env.pop("DISPLAY", None)
+    return env
+
+
+def run_child(code: str, tmp_path: Path, timeout: int = 900) -> str:
+    env = child_env(tmp_path)
     result = subprocess.run(
         [sys.executable, "-c", textwrap.dedent(code)],
         capture_output=True,
@@ -92,8 +103,7 @@ def test_frames_come_through_the_adapters_and_the_trigger(tmp_path):
 
 def test_rig_check_and_calibrate_spectral_run_on_the_simulated_devices(tmp_path):
     script = Path(sys.executable).with_name("sassi-bench")
-    env = {**os.environ, "SASSI_BENCH_DATA": str(tmp_path / "data")}
-    env.pop("DISPLAY", None)
+    env = child_env(tmp_path)
     check = subprocess.run(
         [str(script), "rig", "check", "--rig", str(RIG), "--simulate"],
         capture_output=True, text=True, timeout=600, env=env,
