@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from sassi_bench.acquire.patterns import render_pattern
+from sassi_bench.acquire.trigger_gate import armed
 from sassi_bench.errors import DeviceError, step_error
 from sassi_bench.rig.rig import Rig
 
@@ -63,6 +64,23 @@ def auto_exposure(
     >>> 0 < t < 2
     True
     """
+    with armed(rig):  # a camera on a line trigger exposes for the pulses it passes
+        return _auto_exposure(
+            rig, light, pattern, camera, target_fraction, percentile, start_s, max_s, iterations
+        )
+
+
+def _auto_exposure(
+    rig: Rig,
+    light: str,
+    pattern: Mapping[str, Any],
+    camera: str,
+    target_fraction: float,
+    percentile: float,
+    start_s: float,
+    max_s: float,
+    iterations: int,
+) -> float:
     cam = rig.spectral_camera if camera == "spectral" else rig.guide_camera
     lo, hi = cam.exposure_range_s
     hi = min(hi, max_s)

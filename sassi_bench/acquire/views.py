@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from sassi_bench._shared.atomic import atomic_path, atomic_write_bytes
 from sassi_bench.acquire.patterns import pinhole_pattern
+from sassi_bench.acquire.trigger_gate import armed
 from sassi_bench.errors import ProcedureError, SassiBenchError, step_error
 from sassi_bench.rig.frame import Frame
 from sassi_bench.rig.rig import Rig
@@ -102,10 +103,11 @@ def capture_views(rig: Rig, scene: str = "colorchecker", light: str = "led") -> 
     """
     rig.set_scene(scene)
     rig.light.select(light)
-    rig.slm.show(np.zeros(rig.slm.shape, dtype=bool))
-    views = {"guide": rig.guide_camera.capture()}
-    rig.slm.show(np.ones(rig.slm.shape, dtype=bool))
-    views["spectral_all_open"] = rig.spectral_camera.capture()
-    rig.slm.show(pinhole_pattern(rig.slm.shape))
-    views["spectral_pinholes"] = rig.spectral_camera.capture()
+    with armed(rig):
+        rig.slm.show(np.zeros(rig.slm.shape, dtype=bool))
+        views = {"guide": rig.guide_camera.capture()}
+        rig.slm.show(np.ones(rig.slm.shape, dtype=bool))
+        views["spectral_all_open"] = rig.spectral_camera.capture()
+        rig.slm.show(pinhole_pattern(rig.slm.shape))
+        views["spectral_pinholes"] = rig.spectral_camera.capture()
     return views

@@ -1,9 +1,10 @@
 """The ``sassi-bench`` command line: the application tier, one module per command group.
 
-Each module (``rig``, ``calibrate``, ``check``, ``scan``, ``bundle``, ``snapshot``, ``validate``,
-``data``, ``batch``) adds its group through ``register(subparsers)`` and holds only argument
-handling and printing; the work is done by the library (``workflows`` for procedures that
-drive a rig, ``validate`` for scoring, ``bundle``, ``export``, ``storage``, ``batch``).
+Each module (``rig``, ``align``, ``calibrate``, ``check``, ``scan``, ``bundle``, ``snapshot``,
+``validate``, ``data``, ``batch``) adds its group through ``register(subparsers)`` and holds
+only argument handling and printing; the work is done by the library (``workflows`` for
+procedures that drive a rig, ``validate`` for scoring, ``bundle``, ``export``, ``storage``,
+``batch``).
 Options every group shares live in :mod:`sassi_bench.commands.options`. Handlers import the
 library inside their functions, so building the parser (``--help``, ``--version``, argument
 errors) loads no more than argparse.
@@ -24,6 +25,7 @@ from pathlib import Path
 
 from sassi_bench._shared.disk import DISK_FULL_FIX, disk_full_cause, is_disk_full
 from sassi_bench.commands import (
+    align,
     batch,
     bundle,
     calibrate,
@@ -50,7 +52,7 @@ from sassi_bench.paths import data_root
 __all__ = ["PROG", "build_parser", "main"]
 
 #: The command groups in the order ``--help`` lists them.
-GROUPS = (rig, calibrate, check, scan, bundle, snapshot, validate, data, batch)
+GROUPS = (rig, align, calibrate, check, scan, bundle, snapshot, validate, data, batch)
 
 
 class _Version(argparse.Action):

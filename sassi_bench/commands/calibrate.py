@@ -10,6 +10,7 @@ from sassi_bench.commands.options import (
     add_bundle_options,
     add_data_option,
     add_rig_option,
+    add_simulate_option,
     bundle_from_args,
     check_new_files,
     check_output_folder,
@@ -36,7 +37,7 @@ def _full(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.full import run_full_calibration
 
     procedure = load_procedure("full_calibration", args.procedure)
-    rig = open_rig(args.rig)
+    rig = open_rig(args.rig, simulate=args.simulate)
     check_output_folder("calibrate", args.out, "give a folder for the report")
     new_session(args, "session", "full")
     report_dir = Path(args.out) if args.out else data_root(args.data) / "reports" / args.session
@@ -116,7 +117,7 @@ def _spectral(args: argparse.Namespace) -> int:
     from sassi_bench.workflows.spectral import run_spectral_calibration
 
     procedure = load_procedure("spectral_calibration", args.procedure)
-    rig = open_rig(args.rig)
+    rig = open_rig(args.rig, simulate=args.simulate)
     new_session(args, "session", "spectral")
     result = run_spectral_calibration(
         rig,
@@ -147,7 +148,7 @@ def _response(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.scan import check_scan, run_response
 
-    rig = open_rig(args.rig)
+    rig = open_rig(args.rig, simulate=args.simulate)
     check_scan(rig, "white", args.light, scan_pitch(rig.description))
     response_source(rig.description, args.temperature, args.reference)
     bundle = bundle_from_args(args, rig.description.name, step="calibrate response")
@@ -169,7 +170,7 @@ def _guide(args: argparse.Namespace) -> int:
     procedure = load_procedure("guide_registration", args.procedure)
     if args.full:
         procedure["scan"]["stride_px"] = [1, 1]
-    rig = open_rig(args.rig)
+    rig = open_rig(args.rig, simulate=args.simulate)
     bundle = bundle_from_args(
         args, rig.description.name, step="calibrate guide", wants=("response",)
     )
@@ -202,6 +203,7 @@ def _guide(args: argparse.Namespace) -> int:
 def _run_arguments(parser: argparse.ArgumentParser, kind: str | None, publish: bool = True) -> None:
     """The options every calibration procedure takes (``kind``: its procedure YAML)."""
     add_rig_option(parser)
+    add_simulate_option(parser)
     if kind is not None:
         parser.add_argument("--procedure", help=f"procedure YAML (default: procedures/{kind}.yaml)")
     add_data_option(parser)

@@ -32,6 +32,7 @@ __all__ = [
     "add_bundle_options",
     "add_data_option",
     "add_rig_option",
+    "add_simulate_option",
     "bundle_from_args",
     "check_new_files",
     "check_output_file",
@@ -88,6 +89,25 @@ def add_rig_option(parser: argparse.ArgumentParser, default: str | None = "sim")
     """
     shown = f"default: {default}" if default else "default: see the command"
     parser.add_argument("--rig", default=default, help=f"rig name or YAML path ({shown})")
+
+
+def add_simulate_option(parser: argparse.ArgumentParser) -> None:
+    """``--simulate``: run a ``backend: hardware`` rig's real adapters against the
+    simulators of its devices, with the virtual bench behind them.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_simulate_option(parser)
+    >>> parser.parse_args(["--simulate"]).simulate
+    True
+    """
+    parser.add_argument(
+        "--simulate",
+        action="store_true",
+        help="hardware rigs: drive the real adapters against simulated devices "
+        "(a virtual display, a serial trigger, camera simulators) and the virtual bench",
+    )
 
 
 def add_data_option(parser: argparse.ArgumentParser) -> None:

@@ -1,12 +1,11 @@
-"""``sassi-bench rig``: show a rig description, take snapshots."""
+"""``sassi-bench rig``: show a rig description, check its devices, take snapshots."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from sassi_bench.commands import options
-from sassi_bench.commands.options import add_rig_option
+from sassi_bench.commands.options import add_rig_option, add_simulate_option, program
 
 __all__ = ["register"]
 
@@ -37,8 +36,39 @@ def _show(args: argparse.Namespace) -> int:
         figure.savefig(out, dpi=110)
         print(f"# layout, spots and dispersion: {out}")
     else:
-        print(f"# draw it: {options.program()} rig show --rig {args.rig} --figure {desc.name}.png")
+        print(f"# draw it: {program()} rig show --rig {args.rig} --figure {desc.name}.png")
     return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    import time
+
+    from sassi_bench.rig import check_rig, load_rig_description
+
+    start = time.monotonic()
+    desc = load_rig_description(args.rig)
+    simulated = " (simulated devices)" if getattr(args, "simulate", False) else ""
+    print(f"rig check: {desc.name} ({desc.source}), backend {desc.backend}{simulated}")
+    report = check_rig(desc, simulate=getattr(args, "simulate", False))
+    for line in report.lines():
+        print(line)
+    failed = report.failed_devices()
+    took = time.monotonic() - start
+    rig = args.rig
+    if failed:
+        print(f"{len(failed)} device(s) need attention: {', '.join(failed)} ({took:.1f} s)")
+        print(f"next: fix the FAIL lines, then run {program()} rig check --rig {rig} again")
+        if desc.backend == "hardware" and not simulated:
+            print(
+                f"      to rehearse without the hardware: {program()} rig check --rig {rig} "
+                "--simulate"
+            )
+    else:
+        print(f"every device answered ({took:.1f} s)")
+        simulate = " --simulate" if simulated else ""
+        print(f"next: {program()} align --rig {rig}{simulate} (focus, streak roll, footprint)")
+        print(f"      then: {program()} calibrate spectral --rig {rig}{simulate}")
+    return 0 if not failed else 1
 
 
 def _snapshot(args: argparse.Namespace) -> int:
@@ -66,6 +96,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--figure", help="a design rig: write its layout, spots and dispersion to this PNG"
     )
     show.set_defaults(func=_show)
+    check = rig_sub.add_parser(
+        "check",
+        help="open every device in turn and check it against the rig YAML",
+        description="Open every device of the rig in turn (trigger, SLM, cameras, lights) "
+        "and report each on one line with the fix when it does not answer; read its "
+        "properties against the rig YAML, take one test frame per camera, show one SLM "
+        "pattern and count the trigger's pulses. Exit status 1 when a device fails.",
+    )
+    add_rig_option(check)
+    add_simulate_option(check)
+    check.set_defaults(func=_check, drives_rig=True)
     snap = rig_sub.add_parser(
         "snapshot", help="save a guide image and spectral frames as PNG and 16-bit TIFF"
     )

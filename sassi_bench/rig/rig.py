@@ -86,6 +86,8 @@ class Rig:
     scene_setter
         Called by :meth:`set_scene` with the scene name, and with the pose as a second
         argument when one is given (a moving scene).
+    closer
+        Called once by :meth:`close`.
     """
 
     description: RigDescription
@@ -96,7 +98,21 @@ class Rig:
     trigger: Trigger
     scene_setter: Callable[..., None] = field(repr=False)
     scene: str | None = None
+    closer: Callable[[], None] | None = field(default=None, repr=False)
     _posed: bool = field(default=False, init=False, repr=False)
+
+    def close(self) -> None:
+        """Release what the rig holds beyond its devices (a simulated rig's simulators);
+        nothing for the virtual bench.
+
+        Examples
+        --------
+        >>> from sassi_bench import open_rig
+        >>> open_rig("sim").close()
+        """
+        if self.closer is not None:
+            closer, self.closer = self.closer, None
+            closer()
 
     def set_scene(self, name: str, pose: ScenePose | None = None) -> None:
         """Put scene ``name`` in front of the camera (``white``, ``colorchecker``, ...).

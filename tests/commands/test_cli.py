@@ -133,7 +133,7 @@ def shared_rigs(monkeypatch):
     opened: dict[str, object] = {}
     real = sassi_bench.rig.open_rig
 
-    def open_rig(rig="sim"):
+    def open_rig(rig="sim", *, simulate=False):
         desc = rig if not isinstance(rig, (str, Path)) else load_rig_description(rig)
         if desc.sha256() not in opened:
             opened[desc.sha256()] = real(desc)
@@ -183,6 +183,7 @@ def bad_value(words, action, world):
         "bundle_rig": "no-such-rig",
         "scene": "colorchekcer",
         "light": "lazer:532",
+        "lights": "lazer:532",
         "pitch": ["0", "5"],
         "roi": ["50", "50", "10", "10"],
         "temperature": "-5",
@@ -346,7 +347,7 @@ def test_the_console_script_prints_one_line(world):
 # -- Ctrl-C -------------------------------------------------------------------------------
 
 #: Commands that capture but keep nothing a later run could resume.
-NOTHING_TO_RESUME = {("rig", "snapshot"), ("check",)}
+NOTHING_TO_RESUME = {("rig", "snapshot"), ("rig", "check"), ("align",), ("check",)}
 #: Commands whose interrupted run is complete as it stands: they say where it is.
 KEEPS_WHAT_IT_TOOK = {("snapshot", "live")}
 
@@ -370,8 +371,8 @@ def test_ctrl_c_prints_the_command_that_resumes(words, world, capsys, monkeypatc
     captured: list[str] = []
     real = sassi_bench.rig.open_rig
 
-    def interrupted_rig(rig="sim"):
-        opened = real(rig)
+    def interrupted_rig(rig="sim", *, simulate=False):
+        opened = real(rig, simulate=simulate)
         return dataclasses.replace(
             opened,
             spectral_camera=_CtrlC(opened.spectral_camera, captured),

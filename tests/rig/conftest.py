@@ -1,7 +1,8 @@
 """Fixtures for the hardware adapters: the trigger firmware in simavr, a pty fake of
-it, a dual-head dummy X server and the GenTL producer shipped with ``genicam``; the
-helper modules in ``hardware/`` (fakes of GenApi nodes and of pylablib's DCAM camera)
-are loaded here for the tests to share.
+it and a dual-head dummy X server (both shipped in ``sassi_bench.rig.hardware.simulators``)
+and the GenTL producer shipped with ``genicam``; the helper modules in ``hardware/``
+(fakes of GenApi nodes and of pylablib's DCAM camera) are loaded here for the tests to
+share.
 
 Each skips with the reason when its system tools are missing (``.ci/run`` installs
 them).
@@ -31,8 +32,6 @@ def _load(name: str):
 
 
 simavr = _load("simavr_device")
-xserver = _load("xserver")
-fake_trigger_module = _load("fake_trigger")
 fake_genicam = _load("fake_genicam")
 fake_dcam = _load("fake_dcam")
 
@@ -61,7 +60,9 @@ def simavr_trigger(simavr_build):
 @pytest.fixture()
 def fake_trigger(tmp_path):
     """The pty fake of the trigger firmware, behind a by-id style symlink."""
-    device = fake_trigger_module.FakeTrigger(tmp_path / "ttyFAKE")
+    from sassi_bench.rig.hardware.simulators.serial_trigger import TriggerSimulator
+
+    device = TriggerSimulator(tmp_path / "ttyFAKE")
     yield device
     device.close()
 
@@ -69,6 +70,8 @@ def fake_trigger(tmp_path):
 @pytest.fixture(scope="session")
 def dummy_x(tmp_path_factory):
     """A dummy Xorg with DUMMY0 (800x600) and the SLM monitor DUMMY1 (640x400) to its right."""
+    from sassi_bench.rig.hardware.simulators import display as xserver
+
     reason = xserver.xorg_missing()
     if reason:
         pytest.skip(reason)

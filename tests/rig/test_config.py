@@ -59,7 +59,7 @@ def test_impossible_values_name_the_key(sim_dict, section, key, value, pattern):
 
 def test_missing_section_is_reported(sim_dict):
     del sim_dict["prism"]
-    with pytest.raises(ConfigError, match="'prism' is a required property"):
+    with pytest.raises(ConfigError, match=r"\(top level\): missing key 'prism'. Fix: add prism"):
         rig_description_from_dict(sim_dict)
 
 
@@ -306,3 +306,24 @@ def test_laser_tolerance_per_label(sim_dict):
     sim_dict["laser_tolerance_nm"] = {"533": 0.05}
     with pytest.raises(ConfigError, match=r"laser_tolerance_nm: 533 nm is not a line.*'532'"):
         rig_description_from_dict(sim_dict)
+
+
+def test_hardware_section_errors_read_like_the_optics_ones(sim_dict):
+    typo = _hardware_dict(sim_dict)
+    typo["hardware"]["guide_camera"]["ct"] = typo["hardware"]["guide_camera"].pop("cti")
+    with pytest.raises(ConfigError) as caught:
+        rig_description_from_dict(typo)
+    message = str(caught.value)
+    assert "hardware.guide_camera.ct: unknown key 'ct' (did you mean 'cti'?)" in message
+    assert "hardware.guide_camera: missing key 'cti' (kind genicam)" in message
+    # The allowed keys are the camera section's, reached through the schema's $ref.
+    assert "use one of kind, cti, device, index," in message
+    assert "add cti under hardware.guide_camera" in message
+    wrong_kind = _hardware_dict(sim_dict)
+    wrong_kind["hardware"]["spectral_camera"]["cti"] = "x.cti"
+    with pytest.raises(
+        ConfigError,
+        match=r"hardware\.spectral_camera: 'cti' does not apply \(kind dcam\)\. "
+        r"Fix: remove cti from hardware\.spectral_camera",
+    ):
+        rig_description_from_dict(wrong_kind)

@@ -14,11 +14,10 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from sassi_bench._shared.canonical_json import canonical_sha256
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session.errors import SessionIntegrityError, session_error
 from sassi_bench.provenance import package_version
-from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.config import RigDescription, rig_dict_sha256
 
 __all__ = [
     "SCHEMA_NAME",
@@ -164,7 +163,7 @@ def parse_header(raw: bytes, file: Path) -> dict[str, Any]:
         raise session_error("session open", f"{file}: {exc}", fix, damaged) from exc
     if (
         plan.sha256() != header["plan_sha256"]
-        or canonical_sha256(header["rig"]) != header["rig_sha256"]
+        or rig_dict_sha256(header["rig"]) != header["rig_sha256"]
     ):
         raise session_error(
             "session open",

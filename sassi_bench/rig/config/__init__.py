@@ -43,6 +43,7 @@ from sassi_bench.rig.config.description import (
     SlmConfig,
     SpectralCameraConfig,
     SpectralGridConfig,
+    rig_dict_sha256,
     rig_relative_path,
 )
 from sassi_bench.rig.config.loader import (
@@ -69,5 +70,6 @@ __all__ = [
     "available_rigs",
     "load_rig_description",
     "rig_description_from_dict",
+    "rig_dict_sha256",
     "rig_relative_path",
 ]

@@ -39,6 +39,7 @@ __all__ = [
     "SlmConfig",
     "SpectralCameraConfig",
     "SpectralGridConfig",
+    "rig_dict_sha256",
     "rig_relative_path",
 ]
 
@@ -266,10 +267,7 @@ class RigDescription:
         Where hardware is plugged in (serial port, monitor, producer or library path,
         timeouts) is left out: moving a cable does not make another rig.
         """
-        data = self.to_dict()
-        if "hardware" in data:
-            data["hardware"] = _without_connection(data["hardware"])
-        return canonical_sha256(data)
+        return rig_dict_sha256(self.to_dict())
 
     def nominal_relay(self) -> SpectralRelay | DesignRelay:
         """The SLM -> spectral camera optics as described: a ray trace of the relay and prism.
@@ -350,6 +348,22 @@ def _without_connection(hardware: dict[str, Any]) -> dict[str, Any]:
         device: {k: v for k, v in spec.items() if k not in _CONNECTION_KEYS}
         for device, spec in hardware.items()
     }
+
+
+def rig_dict_sha256(data: dict[str, Any]) -> str:
+    """The SHA-256 that identifies a rig, from its canonical form (:meth:`RigDescription.to_dict`,
+    as sessions and bundles store it): where hardware is plugged in is left out.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> lab = load_rig_description("lab-example")
+    >>> rig_dict_sha256(lab.to_dict()) == lab.sha256()
+    True
+    """
+    if "hardware" in data:
+        data = {**data, "hardware": _without_connection(data["hardware"])}
+    return canonical_sha256(data)
 
 
 def rig_relative_path(desc: RigDescription, name: str) -> Path:

@@ -55,6 +55,9 @@ class ManualLight(LightSourceBase):
      'Switch on the HgAr lamp only (let it warm up for 2 minutes)']
     """
 
+    #: Switched by a person, not by the computer.
+    by_hand = True
+
     def __init__(
         self,
         lasers_nm: tuple[float, ...],

@@ -249,3 +249,18 @@ def _csv_sensitivities(path, wavelengths_nm: ArrayLike) -> NDArray[np.float64]:
         [np.interp(grid, table[:, 0], table[:, c], left=0.0, right=0.0) for c in (1, 2, 3)]
     )
     return curves / curves.max()
+
+
+def blur_sigma_px(desc: RigDescription) -> dict[float, float]:
+    """The optics' true PSF sigma points: the described curve, moved along the
+    wavelength axis by ``as_built.focus_shift_nm`` (a camera at the best focus of
+    another wavelength).
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> blur_sigma_px(load_rig_description("sim"))
+    {405.0: 1.7, 520.0: 0.42, 635.0: 1.7}
+    """
+    shift = as_built_section(desc).focus_shift_nm
+    return {float(nm) + shift: float(sigma) for nm, sigma in desc.blur.sigma_px.items()}

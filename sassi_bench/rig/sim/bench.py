@@ -94,7 +94,7 @@ class VirtualBench:
         self.clock_h = drift.start_h if drift is not None else 0.0
         self._drift_state = DriftState()
         scale = _either(true.blur_scale, 1.0)
-        self.blur = PsfSigmaCurve({k: scale * v for k, v in desc.blur.sigma_px.items()})
+        self.blur = PsfSigmaCurve({k: scale * v for k, v in as_built.blur_sigma_px(desc).items()})
         fill_factor = _either(true.fill_factor, desc.slm.fill_factor)
         if desc.design is not None:  # spots from the traced design, as built
             self.renderer: SpectralRenderer = DesignRenderer(

@@ -12,9 +12,14 @@ can be built otherwise too (``as_built.relay_scale``, ``relay_rotation_deg``,
 :meth:`~sassi_bench.optics.relay.SpectralRelay.with_relay`). A design rig's bench is its
 design with the surfaces ``as_built.design`` changes (a decentred lens, a defocused
 camera, a rolled prism), traced like the description.
+A bench not yet aligned has its prism rolled (``as_built.prism_roll_deg``).
 """
 
 from __future__ import annotations
+
+import copy
+
+import numpy as np
 
 from sassi_bench.optics.design import DesignRelay, design_relay, with_override
 from sassi_bench.optics.relay import SpectralRelay
@@ -56,7 +61,13 @@ def bench_relay(desc: RigDescription) -> SpectralRelay | DesignRelay:
         offset_px=true.relay_offset_px,
         distortion_k1=true.relay_distortion_k1,
     )
-    return relay.with_prism(prism_glass(desc), prism_apex_deg(desc))
+    relay = relay.with_prism(prism_glass(desc), prism_apex_deg(desc))
+    if true.prism_roll_deg == 0.0:
+        return relay
+    # A bench not yet aligned: the prism turned about the optical axis; the camera stays put.
+    rolled = copy.copy(relay)
+    rolled.roll_rad = relay.roll_rad + np.deg2rad(true.prism_roll_deg)
+    return rolled
 
 
 def bench_design_relay(desc: RigDescription) -> DesignRelay:

@@ -79,6 +79,10 @@ class AsBuiltConfig:
     #: A design rig built off its design: ``{surfaces: {N: {key: value}}, image: {...},
     #: object_distance_mm: ...}`` (:func:`~sassi_bench.optics.design.with_override`).
     design: dict[str, Any] | None = None
+    #: The prism rolled about the optical axis beyond its described alignment (degrees).
+    prism_roll_deg: float = 0.0
+    #: The camera at the best focus of another wavelength: the blur curve moved (nm).
+    focus_shift_nm: float = 0.0
 
 
 @dataclass(frozen=True)

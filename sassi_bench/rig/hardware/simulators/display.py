@@ -1,12 +1,36 @@
-"""A virtual dual-head X server (Xorg's dummy driver) for the SLM display tests."""
+"""A virtual dual-head X server (Xorg's dummy driver): the SLM's monitor without an SLM.
+
+:class:`DummyXServer` starts Xorg with two monitors, ``DUMMY0`` (the operator's) and
+``DUMMY1`` (the SLM's, of the SLM's size, to its right), so the SLM window
+(:class:`~sassi_bench.rig.hardware.slm_display.DisplaySlm`) opens, places itself and paints
+as on a bench, and what it shows can be grabbed back from the server
+(:meth:`DummyXServer.grab_slm`).
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> if xorg_missing() is None:  # doctest: +SKIP
+...     server = DummyXServer(pathlib.Path(tempfile.mkdtemp()), (640, 400))
+...     server.slm
+...     server.close()
+('DUMMY1', 640, 400, 800, 0)
+"""
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
 import shutil
+import signal
 import subprocess
 import time
 from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["INSTALL_HINT", "DummyXServer", "xorg_missing"]
 
 INSTALL_HINT = "apt-get install xserver-xorg-core xserver-xorg-video-dummy x11-xserver-utils"
 
@@ -50,6 +74,12 @@ def xorg_missing() -> str | None:
     return None
 
 
+def _die_with_parent() -> None:  # pragma: no cover - runs in the child
+    """Linux: the X server ends when the process that started it dies (even killed)."""
+    with contextlib.suppress(OSError):
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+
+
 def _free_display() -> int:
     for number in range(40, 200):
         if (
@@ -86,6 +116,7 @@ class DummyXServer:
             ],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
+            preexec_fn=_die_with_parent,
         )
         socket = Path(f"/tmp/.X11-unix/X{self.number}")
         deadline = time.monotonic() + 15
@@ -120,7 +151,23 @@ class DummyXServer:
         self._xrandr("--addmode", output, mode, check=True)
         self._xrandr("--output", output, "--mode", mode, "--pos", f"{x}x0", check=True)
 
+    def grab_slm(self) -> NDArray[np.uint8]:
+        """The SLM monitor's pixels as the X server has them (green channel, uint8)."""
+        import mss
+
+        _, width, height, left, top = self.slm
+        region = {"left": left, "top": top, "width": width, "height": height}
+        if getattr(self, "_mss", None) is None:
+            self._mss = mss.MSS(display=self.display)
+        pixels = np.asarray(self._mss.grab(region))  # BGRA
+        return np.ascontiguousarray(pixels[..., 1])
+
     def close(self) -> None:
+        """Stop the server."""
+        grabber = getattr(self, "_mss", None)
+        if grabber is not None:
+            grabber.close()
+            self._mss = None
         if self.proc.poll() is None:
             self.proc.terminate()
             try:
