@@ -4,15 +4,16 @@
 2. The spacing rule is enforced: a sample that the samples before it forbid moves to the
    nearest free pixel of its own superpixel, or is dropped when none is free.
 3. The guide image is re-segmented around the samples (one SLIC assignment pass with the
-   samples as fixed centres), so every sample owns a region.
+   samples as fixed centres, each reaching :data:`REACH_SIDES` mean region sides), so
+   every sample owns a region.
 4. Every further pixel that keeps the rule is opened, so the mask measures as many streaks
    as the camera can hold; these extra pixels fall in the samples' regions and are
-   measured with them. By default the pixels the regions represent worst (the 5 % whose
-   features differ most from their sample's) are tried first, worst first, then the rest
-   row by row: thin structures that no superpixel isolates (PCB tracks) get pixels. On 13
-   tracks 2 px wide across a 400 x 640 SLM (spacing 41 columns by 20 rows), 60
-   superpixels: this order put pixels on 12 tracks, row order on 3, a random mask of the
-   same size on 8 (a uniform one on 1).
+   measured with them. By default the pixels the samples represent worst (the 5 % whose
+   features differ most from those of the best sample within one region side) are tried
+   first, worst first, then the rest row by row: thin structures that no superpixel
+   isolates (PCB tracks) get pixels. On 13 tracks 2 px wide across a 400 x 640 SLM
+   (spacing 41 columns by 20 rows), 60 superpixels: this order put pixels on 12 tracks,
+   row order on 3, a random mask of the same size on 8 (a uniform one on 1).
 
 Steps 1, 2 and 4 are one compiled pass (:mod:`sassi_bench.snapshot._kernels`); step 3 is
 :func:`segment_around_samples`, public because video mode re-segments frame ``t``'s guide
@@ -35,6 +36,19 @@ from sassi_bench.snapshot.masks import MaskBuilder
 from sassi_bench.snapshot.superpixels import Superpixels, guide_features
 
 __all__ = ["AdaptiveMask", "adaptive_mask", "place_samples", "segment_around_samples"]
+
+#: How far a sample's region may reach, in mean region sides ``S`` each way (Chebyshev).
+#: SLIC searches ``S`` each way (a 2S x 2S window, Achanta et al. 2012), which suits centres
+#: on a near-regular grid; an adaptive mask's samples are sparse and uneven (rows a pitch
+#: apart, far apart along a row), so such regions stop short of pixels of their own colour
+#: and leave them to a sample of another. The SASSI authors' ``slic_update`` searches 2S
+#: each way, as here (measurement: docs/notes/snapshot-regions.md).
+REACH_SIDES = 2
+#: The reach of the regions the residual-first fill (step 4) judges coverage by: SLIC's
+#: ``S``. A pixel is badly represented when no sample of its colour is near; with 2S one
+#: track's samples stand for the next track's pixels, and on the 13 PCB tracks of step 4
+#: the fill put pixels on 10 instead of 12.
+FILL_REACH_SIDES = 1
 
 
 @dataclass(frozen=True)
@@ -126,14 +140,15 @@ def segment_around_samples(
     compactness: float = 10.0,
     features: ArrayLike | None = None,
     planes: NDArray[np.float32] | None = None,
+    reach: float = REACH_SIDES,
 ) -> NDArray[np.int32]:
     """Step 3: give every SLM pixel to a sample, by one SLIC assignment pass.
 
-    Each pixel within ``S`` (Chebyshev) of a sample, ``S = sqrt(H W / N)`` the mean region
-    side, takes the sample minimising ``|f - f_s|^2 + (compactness / S)^2 |p - p_s|^2``
-    (SLIC's distance; ``f`` the CIELAB features of :func:`guide_features`, ``f_s`` their
-    mean over the 3 x 3 pixels around the sample, ``p`` the position). Pixels no sample
-    reaches take the nearest sample.
+    Each pixel within ``reach * S`` (Chebyshev) of a sample, ``S = sqrt(H W / N)`` the
+    mean region side, takes the sample minimising
+    ``|f - f_s|^2 + (compactness / S)^2 |p - p_s|^2`` (SLIC's distance; ``f`` the CIELAB
+    features of :func:`guide_features`, ``f_s`` their mean over the 3 x 3 pixels around
+    the sample, ``p`` the position). Pixels no sample reaches take the nearest sample.
 
     Parameters
     ----------
@@ -148,6 +163,8 @@ def segment_around_samples(
     planes
         The same features as (C, H, W) float32 planes (:attr:`Superpixels.planes`; skips
         the rearrangement).
+    reach
+        How far a region may reach, in mean region sides (:data:`REACH_SIDES`).
 
     Returns
     -------
@@ -189,7 +206,7 @@ def segment_around_samples(
     _kernels.assign_to_samples(
         planes,
         points,
-        int(np.ceil(side)),
+        int(np.ceil(reach * side)),
         np.float32((compactness / side) ** 2),
         labels,
         distance,
@@ -274,11 +291,14 @@ def adaptive_mask(
         builder = MaskBuilder.empty(spacing)
         builder.fill(np.ravel_multi_index((samples[:, 0], samples[:, 1]), (h, w)))
         if fill == "residual":
-            # How badly each pixel's region sample stands for it (squared feature distance).
+            # How badly the sample nearest in colour within S stands for each pixel (squared
+            # feature distance).
+            near = segment_around_samples(
+                guide_slm, samples, compactness=compactness, features=features,
+                planes=segments.planes, reach=FILL_REACH_SIDES,
+            )  # fmt: skip
             centres = features[samples[:, 0], samples[:, 1]]
-            residual = np.einsum(
-                "ijc,ijc->ij", features - centres[labels], features - centres[labels]
-            )
+            residual = np.einsum("ijc,ijc->ij", features - centres[near], features - centres[near])
             flat = residual.ravel()
             count = max(1, int(residual_share * flat.size))
             worst = np.argpartition(flat, flat.size - count)[flat.size - count :]
