@@ -25,9 +25,9 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.plots.snapshot import snapshot_quick_look
 from sassi_bench.snapshot import (
     FrameReconstruction,
-    adaptive_mask,
     adaptive_samples,
     guide_on_slm,
+    planned_mask,
     reconstruct_frame,
     snapshot_dataset,
     write_cube,
@@ -75,8 +75,9 @@ def procedure_spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -
 def adaptive_planner(
     bundle: CalibrationBundle, spacing: MaskSpacing, compactness: float
 ) -> Callable[[NDArray[Any]], NDArray[np.bool_]]:
-    """The next frame's mask as a function of a raw guide image: its adaptive mask on the
-    SLM grid (what :func:`~sassi_bench.acquire.snapshots.capture_snapshots` calls).
+    """The next frame's mask as a function of a raw guide image: its planned adaptive mask
+    on the SLM grid (:func:`~sassi_bench.snapshot.adaptive.planned_mask`; what
+    :func:`~sassi_bench.acquire.snapshots.capture_snapshots` calls).
 
     Parameters
     ----------
@@ -98,7 +99,7 @@ def adaptive_planner(
     """
 
     def next_mask(guide: NDArray[Any]) -> NDArray[np.bool_]:
-        return adaptive_mask(guide_on_slm(bundle, guide), spacing, compactness=compactness).mask
+        return planned_mask(guide_on_slm(bundle, guide), spacing, compactness=compactness).mask
 
     return next_mask
 

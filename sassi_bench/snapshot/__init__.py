@@ -24,6 +24,7 @@ from sassi_bench.snapshot.adaptive import (
     AdaptiveMask,
     adaptive_mask,
     place_samples,
+    planned_mask,
     segment_around_samples,
 )
 from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube, spectral_basis
@@ -76,6 +77,7 @@ __all__ = [
     "measure_samples",
     "measure_with_background",
     "place_samples",
+    "planned_mask",
     "psnr",
     "random_mask",
     "rank1_cube",

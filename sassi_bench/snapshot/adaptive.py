@@ -4,15 +4,16 @@
 2. The spacing rule is enforced: a sample that the samples before it forbid moves to the
    nearest free pixel of its own superpixel, or is dropped when none is free.
 3. The guide image is re-segmented around the samples (one SLIC assignment pass with the
-   samples as fixed centres), so every sample owns a region.
+   samples as fixed centres, each reaching :data:`REACH_SIDES` mean region sides), so
+   every sample owns a region.
 4. Every further pixel that keeps the rule is opened, so the mask measures as many streaks
    as the camera can hold; these extra pixels fall in the samples' regions and are
-   measured with them. By default the pixels the regions represent worst (the 5 % whose
-   features differ most from their sample's) are tried first, worst first, then the rest
-   row by row: thin structures that no superpixel isolates (PCB tracks) get pixels. On 13
-   tracks 2 px wide across a 400 x 640 SLM (spacing 41 columns by 20 rows), 60
-   superpixels: this order put pixels on 12 tracks, row order on 3, a random mask of the
-   same size on 8 (a uniform one on 1).
+   measured with them. By default the pixels the samples represent worst (the 5 % whose
+   features differ most from those of the best sample within one region side) are tried
+   first, worst first, then the rest row by row: thin structures that no superpixel
+   isolates (PCB tracks) get pixels. On 13 tracks 2 px wide across a 400 x 640 SLM
+   (spacing 41 columns by 20 rows), 60 superpixels: this order put pixels on 12 tracks,
+   row order on 3, a random mask of the same size on 8 (a uniform one on 1).
 
 Steps 1, 2 and 4 are one compiled pass (:mod:`sassi_bench.snapshot._kernels`); step 3 is
 :func:`segment_around_samples`, public because video mode re-segments frame ``t``'s guide
@@ -34,7 +35,34 @@ from sassi_bench.snapshot import _kernels
 from sassi_bench.snapshot.masks import MaskBuilder
 from sassi_bench.snapshot.superpixels import Superpixels, guide_features
 
-__all__ = ["AdaptiveMask", "adaptive_mask", "place_samples", "segment_around_samples"]
+__all__ = [
+    "AdaptiveMask",
+    "adaptive_mask",
+    "guide_rank1_error",
+    "place_samples",
+    "planned_mask",
+    "segment_around_samples",
+]
+
+#: How far a sample's region may reach, in mean region sides ``S`` each way (Chebyshev).
+#: SLIC searches ``S`` each way (a 2S x 2S window, Achanta et al. 2012), which suits centres
+#: on a near-regular grid; an adaptive mask's samples are sparse and uneven (rows a pitch
+#: apart, far apart along a row), so such regions stop short of pixels of their own colour
+#: and leave them to a sample of another. The SASSI authors' ``slic_update`` searches 2S
+#: each way, as here (measurement: docs/notes/snapshot-regions.md).
+REACH_SIDES = 2
+#: The reach of the regions the residual-first fill (step 4) judges coverage by: SLIC's
+#: ``S``. A pixel is badly represented when no sample of its colour is near; with 2S one
+#: track's samples stand for the next track's pixels, and on the 13 PCB tracks of step 4
+#: the fill put pixels on 10 instead of 12.
+FILL_REACH_SIDES = 1
+#: Gaussian sigma (SLM px) of the smoothing the guide image gets before a plan is drawn
+#: from it: enough to take the guide camera's pixel noise out of the superpixels, well
+#: under a region's size.
+PLAN_SMOOTHING_PX = 1.0
+#: The superpixel counts :func:`planned_mask` draws candidate masks for, as factors on
+#: :func:`default_segments`.
+PLAN_SEGMENT_FACTORS = (1.0, 0.9, 1.1, 0.8, 1.2, 0.85)
 
 
 @dataclass(frozen=True)
@@ -126,14 +154,15 @@ def segment_around_samples(
     compactness: float = 10.0,
     features: ArrayLike | None = None,
     planes: NDArray[np.float32] | None = None,
+    reach: float = REACH_SIDES,
 ) -> NDArray[np.int32]:
     """Step 3: give every SLM pixel to a sample, by one SLIC assignment pass.
 
-    Each pixel within ``S`` (Chebyshev) of a sample, ``S = sqrt(H W / N)`` the mean region
-    side, takes the sample minimising ``|f - f_s|^2 + (compactness / S)^2 |p - p_s|^2``
-    (SLIC's distance; ``f`` the CIELAB features of :func:`guide_features`, ``f_s`` their
-    mean over the 3 x 3 pixels around the sample, ``p`` the position). Pixels no sample
-    reaches take the nearest sample.
+    Each pixel within ``reach * S`` (Chebyshev) of a sample, ``S = sqrt(H W / N)`` the
+    mean region side, takes the sample minimising
+    ``|f - f_s|^2 + (compactness / S)^2 |p - p_s|^2`` (SLIC's distance; ``f`` the CIELAB
+    features of :func:`guide_features`, ``f_s`` their mean over the 3 x 3 pixels around
+    the sample, ``p`` the position). Pixels no sample reaches take the nearest sample.
 
     Parameters
     ----------
@@ -148,6 +177,8 @@ def segment_around_samples(
     planes
         The same features as (C, H, W) float32 planes (:attr:`Superpixels.planes`; skips
         the rearrangement).
+    reach
+        How far a region may reach, in mean region sides (:data:`REACH_SIDES`).
 
     Returns
     -------
@@ -189,7 +220,7 @@ def segment_around_samples(
     _kernels.assign_to_samples(
         planes,
         points,
-        int(np.ceil(side)),
+        int(np.ceil(reach * side)),
         np.float32((compactness / side) ** 2),
         labels,
         distance,
@@ -274,11 +305,14 @@ def adaptive_mask(
         builder = MaskBuilder.empty(spacing)
         builder.fill(np.ravel_multi_index((samples[:, 0], samples[:, 1]), (h, w)))
         if fill == "residual":
-            # How badly each pixel's region sample stands for it (squared feature distance).
+            # How badly the sample nearest in colour within S stands for each pixel (squared
+            # feature distance).
+            near = segment_around_samples(
+                guide_slm, samples, compactness=compactness, features=features,
+                planes=segments.planes, reach=FILL_REACH_SIDES,
+            )  # fmt: skip
             centres = features[samples[:, 0], samples[:, 1]]
-            residual = np.einsum(
-                "ijc,ijc->ij", features - centres[labels], features - centres[labels]
-            )
+            residual = np.einsum("ijc,ijc->ij", features - centres[near], features - centres[near])
             flat = residual.ravel()
             count = max(1, int(residual_share * flat.size))
             worst = np.argpartition(flat, flat.size - count)[flat.size - count :]
@@ -298,3 +332,96 @@ def default_segments(spacing: MaskSpacing) -> int:
     """
     h, w = spacing.slm_shape
     return max(1, int(np.ceil(h / spacing.pitch) * np.ceil(w / spacing.uniform_step)))
+
+
+def guide_rank1_error(guide_slm: ArrayLike, plan: AdaptiveMask) -> float:
+    """How well ``plan`` would reconstruct the guide image itself: the mean squared error of
+    rank-1 per region (:func:`~sassi_bench.snapshot.reconstruct.rank1_factors`) fed the
+    guide's own colour at the open pixels, against the guide (its peak scaled to 1).
+
+    The guide is the one image of the scene a plan can be judged on before the spectral
+    frame exists; a mask that leaves a patch of colour without a sample of its own
+    reconstructs the guide badly for the same reason it reconstructs the spectra badly.
+
+    Examples
+    --------
+    >>> image = np.zeros((6, 10, 3), np.float32); image[:, 5:, 0] = 1.0
+    >>> samples = np.array([[2, 1], [3, 8]], np.int32)
+    >>> mask = np.zeros((6, 10), bool); mask[2, 1] = mask[3, 8] = True
+    >>> labels = segment_around_samples(image, samples)
+    >>> guide_rank1_error(image, AdaptiveMask(mask, samples, labels))
+    0.0
+    """
+    from sassi_bench.snapshot.reconstruct import rank1_factors
+
+    image = np.asarray(guide_slm, np.float32)
+    if image.ndim == 2:
+        image = image[..., None]
+    image = image / max(float(image.max()), np.finfo(np.float32).tiny)
+    rows, cols = np.nonzero(plan.mask)
+    cube = rank1_factors(image, plan.labels, plan.mask, image[rows, cols].astype(np.float64))
+    return float(np.mean((cube.dense() - image) ** 2))
+
+
+def planned_mask(
+    guide_slm: ArrayLike,
+    spacing: MaskSpacing,
+    *,
+    compactness: float = 10.0,
+    smoothing_px: float = PLAN_SMOOTHING_PX,
+    segment_factors: tuple[float, ...] = PLAN_SEGMENT_FACTORS,
+) -> AdaptiveMask:
+    """The adaptive mask a snapshot shows: of the adaptive masks of the smoothed guide image
+    for a few superpixel counts, the one whose rank-1 reconstructs the guide best
+    (:func:`guide_rank1_error`).
+
+    One adaptive mask depends on the guide camera's noise: its superpixels, and so where
+    the spacing rule lets samples sit, move with it, and a mask that happens to leave a
+    patch of colour without a sample of its own reconstructs that patch with another's
+    spectrum. Smoothing takes the pixel noise out of the superpixels, and choosing among
+    several masks by how well each reproduces the guide keeps one that covers the scene's
+    colours (the figures and their spread over noise realisations:
+    ``benchmarks/bench_snapshot_noise.py``). Deterministic: the same guide image gives the
+    same mask, so :func:`~sassi_bench.snapshot.pipeline.adaptive_samples` recovers its
+    samples.
+
+    Parameters
+    ----------
+    guide_slm
+        (H, W) or (H, W, 3) guide image on the SLM grid (:func:`guide_on_slm`).
+    spacing
+        The rule (:meth:`CalibrationBundle.mask_spacing`).
+    compactness
+        SLIC's weight of space against colour.
+    smoothing_px
+        Gaussian sigma (SLM px) applied to the guide first (0: none).
+    segment_factors
+        Superpixel counts of the candidates, as factors on :func:`default_segments`.
+
+    Returns
+    -------
+    AdaptiveMask
+        The chosen mask, its samples and their regions on the smoothed guide.
+
+    Examples
+    --------
+    >>> plan = planned_mask(guide_on_slm(bundle, preview), bundle.mask_spacing())  # doctest: +SKIP
+    """
+    import cv2
+
+    image = np.asarray(guide_slm, np.float32)
+    if smoothing_px > 0:
+        image = cv2.GaussianBlur(image, (0, 0), float(smoothing_px))
+    base = default_segments(spacing)
+    counts = dict.fromkeys(max(1, round(base * factor)) for factor in segment_factors)
+    if not counts:
+        raise ProcedureError(
+            step_error("adaptive mask", "no segment factor given", "pass one factor or more")
+        )
+    best, best_error = None, np.inf
+    for count in counts:
+        plan = adaptive_mask(image, spacing, n_segments=count, compactness=compactness)
+        error = guide_rank1_error(image, plan)
+        if error < best_error:
+            best, best_error = plan, error
+    return best

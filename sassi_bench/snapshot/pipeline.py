@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
-from sassi_bench.snapshot.adaptive import adaptive_mask, segment_around_samples
+from sassi_bench.snapshot.adaptive import planned_mask, segment_around_samples
 from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube
 from sassi_bench.snapshot.guided import guided_factors
 from sassi_bench.snapshot.reconstruct import measure_samples, rank1_factors
@@ -82,10 +82,11 @@ def adaptive_samples(
     *,
     compactness: float,
 ) -> NDArray[np.int32]:
-    """The region centres of a mask: the adaptive samples when ``mask`` is the adaptive
-    mask of ``planned_on`` (a guide image on the SLM grid), else every open pixel.
+    """The region centres of a mask: the adaptive samples when ``mask`` is the planned
+    mask of ``planned_on`` (:func:`~sassi_bench.snapshot.adaptive.planned_mask` of a guide
+    image on the SLM grid), else every open pixel.
 
-    The adaptive mask is deterministic, so recomputing it from the guide image it was
+    The planned mask is deterministic, so recomputing it from the guide image it was
     planned on recovers its samples; a mask that differs (a uniform, random or user mask,
     or other settings) falls back to its open pixels.
 
@@ -94,7 +95,7 @@ def adaptive_samples(
     >>> samples = adaptive_samples(mask, guide_on_slm(bundle, preview), spacing,
     ...                            compactness=10.0)  # doctest: +SKIP
     """
-    planned = adaptive_mask(planned_on, spacing, compactness=compactness)
+    planned = planned_mask(planned_on, spacing, compactness=compactness)
     if planned.mask.shape == mask.shape and np.array_equal(planned.mask, mask):
         return planned.samples
     return np.argwhere(mask).astype(np.int32)

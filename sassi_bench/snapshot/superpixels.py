@@ -1,74 +1,14 @@
 """Superpixels of the guide image on the SLM grid, and the features they are built from.
 
-OpenCV's ximgproc SLIC was used, not scikit-image's ``slic``: on a 698 x 931 guide image
-(the SASSI paper's SLM crop) of 400 known regions (random colours, 2 % noise), asking
-for 1500 superpixels, 2 shared cores (medians of 3 runs, both loaded alike):
-
-============================  =========  ===============  ==================
-method                        time (ms)  boundary recall  undersegmentation
-============================  =========  ===============  ==================
-skimage ``slic``, 10 iter.    1190       0.975            0.075
-OpenCV SLIC, 10 iter.         950        0.997            0.013
-skimage ``slic``, 2 iter.     430        0.958            0.096
-OpenCV SLIC, 2 iter.          250        0.994            0.019
-OpenCV SLIC, 1 iter.          170        0.991            0.034
-============================  =========  ===============  ==================
-
-(boundary recall: share of true boundary pixels within 2 px of a superpixel boundary;
-undersegmentation: Neubert and Protzel's corrected error.) OpenCV is faster at every
-iteration count and at least as accurate, so it was the default, with 2 iterations; its
-SLICO and MSLIC variants were slower and less accurate here. Features are CIELAB
-(OpenCV's float conversion: L 0-100), as SLIC expects.
-
-Video needs it faster. The same test asking for 967 superpixels (the lattice of the
-bundle's rule at an 8-row pitch), one machine heavily shared, medians of 3:
-
-==================================  =========  ===============  ==================
-method                              time (ms)  boundary recall  undersegmentation
-==================================  =========  ===============  ==================
-OpenCV SLIC, 2 iter.                398        0.987            0.026
-OpenCV SLIC, 1 iter.                323        0.974            0.058
-OpenCV SLIC on 8-bit Lab, 2 iter.   454        0.982            0.035
-OpenCV SLIC at half size, 2 iter.    79        0.986            0.074
-OpenCV SEEDS, 2 iter.               302        0.913            0.140
-OpenCV LSC, 2 iter.                 2128       0.980            0.038
-==================================  =========  ===============  ==================
-
-SLIC on the features shrunk by 2 (area average), its labels enlarged back (nearest) is 5x
-faster with the same boundary recall; its boundaries are blocky at 2 px, which the
-undersegmentation counts. The superpixels only place the samples (at their centroids, which
-a 1 px boundary barely moves); the regions the cube is spread over come from the
-full-resolution re-segmentation around the samples
-(:func:`~sassi_bench.snapshot.adaptive.segment_around_samples`). Video
-(:class:`~sassi_bench.snapshot.video.VideoPipeline`) shrinks by :data:`VIDEO_SHRINK`;
-single snapshots keep full size: on 13 PCB tracks 2 px wide (the adaptive mask's test) the
-residual-first fill put pixels on 11 tracks from half-size superpixels instead of 12.
-
-The SLIC is now our own, compiled (:mod:`sassi_bench.snapshot._slic`): each window row of
-a centre is one vectorised pass over feature planes, where OpenCV's tests every pixel with
-branches. The same test, medians of 5, CPU of the calling thread and of the whole process
-(OpenCV converts to CIELAB on helper threads), 2 shared cores
-(``benchmarks/bench_superpixels.py``; the scene moved 2 px and 0.25 degrees from the frame
-before):
-
-=============================================  ======  ======  ===============  ==================
-method                                         thread  process boundary recall  undersegmentation
-=============================================  ======  ======  ===============  ==================
-OpenCV SLIC at half size, 2 iter.              29 ms   34 ms   0.988            0.073
-ours at half size, 2 iter.                     15 ms   19 ms   0.989            0.067
-ours at half size, 1 iter.                     11 ms   16 ms   0.979            0.086
-ours at half size, 1 iter. from last centres   12 ms   14 ms   0.985            0.075
-ours at half size, 2 iter. from last centres   13 ms   16 ms   0.990            0.064
-OpenCV SLIC at full size, 2 iter.              79 ms   81 ms   0.983            0.034
-ours at full size, 2 iter.                     42 ms   45 ms   0.987            0.027
-=============================================  ======  ======  ===============  ==================
-
-Ours is twice as fast at the same or better accuracy, so it replaces OpenCV's. A video starts
-each frame's clustering from the last frame's centres (``seeds``), one kept per cell of the
-starting grid (the one nearest the cell's centre, else the grid point): with 2 iterations it
-is the most accurate of these. Carried over as they were, centres drift with a panning scene
-and leave its entering side bare (recall 0.963 and 823 superpixels after 40 frames of 3 px
-a frame); kept one per cell they hold 0.983-0.990 and about 944, as a fresh grid does.
+SLIC on CIELAB features (OpenCV's float conversion: L 0-100), our own compiled version
+(:mod:`sassi_bench.snapshot._slic`) with :data:`ITERATIONS` iterations; video
+(:class:`~sassi_bench.snapshot.video.VideoPipeline`) clusters the features shrunk by
+:data:`VIDEO_SHRINK` and starts each frame from the last frame's centres (``seeds``), one
+kept per cell of the starting grid. The superpixels only place the samples; the regions
+the cube is spread over come from the full-resolution re-segmentation around the samples
+(:func:`~sassi_bench.snapshot.adaptive.segment_around_samples`). Why these choices, with
+the measurements against OpenCV's and scikit-image's SLIC: docs/notes/snapshot-superpixels.md
+and ``benchmarks/bench_superpixels.py``.
 """
 
 from __future__ import annotations
@@ -86,9 +26,9 @@ from sassi_bench.snapshot import _kernels, _slic
 
 __all__ = ["Superpixels", "guide_features", "guide_on_slm", "superpixels"]
 
-#: SLIC iterations (see the module docstring for the measurement).
+#: SLIC iterations (measurement: docs/notes/snapshot-superpixels.md).
 ITERATIONS = 2
-#: Video's SLIC runs on the features shrunk by this factor (see the module docstring).
+#: Video's SLIC runs on the features shrunk by this factor (docs/notes/snapshot-superpixels.md).
 VIDEO_SHRINK = 2
 
 #: The guide images accepted: grey, one channel or RGB.

@@ -124,10 +124,9 @@ def sassi_root(calibrated_sim, sim_bundle, exported, tmp_path_factory):
     exported with its chosen window in ``exp1/``. Returns (root, export result, video)."""
     import os
 
-    from sassi_bench.workflows.procedure import load_procedure
-
     from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
     from sassi_bench.export.adaptive_cassi import export_adaptive_cassi
+    from sassi_bench.procedure import load_procedure
     from sassi_bench.workflows.snapshot import take_snapshots
 
     rig = calibrated_sim[0]

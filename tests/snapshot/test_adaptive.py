@@ -10,6 +10,8 @@ from sassi_bench.snapshot import (
     adaptive_mask,
     guide_on_slm,
     place_samples,
+    planned_mask,
+    rank1_factors,
     segment_around_samples,
     superpixels,
 )
@@ -183,3 +185,68 @@ def test_placement_matches_the_brute_force_rule(helpers, seed):
         expected_mask, expected = reference_placement(labels, spacing, helpers.pairs_in_conflict)
         np.testing.assert_array_equal(samples, expected)
         np.testing.assert_array_equal(mask, expected_mask)
+
+
+def colour_cells(shape, cells, seed):
+    """A scene of ``cells`` flat-coloured Voronoi cells under a left-to-right ramp of light."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    centres = np.stack([rng.uniform(0, h, cells), rng.uniform(0, w, cells)], axis=1)
+    rows, cols = np.mgrid[:h, :w]
+    cell = cKDTree(centres).query(np.stack([rows.ravel(), cols.ravel()], axis=1))[1]
+    colours = rng.uniform(0.05, 1.0, (cells, 3)).astype(np.float32)
+    light = (0.6 + 0.4 * cols / w).astype(np.float32)
+    return colours[cell.reshape(h, w)] * light[..., None]
+
+
+def test_planned_masks_follow_the_scene_not_the_guide_noise(synthetic_spacing):
+    """Three noise realisations (2 %) of a guide of 120 colour cells: each plan's rank-1 of
+    the clean scene from its open pixels (regions on a second noisy frame, as a snapshot
+    reconstructs them). Measured: one adaptive mask 29.35, 26.84, 26.27 dB (spread 3.08);
+    the planned mask 30.17, 32.24, 30.29 dB (spread 2.07)."""
+    h, w = synthetic_spacing.slm_shape
+    clean = colour_cells((h, w), 120, seed=1)
+    valid = np.zeros((h, w), bool)
+    valid[8:-8, 8:-8] = True
+
+    def psnr_of(plan, frame):
+        labels = segment_around_samples(frame, plan.samples)
+        rows, cols = np.nonzero(plan.mask)
+        cube = rank1_factors(frame, labels, plan.mask, clean[rows, cols].astype(np.float64))
+        est, ref = cube.dense()[valid], clean[valid]
+        gain = (est * ref).sum() / (ref * ref).sum()
+        return 10 * np.log10((gain * ref).max() ** 2 / np.mean((est - gain * ref) ** 2))
+
+    scores = {"adaptive": [], "planned": []}
+    for k in range(3):
+        rng = np.random.default_rng(100 + k)
+        preview = clean + rng.normal(0, 0.02, clean.shape).astype(np.float32)
+        frame = clean + rng.normal(0, 0.02, clean.shape).astype(np.float32)
+        scores["adaptive"].append(psnr_of(adaptive_mask(preview, synthetic_spacing), frame))
+        planned = planned_mask(preview, synthetic_spacing)
+        assert np.array_equal(planned.mask, planned_mask(preview, synthetic_spacing).mask)
+        scores["planned"].append(psnr_of(planned, frame))
+    spread = {name: max(v) - min(v) for name, v in scores.items()}
+    assert min(scores["planned"]) >= max(scores["adaptive"]) - 0.5, scores
+    assert np.mean(scores["planned"]) >= np.mean(scores["adaptive"]) + 2.0, scores
+    assert spread["planned"] <= 0.8 * spread["adaptive"], scores
+
+
+def test_the_planned_mask_finds_more_thin_tracks_than_one_adaptive_mask(synthetic_spacing):
+    """The plan's smoothing (1 px) does not lose 2 px tracks: at the default superpixel
+    count the planned mask has pixels on more of the 13 tracks than the adaptive mask
+    (measured 9 against 5)."""
+    h, w = synthetic_spacing.slm_shape
+    guide = np.full((h, w, 3), [0.05, 0.25, 0.1], np.float32)
+    tracks = np.arange(13, h - 5, 31)
+    for r in tracks:
+        guide[r : r + 2, 20 : w - 20] = [0.9, 0.7, 0.3]
+    guide += np.random.default_rng(0).normal(0, 0.01, guide.shape).astype(np.float32)
+
+    def tracks_hit(mask):
+        return sum(bool(mask[r : r + 2].any()) for r in tracks)
+
+    planned = tracks_hit(planned_mask(guide, synthetic_spacing).mask)
+    assert planned >= tracks_hit(adaptive_mask(guide, synthetic_spacing).mask) + 2
