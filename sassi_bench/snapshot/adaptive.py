@@ -49,7 +49,7 @@ __all__ = [
 #: on a near-regular grid; an adaptive mask's samples are sparse and uneven (rows a pitch
 #: apart, far apart along a row), so such regions stop short of pixels of their own colour
 #: and leave them to a sample of another. The SASSI authors' ``slic_update`` searches 2S
-#: each way, as here (measurement: docs/notes/snapshot-regions.md).
+#: each way, as here (measurement: docs/notes/2026-11-29-snapshot-regions.md).
 REACH_SIDES = 2
 #: The reach of the regions the residual-first fill (step 4) judges coverage by: SLIC's
 #: ``S``. A pixel is badly represented when no sample of its colour is near; with 2S one

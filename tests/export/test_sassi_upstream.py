@@ -146,7 +146,7 @@ def test_our_rank1_leads_theirs(scored):
     """On the same capture this package's rank-1 beats their rank-1 (measured 35.18
     against 31.36 dB on the planned mask's capture; 33.89 against 31.35 dB on one adaptive
     mask's, and 30.67 dB there while its regions reached one mean region side from their
-    sample, where their slic_update reaches two: docs/notes/snapshot-regions.md)."""
+    sample, where their slic_update reaches two: docs/notes/2026-11-29-snapshot-regions.md)."""
     scores, *_ = scored
     assert scores["ours_rank1"] >= scores["theirs_rank1"], scores
 
