@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sassi_bench.plots.png import figure_png
 
-__all__ = ["show"]
+__all__ = ["say_clipping", "show"]
 
 
 def show(figure) -> None:
@@ -19,3 +19,19 @@ def show(figure) -> None:
 
     png = figure if isinstance(figure, bytes) else figure_png(figure)
     display(Image(data=png, format="png"))
+
+
+def say_clipping(views, rig) -> None:
+    """Print how much of each shown frame is saturated or clipped at zero, with advice
+    (:func:`sassi_bench.acquire.saturation.clipping_of_views`); a frame clipped beyond a
+    trace is marked with a warning sign.
+
+    Examples
+    --------
+    >>> say_clipping(capture_views(rig), rig)  # doctest: +SKIP
+    ⚠ spectral all open: 63.0 % of pixels at full scale (4095 ADU), 0.0 % at zero. ...
+    """
+    from sassi_bench.acquire.saturation import clipping_of_views
+
+    for found in clipping_of_views(views, rig):
+        print(("" if found.ok else "\u26a0 ") + found.describe())

@@ -16,7 +16,15 @@ import pytest
 NOTEBOOKS = sorted((Path(__file__).resolve().parents[2] / "notebooks").glob("*.ipynb"))
 
 #: Calls that publish a bundle or keep a fit for publishing later.
-KEEPERS = {"publish_spectral", "publish_guide", "publish", "publish_derived"}
+KEEPERS = {
+    "publish_spectral",
+    "publish_guide",
+    "publish",
+    "publish_derived",
+    "publish_once",
+    "publish_spectral_once",
+    "publish_guide_once",
+}
 #: Calls that publish unless told not to.
 PUBLISH_BY_DEFAULT = {"run_spectral_calibration", "run_guide_registration"}
 
