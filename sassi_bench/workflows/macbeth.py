@@ -46,7 +46,9 @@ def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np
 
     Examples
     --------
-    >>> picture = guide_picture(open_rig("sim"), load(rig="sim"), "led")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        picture = guide_picture(open_rig("sim"), load(rig="sim"), "led")
     """
     if bundle.guide_to_slm is None:
         raise ProcedureError(
@@ -108,13 +110,15 @@ def run_macbeth(
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> from sassi_bench.bundle import load
-    >>> from sassi_bench.procedure import load_procedure
-    >>> result = run_macbeth(open_rig("sim"), load(rig="sim"),
-    ...                      load_procedure("macbeth_validation"))  # doctest: +SKIP
-    >>> result.passed, result.summary()["mean_de00"]  # doctest: +SKIP
-    (True, 0.16)
+    Not run here (it drives a bench and stores its frames)::
+
+        from sassi_bench import open_rig
+        from sassi_bench.bundle import load
+        from sassi_bench.procedure import load_procedure
+        result = run_macbeth(open_rig("sim"), load(rig="sim"),
+                             load_procedure("macbeth_validation"))
+        result.passed, result.summary()["mean_de00"]
+        # (True, 0.16)
     """
     scan_cfg = procedure["scan"]
     light, pitch = scan_cfg["light"], tuple(scan_cfg["pitch_px"])

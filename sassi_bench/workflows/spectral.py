@@ -343,7 +343,9 @@ def capture_spectral_sweeps(
 
     Examples
     --------
-    >>> sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")
     """
     run = SpectralRun(rig, dict(procedure), _session_id(session_id), data, progress)
     return run_steps(STEPS, run, CAPTURE_STEPS, procedure="spectral calibration").sweeps()
@@ -376,9 +378,11 @@ def run_spectral_calibration(
 
     Examples
     --------
-    >>> result = run_spectral_calibration(open_rig("sim"), proc)  # doctest: +SKIP
-    >>> result.bundle_path  # doctest: +SKIP
-    PosixPath('calib_data/sim/v0001')
+    Not run here (it drives a bench and stores its frames)::
+
+        result = run_spectral_calibration(open_rig("sim"), proc)
+        result.bundle_path
+        # PosixPath('calib_data/sim/v0001')
     """
     steps = [name for name in STEPS if publish_bundle or name != "publish"]
     run = SpectralRun(rig, dict(procedure), _session_id(session_id), data, progress, allow_failed)
@@ -427,7 +431,9 @@ def capture_lamp_frames(
 
     Examples
     --------
-    >>> session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")
     """
     desc = rig.description
     if not desc.wavelength_lamps:
