@@ -43,7 +43,7 @@ def test_full_scan_meets_the_accuracy_targets(colorchecker_scan):
     assert angle.mean() <= 1.4  # degrees; measured 0.78
     # Bright patches are much better than the mean, which the dark surround dominates.
     bright = np.linalg.norm(expected[measured], axis=1)
-    assert angle[bright > np.median(bright)].mean() <= 1.1  # measured 0.61
+    assert angle[bright > np.median(bright)].mean() <= 1.0  # measured 0.61
 
 
 def test_full_scan_offset_residual(colorchecker_scan):
