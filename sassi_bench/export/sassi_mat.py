@@ -62,7 +62,7 @@ Each capture (``adaptive_cassi.mat``) is written by :mod:`sassi_bench.export.ada
 
 Examples
 --------
-Not run here (it needs captured frames or the authors' code)::
+Not run here (it builds lookup tables over the whole camera)::
 
     from sassi_bench.bundle import load
     result = export_sassi_mat(load(rig="sim"), "for_sassi/")
@@ -164,7 +164,7 @@ def camera_shape_of(bundle: CalibrationBundle) -> tuple[int, int]:
 
     Examples
     --------
-    Not run here (it needs captured frames or the authors' code)::
+    Not run here (it needs the bundle of a rig that names its spectral camera)::
 
         camera_shape_of(load(rig="sim"))
         # (512, 800)
@@ -220,10 +220,8 @@ def preset_wavelengths(name: str, bundle: CalibrationBundle) -> NDArray[np.float
 
     Examples
     --------
-    Not run here (it needs captured frames or the authors' code)::
-
-        preset_wavelengths("paper", bundle)[[0, -1]]
-        # array([410., 700.])
+    >>> preset_wavelengths("paper", bundle)[[0, -1]].tolist()
+    [400.0, 700.0]
     """
     key = name.strip().lower()
     if key == "bins":
@@ -365,7 +363,7 @@ def sassi_tables(
 
     Examples
     --------
-    Not run here (it needs captured frames or the authors' code)::
+    Not run here (it builds lookup tables over the whole camera)::
 
         tables = sassi_tables(load(rig="sim"))
         tables.xl.shape, tables.calibstack_row.shape
@@ -431,7 +429,7 @@ def export_sassi_mat(
 
     Examples
     --------
-    Not run here (it needs captured frames or the authors' code)::
+    Not run here (it builds lookup tables over the whole camera)::
 
         from sassi_bench.bundle import load
         done = export_sassi_mat(load(rig="sim"), "for_sassi")
