@@ -402,7 +402,7 @@ def check_laser_lines(
 
     Examples
     --------
-    Not run here (it needs measured frames)::
+    Not run here (it needs measured laser maps)::
 
         lines = check_laser_lines(maps, "N-BK7", (400, 640), 0.5)
         [f"{k:g}: {x.estimated_nm:.1f}" for k, x in lines.items() if x.off_label]

@@ -12,7 +12,7 @@ def show(figure) -> None:
 
     Examples
     --------
-    Not run here (it needs a notebook and a rig)::
+    Not run here (it needs a notebook)::
 
         from matplotlib.figure import Figure
         show(Figure(figsize=(1, 1)))

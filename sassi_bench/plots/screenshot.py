@@ -68,7 +68,7 @@ def screenshot(
 
     Examples
     --------
-    Not run here (it needs a procedure's result)::
+    Not run here (it needs Chromium and a written report)::
 
         screenshot("report/macbeth_report.html", "report.png")
         # PosixPath('report.png')
