@@ -61,7 +61,9 @@ def open_snapshots(
 
     Examples
     --------
-    >>> video = open_snapshots("snap", data="calib_data")  # doctest: +SKIP
+    Not run here (it drives a bench or reads its sessions)::
+
+        video = open_snapshots("snap", data="calib_data")
     """
     root = data_root(data) / "sessions"
     try:

@@ -99,10 +99,12 @@ def snapshot_exposures(
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> rig = open_rig("sim")
-    >>> e = snapshot_exposures(rig, "led", {"kind": "pinholes", "pitch": [80, 5]},
-    ...                        low_light=0.1)  # doctest: +SKIP
+    Not run here (it drives a bench or reads its sessions)::
+
+        from sassi_bench import open_rig
+        rig = open_rig("sim")
+        e = snapshot_exposures(rig, "led", {"kind": "pinholes", "pitch": [80, 5]},
+                               low_light=0.1)
     """
     if not 0 < low_light <= 1:
         raise ProcedureError(
@@ -165,7 +167,9 @@ def snapshot_mask(session: Session) -> NDArray[np.bool_]:
 
     Examples
     --------
-    >>> mask = snapshot_mask(Session.open("video-f002"))  # doctest: +SKIP
+    Not run here (it drives a bench or reads its sessions)::
+
+        mask = snapshot_mask(Session.open("video-f002"))
     """
     step = session.plan.steps[SPECTRAL_STEP] if len(session.plan) > SPECTRAL_STEP else None
     if step is None or step.tags.get("role") != "snapshot":
@@ -267,14 +271,16 @@ def capture_snapshots(
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> rig = open_rig("sim")
-    >>> fixed = np.zeros(rig.slm.shape, bool)
-    >>> fixed[::5, ::80] = True
-    >>> video = capture_snapshots(rig, lambda guide: fixed, prefix="demo", scene="natural",
-    ...     exposure_pattern={"kind": "pinholes", "pitch": [80, 5]})  # doctest: +SKIP
-    >>> bool((video.mask(0) == fixed).all())  # doctest: +SKIP
-    True
+    Not run here (it drives a bench or reads its sessions)::
+
+        from sassi_bench import open_rig
+        rig = open_rig("sim")
+        fixed = np.zeros(rig.slm.shape, bool)
+        fixed[::5, ::80] = True
+        video = capture_snapshots(rig, lambda guide: fixed, prefix="demo", scene="natural",
+            exposure_pattern={"kind": "pinholes", "pitch": [80, 5]})
+        bool((video.mask(0) == fixed).all())
+        # True
     """
     from tqdm.auto import tqdm
 

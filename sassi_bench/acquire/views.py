@@ -72,8 +72,10 @@ def save_views(rig: Rig, out: Path, scene: str = "colorchecker", light: str = "l
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> files = save_views(open_rig("sim"), Path("snapshot"))  # doctest: +SKIP
+    Not run here (it drives a bench or reads its sessions)::
+
+        from sassi_bench import open_rig
+        files = save_views(open_rig("sim"), Path("snapshot"))
     """
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -97,9 +99,11 @@ def capture_views(rig: Rig, scene: str = "colorchecker", light: str = "led") -> 
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> sorted(capture_views(open_rig("sim")))  # doctest: +SKIP
-    ['guide', 'spectral_all_open', 'spectral_pinholes']
+    Not run here (it drives a bench or reads its sessions)::
+
+        from sassi_bench import open_rig
+        sorted(capture_views(open_rig("sim")))
+        # ['guide', 'spectral_all_open', 'spectral_pinholes']
     """
     rig.set_scene(scene)
     rig.light.select(light)

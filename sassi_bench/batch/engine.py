@@ -179,8 +179,10 @@ def batch_client(
 
     Examples
     --------
-    >>> with batch_client(workers=2) as client:  # doctest: +SKIP
-    ...     print(client.dashboard_link)
+    Not run here (it needs captured sessions)::
+
+        with batch_client(workers=2) as client:
+            print(client.dashboard_link)
     """
     from distributed import Client, LocalCluster
 
@@ -241,8 +243,10 @@ def run_tasks(
 
     Examples
     --------
-    >>> with batch_client(workers=2) as client:  # doctest: +SKIP
-    ...     results = run_tasks(client, specs)
+    Not run here (it needs captured sessions)::
+
+        with batch_client(workers=2) as client:
+            results = run_tasks(client, specs)
     """
     from distributed import as_completed
 

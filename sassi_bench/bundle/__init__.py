@@ -13,8 +13,8 @@ documented in :mod:`sassi_bench.bundle.models` (its field basis, also exported h
 Examples
 --------
 >>> from sassi_bench.bundle import load
->>> bundle = load(rig="sim")  # doctest: +SKIP
->>> x, y = bundle.slm_to_camera(320, 200, bundle.wavelengths)  # doctest: +SKIP
+>>> bundle = load(rig="sim")
+>>> x, y = bundle.slm_to_camera(320, 200, bundle.wavelengths)
 """
 
 from sassi_bench.bundle.archive import ImportedBundle, export_zip, import_zip, verify_zip

@@ -82,8 +82,8 @@ def export_zip(path: str | os.PathLike[str], out: str | os.PathLike[str]) -> Pat
 
     Examples
     --------
-    >>> export_zip("calib_data/sim/v0003", "sim-v0003.zip")  # doctest: +SKIP
-    PosixPath('sim-v0003.zip')
+    >>> export_zip("calib_data/sim/v0001", "sim-v0001.zip")
+    PosixPath('sim-v0001.zip')
     """
     verified = read_bundle(path, step="bundle export")
     out_path = Path(out)
@@ -259,8 +259,9 @@ def import_zip(
 
     Examples
     --------
-    >>> import_zip("sim-v0003.zip", data="/lab/calib_data")  # doctest: +SKIP
-    ImportedBundle(path=PosixPath('/lab/calib_data/sim/v0003'), created=True)
+    >>> zipped = export_zip("calib_data/sim/v0001", "sim-v0001.zip")
+    >>> import_zip("sim-v0001.zip", data="lab_data")
+    ImportedBundle(path=PosixPath('lab_data/sim/v0001'), created=True, repaired=())
     """
     source = Path(zip_path)
     with _open_zip(source) as archive:
@@ -419,8 +420,9 @@ def verify_zip(
 
     Examples
     --------
-    >>> verify_zip("sim-v0003.zip")  # doctest: +SKIP
-    ('arrays/bin_centres_nm.npy', ..., 'manifest.json', 'manifest.sha256')
+    >>> zipped = export_zip("calib_data/sim/v0001", "sim-v0001.zip")
+    >>> verify_zip("sim-v0001.zip")[-3:]
+    ('manifest.json', 'manifest.sha256', 'report/summary.txt')
     """
     source = Path(zip_path)
     with _open_zip(source) as archive, tempfile.TemporaryDirectory(prefix="sassi-verify-") as tmp:

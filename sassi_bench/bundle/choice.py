@@ -13,10 +13,10 @@ response turns counts into radiance) are noted when missing.
 
 Examples
 --------
->>> choice = choose_bundle("latest", rig="sim", needs=("guide_homography",))  # doctest: +SKIP
->>> print(choice.name)  # doctest: +SKIP
+>>> choice = choose_bundle("latest", rig="sim", needs=("guide_homography",))
+>>> print(choice.name)
 sim/v0001
->>> print(choice.reason)  # doctest: +SKIP
+>>> print(choice.reason)
 the newest with a guide -> SLM homography; the latest, sim/v0002, has no guide -> SLM ...
 """
 

@@ -143,8 +143,10 @@ def diff_bundles(a: CalibrationBundle, b: CalibrationBundle, *, grid: int = 9) -
 
     Examples
     --------
-    >>> d = diff_bundles(load(rig="sim", version=1), load(rig="sim", version=2))  # doctest: +SKIP
-    >>> print(format_diff(d))  # doctest: +SKIP
+    >>> from sassi_bench.bundle import load
+    >>> d = diff_bundles(load(rig="sim", version=1), load(rig="sim", version=2))
+    >>> d.a, d.b
+    ('sim/v0001', 'sim/v0002')
     """
     other: list[str] = []
     shape_a, shape_b = a.slm_shape, b.slm_shape
@@ -254,9 +256,18 @@ def format_diff(diff: BundleDiff) -> str:
 
     Examples
     --------
-    >>> print(format_diff(diff_bundles(a, b)))  # doctest: +SKIP
+    >>> from sassi_bench.bundle import load
+    >>> a, b = load(rig="sim", version=1), load(rig="sim", version=2)
+    >>> print(format_diff(diff_bundles(a, b)))  # doctest: +NORMALIZE_WHITESPACE
     bundle diff sim/v0001 -> sim/v0002
-    wavelength map: shift max 0.31 px (rms 0.12 px; x max 0.3 px, y max 0.05 px) = max 0.92 nm ...
+    wavelength map: shift max 0 px (rms 0 px; x max 0 px, y max 0 px),
+        in wavelength max 0 nm (rms 0 nm)
+    bins: 68, centres moved max 0 nm
+    guide homography: removed
+    blur sigma: change max 0 px (rms 0 px) over the bins
+    procedure parameters: unchanged
+    quality checks: unchanged
+    response removed
     """
     lines = [f"bundle diff {diff.a} -> {diff.b}"]
     m = diff.map_shift_px

@@ -290,8 +290,8 @@ def read_bundle(path: str | os.PathLike[str], *, step: str = "bundle load") -> V
 
     Examples
     --------
-    >>> verified = read_bundle("calib_data/sim/v0001")  # doctest: +SKIP
-    >>> sorted(verified.arrays)[:2]  # doctest: +SKIP
+    >>> verified = read_bundle("calib_data/sim/v0001")
+    >>> sorted(verified.arrays)[:2]
     ['bin_centres_nm', 'bin_edges_nm']
     """
     folder = Path(path)
@@ -365,9 +365,9 @@ def load(
     Examples
     --------
     >>> from sassi_bench.bundle import load
-    >>> bundle = load(rig="sim", data="calib_data")  # doctest: +SKIP
-    >>> bundle = load("calib_data/sim/v0002")  # doctest: +SKIP
-    >>> bundle.wavelengths.shape  # doctest: +SKIP
+    >>> bundle = load(rig="sim", data="calib_data")
+    >>> bundle = load("calib_data/sim/v0002")
+    >>> bundle.wavelengths.shape
     (68,)
     """
     folder = Path(path) if path is not None else resolve_bundle_dir(rig, version, data)
@@ -386,7 +386,7 @@ def verify(path: str | os.PathLike[str]) -> tuple[str, ...]:
 
     Examples
     --------
-    >>> verify("calib_data/sim/v0001")  # doctest: +SKIP
-    ('arrays/bin_centres_nm.npy', ..., 'manifest.json', 'manifest.sha256')
+    >>> verify("calib_data/sim/v0001")[-3:]
+    ('manifest.json', 'manifest.sha256', 'report/summary.txt')
     """
     return read_bundle(path, step="bundle verify").files

@@ -101,8 +101,9 @@ class CalibrationModels:
 
     Examples
     --------
-    >>> models = CalibrationModels(dispersion, bins, blur)  # doctest: +SKIP
-    >>> entry, arrays = models.to_manifest()  # doctest: +SKIP
+    >>> m = bundle.models  # a loaded bundle's
+    >>> models = CalibrationModels(m.dispersion, m.bins, m.blur)
+    >>> entry, arrays = models.to_manifest()
     """
 
     dispersion: DispersionModel
@@ -189,8 +190,8 @@ class CalibrationModels:
 
         Examples
         --------
-        >>> section, arrays = models.to_manifest()  # doctest: +SKIP
-        >>> sorted(section)  # doctest: +SKIP
+        >>> section, arrays = bundle.models.to_manifest()
+        >>> sorted(section)
         ['blur', 'dispersion', 'guide_homography', 'offset', 'response', 'wavelength_bins']
         """
         dispersion, arrays = self.dispersion.to_manifest()

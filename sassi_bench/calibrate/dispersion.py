@@ -428,9 +428,11 @@ def check_laser_lines(
 
     Examples
     --------
-    >>> lines = check_laser_lines(maps, "N-BK7", (400, 640), 0.5)  # doctest: +SKIP
-    >>> [f"{k:g}: {x.estimated_nm:.1f}" for k, x in lines.items() if x.off_label]  # doctest: +SKIP
-    ['635: 637.8']
+    Not run here (it needs measured laser maps)::
+
+        lines = check_laser_lines(maps, "N-BK7", (400, 640), 0.5)
+        [f"{k:g}: {x.estimated_nm:.1f}" for k, x in lines.items() if x.off_label]
+        # ['635: 637.8']
     """
     g = glass if isinstance(glass, Glass) else get_glass(glass)
     labels = _checked_wavelengths(maps, order)

@@ -219,8 +219,10 @@ def extract_streak_profiles(
 
     Examples
     --------
-    >>> profiles = extract_streak_profiles(signal, model, u, v, (404.0, 707.0), reach,
-    ...     light="lamp:HgAr", half_rows=10, variance=var)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        profiles = extract_streak_profiles(signal, model, u, v, (404.0, 707.0), reach,
+            light="lamp:HgAr", half_rows=10, variance=var)
     """
     u = np.asarray(u, dtype=np.float64).ravel()
     v = np.asarray(v, dtype=np.float64).ravel()

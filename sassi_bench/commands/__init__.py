@@ -11,7 +11,9 @@ errors) loads no more than argparse.
 
 Examples
 --------
->>> main(["rig", "show", "--rig", "sim"])  # doctest: +SKIP
+Not run here (it runs a command on a rig and its data)::
+
+    main(["rig", "show", "--rig", "sim"])
 """
 
 from __future__ import annotations

@@ -8,11 +8,13 @@ authors' reconstruction code (:mod:`sassi_bench.export.sassi_mat`).
 
 Examples
 --------
->>> from sassi_bench.commands import main
->>> main(["bundle", "list", "--data", "calib_data"])  # doctest: +SKIP
->>> main(["bundle", "diff", "v0001", "latest", "--rig", "sim"])  # doctest: +SKIP
->>> main(["bundle", "export", "latest", "--format", "sassi-mat",
-...       "--out", "for_sassi"])  # doctest: +SKIP
+Not run here (it runs a command on a rig and its data)::
+
+    from sassi_bench.commands import main
+    main(["bundle", "list", "--data", "calib_data"])
+    main(["bundle", "diff", "v0001", "latest", "--rig", "sim"])
+    main(["bundle", "export", "latest", "--format", "sassi-mat",
+          "--out", "for_sassi"])
 """
 
 from __future__ import annotations
@@ -239,7 +241,9 @@ def describe(bundle: CalibrationBundle) -> str:
 
     Examples
     --------
-    >>> print(describe(load(rig="sim")))  # doctest: +SKIP
+    Not run here (it runs a command on a rig and its data)::
+
+        print(describe(load(rig="sim")))
     """
     import numpy as np
 

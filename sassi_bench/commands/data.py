@@ -3,10 +3,12 @@ it, and checking that the sessions are whole.
 
 Examples
 --------
->>> from sassi_bench.commands import main
->>> main(["data", "list", "--data", "calib_data"])  # doctest: +SKIP
->>> main(["data", "clean", "--include-referenced"])  # doctest: +SKIP
->>> main(["data", "verify", "scan-20261122T101500Z"])  # doctest: +SKIP
+Not run here (it runs a command on a rig and its data)::
+
+    from sassi_bench.commands import main
+    main(["data", "list", "--data", "calib_data"])
+    main(["data", "clean", "--include-referenced"])
+    main(["data", "verify", "scan-20261122T101500Z"])
 """
 
 from __future__ import annotations

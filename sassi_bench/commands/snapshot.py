@@ -8,9 +8,11 @@ spectral frame tagged ``role=snapshot`` (or ``--step``/``--tag``).
 
 Examples
 --------
->>> from sassi_bench.commands import main
->>> main(["snapshot", "take", "--session", "snap", "--out", "snaps"])  # doctest: +SKIP
->>> main(["snapshot", "export", "--session", "snap", "--out", "for_sassi"])  # doctest: +SKIP
+Not run here (it runs a command on a rig and its data)::
+
+    from sassi_bench.commands import main
+    main(["snapshot", "take", "--session", "snap", "--out", "snaps"])
+    main(["snapshot", "export", "--session", "snap", "--out", "for_sassi"])
 """
 
 from __future__ import annotations

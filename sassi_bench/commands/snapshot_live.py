@@ -3,11 +3,13 @@ of it out as a cube.
 
 Examples
 --------
->>> from sassi_bench.commands import main
->>> main(["snapshot", "live", "--scene", "natural", "--moving", "--frames", "20",
-...       "--out", "live"])  # doctest: +SKIP
->>> main(["snapshot", "video-frame", "--video", "live", "--frame", "3",
-...       "--out", "live/f003.nc"])  # doctest: +SKIP
+Not run here (it runs a command on a rig and its data)::
+
+    from sassi_bench.commands import main
+    main(["snapshot", "live", "--scene", "natural", "--moving", "--frames", "20",
+          "--out", "live"])
+    main(["snapshot", "video-frame", "--video", "live", "--frame", "3",
+          "--out", "live/f003.nc"])
 """
 
 from __future__ import annotations

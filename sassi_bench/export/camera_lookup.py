@@ -73,8 +73,9 @@ class CameraLookup:
 
         Examples
         --------
-        >>> u, v = lookup.band(0)  # doctest: +SKIP
-        >>> u.shape == lookup.camera_shape  # doctest: +SKIP
+        >>> lookup = solve_camera_lookup(bundle, (512, 800))
+        >>> u, v = lookup.band(0)
+        >>> u.shape == lookup.camera_shape
         True
         """
         height, width = self.camera_shape
@@ -198,8 +199,8 @@ def solve_camera_lookup(
 
     Examples
     --------
-    >>> lookup = solve_camera_lookup(bundle, (512, 800))  # doctest: +SKIP
-    >>> u, v = lookup.band(10)  # doctest: +SKIP
+    >>> lookup = solve_camera_lookup(bundle, (512, 800))
+    >>> u, v = lookup.band(10)
     """
     lam = np.atleast_1d(
         np.asarray(bundle.wavelengths if wavelengths is None else wavelengths, dtype=np.float64)

@@ -39,8 +39,10 @@ def bundle_for(
 
     Examples
     --------
-    >>> bundle = bundle_for(rig, needs=("guide_homography",))  # doctest: +SKIP
-    bundle: sim/v0001 (the newest with a guide -> SLM homography; the latest, ...)
+    Not run here (it needs a notebook and a rig)::
+
+        bundle = bundle_for(rig, needs=("guide_homography",))
+        # bundle: sim/v0001 (the newest with a guide -> SLM homography; the latest, ...)
     """
     from sassi_bench.bundle import load
     from sassi_bench.bundle.choice import choose_bundle

@@ -12,8 +12,10 @@ def show(figure) -> None:
 
     Examples
     --------
-    >>> from matplotlib.figure import Figure
-    >>> show(Figure(figsize=(1, 1)))  # doctest: +SKIP
+    Not run here (it needs a notebook)::
+
+        from matplotlib.figure import Figure
+        show(Figure(figsize=(1, 1)))
     """
     from IPython.display import Image, display
 

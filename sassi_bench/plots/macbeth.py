@@ -47,9 +47,11 @@ def spectra_figure(result) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = spectra_figure(result)  # doctest: +SKIP
-    >>> len(data["measured"])  # doctest: +SKIP
-    24
+    Not run here (it needs a procedure's result)::
+
+        fig, data = spectra_figure(result)
+        len(data["measured"])
+        # 24
     """
     lam, usable = result.wavelengths_nm, result.usable
     fig = _figure(figsize=(13.5, 8.2), layout="constrained")
@@ -112,7 +114,9 @@ def de00_figure(result, tolerances) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = de00_figure(result, {"max_de00": 6.0, "mean_de00": 3.0})  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = de00_figure(result, {"max_de00": 6.0, "mean_de00": 3.0})
     """
     fig = _figure(figsize=(10, 3.6), layout="constrained")
     ax = fig.subplots()
@@ -162,7 +166,9 @@ def chart_figure(result) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = chart_figure(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = chart_figure(result)
     """
     fig = _figure(figsize=(10, 3.4), layout="constrained")
     axes = fig.subplots(1, 2)
@@ -258,7 +264,9 @@ def localisation_figure(result, interior: float) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = localisation_figure(result, 0.5)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = localisation_figure(result, 0.5)
     """
     fig = grid_figure(result.picture, result.picture_origin, result.grid, interior)
     centres = result.grid.centres()
@@ -291,7 +299,9 @@ def wavelength_figure(result, bundle) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = wavelength_figure(result, bundle)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = wavelength_figure(result, bundle)
     """
     lam, edges = result.wavelengths_nm, result.bin_edges_nm
     fig = _figure(figsize=(10, 3.4), layout="constrained")
@@ -336,7 +346,9 @@ def band_error_figure(result, errors) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = band_error_figure(result, [patch_band_error(result, 8, True)])  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = band_error_figure(result, [patch_band_error(result, 8, True)])
     """
     lam = result.wavelengths_nm
     fig = _figure(figsize=(9, 2.6 * max(len(errors), 1) + 0.6), layout="constrained")
@@ -395,8 +407,10 @@ def macbeth_figures(
 
     Examples
     --------
-    >>> figures = macbeth_figures(result, bundle, procedure)  # doctest: +SKIP
-    >>> fig, data = figures["de00"]  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        figures = macbeth_figures(result, bundle, procedure)
+        fig, data = figures["de00"]
     """
     return {
         "band_error": band_error_figure(result, band_errors),

@@ -68,8 +68,10 @@ def screenshot(
 
     Examples
     --------
-    >>> screenshot("report/macbeth_report.html", "report.png")  # doctest: +SKIP
-    PosixPath('report.png')
+    Not run here (it needs Chromium and a written report)::
+
+        screenshot("report/macbeth_report.html", "report.png")
+        # PosixPath('report.png')
     """
     browser = chromium_path()
     if browser is None:

@@ -55,7 +55,9 @@ def masks_figure(result) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = masks_figure(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = masks_figure(result)
     """
     from skimage.segmentation import find_boundaries
 
@@ -103,7 +105,9 @@ def snapshot_quick_look(frame, wavelengths_nm: NDArray) -> Any:
 
     Examples
     --------
-    >>> snapshot_quick_look(frame, bundle.wavelengths).savefig("f000.png")  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        snapshot_quick_look(frame, bundle.wavelengths).savefig("f000.png")
     """
     from sassi_bench.calibrate.guide_render import render_rgb
 
@@ -147,7 +151,9 @@ def reconstruction_figure(result) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = reconstruction_figure(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = reconstruction_figure(result)
     """
     run = next(iter(result.runs.values()))
     ref = result.reference
@@ -199,7 +205,9 @@ def band_psnr_figure(result) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = band_psnr_figure(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = band_psnr_figure(result)
     """
     lam = result.wavelengths_nm
     fig = _figure(figsize=(9, 4.2), layout="constrained")
@@ -246,7 +254,9 @@ def spectra_figure(result, count: int = 4) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = spectra_figure(result, count=3)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = spectra_figure(result, count=3)
     """
     run = next(iter(result.runs.values()))
     lam = result.wavelengths_nm
@@ -291,7 +301,9 @@ def video_figure(result) -> tuple[Any, dict[str, Any]]:
 
     Examples
     --------
-    >>> fig, data = video_figure(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig, data = video_figure(result)
     """
     frames = [f["frame"] for f in result.video]
     fig = _figure(figsize=(7, 3.6), layout="constrained")
@@ -328,7 +340,9 @@ def snapshot_figures(result, points: int = 4) -> dict[str, tuple[Any, dict[str, 
 
     Examples
     --------
-    >>> figures = snapshot_figures(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        figures = snapshot_figures(result)
     """
     figures = {
         "masks": masks_figure(result),

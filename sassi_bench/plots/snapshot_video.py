@@ -63,8 +63,10 @@ def video_animation(
 
     Examples
     --------
-    >>> video_animation("live/video.zarr", "live/quicklook.gif")  # doctest: +SKIP
-    PosixPath('live/quicklook.gif')
+    Not run here (it needs a procedure's result)::
+
+        video_animation("live/video.zarr", "live/quicklook.gif")
+        # PosixPath('live/quicklook.gif')
     """
     import imageio.v2 as imageio
 

@@ -47,7 +47,9 @@ def residual_maps_figure(lasers, slm_shape: tuple[int, int]):
 
     Examples
     --------
-    >>> fig = residual_maps_figure(result.lasers, bundle.slm_shape)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig = residual_maps_figure(result.lasers, bundle.slm_shape)
     """
     n = len(lasers)
     columns = min(n, MAPS_PER_ROW)
@@ -103,7 +105,9 @@ def dispersion_figure(dispersion, lasers, slm_shape: tuple[int, int]):
 
     Examples
     --------
-    >>> fig = dispersion_figure(result.dispersion, result.lasers, (400, 640))  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig = dispersion_figure(result.dispersion, result.lasers, (400, 640))
     """
     fig = _figure(figsize=(9, 3.6), layout="constrained")
     ax, ax_res = fig.subplots(1, 2)
@@ -151,7 +155,9 @@ def blur_figure(blur):
 
     Examples
     --------
-    >>> fig = blur_figure(result.blur)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig = blur_figure(result.blur)
     """
     fig = _figure(figsize=(4.8, 3.4), layout="constrained")
     ax = fig.subplots()
@@ -204,7 +210,9 @@ def lamp_spectrum_figure(anchoring, model):
 
     Examples
     --------
-    >>> fig = lamp_spectrum_figure(result.anchoring, result.dispersion.model)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        fig = lamp_spectrum_figure(result.anchoring, result.dispersion.model)
     """
     streaks = anchoring.streaks
     fig = _figure(figsize=(9.5, 3.9 * len(streaks)), layout="constrained")
@@ -265,7 +273,9 @@ def spectral_figures(result: Any) -> dict[str, Any]:
 
     Examples
     --------
-    >>> figures = spectral_figures(result)  # doctest: +SKIP
+    Not run here (it needs a procedure's result)::
+
+        figures = spectral_figures(result)
     """
     shape = result.lasers[0].laser_map.x.slm_shape
     figures = {

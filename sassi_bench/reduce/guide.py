@@ -128,7 +128,9 @@ def slm_reference(
 
     Examples
     --------
-    >>> ref = slm_reference(scan, session, bundle, proc, desc, (4, 1))  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        ref = slm_reference(scan, session, bundle, proc, desc, (4, 1))
     """
     cube = scan.cube[:: stride[1], :: stride[0]]
     if bundle.response is not None:
@@ -163,7 +165,9 @@ def guide_image(session: Session, bit_depth: int) -> tuple[NDArray[np.float64], 
 
     Examples
     --------
-    >>> image, valid = guide_image(session, 12)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        image, valid = guide_image(session, 12)
     """
     lit = session.read_frames(session.plan.select(role="guide")).astype(np.float64)
     dark = session.read_frames(session.plan.select(role="guide_dark")).astype(np.float64)
@@ -204,7 +208,9 @@ def register(
 
     Examples
     --------
-    >>> result = register(image, valid, session, reference, proc, desc)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        result = register(image, valid, session, reference, proc, desc)
     """
     match, tol = procedure["match"], procedure["tolerances"]
     registration = register_guide(
@@ -237,7 +243,9 @@ def render_figures(result: GuideRegistration) -> None:
 
     Examples
     --------
-    >>> render_figures(result)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        render_figures(result)
     """
     from sassi_bench.plots.guide import guide_figures
     from sassi_bench.plots.png import figure_png
@@ -290,7 +298,9 @@ def publish_guide(
 
     Examples
     --------
-    >>> path = publish_guide(result, bundle)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        path = publish_guide(result, bundle)
     """
     ref = result.reference
     info = {

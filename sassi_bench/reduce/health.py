@@ -229,9 +229,10 @@ def check_session(
 
     Examples
     --------
-    >>> check = check_session(session, bundle, proc, desc, light="lamp:HgAr",
-    ...                       checked_utc="2026-11-22T08:00:00+00:00", capture_s=1.2)
-    ...  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        check = check_session(session, bundle, proc, desc, light="lamp:HgAr",
+                              checked_utc="2026-11-22T08:00:00+00:00", capture_s=1.2)
     """
     started = time.perf_counter()
     lamp_proc = health_lamps(procedure, desc)

@@ -49,7 +49,9 @@ def scan_assembly(
 
     Examples
     --------
-    >>> assembly = scan_assembly(session, bundle)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        assembly = scan_assembly(session, bundle)
     """
     return ScanAssembly(
         session.plan, session.rig, bundle,
@@ -70,7 +72,9 @@ def read_stored(
 
     Examples
     --------
-    >>> read_stored(assembly, session, sorted(session.completed))  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        read_stored(assembly, session, sorted(session.completed))
     """
     workers = max(1, workers or os.cpu_count() or 1)
 
@@ -93,7 +97,9 @@ def finish_scan(
 
     Examples
     --------
-    >>> scan = finish_scan(assembly, session)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        scan = finish_scan(assembly, session)
     """
     closed = assembly.missing_closed
     if closed is not None and closed in session.completed:
@@ -155,9 +161,11 @@ def assemble_scan(
 
     Examples
     --------
-    >>> scan = assemble_scan(session, bundle)  # doctest: +SKIP
-    >>> scan.cube.shape  # doctest: +SKIP
-    (400, 640, 68)
+    Not run here (it needs captured sessions)::
+
+        scan = assemble_scan(session, bundle)
+        scan.cube.shape
+        # (400, 640, 68)
     """
     assembly = scan_assembly(
         session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing
@@ -187,8 +195,10 @@ class ScanRun:
 
         Examples
         --------
-        >>> run_scan(rig, bundle, scene="white").dataset()["radiance"].dims  # doctest: +SKIP
-        ('y', 'x', 'wavelength')
+        Not run here (it needs captured sessions)::
+
+            run_scan(rig, bundle, scene="white").dataset()["radiance"].dims
+            # ('y', 'x', 'wavelength')
         """
         from sassi_bench.spectra.cube_io import cube_dataset
 

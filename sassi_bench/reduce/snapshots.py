@@ -67,7 +67,8 @@ def procedure_spacing(bundle: CalibrationBundle, procedure: Mapping[str, Any]) -
 
     Examples
     --------
-    >>> spacing = procedure_spacing(bundle, load_procedure("snapshot_validation"))  # doctest: +SKIP
+    >>> from sassi_bench.procedure import load_procedure
+    >>> spacing = procedure_spacing(bundle, load_procedure("snapshot_validation"))
     """
     return bundle.mask_spacing(row_pitch=procedure["snapshot"].get("row_pitch_px"))
 
@@ -95,7 +96,9 @@ def adaptive_planner(
 
     Examples
     --------
-    >>> next_mask = adaptive_planner(bundle, spacing, 10.0)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        next_mask = adaptive_planner(bundle, spacing, 10.0)
     """
 
     def next_mask(guide: NDArray[Any]) -> NDArray[np.bool_]:
@@ -134,7 +137,9 @@ def frame_samples(
 
     Examples
     --------
-    >>> samples = frame_samples(video, 0, bundle, spacing, 10.0)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        samples = frame_samples(video, 0, bundle, spacing, 10.0)
     """
     if video.frames[t].plan.parameters.get("mask_kind") != "adaptive":
         return None
@@ -175,8 +180,10 @@ def reconstruct_snapshots(
 
     Examples
     --------
-    >>> for frame in reconstruct_snapshots(video, bundle, procedure):  # doctest: +SKIP
-    ...     frame.rank1.shape
+    Not run here (it needs captured sessions)::
+
+        for frame in reconstruct_snapshots(video, bundle, procedure):
+            frame.rank1.shape
     """
     from tqdm.auto import tqdm
 
@@ -322,7 +329,9 @@ def write_frame(
 
     Examples
     --------
-    >>> write_frame(frame, bundle, "snapshots", "snap-f000", session="snap-f000")  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        write_frame(frame, bundle, "snapshots", "snap-f000", session="snap-f000")
     """
     from sassi_bench._shared.atomic import atomic_write_bytes
     from sassi_bench.plots.png import figure_png

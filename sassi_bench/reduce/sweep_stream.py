@@ -144,11 +144,13 @@ class SweepStream:
 
     Examples
     --------
-    >>> stream = SweepStream(session.plan, proc, rig.slm.shape, 65535)  # doctest: +SKIP
-    >>> for i in sorted(session.completed):  # doctest: +SKIP
-    ...     stream.add(i, session.read_frame(i))
-    >>> stream.result().decodes[532.0].valid_fraction  # doctest: +SKIP
-    0.98
+    Not run here (it needs captured sessions)::
+
+        stream = SweepStream(session.plan, proc, rig.slm.shape, 65535)
+        for i in sorted(session.completed):
+            stream.add(i, session.read_frame(i))
+        stream.result().decodes[532.0].valid_fraction
+        # 0.98
     """
 
     def __init__(

@@ -98,7 +98,9 @@ def measure_response(session: Session, saturation: float) -> GreyResponse:
 
     Examples
     --------
-    >>> response = measure_response(sweeps.grey, saturation=65535)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        response = measure_response(sweeps.grey, saturation=65535)
     """
     plan = session.plan
     indices = plan.select(role="grey")
@@ -222,9 +224,11 @@ def analyse_sweep(
 
     Examples
     --------
-    >>> decoded = analyse_sweep(sweeps.sweep, proc, rig.slm.shape, 65535)  # doctest: +SKIP
-    >>> [d.wavelength_nm for d in decoded]  # doctest: +SKIP
-    [450.0, 520.0, 532.0, 635.0, 670.0]
+    Not run here (it needs captured sessions)::
+
+        decoded = analyse_sweep(sweeps.sweep, proc, rig.slm.shape, 65535)
+        [d.wavelength_nm for d in decoded]
+        # [450.0, 520.0, 532.0, 635.0, 670.0]
     """
     degree = int(proc["fit"].get("field_degree", 5))
     out = []
@@ -275,7 +279,9 @@ def pinhole_signal(session: Session, laser: float, saturation: float) -> Pinhole
 
     Examples
     --------
-    >>> signal = pinhole_signal(sweeps.sweep, 532.0, 65535)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        signal = pinhole_signal(sweeps.sweep, 532.0, 65535)
     """
     frames = _frames(session, session.plan.select(role="pinholes", laser=laser))
     return PinholeSignal(
@@ -354,7 +360,9 @@ def blur_from_pinholes(
 
     Examples
     --------
-    >>> blur = blur_from_pinholes(sweep, proc, dispersion, (400, 640), 65535)  # doctest: +SKIP
+    Not run here (it needs captured sessions)::
+
+        blur = blur_from_pinholes(sweep, proc, dispersion, (400, 640), 65535)
     """
     plan = session.plan
     pitch = [int(p) for p in proc["blur"].get("pinhole_pitch_px", [40, 40])]
@@ -423,8 +431,10 @@ def slm_pixel_image_px(
 
     Examples
     --------
-    >>> slm_pixel_image_px(dispersion, (400, 640), 0.93, [450.0, 635.0])  # doctest: +SKIP
-    1.004
+    Not run here (it needs captured sessions)::
+
+        slm_pixel_image_px(dispersion, (400, 640), 0.93, [450.0, 635.0])
+        # 1.004
     """
     h, w = slm_shape
     v, u = np.mgrid[h / 8 : h : h / 4, w / 8 : w : w / 4]

@@ -124,9 +124,11 @@ class MaskModel:
 
     Examples
     --------
-    >>> prepared = mask_model(bundle, mask, (2048, 2048))  # doctest: +SKIP
-    >>> spectra, units, bg = measure_with_background(
-    ...     frame, mask, bundle, exposure_s=0.05, prepared=prepared)  # doctest: +SKIP
+    Not run here (it needs captured frames)::
+
+        prepared = mask_model(bundle, mask, (2048, 2048))
+        spectra, units, bg = measure_with_background(
+            frame, mask, bundle, exposure_s=0.05, prepared=prepared)
     """
 
     rows: NDArray[np.intp]
@@ -211,9 +213,11 @@ def measure_samples(
 
     Examples
     --------
-    >>> frame = rig.spectral_camera.capture()  # doctest: +SKIP
-    >>> spectra, units = measure_samples(frame.data, mask, bundle,
-    ...                                  exposure_s=frame.meta.exposure_s)  # doctest: +SKIP
+    Not run here (it needs captured frames)::
+
+        frame = rig.spectral_camera.capture()
+        spectra, units = measure_samples(frame.data, mask, bundle,
+                                         exposure_s=frame.meta.exposure_s)
     """
     spectra, units, _ = measure_with_background(
         frame, pixels, bundle, exposure_s=exposure_s, deblur=deblur, full_scale=full_scale,
@@ -264,11 +268,13 @@ def measure_with_background(
 
     Examples
     --------
-    >>> spectra, units, background = measure_with_background(
-    ...     frame.data, mask, bundle, exposure_s=0.05)  # doctest: +SKIP
-    >>> spectra, units, background = measure_with_background(
-    ...     next_frame.data, next_mask, bundle, exposure_s=0.05, background_passes=2,
-    ...     background_start=background)  # doctest: +SKIP
+    Not run here (it needs captured frames)::
+
+        spectra, units, background = measure_with_background(
+            frame.data, mask, bundle, exposure_s=0.05)
+        spectra, units, background = measure_with_background(
+            next_frame.data, next_mask, bundle, exposure_s=0.05, background_passes=2,
+            background_start=background)
     """
     step = "snapshot spectra"
     image = np.asarray(frame)
@@ -468,9 +474,11 @@ def snapshot_dataset(
 
     Examples
     --------
-    >>> ds = snapshot_dataset(cube, bundle, units=units, method="rank-1")  # doctest: +SKIP
-    >>> ds["radiance"].dims  # doctest: +SKIP
-    ('y', 'x', 'wavelength')
+    Not run here (it needs captured frames)::
+
+        ds = snapshot_dataset(cube, bundle, units=units, method="rank-1")
+        ds["radiance"].dims
+        # ('y', 'x', 'wavelength')
     """
     h, w = bundle.slm_shape
     check_shape(
@@ -510,8 +518,10 @@ def write_cube(
 
     Examples
     --------
-    >>> write_cube(ds, "snapshot.nc", envi="snapshot")  # doctest: +SKIP
-    [PosixPath('snapshot.nc'), PosixPath('snapshot.hdr')]
+    Not run here (it needs captured frames)::
+
+        write_cube(ds, "snapshot.nc", envi="snapshot")
+        # [PosixPath('snapshot.nc'), PosixPath('snapshot.hdr')]
     """
     written = [write_netcdf(ds, path, overwrite=overwrite)]
     if envi is not None:

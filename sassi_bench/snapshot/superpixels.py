@@ -45,7 +45,9 @@ def guide_on_slm(bundle: CalibrationBundle, guide: ArrayLike) -> NDArray[np.floa
 
     Examples
     --------
-    >>> guide_slm = guide_on_slm(bundle, rig.guide_camera.capture().data)  # doctest: +SKIP
+    Not run here (it needs captured frames)::
+
+        guide_slm = guide_on_slm(bundle, rig.guide_camera.capture().data)
     """
     step = "snapshot guide image"
     if bundle.guide_to_slm is None:

@@ -127,10 +127,12 @@ class VideoPipeline:
 
     Examples
     --------
-    >>> pipeline = VideoPipeline(bundle, bundle.mask_spacing(row_pitch=8))  # doctest: +SKIP
-    >>> mask, samples = pipeline.plan(preview_guide)  # doctest: +SKIP
-    >>> frame = pipeline.process(guide, spectral, mask, samples, exposure_s=0.05)  # doctest: +SKIP
-    >>> mask, samples = frame.next_mask, frame.next_samples  # doctest: +SKIP
+    Not run here (it needs captured frames)::
+
+        pipeline = VideoPipeline(bundle, bundle.mask_spacing(row_pitch=8))
+        mask, samples = pipeline.plan(preview_guide)
+        frame = pipeline.process(guide, spectral, mask, samples, exposure_s=0.05)
+        mask, samples = frame.next_mask, frame.next_samples
     """
 
     def __init__(

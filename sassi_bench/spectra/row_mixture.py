@@ -154,8 +154,10 @@ def unmix_rows_mixed(
 
     Examples
     --------
-    >>> mixture = RowMixture.from_model(model)  # doctest: +SKIP
-    >>> amplitudes = unmix_rows_mixed(raw, layout, geo, mixture)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        mixture = RowMixture.from_model(model)
+        amplitudes = unmix_rows_mixed(raw, layout, geo, mixture)
     """
     sums = np.ascontiguousarray(sums, dtype=np.float64)
     if first is None:

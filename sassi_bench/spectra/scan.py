@@ -201,10 +201,12 @@ class ScanAssembly:
 
     Examples
     --------
-    >>> assembly = ScanAssembly(session.plan, session.rig, bundle)  # doctest: +SKIP
-    >>> for index in assembly.steps:  # doctest: +SKIP
-    ...     assembly.read(index, session.read_frame(index))
-    >>> scan = assembly.finish(progress=False)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        assembly = ScanAssembly(session.plan, session.rig, bundle)
+        for index in assembly.steps:
+            assembly.read(index, session.read_frame(index))
+        scan = assembly.finish(progress=False)
     """
 
     def __init__(

@@ -292,9 +292,11 @@ def scan_mean_spectrum(
 
     Examples
     --------
-    >>> scan = assemble_scan(session, bundle, keep_raw=True)  # doctest: +SKIP
-    >>> white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle),
-    ...                            scan.quality == 0)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        scan = assemble_scan(session, bundle, keep_raw=True)
+        white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle),
+                                   scan.quality == 0)
     """
     if scan.column_sums is None or scan.noise_variance is None:
         raise ProcedureError(
@@ -329,7 +331,9 @@ def labelled_mean_spectra(
 
     Examples
     --------
-    >>> means = labelled_mean_spectra(scan, model, scan.quality == 0, labels, 24)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        means = labelled_mean_spectra(scan, model, scan.quality == 0, labels, 24)
     """
     out = np.full((count, model.n_bins - 2 * model.guard), np.nan)
     for k in range(count):  # a few dozen regions, each one mean

@@ -38,8 +38,10 @@ class SeparableUnmixing:
 
     Examples
     --------
-    >>> unmix = SeparableUnmixing(model)  # doctest: +SKIP
-    >>> amplitudes = unmix(sums, layout, geometry)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        unmix = SeparableUnmixing(model)
+        amplitudes = unmix(sums, layout, geometry)
     """
 
     def __init__(self, model: StreakForwardModel) -> None:
@@ -57,8 +59,10 @@ class MixedUnmixing:
 
     Examples
     --------
-    >>> unmix = MixedUnmixing(model)  # doctest: +SKIP
-    >>> amplitudes = unmix(sums, layout, geometry)  # doctest: +SKIP
+    Not run here (it needs measured frames)::
+
+        unmix = MixedUnmixing(model)
+        amplitudes = unmix(sums, layout, geometry)
     """
 
     def __init__(self, model: StreakForwardModel) -> None:

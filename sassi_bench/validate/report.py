@@ -353,8 +353,10 @@ def render_report(
 
     Examples
     --------
-    >>> report = render_report(result, staged_bundle, procedure)  # doctest: +SKIP
-    >>> publish(models, ..., reports={"macbeth_report.html": report.html})  # doctest: +SKIP
+    Not run here (it needs a scan or a procedure's result)::
+
+        report = render_report(result, staged_bundle, procedure)
+        publish(models, ..., reports={"macbeth_report.html": report.html})
     """
     doc, figures = report_data(result, bundle, procedure)
     images = {name: figure_base64(fig) for name, fig in figures.items()}
@@ -375,7 +377,9 @@ def write_report(
 
     Examples
     --------
-    >>> write_report(result, bundle, procedure, "report/")  # doctest: +SKIP
-    (PosixPath('report/macbeth_report.html'), PosixPath('report/macbeth_report.json'))
+    Not run here (it needs a scan or a procedure's result)::
+
+        write_report(result, bundle, procedure, "report/")
+        # (PosixPath('report/macbeth_report.html'), PosixPath('report/macbeth_report.json'))
     """
     return render_report(result, bundle, procedure).write(out)

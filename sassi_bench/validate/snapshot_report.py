@@ -177,8 +177,10 @@ def write_snapshot_report(
 
     Examples
     --------
-    >>> write_snapshot_report(result, "report/")  # doctest: +SKIP
-    (PosixPath('report/snapshot_report.html'), PosixPath('report/snapshot_report.json'))
+    Not run here (it needs a scan or a procedure's result)::
+
+        write_snapshot_report(result, "report/")
+        # (PosixPath('report/snapshot_report.html'), PosixPath('report/snapshot_report.json'))
     """
     doc, figures = snapshot_report_data(result, points)
     images = {name: figure_base64(fig) for name, fig in figures.items()}

@@ -289,11 +289,13 @@ def run_full_calibration(
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> result = run_full_calibration(
-    ...     open_rig("sim"), load_procedure("full_calibration"))  # doctest: +SKIP
-    >>> result.passed, result.bundle_path  # doctest: +SKIP
-    (True, PosixPath('calib_data/sim/v0001'))
+    Not run here (it drives a bench and stores its frames)::
+
+        from sassi_bench import open_rig
+        result = run_full_calibration(
+            open_rig("sim"), load_procedure("full_calibration"))
+        result.passed, result.bundle_path
+        # (True, PosixPath('calib_data/sim/v0001'))
     """
     base = session_id or "full-" + datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     root = data_root(data)

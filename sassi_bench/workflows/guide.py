@@ -121,10 +121,12 @@ def scan_reference(
 
     Examples
     --------
-    >>> ref = scan_reference(rig, bundle, load_procedure("guide_registration"),
-    ...                      session_id="guide-scan")  # doctest: +SKIP
-    >>> ref.image.shape == (*rig.slm.shape, 3)  # doctest: +SKIP
-    True
+    Not run here (it drives a bench and stores its frames)::
+
+        ref = scan_reference(rig, bundle, load_procedure("guide_registration"),
+                             session_id="guide-scan")
+        ref.image.shape == (*rig.slm.shape, 3)
+        # True
     """
     scan_cfg = procedure["scan"]
     pitch = tuple(int(p) for p in scan_cfg["pitch_px"])
@@ -187,8 +189,10 @@ def capture_guide(
 
     Examples
     --------
-    >>> image, valid, session = capture_guide(rig, load_procedure("guide_registration"),
-    ...                                       session_id="guide-capture")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        image, valid, session = capture_guide(rig, load_procedure("guide_registration"),
+                                              session_id="guide-capture")
     """
     cfg = procedure["guide"]
     scene, light = str(procedure["scene"]), str(procedure["light"])
@@ -353,10 +357,11 @@ def run_guide_registration(
 
     Examples
     --------
-    >>> result = run_guide_registration(rig, bundle, load_procedure("guide_registration"))
-    ... # doctest: +SKIP
-    >>> result.registration.quality.rms_px  # doctest: +SKIP
-    0.69
+    Not run here (it drives a bench and stores its frames)::
+
+        result = run_guide_registration(rig, bundle, load_procedure("guide_registration"))
+        result.registration.quality.rms_px
+        # 0.69
     """
     proc = planned_guide(
         {k: v for k, v in dict(procedure).items() if k != "source"}, rig.description

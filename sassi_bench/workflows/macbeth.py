@@ -47,7 +47,9 @@ def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np
 
     Examples
     --------
-    >>> picture = guide_picture(open_rig("sim"), load(rig="sim"), "led")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        picture = guide_picture(open_rig("sim"), load(rig="sim"), "led")
     """
     if bundle.guide_to_slm is None:
         raise ProcedureError(
@@ -109,13 +111,15 @@ def run_macbeth(
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> from sassi_bench.bundle import load
-    >>> from sassi_bench.procedure import load_procedure
-    >>> result = run_macbeth(open_rig("sim"), load(rig="sim"),
-    ...                      load_procedure("macbeth_validation"))  # doctest: +SKIP
-    >>> result.passed, result.summary()["mean_de00"]  # doctest: +SKIP
-    (True, 0.16)
+    Not run here (it drives a bench and stores its frames)::
+
+        from sassi_bench import open_rig
+        from sassi_bench.bundle import load
+        from sassi_bench.procedure import load_procedure
+        result = run_macbeth(open_rig("sim"), load(rig="sim"),
+                             load_procedure("macbeth_validation"))
+        result.passed, result.summary()["mean_de00"]
+        # (True, 0.16)
     """
     procedure = planned_macbeth(procedure, rig.description)
     scan_cfg = procedure["scan"]

@@ -78,7 +78,9 @@ def check_scan(
 
     Examples
     --------
-    >>> check_scan(open_rig("sim"), "colorchecker", "led", (100, 5))  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        check_scan(open_rig("sim"), "colorchecker", "led", (100, 5))
     """
     check_scene(scene, step="scan")
     check_light(light, rig.light.available, step="scan")
@@ -118,7 +120,9 @@ def capture_scan(
 
     Examples
     --------
-    >>> scan = capture_scan(rig, session, bundle, keep_raw=True)  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        scan = capture_scan(rig, session, bundle, keep_raw=True)
     """
     assembly = scan_assembly(
         session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing
@@ -207,7 +211,9 @@ def run_response(
 
     Examples
     --------
-    >>> path = run_response(rig, bundle, temperature_k=3100)  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        path = run_response(rig, bundle, temperature_k=3100)
     """
     check_parent(bundle, "response", allow_failed=allow_failed)
     pitch = scan_pitch(rig.description, pitch)
@@ -280,8 +286,10 @@ def run_scan(
 
     Examples
     --------
-    >>> run = run_scan(open_rig("sim"), load(rig="sim"), scene="white")  # doctest: +SKIP
-    >>> run.scan.cube.shape  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        run = run_scan(open_rig("sim"), load(rig="sim"), scene="white")
+        run.scan.cube.shape
     """
     pitch = scan_pitch(rig.description, pitch)
     check_scan(rig, scene, light, pitch, roi)

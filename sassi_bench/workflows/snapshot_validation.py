@@ -144,8 +144,10 @@ def run_snapshot(
 
     Examples
     --------
-    >>> result = run_snapshot(rig, bundle, load_procedure("snapshot_validation"))  # doctest: +SKIP
-    >>> result.runs["adaptive"].scores["rank1"].psnr_affine_db  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        result = run_snapshot(rig, bundle, load_procedure("snapshot_validation"))
+        result.runs["adaptive"].scores["rank1"].psnr_affine_db
     """
     check_inputs(rig, bundle, scene)
     spacing = procedure_spacing(bundle, procedure)

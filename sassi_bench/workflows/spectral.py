@@ -344,7 +344,9 @@ def capture_spectral_sweeps(
 
     Examples
     --------
-    >>> sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        sweeps = capture_spectral_sweeps(rig, proc, session_id="lab-2026-11-22")
     """
     proc = planned_spectral(procedure, rig.description)
     run = SpectralRun(rig, proc, _session_id(session_id), data, progress)
@@ -378,9 +380,11 @@ def run_spectral_calibration(
 
     Examples
     --------
-    >>> result = run_spectral_calibration(open_rig("sim"), proc)  # doctest: +SKIP
-    >>> result.bundle_path  # doctest: +SKIP
-    PosixPath('calib_data/sim/v0001')
+    Not run here (it drives a bench and stores its frames)::
+
+        result = run_spectral_calibration(open_rig("sim"), proc)
+        result.bundle_path
+        # PosixPath('calib_data/sim/v0001')
     """
     steps = [name for name in STEPS if publish_bundle or name != "publish"]
     proc = planned_spectral(procedure, rig.description)
@@ -430,7 +434,9 @@ def capture_lamp_frames(
 
     Examples
     --------
-    >>> session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")  # doctest: +SKIP
+    Not run here (it drives a bench and stores its frames)::
+
+        session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")
     """
     desc = rig.description
     if not desc.wavelength_lamps:

@@ -23,7 +23,7 @@ def test_spot_widths_are_measured_from_a_rough_guess(sigma):
     image, cx, cy = _spots(sigma, rng)
     widths = measure_spot_widths(image, cx, cy, sigma_guess=1.5)
     assert widths.valid.all()
-    assert widths.median_sigma_y == pytest.approx(sigma, rel=0.03)
+    assert widths.median_sigma_y == pytest.approx(sigma, rel=0.002)  # measured 0.03-0.10 %
 
 
 def test_saturated_spots_are_left_out():
@@ -67,12 +67,13 @@ def test_psf_quadratic_follows_the_true_blur_between_the_lasers(rig_name):
     psf = fit_blur(LASERS_NM, measured, aperture_px=aperture)
     error = psf.model.sigma(BAND_NM) / before_camera - 1
     assert np.abs(paper).max() > 0.03  # the cause, as measured on the chain's bundle
-    assert np.abs(error).max() < 0.01  # a 0.2 % width noise allows about 0.6 %
+    # A 0.2 % width noise allows about 0.6 %; measured 0.41 % (sim), 0.40 % (N-BK7 rig).
+    assert np.abs(error).max() < 0.008
     assert psf.model.kind == "psf_quadratic" and psf.rms_px < 0.01
     # The PSF itself is the bench's.
     psf_true = t.blur_sigma_px(BAND_NM)
     fitted = np.sqrt(psf.model.sigma(BAND_NM) ** 2 - psf.model.pixel_variance_px2)
-    assert np.abs(fitted - psf_true).max() < 0.03
+    assert np.abs(fitted - psf_true).max() < 0.0085  # px; measured 0.0040 and 0.0043
 
 
 def test_blur_fit_refuses_spots_narrower_than_the_pixel_boxes():
@@ -82,8 +83,9 @@ def test_blur_fit_refuses_spots_narrower_than_the_pixel_boxes():
 
 @pytest.mark.parametrize("laser", [450.0, 532.0, 670.0])
 def test_spot_widths_under_a_laser_are_the_benchs(sim_rig, laser):
-    """The width measurement itself is unbiased at the lasers (within 0.5 % of the
-    bench's spot width from its narrowest, 0.6 px, to its widest, 2.6 px)."""
+    """The width measurement itself is unbiased at the lasers (within 0.15 % of the
+    bench's spot width from its narrowest, 0.6 px, to its widest, 2.6 px; measured
+    0.015 % at 450 nm, 0.076 % at 532 nm, 0.036 % at 670 nm)."""
     rig = sim_rig
     rig.set_scene("white")
     rig.light.select(f"laser:{laser:g}")
@@ -98,7 +100,7 @@ def test_spot_widths_under_a_laser_are_the_benchs(sim_rig, laser):
     x, y = truth(rig).slm_to_camera(cols, rows, laser)
     widths = measure_spot_widths(lit - dark, x, y, 1.5)
     assert widths.valid.mean() > 0.9
-    assert widths.median_sigma_y == pytest.approx(true, rel=0.005)
+    assert widths.median_sigma_y == pytest.approx(true, rel=0.0015)
 
 
 @pytest.mark.parametrize("rig_name", ["sim", "tests/rigs/prism-sf10.yaml"])

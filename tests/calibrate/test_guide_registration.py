@@ -39,16 +39,17 @@ def test_register_recovers_a_projective_map(slm_photo):
     q = dense.quality
     assert q.inliers >= 100 and q.inlier_ratio > 0.5 and q.coverage > 0.5
     assert q.rms_px < 1.0 and q.dense_correlation > 0.9
-    assert field_discrepancy_px(sparse.homography, H_TRUE, SLM_SHAPE)[0] < 0.3
+    # Against the true map, SLM px RMS over the field (measured value beside each bound).
+    assert field_discrepancy_px(sparse.homography, H_TRUE, SLM_SHAPE)[0] < 0.10  # measured 0.052
     rms, worst = field_discrepancy_px(dense.homography, H_TRUE, SLM_SHAPE)
-    assert rms < 0.05 and worst < 0.15
+    assert rms < 0.014 and worst < 0.045  # measured 0.0073 and 0.023
     # The inliers are where the homography sends them.
     moved = apply_homography(dense.homography, dense.guide_points[dense.inlier])
     assert np.sqrt(np.mean(np.sum((moved - dense.slm_points[dense.inlier]) ** 2, 1))) == (
         pytest.approx(q.rms_px)
     )
     ransac = register_guide(guide, slm_photo, method="ransac", dense=False)
-    assert field_discrepancy_px(ransac.homography, H_TRUE, SLM_SHAPE)[0] < 0.3
+    assert field_discrepancy_px(ransac.homography, H_TRUE, SLM_SHAPE)[0] < 0.10  # measured 0.052
     assert "ECC" in dense.info()["method"] and "ECC" not in sparse.info()["method"]
 
 
@@ -59,7 +60,7 @@ def test_register_respects_the_slm_mask(slm_photo):
     damaged[:, 300:] = 255.0  # garbage where nothing was measured
     reg = register_guide(_guide_view(slm_photo, noise=2.0), damaged, slm_valid=valid)
     assert reg.slm_points[:, 0].max() < 300
-    assert field_discrepancy_px(reg.homography, H_TRUE, SLM_SHAPE)[0] < 0.1
+    assert field_discrepancy_px(reg.homography, H_TRUE, SLM_SHAPE)[0] < 0.065  # measured 0.035
 
 
 def test_textureless_scene_fails_with_advice(slm_photo):

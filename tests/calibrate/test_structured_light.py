@@ -130,9 +130,11 @@ def test_decoding_holds_over_the_blur_range(sigma):
     bench = SyntheticBench(sigma_slm=sigma, seed=3)
     axes, pairs = decode_synthetic(bench)
     du, dv = warp_errors(bench, pairs)
+    # Measured at 0.55 and 2.8 SLM px: RMS 0.021 and 0.037, worst 0.061 and 0.111, the
+    # blur 0.0015 and 0.0043 off.
     assert np.sqrt(np.mean(du**2 + dv**2)) < 0.05
-    assert np.abs(np.concatenate([du, dv])).max() < 0.25
-    assert axes["x"].blur_sigma == pytest.approx(np.sqrt(sigma**2 + 1 / 12), abs=0.03)
+    assert np.abs(np.concatenate([du, dv])).max() < 0.2
+    assert axes["x"].blur_sigma == pytest.approx(np.sqrt(sigma**2 + 1 / 12), abs=0.009)
     inside = (bench.u > 8) & (bench.u < 151) & (bench.v > 8) & (bench.v < 111)
     assert pairs.valid[inside & (bench.light > 0)].mean() > 0.97
 
@@ -141,10 +143,11 @@ def test_synthetic_warp_is_recovered_to_a_few_hundredths_of_a_pixel(synthetic):
     bench, _, pairs = synthetic
     du, dv = warp_errors(bench, pairs)
     rms_u, rms_v = np.sqrt(np.mean(du**2)), np.sqrt(np.mean(dv**2))
-    assert rms_u < 0.05 and rms_v < 0.05
-    assert np.sqrt(np.mean(du**2 + dv**2)) < 0.05
-    assert abs(du.mean()) < 0.01 and abs(dv.mean()) < 0.01  # no systematic shift
-    assert np.abs(np.concatenate([du, dv])).max() < 0.5
+    assert rms_u < 0.033 and rms_v < 0.033  # measured 0.016 and 0.017
+    assert np.sqrt(np.mean(du**2 + dv**2)) < 0.046  # measured 0.023
+    # No systematic shift: measured 0.00017 and 0.00003 (noise; held to 0.001).
+    assert abs(du.mean()) < 0.001 and abs(dv.mean()) < 0.001
+    assert np.abs(np.concatenate([du, dv])).max() < 0.13  # measured 0.065
 
 
 def test_synthetic_validity_counts(synthetic):
@@ -396,10 +399,12 @@ def test_virtual_bench_sweep_at_532nm_matches_truth():
         f"\nvirtual bench 532 nm: {score}; blur sigma x {decoded['x'].blur_sigma:.3f}, "
         f"y {decoded['y'].blur_sigma:.3f} SLM px; counts {pairs.counts}; {elapsed:.1f} s"
     )
-    assert score["rms_camera"] < 0.1
-    assert score["rms_slm"] < 0.1
-    assert score["p999"] < 0.5  # "lands within the pixel"
-    assert score["valid_fraction"] > 0.8
+    # Measured: RMS 0.022 (camera) and 0.020 px (SLM), 0.057 px at the 99.9th percentile,
+    # 98.5 % of the lit pixels valid.
+    assert score["rms_camera"] < 0.045
+    assert score["rms_slm"] < 0.04
+    assert score["p999"] < 0.12  # "lands within the pixel", by far
+    assert score["valid_fraction"] > 0.97
     assert score["valid_outside"] < 0.001
     lit = pairs.counts["pixels"] * score["valid_fraction"]
     assert pairs.counts["disagreement"] + pairs.counts["ambiguous_gray"] < 0.001 * lit
@@ -415,8 +420,10 @@ def test_decoding_holds_up_under_the_real_bench_nuisances(name):
     _, pairs, _ = bench_sweep(rig, 635.0)
     score = score_against_truth(rig, pairs, 635.0)
     print(f"\n{name} 635 nm: {score}; counts {pairs.counts}")
-    assert score["rms_camera"] <= 0.1
-    assert score["rms_slm"] <= 0.1
-    assert score["max"] < 0.5  # no wrong Gray word, no stray-lit pixel
-    assert score["valid_fraction"] > 0.8
+    # Measured (all nuisances; stray light alone): RMS 0.035 and 0.027 px (camera), 0.033
+    # and 0.025 px (SLM), 0.138 and 0.098 px at worst, 96.2 and 96.3 % of the lit valid.
+    assert score["rms_camera"] <= 0.07
+    assert score["rms_slm"] <= 0.066
+    assert score["max"] < 0.28  # no wrong Gray word, no stray-lit pixel
+    assert score["valid_fraction"] > 0.92
     assert score["valid_outside"] < 0.001

@@ -42,8 +42,8 @@ def test_background_matches_the_closed_pixel_leak(white_scan):
     estimated = np.isfinite(scan.background)
     assert estimated.mean() > 0.8
     error = np.sqrt(np.mean((scan.background - true_background)[estimated] ** 2))
-    # Issue target: offset residual <= 1 % of the mean streak signal.
-    assert error <= 0.01 * scan.mean_streak_signal
+    # Issue target: offset residual <= 1 % of the mean streak signal; measured 0.0115 %.
+    assert error <= 2.3e-4 * scan.mean_streak_signal
     assert (
         scan.background_check_rms is not None
         and scan.background_check_rms < 0.05 * scan.mean_streak_signal
@@ -63,7 +63,7 @@ def test_white_spectra_are_uniform_and_unmeasured_pixels_flagged(white_scan):
     spectra = scan.cube[measured]
     band = (bundle.wavelengths > 450) & (bundle.wavelengths < 680)
     spread = spectra[:, band].std(axis=0) / spectra[:, band].mean(axis=0)
-    assert np.median(spread) < 0.03
+    assert np.median(spread) < 0.0085  # measured 0.0042
 
 
 def test_cube_is_written_as_netcdf_and_envi(white_scan, tmp_path):
@@ -199,8 +199,8 @@ def test_a_few_offsets_leave_the_blue_end_of_the_white_true(calibrated_sim):
         misfit.append(mean[core] / (gain * predicted[core]) - 1)
     misfit = np.median(misfit, axis=0)
     blue = bundle.wavelengths < 410
-    assert np.abs(misfit[blue]).max() < 0.005, np.round(100 * misfit[blue], 2)
-    assert np.abs(misfit[~blue]).max() < 0.005, np.round(100 * misfit[~blue], 2)
+    assert np.abs(misfit[blue]).max() < 0.005, np.round(100 * misfit[blue], 2)  # 0.0032
+    assert np.abs(misfit[~blue]).max() < 0.0045, np.round(100 * misfit[~blue], 2)  # 0.0022
 
 
 def test_a_closed_frame_of_the_wrong_shape_is_reported_and_left_out(white_scan):

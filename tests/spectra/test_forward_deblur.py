@@ -29,10 +29,11 @@ def test_guard_bins_take_the_blur_at_their_own_wavelength(model):
     assert np.all(np.diff(lam[:, core.stop :], axis=1) > 0)
     assert np.all(lam[:, core.stop] > lam[:, core.stop - 1])
     assert np.all(sigma[:, -1] > 1.2 * sigma[:, core.stop - 1])
-    # Within a tenth of a pixel of the light's true spread up to 720 nm (where it ends).
+    # Within 0.15 px of the light's true spread up to 720 nm, where it ends (measured
+    # 0.076 px at worst).
     near = lam < 720
     true = truth(rig).line_spread_sigma_px(lam[near])
-    assert np.abs(sigma[near] - true).max() < 0.3
+    assert np.abs(sigma[near] - true).max() < 0.15
 
 
 def test_the_curvature_prior_stops_one_bin_past_the_band():
@@ -56,7 +57,7 @@ def test_the_relative_prior_ignores_what_every_pixel_shares():
 def test_a_mean_spectrum_is_recovered_at_the_red_end(model):
     """Light rising to the red and stopping 20 nm past the band, blurred by the forward
     model, with noise: the deblurred mean is within 2.5 % in every band bin (measured:
-    0.5 % up to 680 nm, 1.7 % in the last bin)."""
+    1.9 % at worst)."""
     _, m = model
     rows, cols = m.point_pixels()
     lam = m.wavelengths_nm
@@ -222,5 +223,5 @@ def test_the_stated_noise_holds_for_noise_that_differs_and_correlates_between_bi
         stated = deblur.posterior_std(clean[one], rows[one], cols[one], variance[None],
                                       banded[None])[0]  # fmt: skip
         white = deblur.posterior_std(clean[one], rows[one], cols[one], variance.mean()[None])[0]
-        assert np.allclose(stated, measured, rtol=0.06)
+        assert np.allclose(stated, measured, rtol=0.06)  # measured 2.5-3.3 % at worst
         assert np.abs(white / measured - 1).max() > 0.2  # what a white statement misses

@@ -1,8 +1,9 @@
 """A full default pinhole scan of the ColorChecker, scored against the bench's ground truth.
 
-Issue targets (default sim rig, default noise): cube PSNR >= 40 dB and mean spectral angle
-<= 1.5 degrees against the truth cube integrated into the same bins, and an offset residual
-<= 1 % of the mean streak signal.
+Against the truth cube integrated into the same bins (default sim rig, default noise). The
+bounds sit within about twice the measured error (the measured value beside each), so a
+regression fails; the issue's targets (PSNR >= 40 dB, mean spectral angle <= 1.5 degrees,
+offset residual <= 1 % of the mean streak signal) are far looser.
 """
 
 import numpy as np
@@ -38,11 +39,11 @@ def test_full_scan_meets_the_accuracy_targets(colorchecker_scan):
     measured = scan.quality == 0
     assert measured.mean() > 0.95  # the whole field is scanned; only edge streaks flagged
     angle, psnr = _scores(scan.cube, expected, measured)
-    assert psnr >= 40.0
-    assert angle.mean() <= 1.5
+    assert psnr >= 51.5  # measured 56.9 dB (an error 1.9x larger fails)
+    assert angle.mean() <= 1.4  # degrees; measured 0.78
     # Bright patches are much better than the mean, which the dark surround dominates.
     bright = np.linalg.norm(expected[measured], axis=1)
-    assert angle[bright > np.median(bright)].mean() <= 1.0
+    assert angle[bright > np.median(bright)].mean() <= 1.0  # measured 0.61
 
 
 def test_full_scan_offset_residual(colorchecker_scan):
@@ -56,7 +57,7 @@ def test_full_scan_offset_residual(colorchecker_scan):
     true_background = electrons / bench.sensor.gain_e_per_adu + bench.sensor.dark_offset_adu
     estimated = np.isfinite(scan.background)  # the rows that streaks reach
     residual = np.sqrt(np.mean((scan.background - true_background)[estimated] ** 2))
-    assert residual <= 0.01 * scan.mean_streak_signal
+    assert residual <= 1.3e-4 * scan.mean_streak_signal  # measured 6.8e-5 of it
 
 
 def _scatter_psnr(cube, expected, measured, erode=7, window=15):
@@ -89,5 +90,5 @@ def test_the_cube_states_its_own_noise_in_every_band(colorchecker_scan):
     scan = run.scan
     measured = _scatter_psnr(scan.cube, expected, scan.quality == 0)
     offset = scan.band_noise_psnr_db - measured
-    assert np.all(np.abs(offset) <= 2.5), np.round(offset, 1)
-    assert abs(float(np.median(offset))) <= 1.2, np.round(offset, 1)
+    assert np.all(np.abs(offset) <= 2.5), np.round(offset, 1)  # measured at most 1.85 dB
+    assert abs(float(np.median(offset))) <= 1.2, np.round(offset, 1)  # measured 0.82 dB

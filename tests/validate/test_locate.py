@@ -42,7 +42,8 @@ def test_detector_finds_every_patch_centre(rotation_deg):
     grid = detect_chart(_picture(rotation_deg), _reference_rgb())
     error = np.linalg.norm(grid.centres() - _true_centres(rotation_deg), axis=1)
     assert grid.detected >= 22  # the black patch melts into the black frame
-    assert error.max() < 0.5  # px, including the patches it did not see
+    # px, including the patches it did not see: measured 0.135 (1.5 degrees), 0.038 (-4)
+    assert error.max() < 0.27
 
 
 def test_detector_reads_the_chart_upside_down():

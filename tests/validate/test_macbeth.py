@@ -34,9 +34,10 @@ def good(chart_scan, patch_procedure):
 def test_calibrated_bundle_meets_the_accuracy_targets(good):
     s = good.summary()
     assert good.passed, [c.describe() for c in good.checks if not c.passed]
-    # Issue targets on the default-noise scan, in the usable band.
-    assert s["mean_de00"] <= 1.0 and s["max_de00"] <= 2.5
-    assert s["mean_spectral_angle_deg"] <= 2.0
+    # On the default-noise scan, in the usable band: about twice what is measured (the
+    # issue's targets: mean dE00 <= 1.0, max <= 2.5, mean spectral angle <= 2 degrees).
+    assert s["mean_de00"] <= 0.2 and s["max_de00"] <= 0.75  # measured 0.106 and 0.377
+    assert s["mean_spectral_angle_deg"] <= 1.4  # measured 0.735
     lo, hi = good.band_nm
     assert lo > 410 and hi > 680  # the LED's blue end is cut, the band is otherwise whole
     assert np.all(good.pixels > 200)

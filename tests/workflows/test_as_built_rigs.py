@@ -75,15 +75,15 @@ def test_estimating_the_line_meets_the_tolerances_against_the_truth(swept, estim
     assert result.passed, [c.describe() for c in result.checks if not c.passed]
     t = truth(rig)
     estimate = result.dispersion.wavelengths_nm[635.0]
-    # Target 0.3 nm; measured 0.001 nm.
-    assert estimate == pytest.approx(t.laser_centre_nm(635), abs=0.3)
-    # Target 0.5 nm RMS; measured 0.009 nm.
-    assert _rms(truth(rig).wavelength_map_error_nm(result.dispersion.model)) <= 0.05
+    # Targets 0.3 nm and 0.5 nm RMS; held to about twice what is measured.
+    assert estimate == pytest.approx(t.laser_centre_nm(635), abs=0.001)  # measured 0.00046 nm
+    assert _rms(truth(rig).wavelength_map_error_nm(result.dispersion.model)) <= 0.018  # 0.0092
     for laser in result.lasers:
         x, y = t.slm_to_camera(laser.slm_u, laser.slm_v, t.laser_centre_nm(laser.wavelength_nm))
+        # Measured 0.022 px (520 nm) to 0.035 px (670 nm).
         assert np.sqrt(np.mean((x - laser.camera_x) ** 2 + (y - laser.camera_y) ** 2)) < 0.06
     # The SLM's grey levels were measured, not taken from the description's gamma.
-    assert result.grey_response.gamma == pytest.approx(2.5, abs=0.05)
+    assert result.grey_response.gamma == pytest.approx(2.5, abs=1.5e-4)  # measured 7.3e-5 off
     lines = load(path).manifest["quality"]["laser_lines"]
     assert lines["635"]["fitted_nm"] == estimate and lines["635"]["off_label"]
     assert lines["532"]["fitted_nm"] == 532.0
@@ -106,13 +106,13 @@ def test_the_response_is_off_by_the_lamp_temperature_within_its_reported_sensiti
     error = np.abs(relative[core] - 1).max()
     # The lamp is 80 K hotter than described: the response is off by more than the 2 %
     # this stage reaches on the sim rig, but within the reported 100 K sensitivity.
-    assert 0.02 < error <= lamp["max_relative_change"] + 0.02
+    assert 0.02 < error <= lamp["max_relative_change"] + 0.02  # measured 0.057 (up to 0.123)
     # And it is the lamp: assuming the true temperature brings it back within 2 %.
     edges = response.bin_edges
     corrected = relative * source_photons_in_bins(edges, temperature_k=3000.0)
     corrected /= source_photons_in_bins(edges, temperature_k=t.halogen_k)
     corrected /= np.median(corrected)
-    assert np.abs(corrected[core] - 1).max() < 0.02
+    assert np.abs(corrected[core] - 1).max() < 0.011  # measured 0.0053
 
 
 def test_guide_registers_when_its_sensor_is_not_the_described_one(tmp_path):
@@ -142,5 +142,6 @@ def test_guide_registers_when_its_sensor_is_not_the_described_one(tmp_path):
     reg = register_guide(guide, reference, guide_valid=valid,
                          sift_options={"contrastThreshold": 0.02})  # fmt: skip
     rms, worst = field_discrepancy_px(reg.homography, bench.guide_to_slm, rig.slm.shape)
-    # Target 0.3 px; measured 0.07 px RMS (0.007 px with the described sensor).
-    assert rms <= 0.3 and worst <= 0.6
+    # Target 0.3 px; measured 0.072 px RMS, 0.173 px at worst (0.007 px RMS with the
+    # described sensor).
+    assert rms <= 0.14 and worst <= 0.33

@@ -40,10 +40,11 @@ def test_the_full_chain_publishes_a_passing_bundle_with_every_stage(tmp_path, ca
     slm = np.stack([u, v, ones])
     guide = np.linalg.solve(bench.guide_to_slm, slm)
     mapped = bundle.guide_to_slm @ (guide / guide[2])
-    assert np.sqrt(np.mean(np.sum((mapped[:2] / mapped[2] - slm[:2]) ** 2, axis=0))) < 0.3
+    homography_rms = np.sqrt(np.mean(np.sum((mapped[:2] / mapped[2] - slm[:2]) ** 2, axis=0)))
+    assert homography_rms < 0.09  # SLM px; measured 0.048 (the target: 0.3)
     x, y = bundle.slm_to_camera(u, v, 550.0)
     tx, ty = bench.slm_to_camera(u, v, 550.0)
-    assert np.sqrt(np.mean((x - tx) ** 2 + (y - ty) ** 2)) < 0.1
+    assert np.sqrt(np.mean((x - tx) ** 2 + (y - ty) ** 2)) < 0.005  # camera px; measured 0.0027
     # The report inside the bundle names the bundle it is published in.
     report = json.loads((path / "report" / "macbeth_report.json").read_text())
     assert report["bundle"]["version"] == "v0001"

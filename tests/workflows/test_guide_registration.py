@@ -18,8 +18,8 @@ from sassi_bench.reduce.guide import publish_guide
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.guide import capture_guide, run_guide_registration, scan_reference
 
-# Issue target: <= 0.3 px RMS over the SLM field against the true homography.
-FIELD_RMS_PX = 0.3
+# RMS over the SLM field against the true homography, SLM px. The issue's target is 0.3 px;
+# each test holds its figure to about twice what it measures (the value beside the bound).
 
 
 @pytest.fixture(scope="session")
@@ -38,7 +38,7 @@ def guide_run(calibrated_sim, tmp_path_factory):
 def test_default_rig_meets_the_accuracy_target(guide_run):
     rig, _, result, _ = guide_run
     rms, worst = field_discrepancy_px(result.homography, truth(rig).guide_to_slm, rig.slm.shape)
-    assert rms <= FIELD_RMS_PX and worst <= 2 * FIELD_RMS_PX
+    assert rms <= 0.09 and worst <= 0.18  # measured 0.049 and 0.098
     q = result.registration.quality
     assert result.passed and q.inliers >= 50 and q.coverage > 0.5 and q.rms_px < 1.0
     assert result.reference.stride == (4, 1)
@@ -61,7 +61,7 @@ def test_rotated_and_scaled_guide_camera(guide_run, sim_dict, make_rig, tmp_path
     h_true = truth(rig).guide_to_slm
     assert np.degrees(np.arctan2(h_true[1, 0], h_true[0, 0])) == pytest.approx(3.0)
     rms, _ = field_discrepancy_px(result.homography, h_true, rig.slm.shape)
-    assert rms <= FIELD_RMS_PX
+    assert rms <= 0.10  # measured 0.052
     # The first run's homography is far off for this camera: the test measures something.
     assert field_discrepancy_px(first.homography, h_true, rig.slm.shape)[0] > 10
 
@@ -80,7 +80,7 @@ def test_cie_rendering_of_the_scene_registers_to_the_virtual_guide(guide_run, tm
     guide, valid, _ = capture_guide(sim_rig, proc, session_id="cie", data=tmp_path, progress=False)
     reg = register_guide(guide, rgb, guide_valid=valid, sift_options={"contrastThreshold": 0.02})
     rms, _ = field_discrepancy_px(reg.homography, bench.guide_to_slm, sim_rig.slm.shape)
-    assert rms < FIELD_RMS_PX
+    assert rms < 0.18  # measured 0.094
 
 
 def test_bundle_carries_the_homography_and_warps_with_it(guide_run):
@@ -109,7 +109,7 @@ def test_bundle_carries_the_homography_and_warps_with_it(guide_run):
     slm = np.column_stack([u.ravel(), v.ravel()]).astype(float)
     expected = apply_homography(np.linalg.inv(truth(rig).guide_to_slm), slm)
     error = np.hypot(*(warped[v.ravel(), u.ravel()] - expected).T)
-    assert np.sqrt(np.mean(error**2)) < FIELD_RMS_PX
+    assert np.sqrt(np.mean(error**2)) < 0.09  # measured 0.046
 
 
 def test_figures_are_pngs(guide_run):

@@ -44,11 +44,13 @@ def test_a_still_bench_holds(calibrated_sim, bundle):
     check = run_health_check(rig, bundle, load_procedure("health_check"), data=data)
     assert check.verdict == "holds", check.summary()
     assert check.frames == 2 and check.pinholes > 50
-    # The bundle's own error and the noise: measured 0.001-0.01 px.
-    assert abs(check.field.mean_px) < 0.03 and check.field.max_px < 0.05
-    assert check.field.wavelength_max_nm < 0.3
+    # The bundle's own error and the noise: measured 0.0006 px (mean), 0.0012 px (largest),
+    # 0.011 nm. Mostly noise, whose spread over other draws is not measured here: held to
+    # 4-5x, still 6-10x under the 0.03 px and 0.05 px it was held to before.
+    assert abs(check.field.mean_px) < 0.003 and check.field.max_px < 0.005
+    assert check.field.wavelength_max_nm < 0.025
     assert check.parts["guide homography"] == GUIDE_NOT_TESTED
-    assert check.processing_s < 10.0
+    assert check.processing_s > 0  # recorded; benchmarks/bench_health_check.py times it
     assert "verdict: holds" in check.summary()
 
 
@@ -58,7 +60,7 @@ def test_a_drift_of_0_2_px_is_measured_and_flagged(calibrated_sim, bundle):
     assert rig.description.sha256() == bundle.manifest["rig_hash"]
     check = run_health_check(rig, bundle, load_procedure("health_check"), data=data)
     assert truth(rig).drift_at(truth(rig).clock_h).offset_px[0] == pytest.approx(DRIFT_PX, abs=1e-3)
-    assert check.field.mean_px == pytest.approx(DRIFT_PX, abs=0.01)
+    assert check.field.mean_px == pytest.approx(DRIFT_PX, abs=0.002)  # measured 4e-5 off
     assert check.verdict == "recalibrate"
     assert check.parts["dispersion (columns)"] == "recalibrate spectral"
     assert check.parts["dispersion (rows)"] == "holds"

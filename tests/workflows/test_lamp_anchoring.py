@@ -46,11 +46,12 @@ def test_the_bundle_passes_and_records_every_laser_s_measured_line(anchored):
         # The diodes are measured; the exact DPSS line is confirmed and held at its label.
         exact = label == 532
         assert line["method"] == ("lamp-confirmed label" if exact else "lamp-anchored"), label
-        assert line["fitted_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.3), label
+        # Within 0.22 nm of its true line (measured 0.11 nm at worst, 670 nm).
+        assert line["fitted_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.22), label
         if exact:
             assert line["fitted_nm"] == pytest.approx(532.0, abs=0.001)  # held at its label
-        # Issue goal: each laser within 0.3 nm of its true line (measured <= 0.11 nm).
-        assert line["measured_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.3), label
+        # Issue goal: each laser within 0.3 nm of its true line (measured <= 0.088 nm).
+        assert line["measured_nm"] == pytest.approx(t.laser_centre_nm(label), abs=0.18), label
         assert 0 < line["sigma_nm"] < 0.5
     assert set(spectral["lamps"]) == {"HgAr", "Ne"}
     checks = {c["name"] for c in spectral["checks"]}
@@ -66,15 +67,15 @@ def test_the_wavelength_map_meets_the_goals_against_the_truth(anchored):
     t = truth(rig)
     model = bundle.models.dispersion
     error_nm = t.wavelength_map_error_nm(model)
-    # Issue goals: <= 0.3 nm RMS and <= 0.1 camera px RMS (measured 0.052 nm, 0.007 px;
-    # the same sweeps with the lasers at their labels: 3.9 nm, 1.6 px).
-    assert np.sqrt(np.mean(error_nm**2)) <= 0.3
+    # Issue goals: <= 0.3 nm RMS and <= 0.1 camera px RMS; held to twice what is measured
+    # (0.053 nm, 0.0070 px; the same sweeps with the lasers at their labels: 3.9 nm, 1.6 px).
+    assert np.sqrt(np.mean(error_nm**2)) <= 0.1
     h, w = rig.slm.shape
     u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
     lam = np.linspace(400, 700, 61)
     xm, _ = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
     xt, _ = t.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
-    assert np.sqrt(np.mean((xm - xt) ** 2)) <= 0.1
+    assert np.sqrt(np.mean((xm - xt) ** 2)) <= 0.014
     assert result.dispersion.anchored
     assert result.dispersion.leave_one_out_max_px <= 0.5
 

@@ -35,7 +35,7 @@ def test_the_response_follows_the_cameras_true_quantum_efficiency(response_bundl
     # smooth correction): before, a smooth fill and other streaks' red tails left the
     # first bins 2.5-6.3 % low. Measured: within 0.44 % from 401 to 640 nm, 2.3 % at 697.
     blue_to_orange = wl < 640
-    assert np.abs(relative[blue_to_orange] - 1).max() < 0.01, relative.round(3)
-    assert np.abs(relative - 1).max() < 0.03, relative.round(3)
+    assert np.abs(relative[blue_to_orange] - 1).max() < 0.009, relative.round(3)  # 0.0044
+    assert np.abs(relative - 1).max() < 0.03, relative.round(3)  # measured 0.023
     # The QE itself varies several-fold over the band: a flat response would fail.
     assert expected.max() / expected.min() > 1.5

@@ -18,6 +18,38 @@ from sassi_bench.rig.config import load_rig_description, rig_description_from_di
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.spectral import run_spectral_calibration
 
+# Each rig's figures against the truth are held to about twice what is measured (the
+# measured value beside each bound; the issue's targets are far looser): the wavelength
+# map's error over the band (RMS and worst, nm; rows, camera px RMS), and the blur's
+# (the spot widths at the lasers and the model's prediction of them, the model between
+# and beyond the lasers).
+BOUNDS = {
+    "sim": {
+        "map_rms_nm": 0.022,  # measured 0.0109
+        "map_max_nm": 0.125,  # 0.0625
+        "rows_rms_px": 0.026,  # 0.0129
+        "spot_rel": 0.0042,  # 0.0021
+        "predicted_px": 0.0006,  # 0.00031
+        "band_rel": 0.0005,  # 0.00025
+    },
+    "sim-odd": {
+        "map_rms_nm": 0.046,  # measured 0.0230
+        "map_max_nm": 0.17,  # 0.0834
+        "rows_rms_px": 0.036,  # 0.0178
+        "spot_rel": 0.0066,  # 0.0033
+        "predicted_px": 0.0036,  # 0.0018
+        "band_rel": 0.0038,  # 0.0019
+    },
+    "sim-four-lines": {
+        "map_rms_nm": 0.023,  # measured 0.0115
+        "map_max_nm": 0.19,  # 0.0935
+        "rows_rms_px": 0.033,  # 0.0165
+        "spot_rel": 0.0017,  # 0.00085
+        "predicted_px": 0.0011,  # 0.00053
+        "band_rel": 0.0022,  # 0.0011
+    },
+}
+
 
 def _odd_rig():
     data = load_rig_description("sim").to_dict()
@@ -73,7 +105,7 @@ def test_correspondences_land_where_truth_says(calibrated):
     for laser in result.lasers:
         x, y = t.slm_to_camera(laser.slm_u, laser.slm_v, laser.wavelength_nm)
         error = np.hypot(x - laser.camera_x, y - laser.camera_y)
-        # Issue target 0.1 px; measured 0.02-0.04 px, so hold it to 0.06 px.
+        # Issue target 0.1 px; measured 0.022-0.035 px on every rig, so hold it to 0.06 px.
         assert np.sqrt(np.mean(error**2)) <= 0.06, laser.wavelength_nm
         assert laser.valid_fraction > 0.85
 
@@ -87,10 +119,10 @@ def test_wavelength_map_matches_truth_over_the_band(calibrated):
     xm, ym = result.dispersion.model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
     xt, yt = t.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
     error_nm = (xm - xt) / np.gradient(xt, lam, axis=1)
-    # Issue target 0.5 nm RMS; measured about 0.01 nm.
-    assert np.sqrt(np.mean(error_nm**2)) <= 0.05
-    assert np.abs(error_nm).max() <= 0.25
-    assert np.sqrt(np.mean((ym - yt) ** 2)) <= 0.05  # rows, camera px
+    bounds = BOUNDS[rig.description.name]  # the issue's target: 0.5 nm RMS
+    assert np.sqrt(np.mean(error_nm**2)) <= bounds["map_rms_nm"]
+    assert np.abs(error_nm).max() <= bounds["map_max_nm"]
+    assert np.sqrt(np.mean((ym - yt) ** 2)) <= bounds["rows_rms_px"]
 
 
 def test_blur_width_matches_truth(calibrated):
@@ -100,8 +132,10 @@ def test_blur_width_matches_truth(calibrated):
     # Issue target 0.2 px: the measured spot widths, and what the model predicts a camera
     # measures at the lasers.
     spot = t.line_spread_sigma_px(lasers)
-    assert result.blur.measured_sigma_px == pytest.approx(spot, rel=0.01)
-    assert result.blur.measured_sigma_px + result.blur.residual_px == pytest.approx(spot, abs=0.1)
+    bounds = BOUNDS[rig.description.name]
+    assert result.blur.measured_sigma_px == pytest.approx(spot, rel=bounds["spot_rel"])
+    predicted = result.blur.measured_sigma_px + result.blur.residual_px
+    assert predicted == pytest.approx(spot, abs=bounds["predicted_px"])
     # Between and beyond the lasers, relative to the spot before the camera pixel (what the
     # bundle's blur is: its users integrate it over camera pixels): the PSF's quadratic with
     # the SLM pixel's image in quadrature (the paper's quadratic through the spot widths was
@@ -109,7 +143,7 @@ def test_blur_width_matches_truth(calibrated):
     band = np.arange(450.0, 691.0, 10.0)
     error = result.blur.model.sigma(band) / np.sqrt(t.line_spread_sigma_px(band) ** 2 - 1 / 12) - 1
     assert result.blur.model.kind == "psf_quadratic"
-    assert np.abs(error).max() <= 0.01
+    assert np.abs(error).max() <= bounds["band_rel"]
 
 
 def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):
@@ -124,9 +158,10 @@ def test_the_papers_line_sweep_cross_checks_the_structured_sweep(tmp_path):
     for laser in result.lasers:
         x, y = t.slm_to_camera(laser.slm_u, laser.slm_v, laser.wavelength_nm)
         error = np.hypot(x - laser.camera_x, y - laser.camera_y)
-        assert np.sqrt(np.mean(error**2)) <= 0.1
-        assert 0.01 < laser.residual_rms_px < 0.15  # line centres scatter about their fit
-    assert result.dispersion.leave_one_out_rms_nm <= 0.5
+        assert np.sqrt(np.mean(error**2)) <= 0.0085  # measured 0.0017-0.0042 px
+        # Line centres scatter about their fit: measured 0.029-0.072 px.
+        assert 0.01 < laser.residual_rms_px < 0.15
+    assert result.dispersion.leave_one_out_rms_nm <= 0.05  # measured 0.026
     frames = len(result.sessions[0].plan)  # the sweep (the lamp frames follow it)
     # Multi-line shift: 2 x 64 / 8 = 16 line frames per laser, plus 3 references and 3 blur.
     assert frames == 5 * (16 + 3 + 3)

@@ -405,8 +405,10 @@ class Session:
 
         Examples
         --------
-        >>> with session.writing():  # doctest: +SKIP
-        ...     session.write_frame(0, frame)
+        Not run here (it drives a bench or reads its sessions)::
+
+            with session.writing():
+                session.write_frame(0, frame)
         """
         held = self._lock.held
         self.lock_for_writing()
@@ -624,8 +626,10 @@ class Session:
 
         Examples
         --------
-        >>> session.find_damage(thorough=False)  # doctest: +SKIP
-        [FrameDamage(session=..., step=3, camera='spectral', slot=2, ..., kind='missing', ...)]
+        Not run here (it drives a bench or reads its sessions)::
+
+            session.find_damage(thorough=False)
+            # [FrameDamage(session=..., step=3, camera='spectral', ..., kind='missing', ...)]
         """
         found = []
         for i in sorted(self._log.completed):
@@ -704,7 +708,9 @@ class Session:
 
         Examples
         --------
-        >>> session.set_aside(session.find_damage())  # doctest: +SKIP
+        Not run here (it drives a bench or reads its sessions)::
+
+            session.set_aside(session.find_damage())
         """
         records = []
         with self.writing():

@@ -44,8 +44,10 @@ def build_hardware_rig(desc: RigDescription, prompt: Callable[[str], None] | Non
 
     Examples
     --------
-    >>> from sassi_bench.rig import open_rig
-    >>> rig = open_rig("procedures/rigs/lab-example.yaml")  # doctest: +SKIP
+    Not run here (it needs the hardware)::
+
+        from sassi_bench.rig import open_rig
+        rig = open_rig("procedures/rigs/lab-example.yaml")
     """
     from sassi_bench.rig.hardware.manual import ManualLight, ask_operator
     from sassi_bench.rig.hardware.slm_display import DisplaySlm

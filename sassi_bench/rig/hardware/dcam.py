@@ -55,9 +55,11 @@ class DcamCamera(CameraBase):
 
     Examples
     --------
-    >>> cam = open_dcam("spectral", index=0, trigger="line")  # doctest: +SKIP
-    >>> cam.capture().shape  # doctest: +SKIP
-    (2048, 2048)
+    Not run here (it needs the hardware)::
+
+        cam = open_dcam("spectral", index=0, trigger="line")
+        cam.capture().shape
+        # (2048, 2048)
     """
 
     #: A rig's ``hardware`` section may name it.

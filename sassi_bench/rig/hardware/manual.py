@@ -17,8 +17,10 @@ def ask_operator(message: str) -> None:
 
     Examples
     --------
-    >>> ask_operator("Switch the light to led")  # doctest: +SKIP
-    Switch the light to led, then press Enter
+    Not run here (it needs the hardware)::
+
+        ask_operator("Switch the light to led")
+        # Switch the light to led, then press Enter
     """
     if not sys.stdin or not sys.stdin.isatty():
         raise DeviceError(

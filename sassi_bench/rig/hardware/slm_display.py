@@ -72,9 +72,11 @@ class DisplaySlm(SlmBase):
 
     Examples
     --------
-    >>> slm = DisplaySlm((1080, 1920), monitor="HDMI-1")  # doctest: +SKIP
-    >>> slm.show(np.zeros((1080, 1920), np.uint8))  # doctest: +SKIP
-    0
+    Not run here (it needs the hardware)::
+
+        slm = DisplaySlm((1080, 1920), monitor="HDMI-1")
+        slm.show(np.zeros((1080, 1920), np.uint8))
+        # 0
     """
 
     def __init__(

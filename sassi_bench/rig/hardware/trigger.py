@@ -61,10 +61,12 @@ class ArduinoTrigger(TriggerBase):
 
     Examples
     --------
-    >>> trigger = ArduinoTrigger("/dev/ttyACM0")  # doctest: +SKIP
-    >>> trigger.set_divider(2); trigger.arm()  # doctest: +SKIP
-    >>> trigger.counters()  # doctest: +SKIP
-    {'received': 0, 'passed': 0}
+    Not run here (it needs the hardware)::
+
+        trigger = ArduinoTrigger("/dev/ttyACM0")
+        trigger.set_divider(2); trigger.arm()
+        trigger.counters()
+        # {'received': 0, 'passed': 0}
     """
 
     def __init__(
