@@ -154,8 +154,10 @@ def clipping_of_views(views: Mapping[str, Any], rig: Any) -> list[Clipping]:
 
     Examples
     --------
-    >>> for c in clipping_of_views(capture_views(rig), rig):  # doctest: +SKIP
-    ...     print(c.describe())
+    Not run here (it needs a bench, captured sessions or files)::
+
+        for c in clipping_of_views(capture_views(rig), rig):
+            print(c.describe())
     """
     cameras = {"guide": rig.guide_camera, "spectral": rig.spectral_camera}
     found = []

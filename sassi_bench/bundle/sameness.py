@@ -13,8 +13,10 @@ stores).
 
 Examples
 --------
->>> same_models_version(result.models(), rig="sim")  # doctest: +SKIP
-'v0001'
+Not run here (it needs a bench, captured sessions or files)::
+
+    same_models_version(result.models(), rig="sim")
+    # 'v0001'
 """
 
 from __future__ import annotations
@@ -58,9 +60,11 @@ def model_fingerprint(models: CalibrationModels) -> dict[str, Any]:
 
     Examples
     --------
-    >>> fingerprint = model_fingerprint(result.models())  # doctest: +SKIP
-    >>> sorted(fingerprint)  # doctest: +SKIP
-    ['arrays', 'models']
+    Not run here (it needs a bench, captured sessions or files)::
+
+        fingerprint = model_fingerprint(result.models())
+        sorted(fingerprint)
+        # ['arrays', 'models']
     """
     section, arrays = models.to_manifest()
     return {
@@ -107,8 +111,10 @@ def same_models_version(
 
     Examples
     --------
-    >>> same_models_version(result.models(), rig="sim", data="calib_data")  # doctest: +SKIP
-    'v0001'
+    Not run here (it needs a bench, captured sessions or files)::
+
+        same_models_version(result.models(), rig="sim", data="calib_data")
+        # 'v0001'
     """
     wanted = model_fingerprint(models)
     folder = rig_dir(rig, data)

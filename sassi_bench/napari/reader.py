@@ -12,9 +12,11 @@ Nothing here imports napari: the readers return napari's layer data tuples
 
 Examples
 --------
->>> reader = get_reader("cubes/lab-spectral-colorchecker-sim-v0002.nc")  # doctest: +SKIP
->>> [kwargs["name"] for _, kwargs, _ in reader("cubes/...nc")]  # doctest: +SKIP
-['lab-spectral-colorchecker-sim-v0002 (sRGB)', 'lab-spectral-colorchecker-sim-v0002']
+Not run here (it needs a bench, captured sessions or files)::
+
+    reader = get_reader("cubes/lab-spectral-colorchecker-sim-v0002.nc")
+    [kwargs["name"] for _, kwargs, _ in reader("cubes/...nc")]
+    # ['lab-spectral-colorchecker-sim-v0002 (sRGB)', 'lab-spectral-colorchecker-sim-v0002']
 """
 
 from __future__ import annotations
@@ -122,9 +124,11 @@ def read_netcdf(path: str | os.PathLike[str]) -> list[LayerData]:
 
     Examples
     --------
-    >>> rgb, cube = read_netcdf("cubes/scan.nc")  # doctest: +SKIP
-    >>> cube[1]["metadata"]["provenance"]["bundle_version"]  # doctest: +SKIP
-    'v0002'
+    Not run here (it needs a bench, captured sessions or files)::
+
+        rgb, cube = read_netcdf("cubes/scan.nc")
+        cube[1]["metadata"]["provenance"]["bundle_version"]
+        # 'v0002'
     """
     import xarray as xr
 
@@ -157,7 +161,9 @@ def read_envi(path: str | os.PathLike[str]) -> list[LayerData]:
 
     Examples
     --------
-    >>> rgb, cube = read_envi("cubes/scan.hdr")  # doctest: +SKIP
+    Not run here (it needs a bench, captured sessions or files)::
+
+        rgb, cube = read_envi("cubes/scan.hdr")
     """
     import spectral.io.envi as envi
 
@@ -229,9 +235,11 @@ def read_video(path: str | os.PathLike[str]) -> list[LayerData]:
 
     Examples
     --------
-    >>> rgb, cube = read_video("live/video.zarr")  # doctest: +SKIP
-    >>> cube[0].shape  # doctest: +SKIP
-    (10, 68, 400, 640)
+    Not run here (it needs a bench, captured sessions or files)::
+
+        rgb, cube = read_video("live/video.zarr")
+        cube[0].shape
+        # (10, 68, 400, 640)
     """
     import zarr
 

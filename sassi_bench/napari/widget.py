@@ -19,7 +19,9 @@ def spectrum_widget(napari_viewer: Any) -> Any:
 
     Examples
     --------
-    >>> viewer.window.add_dock_widget(spectrum_widget(viewer))  # doctest: +SKIP
+    Not run here (it needs a bench, captured sessions or files)::
+
+        viewer.window.add_dock_widget(spectrum_widget(viewer))
     """
     return _widget_class()(napari_viewer)
 

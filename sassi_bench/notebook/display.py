@@ -30,8 +30,10 @@ def say_clipping(views, rig) -> None:
 
     Examples
     --------
-    >>> say_clipping(capture_views(rig), rig)  # doctest: +SKIP
-    ⚠ spectral all open: 63.0 % of pixels at full scale (4095 ADU), 0.0 % at zero. ...
+    Not run here (it needs a bench, captured sessions or files)::
+
+        say_clipping(capture_views(rig), rig)
+        # ⚠ spectral all open: 63.0 % of pixels at full scale (4095 ADU), 0.0 % at zero. ...
     """
     from sassi_bench.acquire.saturation import clipping_of_views
 

@@ -86,10 +86,12 @@ def publish_once(
 
     Examples
     --------
-    >>> path = publish_once(result.models(), lambda: publish_spectral(result),
-    ...                     rig="sim")  # doctest: +SKIP
-    not published again: sim/v0001 already holds exactly these models (...)
-    latest: sim/v0003 (dispersion, blur, guide homography, radiometric response)
+    Not run here (it needs a bench, captured sessions or files)::
+
+        path = publish_once(result.models(), lambda: publish_spectral(result),
+                            rig="sim")
+        # not published again: sim/v0001 already holds exactly these models (...)
+        # latest: sim/v0003 (dispersion, blur, guide homography, radiometric response)
     """
     from sassi_bench.bundle.layout import rig_dir
     from sassi_bench.bundle.sameness import same_models_version
@@ -117,9 +119,11 @@ def publish_spectral_once(
 
     Examples
     --------
-    >>> path = publish_spectral_once(result, data="calib_data")  # doctest: +SKIP
-    published sim/v0001 (dispersion, blur; no guide homography or radiometric response) at ...
-    latest: sim/v0001 (dispersion, blur; no guide homography or radiometric response)
+    Not run here (it needs a bench, captured sessions or files)::
+
+        path = publish_spectral_once(result, data="calib_data")
+        # published sim/v0001 (dispersion, blur; no guide homography or radiometric response) at ...
+        # latest: sim/v0001 (dispersion, blur; no guide homography or radiometric response)
     """
     from sassi_bench.reduce.spectral_bundle import publish_spectral
 
@@ -139,9 +143,11 @@ def publish_guide_once(
 
     Examples
     --------
-    >>> path = publish_guide_once(result, bundle, data="calib_data")  # doctest: +SKIP
-    published sim/v0003 (dispersion, blur, guide homography, radiometric response) at ...
-    latest: sim/v0003 (dispersion, blur, guide homography, radiometric response)
+    Not run here (it needs a bench, captured sessions or files)::
+
+        path = publish_guide_once(result, bundle, data="calib_data")
+        # published sim/v0003 (dispersion, blur, guide homography, radiometric response) at ...
+        # latest: sim/v0003 (dispersion, blur, guide homography, radiometric response)
     """
     from sassi_bench.reduce.guide import publish_guide
 

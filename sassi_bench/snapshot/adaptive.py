@@ -407,7 +407,9 @@ def planned_mask(
 
     Examples
     --------
-    >>> plan = planned_mask(guide_on_slm(bundle, preview), bundle.mask_spacing())  # doctest: +SKIP
+    Not run here (it needs a bench, captured sessions or files)::
+
+        plan = planned_mask(guide_on_slm(bundle, preview), bundle.mask_spacing())
     """
     import cv2
 

@@ -7,8 +7,8 @@ SLIC on CIELAB features (OpenCV's float conversion: L 0-100), our own compiled v
 kept per cell of the starting grid. The superpixels only place the samples; the regions
 the cube is spread over come from the full-resolution re-segmentation around the samples
 (:func:`~sassi_bench.snapshot.adaptive.segment_around_samples`). Why these choices, with
-the measurements against OpenCV's and scikit-image's SLIC: docs/notes/2026-11-29-snapshot-superpixels.md
-and ``benchmarks/bench_superpixels.py``.
+the measurements against OpenCV's and scikit-image's SLIC:
+docs/notes/2026-11-29-snapshot-superpixels.md and ``benchmarks/bench_superpixels.py``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ __all__ = ["Superpixels", "guide_features", "guide_on_slm", "superpixels"]
 
 #: SLIC iterations (measurement: docs/notes/2026-11-29-snapshot-superpixels.md).
 ITERATIONS = 2
-#: Video's SLIC runs on the features shrunk by this factor (docs/notes/2026-11-29-snapshot-superpixels.md).
+#: Video's SLIC runs on the features shrunk by this factor
+#: (docs/notes/2026-11-29-snapshot-superpixels.md).
 VIDEO_SHRINK = 2
 
 #: The guide images accepted: grey, one channel or RGB.

@@ -87,10 +87,12 @@ def run_alignment(
 
     Examples
     --------
-    >>> from sassi_bench import open_rig
-    >>> done = run_alignment(open_rig("sim"), lights=["laser:532"])  # doctest: +SKIP
-    >>> done[0].readings[0].name  # doctest: +SKIP
-    'spot width 532 nm'
+    Not run here (it needs a bench, captured sessions or files)::
+
+        from sassi_bench import open_rig
+        done = run_alignment(open_rig("sim"), lights=["laser:532"])
+        done[0].readings[0].name
+        # 'spot width 532 nm'
     """
     if rounds < 1:
         raise ProcedureError(

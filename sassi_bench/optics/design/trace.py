@@ -7,7 +7,8 @@ relative throughput (the share of the pupil that reaches the camera: vignetting)
 The moments come from a Gauss quadrature over the pupil (Gauss-Legendre in r**2 times
 equally spaced angles), not from a spot diagram's equal-weight rings: on the shipped
 designs 64 quadrature rays give the second moments to better than 1e-4 px, where a
-hexapolar spot diagram of 1261 rays is still 0.06-0.21 px off (docs/notes/2026-11-29-optical_design.md).
+hexapolar spot diagram of 1261 rays is still 0.06-0.21 px off
+(docs/notes/2026-11-29-optical_design.md).
 All points of a wavelength go through the tracer in one vectorised call.
 """
 
