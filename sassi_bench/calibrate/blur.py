@@ -348,8 +348,8 @@ def fit_field_covariance(
     field_degree: int = 4,
     wavelength_degree: int | None = None,
 ) -> BlurFit:
-    """Fit the field-covariance blur (:class:`~sassi_bench.bundle.blur.field_covariance.
-    FieldCovarianceBlur`) to pinhole spots' second moments over the field and lines.
+    """Fit the field-covariance blur (:class:`FieldCovarianceBlur`) to pinhole spots'
+    second moments over the field and lines.
 
     Each component of the spot's covariance before the camera pixel (the measured moment
     less ``1/12`` px**2 on each axis) is a Legendre series of ``field_degree`` over the SLM
