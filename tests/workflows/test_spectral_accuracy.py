@@ -29,7 +29,7 @@ BOUNDS = {
         "map_max_nm": 0.125,  # 0.0625
         "rows_rms_px": 0.026,  # 0.0129
         "spot_rel": 0.0042,  # 0.0021
-        "predicted_px": 0.0006,  # 0.00031
+        "predicted_px": 0.0025,  # 0.00126 (blur pinholes 26 SLM px apart, from the optics)
         "band_rel": 0.0005,  # 0.00025
     },
     "sim-odd": {
