@@ -128,6 +128,7 @@ def scan_reference(
         ref.image.shape == (*rig.slm.shape, 3)
         # True
     """
+    procedure = planned_guide(procedure, rig.description)  # null spacings from the optics
     scan_cfg = procedure["scan"]
     pitch = tuple(int(p) for p in scan_cfg["pitch_px"])
     stride = (int(scan_cfg["stride_px"][0]), int(scan_cfg["stride_px"][1]))
