@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sassi_bench.commands.options import add_rig_option, add_simulate_option, program
+from sassi_bench.commands.options import (
+    add_rig_option,
+    add_simulate_option,
+    check_output_file,
+    program,
+)
 
 __all__ = ["register"]
 
@@ -15,6 +20,8 @@ def _show(args: argparse.Namespace) -> int:
 
     from sassi_bench.rig.config import load_rig_description
 
+    if args.figure:
+        check_output_file("rig show", args.figure, "--figure")
     desc = load_rig_description(args.rig)
     print(f"# rig {desc.name} ({desc.source}), sha256 {desc.sha256()[:12]}")
     print(yaml.safe_dump(desc.to_dict(), sort_keys=False), end="")

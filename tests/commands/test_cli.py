@@ -222,6 +222,7 @@ def bad_value(words, action, world):
         "seconds": "-1",
         "queue": "0",
         "since": "yesterday",
+        "figure": str(root / "no-such-folder" / "layout.png"),
     }
     if words == ("snapshot", "export") and action.dest == "session":
         return "no-such-session"
