@@ -102,8 +102,7 @@ class DispersionFit:
 
         Leaving out the bluest or the reddest line asks the others to extrapolate the
         dispersion curve to it: its error measures the distance to the next line, not the
-        map (a four-laser SF10 bench failed 0.5036 px at an end laser while its map was
-        0.047 px and 0.035 nm off the truth). Those are recorded (``leave_one_out``,
+        map (docs/rig_family.md). Those are recorded (``leave_one_out``,
         :attr:`extrapolation_max_px`), not graded.
         """
         labels = sorted(self.leave_one_out)

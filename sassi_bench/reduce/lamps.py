@@ -308,9 +308,8 @@ def anchor_wavelengths(
     measure with a 1-sigma above ``tolerances.laser_wavelength_sigma_nm`` (its lamp lines
     blend at the rig's dispersion, or too few photons) keeps its label too: a lamp only
     adds information, and a measurement that uncertain would move the map further than
-    the label is likely off (the noisy N-BK7 bench's 670 nm line: measured 668.91 +- 0.58
-    nm, true 670.00; fitted there, the map was 0.043 nm RMS off the truth, 0.014 without
-    lamps). The ``laser_label`` check still compares the measurement with the label.
+    the label is likely off (measured on the noisy N-BK7 bench, docs/rig_family.md). The
+    ``laser_label`` check still compares the measurement with the label.
 
     Parameters
     ----------

@@ -8,8 +8,8 @@ tables do), each built once from the bundle's forward model and called on every 
 * ``"mixed"`` (:class:`MixedUnmixing`, the scans' default): a bin's columns hold light
   of several wavelengths at the red end, each blurred by its own width; those bins are
   unmixed again with each pixel's light there blurred as the mixture of its sources
-  (:mod:`~sassi_bench.spectra.row_mixture`). Closer to the truth at the red end, about
-  1.6 times the assembly's CPU.
+  (:mod:`~sassi_bench.spectra.row_mixture`). More exact at the red end, about 1.6
+  times the assembly's CPU.
 * ``"separable"`` (:class:`SeparableUnmixing`): each bin with its own blur alone
   (:func:`~sassi_bench.spectra.cells.unmix_rows`), for scans whose radiometry at the red
   end matters less than their time: the guide registration's rendering to RGB (about 7 s

@@ -298,10 +298,12 @@ class OpticalDesign:
         )
 
 
-def with_override(design: OpticalDesign, override: Mapping[str, Any]) -> OpticalDesign:
+def with_override(
+    design: OpticalDesign, override: Mapping[str, Any], where: str = "design override"
+) -> OpticalDesign:
     """The design with some keys changed: ``{surfaces: {N: {key: value}}, image: {...},
-    object_distance_mm: ...}``, surfaces counted from 1 as listed (a bench built off its
-    design, the ``as_built.design`` section).
+    object_distance_mm: ...}``, surfaces counted from 1 as listed; ``where`` names the
+    section the override came from in errors.
 
     Raises
     ------
@@ -309,18 +311,18 @@ def with_override(design: OpticalDesign, override: Mapping[str, Any]) -> Optical
         On a surface number outside the list or an unknown key.
     """
     data = copy.deepcopy(design.to_mapping())
-    _check_keys(override, ("surfaces", "image", "object_distance_mm"), "as_built.design")
+    _check_keys(override, ("surfaces", "image", "object_distance_mm"), where)
     for number, keys in (override.get("surfaces") or {}).items():
         index = int(number)
         if not 1 <= index <= len(data["surfaces"]):
             raise ConfigError(
                 step_error(
-                    "rig description: as_built.design",
+                    f"rig description: {where}",
                     f"surfaces.{number}: there are surfaces 1..{len(data['surfaces'])}",
                     "count the design's surfaces from 1 as listed",
                 )
             )
-        _check_keys(keys, _SURFACE_KEYS, f"as_built.design.surfaces.{number}")
+        _check_keys(keys, _SURFACE_KEYS, f"{where}.surfaces.{number}")
         data["surfaces"][index - 1].update(copy.deepcopy(dict(keys)))
     if "image" in override:
         data.setdefault("image", {}).update(dict(override["image"]))

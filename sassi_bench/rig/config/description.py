@@ -276,8 +276,8 @@ class RigDescription:
         see the described optics. It returns a
         :class:`~sassi_bench.optics.relay.SpectralRelay` for a parametric rig and a
         :class:`~sassi_bench.optics.design.relay.DesignRelay` (the described ``design:``
-        traced by optiland, read through interpolants; never the bench's ``as_built``
-        one) for a design rig. Both answer ``forward(u, v, wavelength)``,
+        traced by optiland, read through interpolants, as described) for a design
+        rig. Both answer ``forward(u, v, wavelength)``,
         ``forward_grid``, ``inverse``, ``scale``, ``slm_shape``, ``camera_shape`` and
         ``reference_nm``; :meth:`nominal_psf` gives the described spot width.
 

@@ -83,7 +83,7 @@ def bench_design_relay(desc: RigDescription) -> DesignRelay:
     design = desc.design
     override = as_built_section(desc).design
     if override:
-        design = with_override(design, override)
+        design = with_override(design, override, "as_built.design")
     return design_relay(
         design,
         (desc.slm.height, desc.slm.width),

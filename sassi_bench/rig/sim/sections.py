@@ -249,7 +249,9 @@ def _check_design_sections(desc: RigDescription, as_built: AsBuiltConfig) -> Non
     if as_built.design is not None:
         from sassi_bench.optics.design import with_override
 
-        with_override(desc.design, as_built.design)  # numbers and keys checked here
+        with_override(
+            desc.design, as_built.design, "as_built.design"
+        )  # numbers and keys checked here
     if nuisance_section(desc).drift is not None:
         raise _error(
             desc,
