@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import ndtr
 
 from sassi_bench._shared.registry import Registry
-from sassi_bench.bundle.model_checks import bad, mapping
+from sassi_bench.bundle.model_checks import bad, mapping, real
 from sassi_bench.maths.normal import NORMAL_CDF_TABLE, box_overlap, pixel_spot
 
 __all__ = ["BLUR_FORMS", "GAUSSIAN", "BlurModel", "GaussianProfile", "Spot", "blur_from_manifest"]
@@ -115,8 +115,22 @@ class BlurModel(ABC):
     was fitted at (``relative_error``, a fraction; None when it states none).
     """
 
+    def _check_pixel_and_error(self, where: str) -> None:
+        """Check and normalise the fields every form has: ``pixel_variance_px2`` (>= 0)
+        and ``relative_error`` (None or in [0, 1)); ``where`` names the entry in errors."""
+        pixel = real(self.pixel_variance_px2, f"{where}.pixel_variance_px2")
+        if pixel < 0:
+            raise bad(f"{where}.pixel_variance_px2", f"must be >= 0, got {pixel!r}")
+        object.__setattr__(self, "pixel_variance_px2", pixel)
+        if self.relative_error is not None:
+            error = real(self.relative_error, f"{where}.relative_error")
+            if not 0 <= error < 1:
+                raise bad(f"{where}.relative_error", f"must be in [0, 1), got {error!r}")
+            object.__setattr__(self, "relative_error", error)
+
     window_sigmas: float
     relative_error: float | None
+    pixel_variance_px2: float
 
     @property
     @abstractmethod

@@ -81,15 +81,7 @@ class QuadraticBlur(BlurModel):
             "window_sigmas",
             real(self.window_sigmas, f"{where}.window_sigmas", positive=True),
         )
-        pixel = real(self.pixel_variance_px2, f"{where}.pixel_variance_px2")
-        if pixel < 0:
-            raise bad(f"{where}.pixel_variance_px2", f"must be >= 0, got {pixel!r}")
-        object.__setattr__(self, "pixel_variance_px2", pixel)
-        if self.relative_error is not None:
-            error = real(self.relative_error, f"{where}.relative_error")
-            if not 0 <= error < 1:
-                raise bad(f"{where}.relative_error", f"must be in [0, 1), got {error!r}")
-            object.__setattr__(self, "relative_error", error)
+        self._check_pixel_and_error(where)
 
     @property
     def kind(self) -> str:
