@@ -4,18 +4,19 @@ a pixel. Skips, saying why, without napari or an offscreen Qt."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 napari = pytest.importorskip("napari", reason="napari is an optional extra (sassi-bench[napari])")
 
 
 @pytest.fixture
-def viewer():
+def viewer(monkeypatch):
+    # Offscreen for this test alone: a process-wide setting would send the SLM window
+    # tests' Qt to no display.
+    monkeypatch.setenv("QT_QPA_PLATFORM", "offscreen")
     from napari.components import ViewerModel
     from napari.plugins import _initialize_plugins
 

@@ -81,7 +81,7 @@ def dummy_x(tmp_path_factory):
     # Qt aborts the process when its xcb plugin cannot load: try it in a child first.
     probe = subprocess.run(
         [sys.executable, "-c", "from PySide6.QtWidgets import QApplication; QApplication([])"],
-        env={**os.environ, "DISPLAY": server.display},
+        env={**os.environ, "DISPLAY": server.display, "QT_QPA_PLATFORM": "xcb"},
         capture_output=True,
         text=True,
         timeout=60,
@@ -89,8 +89,9 @@ def dummy_x(tmp_path_factory):
     if probe.returncode != 0:
         server.close()
         pytest.skip(f"Qt cannot open a window (missing libxcb-* packages?): {probe.stderr[-300:]}")
-    old = os.environ.get("DISPLAY")
+    old = {key: os.environ.get(key) for key in ("DISPLAY", "QT_QPA_PLATFORM")}
     os.environ["DISPLAY"] = server.display
+    os.environ["QT_QPA_PLATFORM"] = "xcb"  # even if another test chose Qt's offscreen platform
     yield server
     from PySide6 import QtWidgets
 
@@ -100,10 +101,11 @@ def dummy_x(tmp_path_factory):
 
         app.closeAllWindows()
         shiboken6.delete(app)  # drop the X connection before the server goes
-    if old is None:
-        os.environ.pop("DISPLAY", None)
-    else:
-        os.environ["DISPLAY"] = old
+    for key, value in old.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
     server.close()
 
 

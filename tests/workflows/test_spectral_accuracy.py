@@ -30,7 +30,7 @@ BOUNDS = {
         "rows_rms_px": 0.026,  # 0.0129
         "spot_rel": 0.0042,  # 0.0021
         "predicted_px": 0.0025,  # 0.00126 (blur pinholes 26 SLM px apart, from the optics)
-        "band_rel": 0.0005,  # 0.00025
+        "band_rel": 0.003,  # 0.00146 (0.00025 with blur pinholes 40 SLM px apart)
     },
     "sim-odd": {
         "map_rms_nm": 0.046,  # measured 0.0230

@@ -133,7 +133,7 @@ class SimulatedRig:
         self.readbacks = 0
         self.stale_readbacks = 0
         self._closers: list[Callable[[], None]] = []
-        self._old_display = os.environ.get("DISPLAY")
+        self._old_env = {key: os.environ.get(key) for key in ("DISPLAY", "QT_QPA_PLATFORM")}
 
     def on_close(self, closer: Callable[[], None]) -> None:
         self._closers.append(closer)
@@ -143,10 +143,11 @@ class SimulatedRig:
         while self._closers:
             with contextlib.suppress(Exception):
                 self._closers.pop()()
-        if self._old_display is None:
-            os.environ.pop("DISPLAY", None)
-        else:
-            os.environ["DISPLAY"] = self._old_display
+        for key, value in self._old_env.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
         shutil.rmtree(self.workdir, ignore_errors=True)
 
 
@@ -245,6 +246,9 @@ def build_simulated_rig(desc: RigDescription, behind: BenchBehind) -> SimulatedR
         sim.display = DummyXServer(sim.workdir, (desc.slm.width, desc.slm.height))
         sim.on_close(sim.display.close)
         os.environ["DISPLAY"] = sim.display.display
+        # The simulated monitor is an X server: Qt must draw through X even where the
+        # desktop asks for Wayland or an offscreen platform.
+        os.environ["QT_QPA_PLATFORM"] = "xcb"
         sim.trigger = TriggerSimulator(sim.workdir / "ttyTRIGGER")
         sim.on_close(sim.trigger.close)
         options = {k: v for k, v in hw["trigger"].items() if k not in ("kind", "port")}
