@@ -143,3 +143,15 @@ def test_the_benchmarks_merge_their_columns_into_the_data_file(tmp_path):
     assert figures.markdown(table) == (
         "| | x | y |\n| --- | --- | --- |\n| a figure | 1 dB | - |\n| another | - | 2 |\n"
     )
+
+
+def test_no_package_module_quotes_an_accuracy_figure():
+    # Measurements belong to the benchmarks' data files and docs/notes/; a docstring or
+    # comment quoting one goes stale the day the code improves.
+    quoting = {
+        str(path.relative_to(ROOT)): found
+        for path in sorted((ROOT / "sassi_bench").rglob("*.py"))
+        if (found := quoted_figures(path.read_text(encoding="utf-8")))
+    }
+    assert quoting == {}
+    assert quoted_figures("spectra at 42.1 dB, mean dE00 0.06") == ["42.1", "0.06"]

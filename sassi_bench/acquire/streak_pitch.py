@@ -8,10 +8,8 @@ pass gives :func:`~sassi_bench.spectra.offset.footprint_rectangles`, one constan
 both). If neighbouring pinholes of a row are closer on the camera than that footprint plus
 one SLM pixel's image, some camera columns are under a streak in every frame: their
 background can only be guessed from around, and the scan's spectra there carry the error.
-An 80 px SF10 streak at the 100 px Nyquist pitch (``tests/rigs/prism-sf10-80px.yaml``: the
-streaks touch at the SLM's right edge, where the relay's distortion stretches them) ran the
-whole chain for seven minutes and then failed its Macbeth check (max dE00 3.0 against
-2.5); this check refuses it before anything is captured.
+A plan whose streaks overlap so is refused before anything is captured (an
+example rig: ``tests/rigs/prism-sf10-80px.yaml``).
 
 Judged from the rig's description (a ray trace of the described relay and prism, the
 described blur), as :func:`~sassi_bench.acquire.spectral_plans.check_lamp_pitch` does

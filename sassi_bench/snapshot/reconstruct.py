@@ -70,21 +70,16 @@ __all__ = [
 #: Units of the spectra without and with a bundle response (as scan cubes).
 CAMERA_UNITS = "camera ADU per second per bin"
 RADIANCE_UNITS = "relative photon radiance per bin"
-#: Background refinements for dense masks. On the sim rig (natural scene, LED, adaptive mask
-#: at a 6 px row pitch, 380 open pixels) the spectra at the open pixels agreed with the scan
-#: to 22.3 dB after none, 34.5 after 2, 40.2 after 8, 42.0 after 24 and 42.1 after 32; at a
-#: 5 px pitch 41.1 after 24. Each pass costs about 4 ms there (the streak model is
-#: factorised once, the medians taken on the streaks' blocks), so the frame takes about
-#: 0.13 s of CPU (an 8-row pitch, 301 open pixels).
+#: Background refinements for dense masks: where the agreement of the open pixels' spectra
+#: with a scan stops improving on the sim rig, at a few ms a pass (the measurements:
+#: docs/notes/2026-11-29-docstring-measurements.md).
 DENSE_BACKGROUND_PASSES = 24
 #: Background refinements of a dense mask started from the previous video frame's background
-#: (:func:`measure_with_background`). On the sim rig (natural scene moving 2 px, 1 px and
-#: 0.25 degrees a frame, 8-row pitch, about 300 open pixels, 12 frames;
-#: ``benchmarks/video_spectra_accuracy.py``) the spectra against the bench's truth: 37.53 dB
-#: after 1 such pass, 37.51 after 2, 37.45 after 4, and 37.36 after 24 from scratch each
-#: frame. A sudden change of the leakage (a light switched) is caught by the first pass
-#: (:data:`~sassi_bench.spectra.extract.JUMP`), which then goes on to
-#: :data:`DENSE_BACKGROUND_PASSES`.
+#: (:func:`measure_with_background`): one warm pass measures as well as
+#: :data:`DENSE_BACKGROUND_PASSES` from scratch on a moving scene
+#: (``benchmarks/video_spectra_accuracy.py``). A sudden change of the leakage (a light
+#: switched) is caught by the first pass (:data:`~sassi_bench.spectra.extract.JUMP`), which
+#: then goes on to :data:`DENSE_BACKGROUND_PASSES`.
 WARM_BACKGROUND_PASSES = 1
 
 
