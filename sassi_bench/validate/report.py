@@ -216,7 +216,20 @@ def _bundle_paragraph(ident: Mapping[str, Any]) -> str:
     )
 
 
-def _html(doc: Mapping[str, Any], images: Mapping[str, str]) -> str:
+def _figure_links(links: Mapping[str, str]) -> str:
+    """A list of links to the bundle's own figures (PNG files beside the report)."""
+    if not links:
+        return ""
+    items = "".join(
+        f'<li><a href="{html.escape(href)}">{html.escape(name)}</a></li>'
+        for name, href in links.items()
+    )
+    return f"<h2>The bundle's figures</h2><ul>{items}</ul>"
+
+
+def _html(
+    doc: Mapping[str, Any], images: Mapping[str, str], links: Mapping[str, str] | None = None
+) -> str:
     esc = html.escape
     ident = doc["bundle"]
     name = f"{esc(ident['rig_name'])} / {esc(ident['version'] or 'not published')}"
@@ -283,7 +296,8 @@ square measured in each patch.</p>{img["localisation"]}</div></div>
 {wl["bin_edges_nm"][-1]:.1f} nm, resolution {res.min():.1f}-{res.max():.1f} nm per bin.</p>
 {img["wavelength_calibration"]}
 {bundle_checks}
-{"".join(f'<div class="note">{esc(f)}</div>' for f in ident.get("findings", []))}""",
+{"".join(f'<div class="note">{esc(f)}</div>' for f in ident.get("findings", []))}
+{_figure_links(links or {})}""",
     )
 
 
@@ -318,9 +332,15 @@ class MacbethReport:
         ident = bundle_identity(manifest or self.scanned_with, self.scanned_with, self.scanned_from)
         return jsonable({**self.doc, "bundle": ident})
 
-    def html(self, manifest: Mapping[str, Any] | None = None) -> str:
-        """The self-contained HTML page for the bundle of ``manifest``."""
-        return _html(self.document(manifest), self.images)
+    def html(
+        self,
+        manifest: Mapping[str, Any] | None = None,
+        figure_links: Mapping[str, str] | None = None,
+    ) -> str:
+        """The self-contained HTML page for the bundle of ``manifest``; ``figure_links``
+        (figure name -> URL relative to where the page is written) lists the bundle's own
+        figures at its end."""
+        return _html(self.document(manifest), self.images, figure_links)
 
     def json(self, manifest: Mapping[str, Any] | None = None) -> str:
         """The JSON text for the bundle of ``manifest``."""

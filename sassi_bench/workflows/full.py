@@ -13,10 +13,12 @@ then the raw frames the procedure's ``keep`` does not keep go.
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -198,8 +200,15 @@ def publish(run: FullRun) -> None:
     write the report of the unpublished bundle."""
     reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in run.spectral.figures.items()}
     reports.update({f"guide_{k}.png": v for k, v in run.guide.figures.items()})
-    # Rendered against the published manifest, so the report names its own version.
-    reports.update({"macbeth_report.html": run.report.html, "macbeth_report.json": run.report.json})
+    # Rendered against the published manifest, so the report names its own version; it
+    # links the figures published beside it.
+    figures = {name: name for name in reports}
+    reports.update(
+        {
+            "macbeth_report.html": partial(run.report.html, figure_links=figures),
+            "macbeth_report.json": run.report.json,
+        }
+    )
     chart = Session.open(run.macbeth.settings["chart_session"], data=run.staging)
     if all(c.passed for c in run.checks) or run.allow_failed:
         run.bundle_path = publish_derived(
@@ -219,9 +228,18 @@ def publish(run: FullRun) -> None:
             data=run.root,
         )
         run.report_dir.mkdir(parents=True, exist_ok=True)
-        for name in ("macbeth_report.html", "macbeth_report.json"):
-            raw = (run.bundle_path / "report" / name).read_bytes()
-            atomic_write_bytes(run.report_dir / name, raw, overwrite=False)
+        published = run.bundle_path / "report"
+        # The copy beside the run links the same figures, in the bundle's folder.
+        links = {
+            name: Path(os.path.relpath(published / name, run.report_dir)).as_posix()
+            for name in figures
+        }
+        manifest = json.loads((run.bundle_path / "manifest.json").read_text(encoding="utf-8"))
+        manifest.pop("reports", None)  # as the bundle's own copy was rendered
+        copy = run.report.html(manifest, figure_links=links)
+        atomic_write_bytes(run.report_dir / "macbeth_report.html", copy.encode(), overwrite=False)
+        raw = (published / "macbeth_report.json").read_bytes()
+        atomic_write_bytes(run.report_dir / "macbeth_report.json", raw, overwrite=False)
         run.html = run.report_dir / "macbeth_report.html"
     else:
         unpublished = {

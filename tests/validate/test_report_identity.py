@@ -3,6 +3,7 @@
 import dataclasses
 import json
 import re
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -32,7 +33,8 @@ def _staged_stages(monkeypatch, rig, calibrated, result):
             calibrated.models, rig=rig.description, quality=thaw(calibrated.manifest["quality"]),
             procedure=thaw(calibrated.manifest["procedure"]), data=data, allow_failed=True,
         )  # fmt: skip
-        return SimpleNamespace(checks=[], figures={}, bundle_path=path)
+        # A figure as the real stage publishes one (the report links it).
+        return SimpleNamespace(checks=[], figures={"map": b"\x89PNG stand-in"}, bundle_path=path)
 
     def response(rig_, parent, *, data, **_):
         uniform = QualityCheck.at_most("white_uniformity", 0.014, 0.1, "1")
@@ -85,9 +87,17 @@ def test_a_chain_bundles_report_names_its_published_version(
     assert "staging/" not in html and "sim/v0003" not in html
     assert "this calibration run's models before they were published" in html
     assert bundle.created in html
-    # The copy beside the data is the bundle's own report, byte for byte.
+    # Both reports link the bundle's figures: the bundle's own beside it, the copy beside
+    # the data into the bundle's folder; apart from those links the copy is the same page.
     copy = root / "reports" / "chain" / "macbeth_report.html"
-    assert copy.read_bytes() == (bundle.path / "report" / "macbeth_report.html").read_bytes()
+    figures = sorted(p.name for p in (bundle.path / "report").glob("*.png"))
+    assert figures, "the chain publishes its spectral and guide figures"
+    for page in (bundle.path / "report" / "macbeth_report.html", copy):
+        links = re.findall(r'<li><a href="([^"]+)">', page.read_text())
+        assert sorted(Path(link).name for link in links) == figures
+        assert all((page.parent / link).resolve().is_file() for link in links)
+    unlinked = re.compile(r"<h2>The bundle's figures</h2>.*?</ul>", re.S)
+    assert unlinked.sub("", copy.read_text()) == unlinked.sub("", html)
     # No dimensionless value is printed with a unit "1".
     assert not re.search(r"\d 1</td>", html)
 
