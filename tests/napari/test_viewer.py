@@ -9,7 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-napari = pytest.importorskip("napari", reason="napari is an optional extra (sassi-bench[napari])")
+napari = pytest.importorskip(
+    "napari", reason="napari is not installed (the napari and dev extras install it)"
+)
 
 
 @pytest.fixture
