@@ -115,7 +115,10 @@ def accepted(decision: Any) -> bool:
 
 
 def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
-    """A multiple choice of lasers, the procedure's selected.
+    """A tick box per laser of the rig, the procedure's lasers ticked.
+
+    One box a laser, so a click unticks that laser alone (a multiple-choice list would
+    drop every other laser on a plain click).
 
     Parameters
     ----------
@@ -126,8 +129,8 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
 
     Returns
     -------
-    ipywidgets.SelectMultiple
-        ``.value`` is a tuple of wavelengths (nm).
+    ipywidgets.HBox
+        Its tick boxes; ``.value`` is the tuple of ticked wavelengths (nm).
 
     Examples
     --------
@@ -135,21 +138,44 @@ def pick_lasers(procedure: Mapping[str, Any], available_nm: Sequence[float]):
     >>> picker = pick_lasers(load_procedure("spectral_calibration"), [450, 520, 532, 635, 670])
     >>> picker.value
     (450.0, 520.0, 532.0, 635.0, 670.0)
+    >>> picker.children[2].value = False  # 532 nm unticked
+    >>> picker.value
+    (450.0, 520.0, 635.0, 670.0)
     """
-    options = [(f"{float(nm):g} nm", float(nm)) for nm in available_nm]
+    import ipywidgets as widgets
+
     pinned = procedure.get("lasers_nm")
-    chosen = tuple(
-        float(nm)
-        for nm in (available_nm if pinned is None else pinned)
-        if float(nm) in dict(options).values()
-    )
-    return _widget(
-        "SelectMultiple",
-        options=options,
-        value=chosen,
-        rows=min(len(options), 8),
-        description="Lasers",
-    )
+    chosen = {float(nm) for nm in (available_nm if pinned is None else pinned)}
+    boxes = [
+        widgets.Checkbox(
+            value=float(nm) in chosen,
+            description=f"{float(nm):g} nm",
+            indent=False,
+            layout=widgets.Layout(width="auto"),
+        )
+        for nm in available_nm
+    ]
+    return _laser_choice_class()(boxes, wavelengths=[float(nm) for nm in available_nm])
+
+
+@functools.cache
+def _laser_choice_class() -> type:
+    import ipywidgets as widgets
+
+    class LaserChoice(_with_static_copy(widgets.HBox)):  # type: ignore[misc]
+        """Tick boxes, one a laser; ``.value`` is the tuple of ticked wavelengths (nm)."""
+
+        def __init__(self, boxes: list[Any], wavelengths: list[float]) -> None:
+            super().__init__(boxes)
+            self._wavelengths = wavelengths
+
+        @property
+        def value(self) -> tuple[float, ...]:
+            return tuple(
+                nm for nm, box in zip(self._wavelengths, self.children, strict=True) if box.value
+            )
+
+    return LaserChoice
 
 
 def pick_exposure(procedure: Mapping[str, Any]):

@@ -268,6 +268,24 @@ class Notebook:
         assert value["status"] == "ok", f"{expression}: {value.get('evalue')}"
         return ast.literal_eval(ast.literal_eval(value["data"]["text/plain"]))
 
+    def kernel_until(self, expression: str, expected: Any, timeout_s: float = 20.0) -> Any:
+        """Wait until the kernel's ``expression`` is ``expected`` (a widget's change reaches
+        the kernel a moment after the click) and return it; the last value seen fails the
+        test when it never is."""
+        deadline = time.monotonic() + timeout_s
+        while (value := self.kernel_value(expression)) != expected:
+            assert time.monotonic() < deadline, f"{expression} is {value!r}, not {expected!r}"
+            time.sleep(0.25)
+        return value
+
+    def type_readout(self, readout, text: str) -> None:
+        """Type ``text`` into a slider's readout and press Enter, as a person sets a slider
+        to an exact value."""
+        readout.click()
+        self.page.keyboard.press("Control+a")
+        self.page.keyboard.type(text)
+        self.page.keyboard.press("Enter")
+
     def _kernel_client(self):
         if self._kernel is None:
             from jupyter_client import BlockingKernelClient
