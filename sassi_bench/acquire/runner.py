@@ -291,9 +291,13 @@ def _capture(
             )
         )
     todo = session.missing
+    total, initial = len(plan), len(plan) - len(todo)
     if steps is not None:
         wanted = set(steps)
         todo = tuple(i for i in todo if i in wanted)
+        # The bar counts the chosen steps only.
+        total = len(wanted)
+        initial = total - len(todo)
     _check_inputs(rig, plan, session, todo)
     if stop_after is not None:
         todo = todo[:stop_after]
@@ -301,8 +305,8 @@ def _capture(
         return session
     _check_disk(rig, plan, session, todo)
     bar: Any = tqdm(
-        total=len(plan),
-        initial=len(plan) - len(session.missing),
+        total=total,
+        initial=initial,
         desc=plan.name,
         unit="frame",
         disable=not progress,
