@@ -20,7 +20,7 @@ import contextlib
 import signal
 import threading
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
@@ -203,6 +203,7 @@ def run_plan(
     *,
     progress: bool = True,
     stop_after: int | None = None,
+    steps: Iterable[int] | None = None,
 ) -> Session:
     """Capture the steps of ``plan`` that ``session`` still misses, in order.
 
@@ -227,6 +228,9 @@ def run_plan(
         Show a tqdm progress bar (terminal or notebook) over the whole plan.
     stop_after
         Stop after this many new frames (``None``: run to the end).
+    steps
+        Capture only these steps of the plan (``None``: every step), for a procedure that
+        plans a budget and decides from the frames so far whether to take more.
 
     Returns
     -------
@@ -256,16 +260,24 @@ def run_plan(
     >>> session = Session.create(rig.description, plan, session_id="dark", data=tmp.name)
     >>> run_plan(rig, plan, session, progress=False, stop_after=1).missing
     (1,)
+    >>> run_plan(rig, plan, session, progress=False, steps=[0]).missing
+    (1,)
     >>> run_plan(rig, plan, session, progress=False).is_complete
     True
     >>> tmp.cleanup()
     """
     with session.writing():  # one writer per session, across processes
-        return _capture(rig, plan, session, progress=progress, stop_after=stop_after)
+        return _capture(rig, plan, session, progress=progress, stop_after=stop_after, steps=steps)
 
 
 def _capture(
-    rig: Rig, plan: Plan, session: Session, *, progress: bool, stop_after: int | None
+    rig: Rig,
+    plan: Plan,
+    session: Session,
+    *,
+    progress: bool,
+    stop_after: int | None,
+    steps: Iterable[int] | None = None,
 ) -> Session:
     """:func:`run_plan` with the session locked for writing."""
     if stop_after is not None and (
@@ -279,6 +291,13 @@ def _capture(
             )
         )
     todo = session.missing
+    total, initial = len(plan), len(plan) - len(todo)
+    if steps is not None:
+        wanted = set(steps)
+        todo = tuple(i for i in todo if i in wanted)
+        # The bar counts the chosen steps only.
+        total = len(wanted)
+        initial = total - len(todo)
     _check_inputs(rig, plan, session, todo)
     if stop_after is not None:
         todo = todo[:stop_after]
@@ -286,8 +305,8 @@ def _capture(
         return session
     _check_disk(rig, plan, session, todo)
     bar: Any = tqdm(
-        total=len(plan),
-        initial=len(plan) - len(session.missing),
+        total=total,
+        initial=initial,
         desc=plan.name,
         unit="frame",
         disable=not progress,

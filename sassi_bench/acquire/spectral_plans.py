@@ -294,8 +294,13 @@ def lamp_pinholes(procedure: Mapping[str, Any]) -> dict[str, Any]:
     return {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
 
 
-def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> Plan:
+def lamp_plan(
+    procedure: Mapping[str, Any], exposures: Mapping[str, float], frames: int | None = None
+) -> Plan:
     """Pinhole frames under each wavelength lamp, with as many closed-SLM frames.
+
+    A step that measures until confident plans its budget and captures the first frames
+    of every lamp (their ``frame`` tag), then decides whether to go on.
 
     Parameters
     ----------
@@ -304,6 +309,8 @@ def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> P
         ``lamps.frames``).
     exposures
         Exposure (s) per lamp light (``"lamp:HgAr"``).
+    frames
+        Pinhole frames per lamp planned (None: ``lamps.frames``).
 
     Returns
     -------
@@ -317,8 +324,11 @@ def lamp_plan(procedure: Mapping[str, Any], exposures: Mapping[str, float]) -> P
     >>> plan = lamp_plan(load_procedure("spectral_calibration"), {"lamp:HgAr": 0.05})
     >>> len(plan), len(plan.select(role="lamp-pinholes", lamp="lamp:HgAr"))
     (8, 4)
+    >>> [s.tags["frame"] for s in lamp_plan({}, {"lamp:HgAr": 0.05}, frames=2).steps]
+    [0, 1, 0, 1]
     """
-    frames = int((procedure.get("lamps") or {}).get("frames", 4))
+    if frames is None:
+        frames = int((procedure.get("lamps") or {}).get("frames", 4))
     pattern = lamp_pinholes(procedure)
     steps = []
     for light, exposure in exposures.items():

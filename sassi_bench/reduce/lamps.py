@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from sassi_bench.acquire.patterns import open_pixels
+from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import LAMP_REACH_SIGMAS, lamp_band, lamp_pinholes
 from sassi_bench.bundle import BlurModel, DispersionModel
@@ -34,6 +35,7 @@ from sassi_bench.calibrate.lamp_streaks import (
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.glass import get_glass
 from sassi_bench.optics.lamps import LineList
+from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.sweep_stream import PinholeSignal
 from sassi_bench.reduce.sweeps import blur_form, blur_from_pinholes
 from sassi_bench.rig.config import RigDescription
@@ -41,9 +43,12 @@ from sassi_bench.rig.config import RigDescription
 __all__ = [
     "HELD_LABEL_NM",
     "LampAnchoring",
+    "LampMeasurement",
     "anchor_wavelengths",
     "camera_noise",
+    "captured_lamp_frames",
     "check_lamp_signal",
+    "lamp_frame_steps",
     "lamp_streaks",
 ]
 
@@ -70,12 +75,47 @@ def camera_noise(desc: RigDescription) -> dict[str, float]:
     }
 
 
+def lamp_frame_steps(plan: Plan, frames: int | None = None, **tags: Any) -> list[int]:
+    """The steps of a lamp plan matching ``tags`` among every lamp's first ``frames``
+    frames (None: all of them).
+
+    Examples
+    --------
+    >>> from sassi_bench.acquire.spectral_plans import lamp_plan
+    >>> plan = lamp_plan({}, {"lamp:HgAr": 0.05}, frames=3)
+    >>> lamp_frame_steps(plan, 2), lamp_frame_steps(plan, 2, role="lamp-pinholes")
+    ([0, 1, 3, 4], [3, 4])
+    """
+    chosen = plan.select(**tags)
+    if frames is None:
+        return chosen
+    return [i for i in chosen if int(plan.steps[i].tags.get("frame", 0)) < frames]
+
+
+def captured_lamp_frames(session: Session) -> int:
+    """How many frames of every lamp the session holds: the largest ``n`` whose first
+    ``n`` closed and pinhole frames of every lamp are all stored.
+
+    Examples
+    --------
+    Not run here (it needs a captured session)::
+
+        captured_lamp_frames(Session.open("lab-2026-11-22-lamps"))
+        # 6
+    """
+    plan, done = session.plan, session.completed
+    planned = 1 + max((int(step.tags.get("frame", 0)) for step in plan.steps), default=-1)
+    missing = [int(plan.steps[i].tags.get("frame", 0)) for i in range(len(plan)) if i not in done]
+    return min(missing, default=planned)
+
+
 def lamp_streaks(
     session: Session,
     procedure: Mapping[str, Any],
     desc: RigDescription,
     model: DispersionModel,
     blur: BlurModel,
+    frames: int | None = None,
 ) -> list[LampStreaks]:
     """Every lamp's pinhole streaks from a lamp session, ready for the anchored fit.
 
@@ -91,6 +131,8 @@ def lamp_streaks(
         A dispersion model placing the streaks within a few pixels (lasers at labels).
     blur
         The measured spot width, for the lines' spot model.
+    frames
+        Use every lamp's first ``frames`` frames (None: every frame of the plan).
 
     Returns
     -------
@@ -129,8 +171,10 @@ def lamp_streaks(
                     "analyse the session with the rig it was captured on",
                 )
             )
-        pinhole_frames = session.read_frames(plan.select(role="lamp-pinholes", lamp=light))
-        blank = session.read_frames(plan.select(role="lamp-blank", lamp=light))
+        pinhole_frames = session.read_frames(
+            lamp_frame_steps(plan, frames, role="lamp-pinholes", lamp=light)
+        )
+        blank = session.read_frames(lamp_frame_steps(plan, frames, role="lamp-blank", lamp=light))
         signal, variance = signal_and_variance(pinhole_frames, blank, **camera)
         band = lamp_band(lines, desc)
         half_rows = int(max(2, min(10, np.floor(row_pitch / 2.0) - 2)))
@@ -230,6 +274,9 @@ class LampAnchoring:
         Labels the lamps cannot pin: measured with a 1-sigma above the procedure's
         ``tolerances.laser_wavelength_sigma_nm``. A lamp only adds information: such a line
         keeps its label in ``fit`` (as without lamps), its lamp measurement recorded.
+    record
+        What the lamp step took and why (its batches and outcome), when it measured
+        until confident.
     """
 
     fit: AnchoredWavelengths
@@ -240,6 +287,7 @@ class LampAnchoring:
     measured: AnchoredWavelengths | None = None
     confirmed: tuple[float, ...] = ()
     unpinned: tuple[float, ...] = ()
+    record: LampFrameRecord | None = None
 
     def method(self, label: float) -> str:
         """How the fit took the line labelled ``label``: ``lamp-confirmed label``,
@@ -285,6 +333,81 @@ class LampAnchoring:
         return out
 
 
+class LampMeasurement:
+    """Every laser's wavelength as the lamps measure it from a lamp session's first frames,
+    each line free within its label's tolerance.
+
+    The sweep's part (a dispersion fit at the labels placing the streaks, and the blur
+    from the sweep's pinhole frames) is fitted once, so the lamp step can measure after
+    every batch of lamp frames (:mod:`sassi_bench.reduce.lamp_budget`).
+
+    Parameters
+    ----------
+    sweep, procedure, desc, maps, field_degree, order, pinholes
+        As for :func:`anchor_wavelengths`.
+
+    Examples
+    --------
+    Not run here (it needs captured sessions)::
+
+        measurement = LampMeasurement(sweep, proc, desc, maps)
+        measurement.sigma_nm(lamps, frames=4)
+        # {450.0: 0.04, 520.0: 0.05, 532.0: 0.05, 635.0: 0.19, 670.0: 0.42}
+    """
+
+    def __init__(
+        self,
+        sweep: Session,
+        procedure: Mapping[str, Any],
+        desc: RigDescription,
+        maps: Sequence[LaserMap],
+        *,
+        field_degree: int = 5,
+        order: int = 2,
+        pinholes: Mapping[float, PinholeSignal] | None = None,
+    ) -> None:
+        self.procedure, self.desc, self.maps = procedure, desc, list(maps)
+        self.slm_shape = (desc.slm.height, desc.slm.width)
+        self.shape = {"field_degree": field_degree, "order": order}
+        saturation = 2**desc.spectral_camera.bit_depth - 1
+        self.start = fit_dispersion(maps, desc.prism.glass, self.slm_shape, **self.shape)
+        self.blur = blur_from_pinholes(
+            sweep, procedure, self.start, self.slm_shape, saturation, pinholes,
+            desc.slm.fill_factor, form=blur_form(procedure, desc),
+            laser_fwhm_nm=desc.light.laser_fwhm_nm,
+        )  # fmt: skip
+        self.tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
+        self.glass = get_glass(desc.prism.glass)
+        # The last measurement, by session content and frames: the analysis after the
+        # lamp step measures the same frames again.
+        self._last_key: tuple[str, int] | None = None
+        self._last: tuple[list[LampStreaks], AnchoredWavelengths] | None = None
+
+    def fits(self, procedure: Mapping[str, Any], desc: RigDescription) -> bool:
+        """Whether this measurement was set up with ``procedure`` on ``desc``."""
+        return desc is self.desc and dict(procedure) == dict(self.procedure)
+
+    def measure(self, lamps: Session, frames: int) -> tuple[list[LampStreaks], AnchoredWavelengths]:
+        """The lamp streaks of every lamp's first ``frames`` frames and the fit with every
+        laser's line free."""
+        key = (lamps.sha256(), int(frames))
+        if self._last is not None and self._last_key == key:
+            return self._last
+        streaks = lamp_streaks(
+            lamps, self.procedure, self.desc, self.start.model, self.blur.model, frames
+        )
+        fit = fit_anchored_wavelengths(
+            self.maps, streaks, self.glass, self.slm_shape, self.tolerance, **self.shape
+        )
+        self._last_key, self._last = key, (streaks, fit)
+        return streaks, fit
+
+    def sigma_nm(self, lamps: Session, frames: int) -> dict[float, float]:
+        """Every laser's 1-sigma (nm), by label, from every lamp's first ``frames`` frames."""
+        fit = self.measure(lamps, frames)[1]
+        return {float(k): float(v) for k, v in zip(fit.labels_nm, fit.sigma_nm, strict=True)}
+
+
 def anchor_wavelengths(
     sweep: Session,
     lamps: Session,
@@ -295,6 +418,9 @@ def anchor_wavelengths(
     field_degree: int = 5,
     order: int = 2,
     pinholes: Mapping[float, PinholeSignal] | None = None,
+    frames: int | None = None,
+    record: LampFrameRecord | None = None,
+    measurement: LampMeasurement | None = None,
 ) -> LampAnchoring:
     """Fit every laser's wavelength and the column model to the laser maps and lamp lines.
 
@@ -325,6 +451,13 @@ def anchor_wavelengths(
         The dispersion model's shape.
     pinholes
         The sweep's pinhole signals, if averaged while it was captured.
+    frames
+        Use every lamp's first ``frames`` frames (None: as many as the session holds).
+    record
+        What the lamp step took and why, kept with the result.
+    measurement
+        The lamp step's measurement, reused when it was set up with ``procedure`` on
+        ``desc`` (its last fit is not made again).
 
     Returns
     -------
@@ -338,18 +471,16 @@ def anchor_wavelengths(
         anchoring.fit.by_label
         # {450.0: 454.97, 520.0: 516.17, 532.0: 531.98, 635.0: 639.2, 670.0: 665.14}
     """
-    slm_shape = (desc.slm.height, desc.slm.width)
-    saturation = 2**desc.spectral_camera.bit_depth - 1
-    shape = {"field_degree": field_degree, "order": order}
-    start = fit_dispersion(maps, desc.prism.glass, slm_shape, **shape)
-    blur = blur_from_pinholes(
-        sweep, procedure, start, slm_shape, saturation, pinholes, desc.slm.fill_factor,
-        form=blur_form(procedure, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
-    )  # fmt: skip
-    streaks = lamp_streaks(lamps, procedure, desc, start.model, blur.model)
-    tolerance = [desc.laser_tolerance(m.wavelength_nm) for m in maps]
-    glass = get_glass(desc.prism.glass)
-    measured = fit_anchored_wavelengths(maps, streaks, glass, slm_shape, tolerance, **shape)
+    if measurement is None or not measurement.fits(procedure, desc):
+        measurement = LampMeasurement(
+            sweep, procedure, desc, maps, field_degree=field_degree, order=order,
+            pinholes=pinholes,
+        )  # fmt: skip
+    if frames is None:
+        frames = captured_lamp_frames(lamps)
+    streaks, measured = measurement.measure(lamps, frames)
+    maps, tolerance = measurement.maps, measurement.tolerance
+    glass, slm_shape, shape = measurement.glass, measurement.slm_shape, measurement.shape
     confirmed = _confirmed_labels(measured, procedure)
     unpinned = _unpinned_labels(measured, procedure) - confirmed
     fit = measured
@@ -366,10 +497,11 @@ def anchor_wavelengths(
         streaks=streaks,
         tables=desc.lamp_lines(),
         exposures_s=exposures,
-        frames=len(lamps.plan.select(role="lamp-pinholes")) // max(len(exposures), 1),
+        frames=frames,
         measured=measured,
         confirmed=tuple(sorted(confirmed)),
         unpinned=tuple(sorted(unpinned)),
+        record=record,
     )
 
 

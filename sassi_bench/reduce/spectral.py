@@ -33,7 +33,8 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
-from sassi_bench.reduce.lamps import LampAnchoring, anchor_wavelengths
+from sassi_bench.reduce.lamp_budget import LampFrameRecord
+from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
 from sassi_bench.reduce.sweep_stream import DecodedSweep
 from sassi_bench.reduce.sweeps import (
     LaserDecode,
@@ -49,6 +50,7 @@ __all__ = [
     "analyse_spectral_sweeps",
     "blur_notes",
     "grade",
+    "lamp_measurement",
     "laser_line_notes",
     "spectral_notes",
 ]
@@ -58,14 +60,17 @@ __all__ = [
 class SpectralSweeps:
     """The raw sessions of a spectral calibration: the grey-level response (structured
     sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only); and
-    what was measured from them as they were captured: the grey-level response and the
-    sweep's decode (None: the analysis reads them from the sessions)."""
+    what was measured from them as they were captured: the grey-level response, the
+    sweep's decode (None: the analysis reads them from the sessions), what the lamp step
+    took and why, and its measurement (reused by the analysis with the same procedure)."""
 
     grey: Session | None
     sweep: Session
     lamps: Session | None = None
     grey_response: GreyResponse | None = None
     decoded: DecodedSweep | None = None
+    lamp_record: LampFrameRecord | None = None
+    lamp_measurement: LampMeasurement | None = None
 
     @property
     def sessions(self) -> list[Session]:
@@ -273,6 +278,43 @@ def _capture_settings(
     return planned_spectral(proc, desc)
 
 
+def lamp_measurement(
+    sweeps: SpectralSweeps, procedure: Mapping[str, Any], rig_description: Any
+) -> LampMeasurement:
+    """What the lamp frames measure, set up from the sweep (its laser maps, blur), for
+    the lamp step to measure after every batch of lamp frames.
+
+    Parameters
+    ----------
+    sweeps
+        The sessions so far (the sweep captured; the lamp session need not be).
+    procedure, rig_description
+        As for :func:`analyse_spectral_sweeps`.
+
+    Returns
+    -------
+    LampMeasurement
+
+    Examples
+    --------
+    Not run here (it needs captured sessions)::
+
+        lamp_measurement(sweeps, proc, rig.description).sigma_nm(lamps_session, 4)
+        # {450.0: 0.04, 520.0: 0.05, 532.0: 0.05, 635.0: 0.19, 670.0: 0.42}
+    """
+    desc = rig_description
+    proc = _capture_settings(procedure, sweeps, desc)
+    saturation = 2**desc.spectral_camera.bit_depth - 1
+    slm_shape = (desc.slm.height, desc.slm.width)
+    decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation, sweeps.decoded)
+    return LampMeasurement(
+        sweeps.sweep, proc, desc, [d.laser_map for d in decoded],
+        field_degree=int(proc["fit"].get("field_degree", 5)),
+        order=int(proc["fit"].get("dispersion_order", 2)),
+        pinholes=sweeps.decoded.pinholes if sweeps.decoded is not None else None,
+    )  # fmt: skip
+
+
 def analyse_spectral_sweeps(
     sweeps: SpectralSweeps, procedure: Mapping[str, Any], rig_description: Any
 ) -> SpectralCalibration:
@@ -315,8 +357,9 @@ def analyse_spectral_sweeps(
     }
     if sweeps.lamps is not None:
         anchoring = anchor_wavelengths(
-            sweeps.sweep, sweeps.lamps, proc, desc, maps, pinholes=pinholes, **shape
-        )
+            sweeps.sweep, sweeps.lamps, proc, desc, maps, pinholes=pinholes,
+            record=sweeps.lamp_record, measurement=sweeps.lamp_measurement, **shape,
+        )  # fmt: skip
         dispersion = fit_dispersion(
             maps,
             desc.prism.glass,
@@ -467,13 +510,21 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
                 note += (
                     f"; the lamps cannot pin it within {tolerance:g} nm, so it keeps its label: "
                     "the lamp lines near it blend at this dispersion or are faint. To measure "
-                    f"it, take about {frames} lamp frames (lamps.frames; the uncertainty falls "
-                    "as one over the square root of the frames), use a lamp with isolated "
-                    "lines near it, or a prism with more spread there)"
+                    f"it, take about {frames} lamp frames (lamps.max_frames; the uncertainty "
+                    "falls as one over the square root of the frames), use a lamp with "
+                    "isolated lines near it, or a prism with more spread there)"
                 )
             else:
                 note += ")"
             notes.append(note)
+        record = anchoring.record
+        if record is not None:
+            taken = (
+                f"lamp frames: {record.frames} per lamp in {len(record.batches)} batch(es), "
+                f"{record.outcome}"
+            )
+            advice = record.advice()
+            notes.append(f"{taken}: {advice}" if advice else taken)
         return notes
     notes = []
     estimated = set(result.dispersion.estimated_lines)

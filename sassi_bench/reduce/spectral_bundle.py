@@ -57,7 +57,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
     dict
         ``checks``, ``residuals``, ``leave_one_out``, ``laser_lines`` and ``notes``,
         JSON-compatible; with lamp anchoring, ``laser_lines`` holds each laser's
-        measured line and ``lamps`` each lamp's fit.
+        measured line, ``lamps`` each lamp's fit and ``lamp_frames`` what the lamp step
+        took and why (frames per lamp, the uncertainty reached, its outcome and batches).
 
     Examples
     --------
@@ -105,7 +106,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
 
 def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
     """The lamp-anchored parts of the quality section: every laser's measured line
-    (``laser_lines``) and every lamp's fit (``lamps``).
+    (``laser_lines``), every lamp's fit (``lamps``) and, when the lamp step measured until
+    confident, what it took and why (``lamp_frames``).
 
     Parameters
     ----------
@@ -165,7 +167,10 @@ def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
                 for lam, amplitude in zip(data.lines_nm, lamp.amplitudes, strict=True)
             ],
         }
-    return {"laser_lines": lines, "lamps": lamps}
+    section = {"laser_lines": lines, "lamps": lamps}
+    if anchoring.record is not None:
+        section["lamp_frames"] = anchoring.record.to_json()
+    return section
 
 
 def publish_spectral(

@@ -5,7 +5,8 @@ runs them, the notebooks one at a time): ``open`` checks the procedure against t
 and opens the sessions of an earlier run; ``exposures`` finds each laser's exposure;
 ``grey`` measures the SLM's grey-level response (structured sweeps); ``sweep`` records
 the sweep plan of :mod:`~sassi_bench.acquire.spectral_plans`, decoded as its frames are
-stored; ``lamps`` records the lamp frames on a rig with wavelength lamps; ``analyse``
+stored; ``lamps`` records the lamp frames on a rig with wavelength lamps, in batches
+until every laser is measured within its tolerance or the budget is spent; ``analyse``
 fits the dispersion and blur and grades them (:mod:`~sassi_bench.reduce.spectral`);
 ``figures`` renders the plots and ``publish`` publishes the bundle
 (:mod:`~sassi_bench.reduce.spectral_bundle`). Named sessions resume where they stopped;
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
@@ -37,7 +38,14 @@ from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.grey_response import GreyResponse, sinusoid_profile
 from sassi_bench.errors import ConfigError, DeviceError, step_error
 from sassi_bench.paths import data_root
-from sassi_bench.reduce.spectral import SpectralCalibration, SpectralSweeps, analyse_spectral_sweeps
+from sassi_bench.reduce.lamp_budget import LampFrameRecord, decide_lamp_frames, lamp_frame_settings
+from sassi_bench.reduce.lamps import LampMeasurement, lamp_frame_steps
+from sassi_bench.reduce.spectral import (
+    SpectralCalibration,
+    SpectralSweeps,
+    analyse_spectral_sweeps,
+    lamp_measurement,
+)
 from sassi_bench.reduce.spectral_bundle import publish_spectral, render_figures
 from sassi_bench.reduce.sweep_stream import DecodedSweep, SweepStream
 from sassi_bench.reduce.sweeps import measure_response
@@ -52,6 +60,7 @@ __all__ = [
     "SpectralRun",
     "capture_lamp_frames",
     "capture_spectral_sweeps",
+    "open_lamp_session",
     "procedure_lasers",
     "run_spectral_calibration",
 ]
@@ -165,6 +174,8 @@ class SpectralRun:
         The sweep decoded as its frames were stored.
     result
         The analysed calibration (its ``figures`` and ``bundle_path`` once made).
+    lamp_record, lamp_measurement
+        What the lamp step took and why, and what it measured with.
     """
 
     rig: Rig
@@ -182,6 +193,8 @@ class SpectralRun:
     response: GreyResponse | None = None
     decoded: DecodedSweep | None = None
     result: SpectralCalibration | None = None
+    lamp_record: LampFrameRecord | None = None
+    lamp_measurement: LampMeasurement | None = None
 
     @property
     def saturation(self) -> int:
@@ -204,7 +217,10 @@ class SpectralRun:
 
     def sweeps(self) -> SpectralSweeps:
         """The sessions captured so far and what was measured from them."""
-        return SpectralSweeps(self.grey, self.sweep, self.lamps, self.response, self.decoded)
+        return SpectralSweeps(
+            self.grey, self.sweep, self.lamps, self.response, self.decoded,
+            self.lamp_record, self.lamp_measurement,
+        )  # fmt: skip
 
 
 def open_sessions(run: SpectralRun) -> None:
@@ -268,9 +284,15 @@ def capture_sweep(run: SpectralRun) -> None:
 
 
 def capture_lamps(run: SpectralRun) -> None:
-    """The lamp frames, on a rig with wavelength lamps (:func:`capture_lamp_frames`)."""
-    run.lamps = capture_lamp_frames(
-        run.rig, run.procedure, f"{run.base}-lamps", data=run.data, progress=run.progress
+    """The lamp frames, on a rig with wavelength lamps, taken in batches until every
+    laser is measured within the tolerance or the budget is spent
+    (:func:`capture_lamp_frames`)."""
+    run.lamps = open_lamp_session(run.rig, run.procedure, f"{run.base}-lamps", data=run.data)
+    if run.lamps is None:
+        return
+    run.lamp_measurement = lamp_measurement(run.sweeps(), run.procedure, run.rig.description)
+    run.lamp_record = capture_lamp_frames(
+        run.rig, run.lamps, run.procedure, run.lamp_measurement.sigma_nm, progress=run.progress
     )
 
 
@@ -396,28 +418,29 @@ def _lamp_settings(procedure: Mapping[str, Any]) -> dict[str, Any]:
     return json.loads(json.dumps(thaw(procedure.get("lamps") or {})))
 
 
-def capture_lamp_frames(
+def open_lamp_session(
     rig: Rig,
     procedure: Mapping[str, Any],
     session_id: str,
     *,
     data: str | os.PathLike[str] | None = None,
-    progress: bool = True,
 ) -> Session | None:
-    """Capture (or resume) the lamp frames of a spectral calibration.
+    """Open (or create) the lamp session of a spectral calibration, planned to its budget.
+
+    A new session measures each lamp's exposure and plans ``lamps.max_frames`` closed and
+    pinhole frames per lamp (:func:`~sassi_bench.acquire.spectral_plans.lamp_plan`);
+    :func:`capture_lamp_frames` captures as many as the lamps need.
 
     Parameters
     ----------
     rig
-        Device handles; a rig without ``wavelength_lamps`` captures nothing.
+        Device handles; a rig without ``wavelength_lamps`` has no lamp session.
     procedure
         The spectral-calibration procedure (its ``lamps`` section).
     session_id
         The session's id (an existing one resumes).
     data
         Data root.
-    progress
-        Show a progress bar.
 
     Returns
     -------
@@ -434,14 +457,13 @@ def capture_lamp_frames(
 
     Examples
     --------
-    Not run here (it drives a bench and stores its frames)::
+    Not run here (it drives a bench)::
 
-        session = capture_lamp_frames(rig, proc, "lab-2026-11-22-lamps")
+        session = open_lamp_session(rig, proc, "lab-2026-11-22-lamps")
     """
     desc = rig.description
     if not desc.wavelength_lamps:
         return None
-    session: Session | None = None
     if (data_root(data) / "sessions" / session_id).exists():
         session = Session.open(session_id, data=data)
         stored = session.plan.parameters.get("procedure") or {}
@@ -454,33 +476,104 @@ def capture_lamp_frames(
                     "resume with the same procedure file, or start a new --session",
                 )
             )
-    if session is None:
-        check_lamp_pitch(desc, procedure)
-        settings = procedure.get("lamps") or {}
-        pattern = lamp_pinholes(procedure)
-        exposures = {}
-        for lines in desc.lamp_lines().values():
-            rig.set_scene("white")
-            try:
-                exposures[lines.light] = auto_exposure(
-                    rig,
-                    lines.light,
-                    pattern,
-                    target_fraction=float(settings.get("target_fraction", 0.6)),
-                    start_s=float(settings.get("start_s", 0.05)),
-                    max_s=float(settings.get("max_s", 10.0)),
+        return session
+    check_lamp_pitch(desc, procedure)
+    settings = procedure.get("lamps") or {}
+    pattern = lamp_pinholes(procedure)
+    exposures = {}
+    for lines in desc.lamp_lines().values():
+        rig.set_scene("white")
+        try:
+            exposures[lines.light] = auto_exposure(
+                rig,
+                lines.light,
+                pattern,
+                target_fraction=float(settings.get("target_fraction", 0.6)),
+                start_s=float(settings.get("start_s", 0.05)),
+                max_s=float(settings.get("max_s", 10.0)),
+            )
+        except DeviceError as exc:
+            raise DeviceError(
+                step_error(
+                    f"lamp frames {lines.light}",
+                    "the lamp's pinholes give no light at the longest exposure allowed "
+                    f"({settings.get('max_s', 10.0):g} s)",
+                    "switch the lamp on, let it warm up and check that it lights the "
+                    "diffuser, or raise lamps.max_s",
                 )
-            except DeviceError as exc:
-                raise DeviceError(
-                    step_error(
-                        f"lamp frames {lines.light}",
-                        "the lamp's pinholes give no light at the longest exposure allowed "
-                        f"({settings.get('max_s', 10.0):g} s)",
-                        "switch the lamp on, let it warm up and check that it lights the "
-                        "diffuser, or raise lamps.max_s",
-                    )
-                ) from exc
-        plan = lamp_plan(procedure, exposures)
-        session = Session.create(desc, plan, session_id=session_id, data=data)
-    run_plan(rig, session.plan, session, progress=progress)
-    return session
+            ) from exc
+    budget = lamp_frame_settings(procedure)[1]
+    plan = lamp_plan(procedure, exposures, frames=budget)
+    return Session.create(desc, plan, session_id=session_id, data=data)
+
+
+def capture_lamp_frames(
+    rig: Rig,
+    session: Session,
+    procedure: Mapping[str, Any],
+    measure: Callable[[Session, int], Mapping[float, float]] | None = None,
+    *,
+    progress: bool = True,
+) -> LampFrameRecord | None:
+    """Capture (or resume) lamp frames until every laser is measured within the tolerance.
+
+    Every lamp's first ``lamps.frames`` frames are taken; then, after each batch,
+    ``measure`` states every laser's 1-sigma from the frames so far and
+    :func:`~sassi_bench.reduce.lamp_budget.decide_lamp_frames` says whether to stop
+    (``tolerances.laser_wavelength_sigma_nm`` met, or the session's planned budget,
+    ``lamps.max_frames``, spent) or how many frames to have next. The decisions depend on
+    the stored frames alone, so a resumed session replays them on the frames it holds
+    and captures only the missing ones.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    session
+        The lamp session (:func:`open_lamp_session`).
+    procedure
+        The spectral-calibration procedure.
+    measure
+        Every laser's 1-sigma (nm, by label) from a session's first ``n`` frames of every
+        lamp (:meth:`~sassi_bench.reduce.lamps.LampMeasurement.sigma_nm`); None captures
+        the first ``lamps.frames`` frames and decides nothing.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    LampFrameRecord or None
+        What was taken and why (None without ``measure``).
+
+    Examples
+    --------
+    Not run here (it drives a bench and stores its frames)::
+
+        record = capture_lamp_frames(rig, session, proc, measurement.sigma_nm)
+        record.outcome, record.frames
+        # ('tolerance met', 4)
+    """
+    first, budget, tolerance = lamp_frame_settings(procedure)
+    planned = 1 + max(int(step.tags.get("frame", 0)) for step in session.plan.steps)
+    budget = min(budget, planned)
+    frames = min(first, budget)
+    batches = []
+    while True:
+        steps = lamp_frame_steps(session.plan, frames)
+        run_plan(rig, session.plan, session, progress=progress, steps=steps)
+        if measure is None:
+            return None
+        batch = decide_lamp_frames(frames, measure(session, frames), tolerance, budget)
+        batches.append(batch)
+        if batch.next_frames is None:
+            break
+        frames = batch.next_frames
+    settings = procedure.get("lamps") or {}
+    exposures = session.plan.parameters.get("exposures_s", {})
+    return LampFrameRecord(
+        tuple(batches),
+        tolerance,
+        budget,
+        {k: float(v) for k, v in exposures.items()},
+        float(settings.get("max_s", 10.0)),
+    )

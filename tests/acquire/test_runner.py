@@ -93,6 +93,16 @@ def test_interrupted_run_resumes_on_a_fresh_rig_to_identical_frames(plan, data):
     assert run_plan(open_rig("sim"), plan, resumed, progress=False).sha256() == resumed.sha256()
 
 
+def test_chosen_steps_are_captured_alone_in_plan_order(plan, data):
+    rig = open_rig("sim")
+    session = create(rig, plan, data, "chosen")
+    run_plan(rig, plan, session, progress=False, steps=[4, 1])
+    assert session.completed == {1, 4} and [e["step"] for e in session.events()] == [1, 4]
+    # Chosen again with one more: only the new one is taken; the rest stays missing.
+    run_plan(rig, plan, session, progress=False, steps=[1, 2, 4], stop_after=5)
+    assert [e["step"] for e in session.events()] == [1, 4, 2] and session.missing == (0, 3)
+
+
 def test_devices_are_driven_in_order_with_the_trigger_armed(plan, data):
     log: list = []
     rig = recorded_rig(log)

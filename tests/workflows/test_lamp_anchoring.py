@@ -15,11 +15,22 @@ import numpy as np
 import pytest
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.bundle import load
 from sassi_bench.procedure import load_procedure
-from sassi_bench.reduce.spectral import analyse_spectral_sweeps, laser_line_notes
+from sassi_bench.reduce.lamps import captured_lamp_frames
+from sassi_bench.reduce.spectral import (
+    analyse_spectral_sweeps,
+    lamp_measurement,
+    laser_line_notes,
+)
 from sassi_bench.rig.sim import truth
-from sassi_bench.workflows.spectral import capture_spectral_sweeps, run_spectral_calibration
+from sassi_bench.workflows.spectral import (
+    capture_lamp_frames,
+    capture_spectral_sweeps,
+    open_lamp_session,
+    run_spectral_calibration,
+)
 
 RIG = "tests/rigs/lamps-diodes-off.yaml"
 
@@ -135,3 +146,50 @@ def test_a_wrong_glass_in_the_description_fails_a_check(noisy):
     result = analyse_spectral_sweeps(sweeps, load_procedure("spectral_calibration"), wrong)
     assert _map_error_nm(rig, result)[0] > 1.0
     assert not result.passed
+
+
+def test_the_lamp_step_records_what_it_took_and_states_an_honest_uncertainty(anchored):
+    """The lamp step stops after its first batch when every laser is pinned, records why,
+    and the 1-sigma it states for each laser covers the laser's distance to the truth."""
+    rig, _, bundle = anchored
+    quality = bundle.manifest["quality"]
+    spectral = quality.get("spectral", quality)
+    taken = spectral["lamp_frames"]
+    assert taken["outcome"] == "tolerance met" and taken["advice"] is None
+    assert taken["frames_per_lamp"] == 4 and len(taken["batches"]) == 1
+    assert max(taken["sigma_nm"].values()) <= taken["tolerance_nm"]
+    t = truth(rig)
+    z = {
+        label: (line["measured_nm"] - t.laser_centre_nm(float(label))) / line["sigma_nm"]
+        for label, line in spectral["laser_lines"].items()
+    }
+    # Honest: no laser further from the truth than its stated 1-sigma allows (measured
+    # |z| <= 0.59), and the sigmas not inflated (measured RMS z 0.41; a 1-sigma stated
+    # 4 times too large would give about 0.1).
+    values = np.array(list(z.values()))
+    assert np.abs(values).max() <= 1.5, z
+    assert np.sqrt(np.mean(values**2)) >= 0.2, z
+
+
+def test_a_noisy_bench_takes_lamp_frames_until_its_laser_is_pinned(noisy, tmp_path):
+    """Asked for 0.3 nm, the noisy N-BK7 bench's 670 nm line (+-0.42 nm from 4 frames)
+    takes more lamp frames; its stated 1-sigma falls and still covers the truth."""
+    rig, sweeps = noisy
+    proc = planned_spectral(load_procedure("spectral_calibration"), rig.description)
+    proc["tolerances"]["laser_wavelength_sigma_nm"] = 0.3
+    proc["lamps"]["max_frames"] = 12
+    session = open_lamp_session(rig, proc, "strict-lamps", data=tmp_path)
+    measurement = lamp_measurement(sweeps, proc, rig.description)
+    record = capture_lamp_frames(rig, session, proc, measurement.sigma_nm, progress=False)
+    first, last = record.batches[0], record.batches[-1]
+    assert first.frames == 4 and first.sigma_nm[670.0] > 0.3
+    assert record.frames > 4 and last.sigma_nm[670.0] < first.sigma_nm[670.0]
+    assert (record.outcome == "tolerance met") == (last.sigma_nm[670.0] <= 0.3)
+    assert captured_lamp_frames(session) == record.frames
+    fit = measurement.measure(session, record.frames)[1]
+    t = truth(rig)
+    z = (fit.wavelengths_nm - [t.laser_centre_nm(x) for x in fit.labels_nm]) / fit.sigma_nm
+    # Measured: batches of 4, 8 and 10 frames, 670 nm at +-0.41, 0.33 and 0.298 nm; |z| <= 1.48
+    # against the truth, RMS z 1.1 (an honest 1-sigma gives about 1).
+    assert np.abs(z).max() <= 3.0, z
+    assert np.sqrt(np.mean(z**2)) >= 0.5, z
