@@ -117,3 +117,19 @@ def test_a_relative_file_is_read_beside_the_rig(tmp_path):
         design_mapping_from_file({"file": "lost.zmx", **PITCHES}, tmp_path)
     with pytest.raises(ConfigError, match=r"not taken beside design\.file"):
         design_mapping_from_file({"file": "arm.zmx", "surfaces": [], **PITCHES}, tmp_path)
+
+
+def test_a_rig_gives_its_arm_as_a_file(tmp_path, monkeypatch):
+    """A rig YAML beside its .zmx loads with the design the file means; the shipped
+    achromat rig with its surfaces swapped for the file traces the same arm."""
+    from sassi_bench.rig.config.loader import load_rig_description
+
+    monkeypatch.setenv("SASSI_BENCH_DATA", str(tmp_path / "data"))
+    monkeypatch.setenv("SASSI_BENCH_DESIGN_CACHE", str(tmp_path / "designs"))
+    rig = yaml.safe_load((ROOT / "procedures" / "rigs" / "sim-achromat.yaml").read_text())
+    rig["design"] = {"file": ZMX.name, **PITCHES}
+    (tmp_path / ZMX.name).write_text(ZMX.read_text())
+    (tmp_path / "arm-rig.yaml").write_text(yaml.safe_dump(rig))
+    desc = load_rig_description(tmp_path / "arm-rig.yaml")
+    assert desc.design == read_zemax_design(ZMX, **PITCHES)
+    assert desc.prism.glass == "N-SF11"
