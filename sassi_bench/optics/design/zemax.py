@@ -94,6 +94,14 @@ def _read_lines(path: Path) -> list[list[str]]:
     return [line.split() for line in text.splitlines() if line.split()]
 
 
+def _number(token: str) -> float:
+    """A numeric field (NaN when unreadable: refused as set, never taken as zero)."""
+    try:
+        return float(token.replace(",", "."))
+    except ValueError:
+        return math.nan
+
+
 def _check_skipped_operands(path: Path) -> None:
     """Refuse operands the parser skips that would change the arm."""
     surface = -1
@@ -106,12 +114,17 @@ def _check_skipped_operands(path: Path) -> None:
                 f"{path.name} is in {tokens[1]}, the design is in millimetres",
                 "set the lens units to millimetres in the design program and save again",
             )
-        elif op == "MNUM" and len(tokens) > 1 and int(tokens[1]) > 1:
+        elif op == "FTYP" and len(tokens) > 2 and _number(tokens[2]) != 0:
+            raise _refuse(
+                f"{path.name} sets telecentric object space, which the trace does not force",
+                "clear the flag; the stop's place makes the arm telecentric or not",
+            )
+        elif op == "MNUM" and len(tokens) > 1 and not _number(tokens[1]) <= 1:
             raise _refuse(
                 f"{path.name} holds {tokens[1]} configurations",
                 "save the configuration of the arm to use as a file of its own",
             )
-        elif op == "SCBD" and any(float(t) != 0.0 for t in tokens[4:]):
+        elif op == "SCBD" and any(_number(t) != 0.0 for t in tokens[4:]):
             raise _refuse(
                 f"surface {surface} of {path.name} has its own tilt or decenter, "
                 "which the reader does not take",
@@ -145,7 +158,7 @@ def _parse(path: Path) -> Any:
 
     try:
         return _NamedGlassParser(str(path)).parse()
-    except ValueError as exc:
+    except (ValueError, IndexError, KeyError) as exc:
         if "sequential" in str(exc):
             cause = f"{path.name} is not a sequential design (non-sequential mode)"
             fix = "save the arm in sequential mode, from the SLM to the camera"

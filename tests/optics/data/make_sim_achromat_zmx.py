@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from optiland.materials import MaterialFile
 from scipy.spatial.transform import Rotation
 
 from sassi_bench.optics.design import OpticalDesign
@@ -32,6 +31,8 @@ def _break(lines, number, thickness, decenter=(0.0, 0.0), tilt=(0.0, 0.0, 0.0), 
 
 
 def main() -> None:
+    from optiland.materials import MaterialFile  # the design extra
+
     rig = yaml.safe_load((ROOT / "procedures/rigs/sim-achromat.yaml").read_text())
     design = OpticalDesign.from_mapping(rig["design"])
     built = build_design(design, (200, 320), (288, 512))
