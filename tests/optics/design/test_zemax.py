@@ -136,3 +136,39 @@ def test_a_rig_gives_its_arm_as_a_file(tmp_path, monkeypatch):
     desc = load_rig_description(tmp_path / "arm-rig.yaml")
     assert desc.design == read_zemax_design(ZMX, **PITCHES)
     assert desc.prism.glass == "N-SF11"
+
+
+def _break_params(values: list[float], order: int) -> str:
+    return "".join(f"  PARM {k} {v!r}\n" for k, v in enumerate([*values, float(order)], 1))
+
+
+def test_a_break_pair_around_a_surface_becomes_its_tilt_and_decenter(tmp_path):
+    """OpticStudio's order 1 with every value negated undoes order 0 (decenter, then tilt
+    about x, y, z): the pair around the prism's first face, tilted about three axes and
+    decentred, is read as that face's own tilt_deg and decenter_mm."""
+    text = ZMX.read_text()
+    start = text.index("SURF 5\n")
+    stop = text.index("SURF 8\n")
+    block = text[start:stop]
+    tilt, shift = [1.5, 27.6187, -2.0], [0.1, -0.2]
+    before = block.split("  PARM 1")[0]
+    face = block[block.index("SURF 6\n") : block.index("SURF 7\n")]
+    after = block[block.index("SURF 7\n") :].split("  PARM 1")[0]
+    new = (
+        before
+        + _break_params([*shift, *tilt], 0)
+        + face
+        + after
+        + _break_params([-v for v in [*shift, *tilt]], 1)
+    )
+    path = tmp_path / "arm.zmx"
+    path.write_text(text[:start] + new + text[stop:])
+    face_read = read_zemax_design(path, **PITCHES).surfaces[4]
+    assert face_read.material == "N-SF11"
+    assert face_read.tilt_deg == pytest.approx(tilt, abs=1e-9)
+    assert face_read.decenter_mm == pytest.approx(shift, abs=1e-12)
+    assert face_read.thickness_mm == 8.0
+    # the same pair written in the same order does not restore the axis: two breaks stay
+    path.write_text(text[:start] + new.replace("  PARM 6 1.0\n", "  PARM 6 0.0\n") + text[stop:])
+    entries = read_zemax_design(path, **PITCHES).surfaces
+    assert len(entries) == 12 and entries[4].is_break and entries[6].is_break
