@@ -23,6 +23,8 @@ Examples
 ...                            camera_pixel_pitch_um=5.5)  # doctest: +SKIP
 >>> design.surfaces[0].material  # doctest: +SKIP
 'SF10'
+>>> FILE_KEYS[:3]
+('file', 'slm_pixel_pitch_um', 'camera_pixel_pitch_um')
 """
 
 from __future__ import annotations
@@ -413,6 +415,11 @@ def read_zemax_design(
     >>> read_zemax_design("arm.zmx", slm_pixel_pitch_um=8.0,
     ...                   camera_pixel_pitch_um=5.5).aperture  # doctest: +SKIP
     ('object_space_na', 0.04)
+    >>> try:
+    ...     read_zemax_design("lost.zmx", slm_pixel_pitch_um=8.0, camera_pixel_pitch_um=5.5)
+    ... except ConfigError as exc:
+    ...     print(exc)  # doctest: +ELLIPSIS
+    rig description: design.file: lost.zmx does not exist. Fix: check the path ...
     """
     path = Path(path)
     if not path.is_file():
@@ -476,9 +483,11 @@ def design_mapping_from_file(section: Mapping[str, Any], folder: str | Path) -> 
 
     Examples
     --------
-    >>> design_mapping_from_file({"file": "arm.zmx", "slm_pixel_pitch_um": 8.0,
-    ...     "camera_pixel_pitch_um": 5.5}, "procedures/rigs")["surfaces"]  # doctest: +SKIP
-    [...]
+    >>> try:
+    ...     design_mapping_from_file({"file": "arm.zmx", "surfaces": []}, ".")
+    ... except ConfigError as exc:
+    ...     print(exc)  # doctest: +ELLIPSIS
+    rig description: design.file: design.surfaces: not taken beside design.file. Fix: use file, ...
     """
     for key in section:
         if key not in FILE_KEYS:
