@@ -451,6 +451,11 @@ def read_zemax_design(
             f"the system aperture of {name} is {kind!r}",
             "set it to entrance pupil diameter, object space NA or paraxial working F/#",
         )
+    if model.fields.get("afocal_image_space"):
+        raise _refuse(
+            f"{name} has an afocal image space; the camera needs an image plane",
+            "clear the afocal image space flag and end the arm at the camera",
+        )
     entries = _surface_entries(surfaces, name)
     image_section = _image_section(entries)
     chosen = _catalogue(surfaces, model.glass_catalogs, catalogue)

@@ -99,6 +99,7 @@ def _edited(tmp_path: Path, old: str, new: str) -> Path:
         ("SURF 1\n", "SURF 1\n  SCBD 1 0 0 0.1 0 0 0 0\n", "its own tilt or decenter"),
         ("SURF 1\n", "SURF 1\n  SQAP 2 2 0 0\n", "rectangular aperture"),
         ("FTYP 1 0 1", "FTYP 1 1 1", "telecentric"),
+        ("FTYP 1 0 1 1 0 0 0", "FTYP 1 0 1 1 0 0 1", "afocal image space"),
         ("MODE SEQ", "MODE SEQ\nMNUM 2 1", "2 configurations"),
         ("OBNA 4.00000000000000008E-02 0", "ENPD", "cannot read"),
     ],
