@@ -4,7 +4,8 @@ A rig's ``design:`` section gives the arm from the SLM to the spectral camera as
 sequential surfaces (:mod:`.schema`); it is built as an optiland optic (:mod:`.build`,
 the optional extra ``sassi-bench[design]``), traced on a grid over the SLM and the band
 (:mod:`.trace`), kept on disk by its hash (:mod:`.cache`) and read through smooth
-interpolants (:mod:`.interp`) as a relay with spots (:mod:`.relay`).
+interpolants (:mod:`.interp`) as a relay with spots (:mod:`.relay`). A design may also be
+read from a Zemax OpticStudio file (:mod:`.zemax`, ``design: {file: arm.zmx}``).
 
 :func:`design_relay` is the one call: a design and the rig's shapes and band in, a
 :class:`~sassi_bench.optics.design.relay.DesignRelay` out (traced once, then read from

@@ -164,8 +164,9 @@ class OpticalDesign:
         if "file" in data:
             raise _error(
                 "design.file",
-                "reading a design program's file is not supported yet",
-                "write the arm as design.surfaces (see docs/optical_design.md)",
+                "a design program's file is read when the rig loads, not here",
+                "load the rig with load_rig_description, or read the file with "
+                "sassi_bench.optics.design.zemax.read_zemax_design",
             )
         _check_keys(data, _DESIGN_KEYS, "design")
         for key in ("slm_pixel_pitch_um", "camera_pixel_pitch_um", "object_distance_mm"):

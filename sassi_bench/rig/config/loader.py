@@ -19,6 +19,7 @@ from typing import Any
 from sassi_bench._shared.yaml_io import load_yaml_mapping
 from sassi_bench.errors import ConfigError, did_you_mean, step_error
 from sassi_bench.optics.design import OpticalDesign, design_relay, nominal_summary
+from sassi_bench.optics.design.zemax import design_mapping_from_file
 from sassi_bench.rig.config.checks import check_description
 from sassi_bench.rig.config.description import (
     BlurConfig,
@@ -136,8 +137,13 @@ def _build(data: dict[str, Any], source: str | None) -> RigDescription:
     return RigDescription(source=source, design=design, **kwargs)
 
 
-def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> RigDescription:
+def rig_description_from_dict(
+    data: dict[str, Any], source: str = "<dict>", folder: str | os.PathLike[str] | None = None
+) -> RigDescription:
     """Validate a rig description given as a mapping (e.g. parsed YAML).
+
+    A ``design: {file: ...}`` section is read here (a relative path against ``folder``,
+    the rig YAML's; default the working folder) and held as the surfaces it means.
 
     Raises
     ------
@@ -163,6 +169,9 @@ def rig_description_from_dict(data: dict[str, Any], source: str = "<dict>") -> R
             )
         )
     data = json.loads(json.dumps(data))  # YAML int keys -> str, tuples -> lists
+    design = data.get("design")
+    if isinstance(design, dict) and "file" in design:
+        data["design"] = design_mapping_from_file(design, Path(folder or Path.cwd()))
     _validate_schema(data, source)
     desc = _build(data, source if source != "<dict>" else None)
     check_description(desc)
@@ -215,4 +224,4 @@ def load_rig_description(name_or_path: str | os.PathLike[str]) -> RigDescription
         missing_fix=f"check the path, or use one of the shipped rigs {', '.join(available_rigs())}",
         mapping_fix="write the rig as YAML keys (see procedures/rigs/sim.yaml)",
     )
-    return rig_description_from_dict(data, source)
+    return rig_description_from_dict(data, source, folder=Path(str(file)).parent)

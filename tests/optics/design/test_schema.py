@@ -48,7 +48,7 @@ def test_round_trip_and_hash_ignore_comments():
         ({"surfaces": [{"thickness_mm": 1.0}]}, "stop: true"),
         ({"surfaces": [{"thickness_mm": 1.0, "stop": True, "material": "N-BK7"}]}, "in glass"),
         ({"surfaces": [{"thickness_mm": 1.0, "stop": True, "tilt": [0, 1, 0]}]}, "tilt_deg"),
-        ({"file": "arm.zmx"}, "not supported"),
+        ({"file": "arm.zmx"}, "read when the rig loads"),
     ],
 )
 def test_bad_designs_are_refused_with_the_key(change, message):
