@@ -189,6 +189,9 @@ class LiveFeed:
         The most live frames a second (the captures leave the rest of the machine alone).
     max_exposure_s
         The longest exposure auto-exposure may choose.
+    live_exposure_s
+        The exposure of the live frames (s); ``None``: auto-exposure's (the readings
+        rounds always auto-expose).
     scene
         The scene in front of the cameras.
 
@@ -212,6 +215,7 @@ class LiveFeed:
         readings_every_s: float = 3.0,
         max_fps: float = 10.0,
         max_exposure_s: float = 2.0,
+        live_exposure_s: float | None = None,
         scene: str = "white",
     ) -> None:
         if not lights:
@@ -224,6 +228,7 @@ class LiveFeed:
         self.readings_every_s = readings_every_s
         self.max_fps = max_fps
         self.max_exposure_s = max_exposure_s
+        self.live_exposure_s = live_exposure_s
         self.scene = scene
         self.latest = {camera: LatestFrame() for camera in CAMERAS}
         self.captured = {camera: RateMeter() for camera in CAMERAS}
@@ -281,26 +286,33 @@ class LiveFeed:
     def _capture(self) -> None:
         rig = self.rig
         rig.set_scene(self.scene)
-        self.status = "finding exposures"
-        exposures = {
-            light: auto_exposure(
-                rig, light, self.pattern, max_s=self.max_exposure_s, target_fraction=0.6
-            )
-            for light in dict.fromkeys([self.live_light, *self.lights])
-            if not self._stop.is_set()
-        }
+        exposures: dict[str, float] = {}
+
+        def exposure(light: str) -> float:
+            """Auto-exposure's for ``light``, found the first time it is needed (the
+            live frames start before the readings' lights are exposed for)."""
+            if light not in exposures:
+                self.status = f"finding the exposure under {light}"
+                exposures[light] = auto_exposure(
+                    rig, light, self.pattern, max_s=self.max_exposure_s, target_fraction=0.6
+                )
+                self.status = "live"
+            return exposures[light]
+
         cameras = {"spectral": rig.spectral_camera, "guide": rig.guide_camera}
         seqs = dict.fromkeys(CAMERAS, 0)
         period = 1.0 / self.max_fps
         next_round = time.monotonic()
         round_index = 0
+        shown = render_pattern(self.pattern, rig.slm.shape)
         with armed(rig):
-            rig.slm.show(render_pattern(self.pattern, rig.slm.shape))
+            live_exposure = self.live_exposure_s or exposure(self.live_light)
+            rig.slm.show(shown)
             self.status = "live"
             while not self._stop.is_set():
                 start = time.monotonic()
                 rig.light.select(self.live_light)
-                rig.spectral_camera.set_exposure(exposures[self.live_light])
+                rig.spectral_camera.set_exposure(live_exposure)
                 for name, camera in cameras.items():
                     data = camera.capture().data
                     frame = LiveFrame(
@@ -312,8 +324,12 @@ class LiveFeed:
                 if self.analyse is not None and start >= next_round and self._round_read():
                     frames = {}
                     for light in self.lights:
+                        if self._stop.is_set():
+                            return
+                        chosen = exposure(light)
+                        rig.slm.show(shown)  # auto-exposure shows its own frames
                         rig.light.select(light)
-                        rig.spectral_camera.set_exposure(exposures[light])
+                        rig.spectral_camera.set_exposure(chosen)
                         frames[light] = rig.spectral_camera.capture().data
                     with self._round_ready:
                         self._round = (round_index, frames)

@@ -41,6 +41,16 @@ def _rate(text: str) -> float:
     return value
 
 
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not 0 < value <= 60:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an exposure between 0 and 60 s")
+    return value
+
+
 def _live(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.live_view import serve_live
@@ -64,6 +74,7 @@ def _live(args: argparse.Namespace) -> int:
             lights=args.lights,
             data=args.data,
             max_fps=args.max_fps,
+            live_exposure_s=args.exposure,
             on_ready=ready,
         )
     finally:
@@ -98,5 +109,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     live.add_argument(
         "--max-fps", type=_rate, default=10.0, help="most live frames a second (default 10)"
+    )
+    live.add_argument(
+        "--exposure",
+        type=_seconds,
+        metavar="SECONDS",
+        help="exposure of the live frames (default: auto-exposure's)",
     )
     live.set_defaults(func=_live, drives_rig=True)

@@ -58,6 +58,7 @@ def alignment_feed(
     live_light: str | None = None,
     readings_every_s: float = 3.0,
     max_fps: float = 10.0,
+    live_exposure_s: float | None = None,
 ) -> LiveFeed:
     """A live feed of ``rig`` under the alignment pattern, with the alignment readings.
 
@@ -71,7 +72,7 @@ def alignment_feed(
     live_light
         The light of the live frames (default: the reading light nearest the prism's
         reference wavelength, whose frame gives the footprint).
-    readings_every_s, max_fps
+    readings_every_s, max_fps, live_exposure_s
         As :class:`~sassi_bench.acquire.live_feed.LiveFeed`.
 
     Returns
@@ -103,6 +104,7 @@ def alignment_feed(
         live_light=live_light,
         readings_every_s=readings_every_s,
         max_fps=max_fps,
+        live_exposure_s=live_exposure_s,
     )
 
 
@@ -375,6 +377,7 @@ def serving(
     lights: Sequence[str] | None = None,
     data: str | os.PathLike[str] | None = None,
     max_fps: float = 10.0,
+    live_exposure_s: float | None = None,
 ) -> Iterator[LiveServer]:
     """The rig's lock held, its live feed running and served; all stopped on leaving.
 
@@ -386,7 +389,7 @@ def serving(
             print(server.url)
     """
     with driving(rig, data, "live"):
-        feed = alignment_feed(rig, lights, max_fps=max_fps)
+        feed = alignment_feed(rig, lights, max_fps=max_fps, live_exposure_s=live_exposure_s)
         server = LiveServer(feed, port=port)
         try:
             feed.start()
@@ -404,6 +407,7 @@ def serve_live(
     lights: Sequence[str] | None = None,
     data: str | os.PathLike[str] | None = None,
     max_fps: float = 10.0,
+    live_exposure_s: float | None = None,
     on_ready: Callable[[LiveServer], None] | None = None,
 ) -> None:
     """Serve ``rig``'s live view until Ctrl-C, SIGTERM or an error in the captures.
@@ -420,6 +424,8 @@ def serve_live(
         The data root (for the rig's lock).
     max_fps
         The most live frames a second.
+    live_exposure_s
+        The live frames' exposure (s); ``None``: auto-exposure's.
     on_ready
         Called with the server once it serves (prints the address).
 
@@ -428,7 +434,14 @@ def serve_live(
     Exception
         What stopped the captures, when something did.
     """
-    with serving(rig, port=port, lights=lights, data=data, max_fps=max_fps) as server:
+    with serving(
+        rig,
+        port=port,
+        lights=lights,
+        data=data,
+        max_fps=max_fps,
+        live_exposure_s=live_exposure_s,
+    ) as server:
         if on_ready is not None:
             on_ready(server)
         while server.feed.running:
