@@ -49,6 +49,9 @@ __all__ = ["LiveServer", "alignment_feed", "live_status", "serve_live"]
 
 #: The interface the page is served on: this machine only.
 LOOPBACK = "127.0.0.1"
+#: A viewer that asked for no frame for this long had gone (a closed tab): the frames
+#: captured meanwhile are not counted as dropped.
+VIEWER_GONE_S = 2.0
 
 
 def alignment_feed(
@@ -154,6 +157,7 @@ class _Shown:
         self.encoded: tuple[int, bytes, dict[str, Any], float] | None = None
         self.served = RateMeter()
         self.last_seq = -1
+        self.last_served = 0.0
         self.dropped = 0
         self.served_latency_s: list[float] = []
         self.display_latency_s: list[float] = []
@@ -166,9 +170,10 @@ class _Shown:
                 self.encoded = (frame.seq, png, _frame_figures(frame), frame.captured_at)
             _, png, figures, _ = self.encoded
             if frame.seq > self.last_seq:
-                if self.last_seq >= 0:
+                now = time.monotonic()
+                if self.last_seq >= 0 and now - self.last_served < VIEWER_GONE_S:
                     self.dropped += frame.seq - self.last_seq - 1
-                self.last_seq = frame.seq
+                self.last_seq, self.last_served = frame.seq, now
                 self.served.tick()
                 _keep_last(self.served_latency_s, time.time() - frame.captured_at)
             return png, figures
