@@ -142,9 +142,7 @@ class _Capture(threading.Thread):
             spectral = self.rig.spectral_camera.capture().data
             stamp = time.perf_counter()
             self.capture_s.append(stamp - start)
-            item = _Captured(
-                self.captured, stamp - self.start_time, guide, spectral, mask, samples
-            )
+            item = _Captured(self.captured, stamp - self.start_time, guide, spectral, mask, samples)
             self.captured += 1
             try:
                 self.queue.put_nowait(item)
