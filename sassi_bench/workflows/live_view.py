@@ -369,9 +369,11 @@ def _page_report(shown: _Shown, query: dict[str, list[str]]) -> None:
     """Take in what the page measured of the frame it showed last (latency, rate)."""
     with contextlib.suppress(KeyError, IndexError, ValueError), shown.lock:
         latency = float(query["latency"][0])
-        if 0 <= latency < 60:
+        if 0 <= latency < 60:  # a page's clock cannot make the figures nonsense (NaN fails)
             _keep_last(shown.display_latency_s, latency)
-        shown.display_fps = float(query["fps"][0])
+        fps = float(query["fps"][0])
+        if 0 <= fps < 1000:
+            shown.display_fps = fps
 
 
 @contextlib.contextmanager
