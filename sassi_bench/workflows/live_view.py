@@ -40,6 +40,7 @@ import numpy as np
 from sassi_bench.acquire.live_feed import CAMERAS, LiveFeed, LiveFrame, RateMeter
 from sassi_bench.acquire.live_render import encode_png, histogram, overlay_rgb
 from sassi_bench.acquire.saturation import clipping
+from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.reduce.alignment import Reading, alignment_pattern, alignment_readings
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.align import alignment_lights
@@ -268,7 +269,16 @@ class LiveServer:
         self.feed = feed
         self.token = token or secrets.token_urlsafe(24)
         self.shown = {name: _Shown() for name in CAMERAS}
-        self._httpd = ThreadingHTTPServer((LOOPBACK, port), _handler(self))
+        try:
+            self._httpd = ThreadingHTTPServer((LOOPBACK, port), _handler(self))
+        except OSError as exc:
+            raise ProcedureError(
+                step_error(
+                    "live view",
+                    f"cannot serve on {LOOPBACK}:{port} ({exc.strerror or exc})",
+                    "give another --port, or 0 for a free one",
+                )
+            ) from exc
         self._httpd.daemon_threads = True
         self.port = self._httpd.server_address[1]
         self.url = f"http://{LOOPBACK}:{self.port}/?token={self.token}"

@@ -15,6 +15,7 @@ import pytest
 from sassi_bench.acquire.live_feed import LatestFrame
 from sassi_bench.acquire.live_render import SATURATED_RGB, ZERO_RGB
 from sassi_bench.acquire.saturation import clipping
+from sassi_bench.errors import ProcedureError
 from sassi_bench.rig import open_rig
 from sassi_bench.workflows.live_view import LiveServer, alignment_feed
 from sassi_bench.workflows.rig_lock import driving
@@ -38,6 +39,12 @@ def get(url: str) -> tuple[int, bytes, dict[str, str]]:
             return answer.status, answer.read(), dict(answer.headers)
     except urllib.error.HTTPError as exc:
         return exc.code, exc.read(), dict(exc.headers)
+
+
+def status_of(server) -> dict:
+    status, body, _ = get(f"{base(server)}/status.json?token={server.token}")
+    assert status == 200
+    return json.loads(body)
 
 
 @pytest.fixture(scope="module")
@@ -86,16 +93,17 @@ def test_a_frame_has_the_camera_size_and_its_clipped_pixels(server):
 
 
 def test_the_status_reports_rates_and_readings(server):
-    for _ in range(4):  # a viewer taking frames, as the page does
-        get(f"{base(server)}/frame/guide.png?token={server.token}&latency=0.05&fps=3")
     deadline = time.monotonic() + 40
-    while True:
-        status, body, _ = get(f"{base(server)}/status.json?token={server.token}")
-        found = json.loads(body)
-        if found["readings"] or time.monotonic() > deadline:
-            break
+    while not status_of(server)["readings"]:
+        assert time.monotonic() < deadline, status_of(server)["status"]
         time.sleep(0.5)
-    assert status == 200 and found["status"] == "live"
+    seq = -1
+    for _ in range(4):  # a viewer taking each next frame, as the page does
+        url = f"{base(server)}/frame/guide.png?token={server.token}&after={seq}"
+        _, _, headers = get(url + "&latency=0.05&fps=3")
+        seq = int(headers["X-Seq"])
+    found = status_of(server)
+    assert found["status"] == "live"
     spectral, guide = found["cameras"]["spectral"], found["cameras"]["guide"]
     assert spectral["capture_fps"] > 0 and guide["capture_fps"] > 0
     assert guide["served_fps"] > 0 and guide["served_latency_ms"] >= 0
@@ -106,3 +114,8 @@ def test_the_status_reports_rates_and_readings(server):
     assert "footprint 532 nm" in names and "spot width 532 nm" in names
     corners = next(r["corners"] for r in found["readings"] if "corners" in r)
     assert np.asarray(corners).shape == (4, 2)
+
+
+def test_a_port_in_use_is_a_clear_error(server):
+    with pytest.raises(ProcedureError, match=r"cannot serve on 127\.0\.0\.1.*give another --port"):
+        LiveServer(server.feed, port=server.port)
