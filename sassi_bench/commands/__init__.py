@@ -33,6 +33,7 @@ from sassi_bench.commands import (
     calibrate,
     check,
     data,
+    live,
     rig,
     scan,
     snapshot,
@@ -54,7 +55,7 @@ from sassi_bench.paths import data_root
 __all__ = ["PROG", "build_parser", "main"]
 
 #: The command groups in the order ``--help`` lists them.
-GROUPS = (rig, align, calibrate, check, scan, bundle, snapshot, validate, data, batch)
+GROUPS = (rig, align, live, calibrate, check, scan, bundle, snapshot, validate, data, batch)
 
 
 class _Version(argparse.Action):

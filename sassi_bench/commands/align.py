@@ -36,8 +36,12 @@ def _align(args: argparse.Namespace) -> int:
     from sassi_bench.rig import open_rig
     from sassi_bench.workflows.align import run_alignment
 
+    simulate = " --simulate" if args.simulate else ""
     if not args.no_view:
-        print("align: no live view in this version; the readings follow as text (--no-view)")
+        print(
+            "align: the readings follow as text; to watch both cameras live beside them: "
+            f"{program()} live --rig {args.rig}{simulate}"
+        )
     rig = open_rig(args.rig, simulate=args.simulate)
 
     def show(result) -> None:
@@ -50,7 +54,6 @@ def _align(args: argparse.Namespace) -> int:
 
     done = run_alignment(rig, rounds=args.frames, lights=args.lights, data=args.data, on_round=show)
     aligned = all(r.ok for r in done[-1].readings)
-    simulate = " --simulate" if args.simulate else ""
     if aligned:
         print(f"aligned. next: {program()} calibrate spectral --rig {args.rig}{simulate}")
     else:

@@ -3,6 +3,7 @@ notebook run without a person (CI, ``jupyter nbconvert --execute``) keeps."""
 
 from sassi_bench.notebook.bundles import bundle_for
 from sassi_bench.notebook.display import say_clipping, show
+from sassi_bench.notebook.live import LiveView, live_view
 from sassi_bench.notebook.outputs import new_report_folder, save_cube
 from sassi_bench.notebook.publishing import (
     latest_summary,
@@ -25,6 +26,7 @@ from sassi_bench.notebook.widgets import (
 )
 
 __all__ = [
+    "LiveView",
     "accept_checks",
     "accepted",
     "bundle_for",
@@ -32,6 +34,7 @@ __all__ = [
     "checks_table",
     "excluded_region",
     "latest_summary",
+    "live_view",
     "new_report_folder",
     "pick_chart_corners",
     "pick_excluded_region",

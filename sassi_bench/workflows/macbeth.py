@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.plan_geometry import planned_macbeth
+from sassi_bench.acquire.trigger_gate import armed
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.rig.rig import Rig
@@ -62,7 +63,8 @@ def guide_picture(rig: Rig, bundle: CalibrationBundle, light: str) -> NDArray[np
     exposure = auto_exposure(rig, light, {"kind": "full"}, camera="guide", target_fraction=0.7)
     rig.light.select(light)
     rig.guide_camera.set_exposure(exposure)
-    raw = rig.guide_camera.capture().as_float()
+    with armed(rig):  # a guide camera on a line trigger exposes for the pulses it passes
+        raw = rig.guide_camera.capture().as_float()
     linear = np.clip(raw - np.percentile(raw, 0.5), 0, None)
     linear /= max(float(np.percentile(linear, 99.5)), 1e-12)
     warped = bundle.warp_guide_to_slm(np.clip(linear, 0, 1).astype(np.float32))

@@ -39,6 +39,7 @@ import numpy as np
 
 from sassi_bench._shared.signals import deferred_stop_signals
 from sassi_bench.acquire.snapshots import snapshot_exposures
+from sassi_bench.acquire.trigger_gate import armed
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.reduce.snapshots import procedure_spacing
@@ -95,7 +96,8 @@ class _Captured:
 
 
 class _Capture(threading.Thread):
-    """The capture thread: frames onto a bounded queue, drops counted when it is full."""
+    """The capture thread: frames onto a bounded queue, drops counted when it is full; the
+    trigger armed while it captures (a camera on a line trigger waits for its pulses)."""
 
     def __init__(self, rig, scene, motion, plan, frames, seconds, size):
         super().__init__(name="snapshot-capture", daemon=True)
@@ -122,28 +124,30 @@ class _Capture(threading.Thread):
 
     def run(self) -> None:
         try:
-            while not self._done():
-                start = time.perf_counter()
-                if self.motion is not None:
-                    pose = ScenePose.at_frame(self.captured, *self.motion)
-                    self.rig.set_scene(self.scene, pose)
-                with self.lock:
-                    mask, samples = self.plan
-                self.rig.slm.show(mask)
-                guide = self.rig.guide_camera.capture().data
-                spectral = self.rig.spectral_camera.capture().data
-                stamp = time.perf_counter()
-                self.capture_s.append(stamp - start)
-                item = _Captured(
-                    self.captured, stamp - self.start_time, guide, spectral, mask, samples
-                )
-                self.captured += 1
-                try:
-                    self.queue.put_nowait(item)
-                except queue.Full:
-                    self.dropped += 1
+            with armed(self.rig):
+                self._capture()
         except BaseException as exc:  # handed to the reconstruction thread, which re-raises
             self.error = exc
+
+    def _capture(self) -> None:
+        while not self._done():
+            start = time.perf_counter()
+            if self.motion is not None:
+                pose = ScenePose.at_frame(self.captured, *self.motion)
+                self.rig.set_scene(self.scene, pose)
+            with self.lock:
+                mask, samples = self.plan
+            self.rig.slm.show(mask)
+            guide = self.rig.guide_camera.capture().data
+            spectral = self.rig.spectral_camera.capture().data
+            stamp = time.perf_counter()
+            self.capture_s.append(stamp - start)
+            item = _Captured(self.captured, stamp - self.start_time, guide, spectral, mask, samples)
+            self.captured += 1
+            try:
+                self.queue.put_nowait(item)
+            except queue.Full:
+                self.dropped += 1
 
 
 @drives_rig("snapshot live")
@@ -235,7 +239,8 @@ def run_live(
     rig.spectral_camera.set_exposure(exposures.spectral_s)
     rig.guide_camera.set_exposure(exposures.guide_s)
     pipeline = VideoPipeline(bundle, spacing, compactness=float(snap["compactness"]))
-    first_plan = pipeline.plan(rig.guide_camera.capture().data)
+    with armed(rig):
+        first_plan = pipeline.plan(rig.guide_camera.capture().data)
     folder.mkdir(parents=True, exist_ok=True)
     started = datetime.now(UTC).isoformat(timespec="milliseconds")
     store: VideoStore | None = None

@@ -209,6 +209,9 @@ def bad_value(words, action, world):
         "guide_dark_tag": "novalue",
         "guide_session": "no-such-session",
         "limits": ["5", "1", "0", "10"],
+        "port": "70000",
+        "max_fps": "0",
+        "exposure": "-1",
         "scan": str(root / "missing.nc"),
         "video": "-1",
         "mask": str(root / "missing.npy"),
@@ -348,7 +351,7 @@ def test_the_console_script_prints_one_line(world):
 # -- Ctrl-C -------------------------------------------------------------------------------
 
 #: Commands that capture but keep nothing a later run could resume.
-NOTHING_TO_RESUME = {("rig", "snapshot"), ("rig", "check"), ("align",), ("check",)}
+NOTHING_TO_RESUME = {("rig", "snapshot"), ("rig", "check"), ("align",), ("live",), ("check",)}
 #: Commands whose interrupted run is complete as it stands: they say where it is.
 KEEPS_WHAT_IT_TOOK = {("snapshot", "live")}
 

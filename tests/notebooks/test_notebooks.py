@@ -126,11 +126,13 @@ def test_notebooks_have_no_committed_outputs():
 
 
 def test_00_quickstart_publishes_a_bundle_that_verifies(lab, bench):
-    book = _run("00_quickstart.ipynb", lab, again=(7,))  # the publish cell run twice
+    book = _run("00_quickstart.ipynb", lab, again=(8,))  # the publish cell run twice
     assert _images(book) >= 1  # the raw frames
     # The all-open frame is mostly saturated on the sim rig (63 %): the notebook says so.
     assert "\u26a0 spectral all open:" in _text(book, 4) and "Shorten the exposure" in _text(book, 4)
-    said = _text(book, 7)  # of its second run
+    live = book.cells[5].outputs  # the live view: a widget, shown, then stopped by itself
+    assert any("application/vnd.jupyter.widget-view+json" in o.get("data", {}) for o in live)
+    said = _text(book, 8)  # of its second run
     assert said.startswith("not published again: sim/v0001 already holds exactly these models")
     assert "latest: sim/v0001" in said and not (lab / "sim" / "v0002").exists()
     bundle_dir = lab / "sim" / "v0001"

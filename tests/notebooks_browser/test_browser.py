@@ -28,30 +28,31 @@ def test_00_reject_then_accept_publishes_once_and_reopens_with_its_results(lab, 
         book.run_all([1, 2])
         frames = book.run(4)
         assert "\u26a0 spectral all open:" in frames and "Shorten the exposure" in frames
+        # (cell 5, the live view, is run unattended by tests/notebooks/test_notebooks.py)
 
-        book.run(6)  # the calibration, then the accept/reject choice (accept: it passed)
-        choice = book.cell(6).locator(".widget-toggle-buttons")
+        book.run(7)  # the calibration, then the accept/reject choice (accept: it passed)
+        choice = book.cell(7).locator(".widget-toggle-buttons")
         assert book.kernel_value("decision.children[-1].value") == "accept"
         choice.get_by_role("button", name="reject").click()
         assert book.kernel_value("decision.children[-1].value") == "reject"
-        assert "not published: the fit was rejected" in book.run(7)
+        assert "not published: the fit was rejected" in book.run(8)
         assert book.kernel_value("bundle is None") is True and _published(lab) == []
 
         choice.get_by_role("button", name="accept").click()
-        said = book.run(7)
+        said = book.run(8)
         assert "published sim/v0001" in said and "latest: sim/v0001" in said
         assert book.kernel_value("bundle.version") == "v0001" and _published(lab) == ["v0001"]
         verify(lab.data / "sim" / "v0001")
-        again = book.run(7)  # run again: the same fit is not published twice
+        again = book.run(8)  # run again: the same fit is not published twice
         assert again.startswith("not published again: sim/v0001") and _published(lab) == ["v0001"]
-        assert "wavelength bins" in book.run(9)
+        assert "wavelength bins" in book.run(10)
         book.save(showing="not published again: sim/v0001")
     finally:
         book.close()
 
     saved = nbformat.read(lab.root / "00_quickstart.ipynb", as_version=4)
     texts = ["".join(o.get("text", "") for o in c.get("outputs", [])) for c in saved.cells]
-    assert texts[7].startswith("not published again: sim/v0001")
+    assert texts[8].startswith("not published again: sim/v0001")
     states = saved.metadata["widgets"]["application/vnd.jupyter.widget-state+json"]["state"]
     (choice_state,) = [
         model["state"]
@@ -65,9 +66,9 @@ def test_00_reject_then_accept_publishes_once_and_reopens_with_its_results(lab, 
         if session["path"].endswith("00_quickstart.ipynb"):
             _delete(lab, f"sessions/{session['id']}")
     reopened = open_notebook("00_quickstart.ipynb")
-    assert "not published again: sim/v0001" in reopened.output(7)
-    assert "wavelength bins" in reopened.output(9)
-    shown = reopened.cell(6).locator(".widget-toggle-button.mod-active")
+    assert "not published again: sim/v0001" in reopened.output(8)
+    assert "wavelength bins" in reopened.output(10)
+    shown = reopened.cell(7).locator(".widget-toggle-button.mod-active")
     assert shown.inner_text().strip() == "accept"
 
 

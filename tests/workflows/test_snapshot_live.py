@@ -24,17 +24,30 @@ class _Camera:
         return Frame(data, FrameMeta("spectral", 0.1, 0.0, None, "led", self.count))
 
 
+class _Trigger:
+    armed = False
+
+    def arm(self):
+        self.armed = True
+
+    def disarm(self):
+        self.armed = False
+
+
 class _Rig:
     def __init__(self):
         self.slm = type("Slm", (), {"show": lambda self, mask: 0})()
         self.guide_camera, self.spectral_camera = _Camera((4, 4, 3)), _Camera((8, 8))
+        self.trigger = _Trigger()
 
 
 def test_a_full_queue_drops_frames_counted_and_keeps_capture_order():
     plan = (np.zeros((2, 2), bool), np.zeros((0, 2), np.int32))
     capture = snapshot_live._Capture(_Rig(), "natural", None, plan, 6, None, size=2)
     capture.run()  # nobody reconstructs: the queue fills, the rest is dropped
+    assert capture.error is None
     assert (capture.captured, capture.dropped, capture.queue.qsize()) == (6, 4, 2)
+    assert not capture.rig.trigger.armed  # armed for the captures, left as found
     kept = [capture.queue.get_nowait() for _ in range(2)]
     assert [item.index for item in kept] == [0, 1]
     assert kept[0].time_s < kept[1].time_s

@@ -1,0 +1,58 @@
+"""``sassi-bench live`` as a lab runs it: the address printed, the rig locked while it
+serves, SIGTERM stopping it cleanly with the rig's lock released."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from sassi_bench.rig import load_rig_description
+from sassi_bench.workflows.rig_lock import RigBusyError, driving
+
+SCRIPT = Path(sys.executable).with_name("sassi-bench")
+
+
+def status(url: str) -> dict:
+    base, token = url.split("/?token=")
+    with urllib.request.urlopen(f"{base}/status.json?token={token}", timeout=10) as answer:
+        return json.load(answer)
+
+
+def test_sigterm_stops_the_live_view_and_frees_the_rig(tmp_path):
+    env = {**os.environ, "SASSI_BENCH_DATA": str(tmp_path)}
+    argv = [str(SCRIPT), "live", "--rig", "sim", "--lights", "laser:532", "--max-fps", "5"]
+    argv += ["--exposure", "0.05"]  # live frames at once; the readings' exposure comes later
+    process = subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        first = process.stdout.readline()
+        url = re.search(r"http://127\.0\.0\.1:\d+/\?token=\S+", first).group(0)
+        assert "Ctrl-C stops it" in process.stdout.readline()
+        desc = load_rig_description("sim")
+        with pytest.raises(RigBusyError), driving(desc, tmp_path, "a second procedure"):
+            pass  # refused: the live view holds the rig
+        deadline = time.monotonic() + 50
+        while status(url)["cameras"]["spectral"]["capture_fps"] <= 0:
+            assert time.monotonic() < deadline, status(url)
+            time.sleep(0.5)
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 128 + signal.SIGTERM, err
+    assert "stopped by SIGTERM" in err and "Traceback" not in err
+    with driving(desc, tmp_path, "after the live view"):
+        pass  # the lock was released
+    assert not any(tmp_path.rglob("*.zarr"))  # the live view stores no frames
