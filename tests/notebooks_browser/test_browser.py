@@ -304,6 +304,31 @@ def test_06_a_rejected_fit_is_not_published_and_an_accepted_one_becomes_latest(l
     assert load(lab.data / "sim" / version).wavelengths.size > 30
 
 
+def test_07_a_snapshot_taken_on_the_homography_bundle_is_scored_and_reported(lab, open_notebook):
+    with_guide = _with_guide(lab)
+    if not with_guide:
+        pytest.skip("needs the bundle with a guide homography the notebook 04 test publishes")
+    book = open_notebook("07_snapshot.ipynb")
+    try:
+        # One adaptive snapshot and the comparison masks: no photon-starved one, no video.
+        book.type_into(1, "\nlow_light = False\nvideo_frames = 0\nprogress = False")
+        book.run_all([1, 2])
+        assert book.kernel_value("bundle.version") == with_guide[-1]
+        book.run(4)  # the scan of the scene, then the snapshots (the figures are not run)
+        runs = book.kernel_value("sorted(result.runs)")
+        assert "adaptive" in runs and "adaptive_low_light" not in runs
+        said = book.run(13)
+        folder = lab.data / "reports" / "snapshot" / "run-001"
+        assert book.kernel_value("str(html_path)") == str(folder / "snapshot_report.html")
+        psnr = book.kernel_value("result.runs['adaptive'].scores['rank1'].psnr_affine_db")
+        assert "PASS " in said or "FAIL " in said
+    finally:
+        book.close()
+    doc = json.loads((folder / "snapshot_report.json").read_text())
+    assert doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"] == pytest.approx(psnr)
+    assert psnr > 25.0  # as the nbclient run of this notebook checks
+
+
 def test_08_a_typed_bundle_version_is_health_checked_and_its_verdict_kept(lab, open_notebook):
     if _published(lab) == []:
         pytest.skip("needs the bundle the quick-start test publishes")
