@@ -11,10 +11,11 @@ from __future__ import annotations
 import json
 
 import nbformat
+import numpy as np
 import pytest
 import yaml
 
-from sassi_bench.bundle import verify
+from sassi_bench.bundle import load, verify
 
 
 def _published(lab) -> list[str]:
@@ -192,3 +193,158 @@ def test_05_a_moved_chart_corner_changes_the_localisation_and_the_scores(lab, op
         assert _de00(lab, "run-002") != _de00(lab, "run-001")
     finally:
         book.close()
+
+
+def _versions(lab) -> set[str]:
+    return set(_published(lab))
+
+
+#: A scan setting a person types: rows 4 SLM px apart (400 frames, not 500).
+SCAN_PITCH = (100, 4)
+
+
+def test_03_a_typed_scan_pitch_is_scanned_and_its_cube_written_under_the_data_root(
+    lab, open_notebook
+):
+    if _published(lab) == []:
+        pytest.skip("needs the bundle the quick-start test publishes")
+    import xarray as xr
+
+    before = _versions(lab)
+    book = open_notebook("03_pinhole_scan.ipynb")
+    try:
+        book.type_into(1, f"\nscan_pitch = {SCAN_PITCH}\nresponse_every = 50\nprogress = False")
+        book.run_all([1, 2])
+        said = book.run(4)  # the radiometric response: a new bundle version
+        version = book.kernel_value("bundle.version")
+        assert f"published sim/{version} with the radiometric response" in said
+        assert _versions(lab) == before | {version} and book.kernel_value(
+            "bundle.response is not None"
+        )
+
+        book.run(5)  # the scan (the figure cell is not run)
+        assert book.kernel_value("tuple(run.session.plan.parameters['pitch'])") == SCAN_PITCH
+        pinholes = book.kernel_value("len(run.session.plan.select(role='pinholes'))")
+        assert pinholes == SCAN_PITCH[0] * SCAN_PITCH[1]
+        assert book.kernel_value("len(run.session.completed) == len(run.session.plan.steps)")
+        said = book.run(7)
+        cube_path = lab.data / "cubes" / f"lab-spectral-colorchecker-sim-{version}.nc"
+        assert f"cube: wrote {cube_path}" in said
+        sha = book.kernel_value("run.session.sha256()")
+    finally:
+        book.close()
+
+    with xr.open_dataset(cube_path) as cube:
+        assert cube.attrs["bundle_version"] == version and cube.attrs["session_sha256"] == sha
+        assert cube.attrs["session_id"] == "lab-spectral-scan-colorchecker"
+        assert cube["radiance"].shape[:2] == (400, 640)  # the sim SLM
+        assert np.isfinite(cube["radiance"].values).mean() > 0.9
+
+
+def _with_guide(lab) -> list[str]:
+    return [v for v in _published(lab) if load(lab.data / "sim" / v).guide_to_slm is not None]
+
+
+def test_04_a_rejected_homography_is_not_published_and_an_accepted_one_is(lab, open_notebook):
+    if _published(lab) == []:
+        pytest.skip("needs the bundle the quick-start test publishes")
+    before = _versions(lab)
+    book = open_notebook("04_guide_homography.ipynb")
+    try:
+        book.type_into(1, "\nprogress = False")
+        book.run_all([1, 2, 6])  # the registration, then the choice (the figures are not run)
+        choice = book.cell(6).locator(".widget-toggle-buttons")
+        assert book.kernel_value("decision.children[-1].value") == "accept"
+        choice.get_by_role("button", name="reject").click()
+        book.kernel_until("decision.children[-1].value", "reject")
+        assert "not published: the registration was rejected" in book.run(7)
+        assert _versions(lab) == before
+
+        choice.get_by_role("button", name="accept").click()
+        book.kernel_until("decision.children[-1].value", "accept")
+        said = book.run(7)
+        version = book.kernel_value("path.name")
+        assert f"published sim/{version} (dispersion, blur, guide homography" in said
+        assert f"latest: sim/{version} (dispersion, blur, guide homography" in said
+        assert _versions(lab) == before | {version}
+        homography = book.kernel_value("result.homography.tolist()")
+    finally:
+        book.close()
+    verify(lab.data / "sim" / version)
+    np.testing.assert_allclose(load(lab.data / "sim" / version).guide_to_slm, homography)
+
+
+def test_06_a_rejected_fit_is_not_published_and_an_accepted_one_becomes_latest(lab, open_notebook):
+    if not (lab.data / "procedures" / f"{SWEEP_SESSION}-spectral_calibration.yaml").is_file():
+        pytest.skip("needs the sweeps the notebook 01 test captures")
+    before = _versions(lab)
+    book = open_notebook("06_publish_bundle.ipynb")
+    try:
+        book.type_into(1, f'\nsession_id = "{SWEEP_SESSION}"\nprogress = False')
+        book.run_all([1, 2])  # 01's sweeps (all captured) fitted as 02 settled them
+        assert book.kernel_value("procedure['fit']['exclude_regions_slm_px']") == EXCLUDED
+        choice = book.cell(2).locator(".widget-toggle-buttons")
+        assert book.kernel_value("decision.children[-1].value") == "accept"
+        choice.get_by_role("button", name="reject").click()
+        book.kernel_until("decision.children[-1].value", "reject")
+        assert "not published: the fit was rejected" in book.run(3)
+        assert book.kernel_value("path is None") and _versions(lab) == before
+
+        choice.get_by_role("button", name="accept").click()
+        book.kernel_until("decision.children[-1].value", "accept")
+        said = book.run(3)
+        version = book.kernel_value("path.name")
+        # 01 unticked a laser and 02 excluded a region: not the fit 00 published.
+        assert f"published sim/{version} (dispersion, blur;" in said
+        assert f"latest: sim/{version} (dispersion, blur;" in said
+    finally:
+        book.close()
+    assert _versions(lab) == before | {version}
+    assert (lab.data / "sim" / "LATEST").read_text().strip() == version
+    verify(lab.data / "sim" / version)
+    assert load(lab.data / "sim" / version).wavelengths.size > 30
+
+
+def test_07_a_snapshot_taken_on_the_homography_bundle_is_scored_and_reported(lab, open_notebook):
+    with_guide = _with_guide(lab)
+    if not with_guide:
+        pytest.skip("needs the bundle with a guide homography the notebook 04 test publishes")
+    book = open_notebook("07_snapshot.ipynb")
+    try:
+        # One adaptive snapshot and the comparison masks: no photon-starved one, no video.
+        book.type_into(1, "\nlow_light = False\nvideo_frames = 0\nprogress = False")
+        book.run_all([1, 2])
+        assert book.kernel_value("bundle.version") == with_guide[-1]
+        book.run(4)  # the scan of the scene, then the snapshots (the figures are not run)
+        runs = book.kernel_value("sorted(result.runs)")
+        assert "adaptive" in runs and "adaptive_low_light" not in runs
+        said = book.run(13)
+        folder = lab.data / "reports" / "snapshot" / "run-001"
+        assert book.kernel_value("str(html_path)") == str(folder / "snapshot_report.html")
+        psnr = book.kernel_value("result.runs['adaptive'].scores['rank1'].psnr_affine_db")
+        assert "PASS " in said or "FAIL " in said
+    finally:
+        book.close()
+    doc = json.loads((folder / "snapshot_report.json").read_text())
+    assert doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"] == pytest.approx(psnr)
+    assert psnr > 25.0  # as the nbclient run of this notebook checks
+
+
+def test_08_a_typed_bundle_version_is_health_checked_and_its_verdict_kept(lab, open_notebook):
+    if _published(lab) == []:
+        pytest.skip("needs the bundle the quick-start test publishes")
+    from sassi_bench.storage.health_history import HealthHistory, history_path
+
+    book = open_notebook("08_health_check.ipynb")
+    try:
+        book.type_into(1, '\nbundle_version = "v0001"\nprogress = False')
+        book.run(1)
+        said = book.run(2)  # the two frames and the verdict (the figure cells are not run)
+        assert book.kernel_value("check.bundle_version") == "v0001"
+        verdict = book.kernel_value("check.verdict")
+        assert f"verdict: {verdict}" in said and "health check of sim bundle v0001" in said
+    finally:
+        book.close()
+    (row,) = HealthHistory(history_path(lab.data)).rows(rig="sim")
+    # The sim bench holds still: v0001 (the quick start's fit) holds.
+    assert row["bundle_version"] == "v0001" and row["verdict"] == verdict == "holds"
