@@ -43,3 +43,17 @@ def test_without_the_toolchain_the_serial_fake_runs_and_says_why(tmp_path, monke
             assert simulator.pulse() is True
     finally:
         simulator.close()
+
+
+@pytest.mark.skipif(MISSING is not None, reason=f"{MISSING} (.ci/run installs them)")
+def test_a_simulation_that_stopped_is_a_device_error(tmp_path):
+    from sassi_bench.errors import DeviceError
+
+    simulator = SimavrTrigger(tmp_path)
+    simulator.proc.kill()
+    simulator.proc.wait()
+    try:
+        with pytest.raises(DeviceError, match="trigger firmware in simavr: the simulation stopped"):
+            simulator.pulse()
+    finally:
+        simulator.close()

@@ -157,11 +157,24 @@ class SimavrTrigger:
                 self.outputs.append(int(words[1]))
             elif words[:1] == ["DONE"]:
                 self._done.put(words[1])
+        self._done.put("")  # the harness is gone: no answer will come
 
     def _ask(self, command: str) -> None:
-        self.proc.stdin.write(f"{command}\n")
-        self.proc.stdin.flush()
-        if self._done.get(timeout=_ANSWER_S) != command:
+        try:
+            self.proc.stdin.write(f"{command}\n")
+            self.proc.stdin.flush()
+            answer = self._done.get(timeout=_ANSWER_S)
+            if not answer:
+                raise OSError("the harness exited")
+        except (OSError, queue.Empty):
+            raise DeviceError(
+                step_error(
+                    "trigger firmware in simavr",
+                    f"the simulation stopped answering (exit status {self.proc.poll()})",
+                    "close the rig and open it again",
+                )
+            ) from None
+        if answer != command:
             raise DeviceError(
                 step_error(
                     "trigger firmware in simavr",
