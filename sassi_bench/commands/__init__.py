@@ -33,7 +33,6 @@ from sassi_bench.commands import (
     calibrate,
     check,
     data,
-    live,
     rig,
     scan,
     snapshot,
@@ -55,7 +54,7 @@ from sassi_bench.paths import data_root
 __all__ = ["PROG", "build_parser", "main"]
 
 #: The command groups in the order ``--help`` lists them.
-GROUPS = (rig, align, live, calibrate, check, scan, bundle, snapshot, validate, data, batch)
+GROUPS = (rig, align, calibrate, check, scan, bundle, snapshot, validate, data, batch)
 
 
 class _Version(argparse.Action):

@@ -1,6 +1,6 @@
 """The live view in a notebook: both cameras, their clipped pixels and the alignment readings.
 
-The same feed as ``sassi-bench live`` (:func:`~sassi_bench.workflows.live_view.alignment_feed`,
+The same feed as ``sassi-bench align`` (:func:`~sassi_bench.workflows.live_view.alignment_feed`,
 a capture thread filling a one-slot buffer per camera) drives two ``ipywidgets.Image``
 widgets and their labels from a second thread, which takes the newest frame whenever it is
 ready for one: a slow browser drops frames (counted), never captures. The rig's lock is

@@ -155,6 +155,8 @@ def virtual_findings(rig: Rig) -> list[Finding]:
     for key, label in DEVICES:
         device = getattr(rig, key)
         what = _describe(device)
+        if key in rig.simulated_by:
+            what += f" (simulated: {rig.simulated_by[key]})"
         shown.append(Finding(label, "ok", what))
     return shown
 

@@ -88,6 +88,9 @@ class Rig:
         argument when one is given (a moving scene).
     closer
         Called once by :meth:`close`.
+    simulated_by
+        For a hardware rig opened with ``simulate=True``: what runs behind each device's
+        adapter, by device key (``{"trigger": "the trigger firmware in simavr"}``).
     """
 
     description: RigDescription
@@ -99,6 +102,7 @@ class Rig:
     scene_setter: Callable[..., None] = field(repr=False)
     scene: str | None = None
     closer: Callable[[], None] | None = field(default=None, repr=False)
+    simulated_by: dict[str, str] = field(default_factory=dict, repr=False)
     _posed: bool = field(default=False, init=False, repr=False)
 
     def close(self) -> None:

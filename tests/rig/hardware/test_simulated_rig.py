@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from sassi_bench.rig.hardware.simulators import simulation_missing
+from sassi_bench.rig.hardware.simulators.simavr_trigger import simavr_missing
 
 REPO = Path(__file__).resolve().parents[3]
 RIG = REPO / "tests" / "rigs" / "hardware-sim.yaml"
@@ -109,7 +110,8 @@ def test_rig_check_and_calibrate_spectral_run_on_the_simulated_devices(tmp_path)
         capture_output=True, text=True, timeout=600, env=env,
     )  # fmt: skip
     assert check.returncode == 0, check.stdout + check.stderr
-    assert "SASSI-TRIGGER 1 SIMULATED" in check.stdout
+    runs = "the trigger firmware in simavr" if simavr_missing() is None else "a serial fake"
+    assert f"(simulated: {runs}" in check.stdout  # says which trigger runs
     assert "SLM window 640x400 on monitor DUMMY1" in check.stdout
     assert "FAIL" not in check.stdout and "every device answered" in check.stdout
     calibrate = subprocess.run(

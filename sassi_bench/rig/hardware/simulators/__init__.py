@@ -4,9 +4,11 @@
 place of the devices (as ophyd-async's mocks, catkit2's simulated services or
 pymmcore-plus's demo configuration let a lab run its own configuration):
 
-- the trigger: :class:`~.serial_trigger.TriggerSimulator` speaks the firmware's
-  protocol on a pseudo-terminal, and the :class:`~sassi_bench.rig.hardware.trigger.ArduinoTrigger`
-  driver opens it as a serial port;
+- the trigger: the firmware itself in simavr (:class:`~.simavr_trigger.SimavrTrigger`)
+  where avr-gcc and libsimavr are installed, else :class:`~.serial_trigger.TriggerSimulator`
+  speaking the firmware's protocol; either on a pseudo-terminal the
+  :class:`~sassi_bench.rig.hardware.trigger.ArduinoTrigger` driver opens as a serial port
+  (``Rig.simulated_by["trigger"]`` says which one runs);
 - the SLM: the :class:`~sassi_bench.rig.hardware.slm_display.DisplaySlm` window opens full
   screen on the SLM monitor of a virtual X server (:class:`~.display.DummyXServer`), every
   pattern it paints sends a master pulse to the trigger, and the pixels the server
@@ -117,7 +119,7 @@ class SimulatedRig:
     rig
         The rig of real adapters.
     trigger
-        The trigger simulator (:class:`~.serial_trigger.TriggerSimulator`).
+        The trigger simulator (:func:`~.simavr_trigger.trigger_simulator`).
     display
         The virtual X server.
     readbacks, stale_readbacks
@@ -226,7 +228,7 @@ def build_simulated_rig(desc: RigDescription, behind: BenchBehind) -> SimulatedR
         When the virtual display cannot start here (naming what to install).
     """
     from sassi_bench.rig.hardware.simulators.display import DummyXServer
-    from sassi_bench.rig.hardware.simulators.serial_trigger import TriggerSimulator
+    from sassi_bench.rig.hardware.simulators.simavr_trigger import trigger_simulator
     from sassi_bench.rig.hardware.slm_display import DisplaySlm
     from sassi_bench.rig.hardware.trigger import ArduinoTrigger
 
@@ -249,7 +251,7 @@ def build_simulated_rig(desc: RigDescription, behind: BenchBehind) -> SimulatedR
         # The simulated monitor is an X server: Qt must draw through X even where the
         # desktop asks for Wayland or an offscreen platform.
         os.environ["QT_QPA_PLATFORM"] = "xcb"
-        sim.trigger = TriggerSimulator(sim.workdir / "ttyTRIGGER")
+        sim.trigger, trigger_runs = trigger_simulator(sim.workdir)
         sim.on_close(sim.trigger.close)
         options = {k: v for k, v in hw["trigger"].items() if k not in ("kind", "port")}
         options["boot_s"] = min(float(options.get("boot_s", 3.0)), 2.0)
@@ -315,6 +317,7 @@ def build_simulated_rig(desc: RigDescription, behind: BenchBehind) -> SimulatedR
             trigger=trigger,
             scene_setter=behind.set_scene,
             scene=None,
+            simulated_by={"trigger": trigger_runs},
         )
     except BaseException:
         sim.close()

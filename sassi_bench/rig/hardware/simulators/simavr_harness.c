@@ -1,5 +1,5 @@
 /*
- * Runs the trigger firmware in simavr for the tests.
+ * Runs the trigger firmware in simavr (behind --simulate and for the tests).
  *
  * usage: simavr_harness FIRMWARE.elf
  *
