@@ -62,10 +62,12 @@ from sassi_bench._shared.arrays import check_dtype_kind, check_shape
 from sassi_bench.acquire.patterns import render_pattern
 from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.export.matfile import write_mat
 from sassi_bench.export.sassi_mat import camera_shape_of, sassi_tables, suggested_ksizes
 from sassi_bench.export.window_choice import VsizeChoice, choose_vsize
+from sassi_bench.rig.config import rig_dict_sha256
 
 __all__ = [
     "ADAPTIVE_CASSI_FILE",
@@ -383,7 +385,8 @@ def export_adaptive_cassi(
             f"calibrates a {slm_shape} one",
             "export with a bundle of the rig the session was captured on",
         )
-    if session.rig_sha256 != bundle.manifest.get("rig_hash"):
+    # As sessions hash a rig: where its hardware is plugged in is left out.
+    if session.rig_sha256 != rig_dict_sha256(thaw(bundle.manifest["rig"])):
         notes.append(
             f"session {session.id!r} was captured on a rig description that differs from "
             f"the one bundle {bundle.rig_name}/{bundle.version} was calibrated on; check "

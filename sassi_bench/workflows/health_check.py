@@ -19,9 +19,10 @@ from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import lamp_pinholes, lamp_plan
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.reduce.health import HealthCheck, check_session, health_lamps
-from sassi_bench.rig.config import RigDescription
+from sassi_bench.rig.config import RigDescription, rig_dict_sha256
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
 
@@ -75,7 +76,9 @@ def _check_same_rig(rig: Rig, bundle: CalibrationBundle) -> None:
                 f"pass a bundle of rig {desc.name!r} (--bundle latest picks its latest)",
             )
         )
-    stored = bundle.manifest.get("rig_hash")
+    # Compared as sessions compare rigs: where the hardware is plugged in (ports, .cti
+    # files, the monitor) is left out, so a bench moved to another port is the same rig.
+    stored = rig_dict_sha256(thaw(bundle.manifest["rig"])) if "rig" in bundle.manifest else None
     if stored and stored != desc.sha256():
         raise ConfigError(
             step_error(

@@ -121,3 +121,33 @@ def test_the_command_records_every_check_and_writes_the_trend(calibrated_sim, tm
     assert "Calibration health checks of sim" in trend.read_text()
     assert main(["check", "history", "--rig", "sim", "--data", str(tmp_path)]) == 2
     assert "no health check of rig 'sim'" in capsys.readouterr().err
+
+
+def test_a_hardware_rigs_bundle_is_its_rig_wherever_the_devices_are_plugged_in(tmp_path):
+    import importlib.util
+    import sys
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from sassi_bench.workflows.health_check import _check_same_rig
+
+    name = "doctest_bundle_synthetic"  # the root conftest's name for the same module
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(
+            name, Path(__file__).parents[1] / "bundle" / "conftest.py"
+        )
+        sys.modules[name] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(sys.modules[name])
+    synthetic = sys.modules[name]
+    lab = load_rig_description("lab-example")
+    bundle = load(synthetic.publish_synthetic(tmp_path, rig=lab))
+    # The bundle keeps the ports and .cti files it was calibrated with; sessions and this
+    # check leave them out, so the same bench on another port is the same rig.
+    moved = lab.to_dict()
+    moved["hardware"]["trigger"]["port"] = "/dev/ttyACM7"
+    for desc in (lab, rig_description_from_dict(moved)):
+        _check_same_rig(SimpleNamespace(description=desc), bundle)
+    changed = lab.to_dict()
+    changed["relay"]["rotation_deg"] = changed["relay"]["rotation_deg"] + 0.1
+    with pytest.raises(ConfigError, match="another description of rig"):
+        _check_same_rig(SimpleNamespace(description=rig_description_from_dict(changed)), bundle)
