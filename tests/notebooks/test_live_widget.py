@@ -24,13 +24,13 @@ def test_the_widget_updates_and_stops(tmp_path):
     desc = load_rig_description("sim")
     try:
         assert held_rigs() == ("sim",)  # the live view holds the rig
-        deadline = time.monotonic() + 50
+        deadline = time.monotonic() + 300  # the first frame waits for kernels to compile
         while view.updates < 2:
             assert time.monotonic() < deadline, feed.status
             time.sleep(0.1)
     finally:
         view.button.click()  # what the Stop button does
-    assert view.wait(timeout=30)
+    assert view.wait(timeout=120)
     assert not feed.running and view.button.disabled
     assert "stopped after" in view.status.value
     updates = view.updates
