@@ -3,8 +3,8 @@
 The file is read by optiland's own Zemax parser (:mod:`optiland.fileio.zemax`) into its
 data model; this module turns that model into the same
 :class:`~sassi_bench.optics.design.schema.OpticalDesign` a ``design.surfaces`` list gives,
-so the file's arm is placed, traced, cached and overridden (``as_built``) exactly like a
-written one. What the design cannot reproduce is refused, never traced approximately.
+so the file's arm is placed, traced and cached exactly like a written one. What the
+design cannot reproduce is refused, never traced approximately.
 
 Why not optiland's own converter (the model to an ``Optic``): it ignores a coordinate
 break's order flag and composes a break's tilts in another order than OpticStudio, which
