@@ -24,6 +24,10 @@ from sassi_bench.rig.hardware import require
 __all__ = ["DisplaySlm", "find_monitor"]
 
 
+# Qt platforms that draw into memory only: a pattern shown there reaches no SLM.
+_NO_MONITOR_PLATFORMS = frozenset({"offscreen", "minimal", "vnc"})
+
+
 def find_monitor(monitor: int | str, monitors: list[Any]) -> Any:
     """Pick a monitor by index or output name (``"HDMI-1"``) from screeninfo's list.
 
@@ -118,6 +122,17 @@ class DisplaySlm(SlmBase):
         self._frame = np.zeros(self.shape, dtype=np.uint8)
         os.environ.setdefault("QT_ENABLE_HIGHDPI_SCALING", "0")
         self._app = qt_widgets.QApplication.instance() or qt_widgets.QApplication([])
+        platform = self._app.platformName()
+        if platform in _NO_MONITOR_PLATFORMS:
+            raise DeviceError(
+                step_error(
+                    "SLM display",
+                    f"Qt in this process draws to its '{platform}' platform, which reaches no "
+                    "monitor (QT_QPA_PLATFORM, or a Qt application started before the SLM)",
+                    "unset QT_QPA_PLATFORM (or set it to xcb, wayland or windows) and start a "
+                    "new Python process",
+                )
+            )
         image = qt_gui.QImage(
             self._frame.data, width, height, width, qt_gui.QImage.Format.Format_Grayscale8
         )
@@ -159,8 +174,11 @@ class DisplaySlm(SlmBase):
 
     def _display(self, pattern: NDArray[np.uint8]) -> None:
         np.copyto(self._frame, pattern)
-        self._window.repaint()  # synchronous: painted and flushed before returning
+        self._window.repaint()  # synchronous: painted before returning
         self._app.processEvents()
+        # A round trip to the window system: the server holds the pattern before the
+        # trigger fires (on X, painting is only queued on the connection until then).
+        self._app.sync()
         if self._on_display is not None:
             self._on_display()
 

@@ -1,5 +1,8 @@
 """The SLM window on the second head of a dummy X server, checked pixel for pixel."""
 
+import os
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -10,8 +13,9 @@ from sassi_bench.errors import DeviceError
 SHAPE = (400, 640)  # conftest's SLM monitor DUMMY1, right of DUMMY0 (800x600)
 
 
-def grab(dummy_x, expected, timeout_s=3.0):
-    """The SLM monitor's pixels (waiting until the X server has the new frame)."""
+def grab(dummy_x, expected, timeout_s=30.0):
+    """The SLM monitor's pixels (waiting until the X server has the new frame; a loaded
+    machine can starve the X server for seconds, and a match returns at once)."""
     import mss
 
     _, width, height, left, top = dummy_x.slm
@@ -55,3 +59,22 @@ def test_monitor_by_index_and_errors(dummy_x, slm):
         DisplaySlm(SHAPE, monitor="HDMI-9")
     with pytest.raises(DeviceError, match="no monitor 5"):
         DisplaySlm(SHAPE, monitor=5)
+
+
+def test_a_qt_that_draws_offscreen_is_refused_with_its_cause(dummy_x):
+    """An offscreen Qt would show every pattern to no one: refused before any capture.
+    Run in a child process, since a process has one Qt platform for its lifetime."""
+    code = (
+        "from sassi_bench.errors import DeviceError\n"
+        "from sassi_bench.rig.hardware.slm_display import DisplaySlm\n"
+        "try:\n"
+        f"    DisplaySlm({SHAPE!r}, monitor='DUMMY1')\n"
+        "except DeviceError as exc:\n"
+        "    print(exc)\n"
+    )
+    env = {**os.environ, "DISPLAY": dummy_x.display, "QT_QPA_PLATFORM": "offscreen"}
+    child = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert "SLM display" in child.stdout and "'offscreen' platform" in child.stdout
+    assert "unset QT_QPA_PLATFORM" in child.stdout
