@@ -199,7 +199,7 @@ def publish(run: FullRun) -> None:
     every tolerance passed, or ``allow_failed``), and write the report beside it; else
     write the report of the unpublished bundle."""
     reports: dict[str, Any] = {f"spectral_{k}.png": v for k, v in run.spectral.figures.items()}
-    reports.update({f"guide_{k}.png": v for k, v in run.guide.figures.items()})
+    reports.update({f"{k}.png": v for k, v in run.guide.figures.items()})  # named guide_*
     # Rendered against the published manifest, so the report names its own version; it
     # links the figures published beside it.
     figures = {name: name for name in reports}

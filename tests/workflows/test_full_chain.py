@@ -49,6 +49,8 @@ def test_the_full_chain_publishes_a_passing_bundle_with_every_stage(tmp_path, ca
     report = json.loads((path / "report" / "macbeth_report.json").read_text())
     assert report["bundle"]["version"] == "v0001"
     assert [c["name"] for c in report["bundle"]["checks"]] == [c["name"] for c in checks]
+    figures = {p.name for p in (path / "report").glob("*.png")}
+    assert {"guide_matches.png", "guide_checkerboard.png", "spectral_blur.png"} <= figures
     # It ends with what to run next, and the first of those, a health check of the new
     # bundle as a baseline, runs as printed and finds the bundle holds.
     lines = out[out.index("next:") :].splitlines()
