@@ -45,10 +45,11 @@ table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
 td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: right; }
 th { background: #f2f2f2; } td.l, th.l { text-align: left; }
 td.bad, span.bad { color: #c62828; font-weight: bold; }
-img { max-width: 100%; border: 1px solid #ddd; margin: 6px 0; }
+img { max-width: 100%; box-sizing: border-box; border: 1px solid #ddd; margin: 6px 0; }
 .note { background: #fff8e1; border-left: 4px solid #f9a825; padding: 6px 12px; margin: 6px 0;
         font-size: 14px; }
 .flex { display: flex; gap: 24px; flex-wrap: wrap; align-items: flex-start; }
+.flex > div { min-width: 0; }
 """
 
 

@@ -183,6 +183,27 @@ def test_report_is_self_contained_and_renders(chart_scan, good, patch_procedure,
     assert green.sum() > 500
     # The page is not blank further down: the embedded plots rendered.
     assert (image[600:3500] < 200).any(axis=2).mean() > 0.05
+    # It fits a 1200 px wide window and a narrow one: no horizontal scrolling.
+    assert _overflow_px(html, tmp_path, 1200) == 0
+    assert _overflow_px(html, tmp_path, 800) == 0
+
+
+def _overflow_px(html, tmp_path, width: int) -> int:
+    """How far the page runs past a ``width`` px window, measured in headless Chromium."""
+    import subprocess
+
+    probe = tmp_path / f"overflow-{width}.html"
+    measure = (
+        '<script>addEventListener("load", () => document.body.setAttribute("data-overflow", '
+        "document.documentElement.scrollWidth - document.documentElement.clientWidth));</script>"
+    )
+    probe.write_text(html.read_text().replace("</body>", measure + "</body>"))
+    dom = subprocess.run(
+        [chromium_path(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+         f"--window-size={width},900", "--dump-dom", probe.as_uri()],
+        capture_output=True, text=True, timeout=120,
+    ).stdout  # fmt: skip
+    return int(re.search(r'data-overflow="(-?\d+)"', dom).group(1))
 
 
 def test_guide_image_warped_to_the_slm_locates_the_chart(calibrated_sim, tmp_path):
