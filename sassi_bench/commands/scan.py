@@ -84,7 +84,8 @@ def _band_psnr_png(run, out):
     scan = run.scan
     lam, band = scan.wavelengths_nm, scan.band_noise_psnr_db
     label = "against the cube's own noise (the deblur's bias is not in it)"
-    fig, _ = band_psnr_figure(lam, {label: band})
+    light = np.nanmean(scan.cube, axis=(0, 1))
+    fig, _ = band_psnr_figure(lam, {label: band}, light=light)
     path = out.with_name(out.stem + "-band-psnr.png")
     atomic_write_bytes(path, figure_png(fig), overwrite=True)
     mid, red = (lam > 500) & (lam < 600), lam > 650

@@ -66,3 +66,18 @@ def test_the_blur_figure_draws_the_fits_stated_error_as_a_band():
     )
     unstated = fit_blur(lam[:3], [1.3, 0.8, 0.78])  # three lasers: nothing to leave out
     assert not blur_figure(unstated).axes[0].collections
+
+
+def test_the_scan_band_psnr_leaves_bands_without_light_unscored():
+    from sassi_bench.plots.scan import band_psnr_figure
+
+    lam = np.linspace(400.0, 700.0, 31)
+    light = np.exp(-0.5 * ((lam - 560.0) / 45.0) ** 2)  # an LED: almost nothing at 400 nm
+    psnr = 60.0 + np.where(light < 0.01, 45.0, 0.0)  # noise against the peak: dark bands "best"
+    fig, data = band_psnr_figure(lam, {"noise": psnr}, light=light)
+    dark = np.asarray(data["dark_bands"])
+    assert dark.tolist() == (light < 0.05 * light.max()).tolist() and dark[0] and not dark[16]
+    drawn = fig.axes[0].lines[0].get_ydata()
+    assert np.isnan(drawn[dark]).all() and np.nanmax(drawn) == 60.0  # the dark 105 dB is gone
+    assert all(v is None for v, d in zip(data["noise"], dark, strict=True) if d)
+    assert any("not scored" in t.get_text() for t in fig.axes[0].get_legend().get_texts())
