@@ -59,7 +59,22 @@ def _write(selection, bundle, procedure, out: str, envi: bool, quiet: bool) -> N
             f"  {session.id}: {int(frame.mask.sum())} open pixels, cubes "
             f"{frame.rank1.shape} ({frame.units}) -> {paths[0].parent}"
         )
-    print(f"  quick look: {Path(out) / (selection.sessions[0].id + '.png')}")
+    print(quick_looks(out, [session.id for session in selection.sessions]))
+
+
+def quick_looks(out: str, names: list[str], shown: int = 3) -> str:
+    """The line naming the frames' quick-look PNGs (the first ``shown`` of them).
+
+    Examples
+    --------
+    >>> quick_looks("snaps", ["s-f000", "s-f001"])
+    '  quick looks: snaps/s-f000.png, snaps/s-f001.png'
+    >>> quick_looks("snaps", [f"s-f{t:03d}" for t in range(5)])
+    '  quick looks: snaps/s-f000.png, snaps/s-f001.png, snaps/s-f002.png, ... (5 in snaps)'
+    """
+    paths = [str(Path(out) / f"{name}.png") for name in names[:shown]]
+    more = f", ... ({len(names)} in {out})" if len(names) > shown else ""
+    return f"  quick look{'s' if len(names) > 1 else ''}: {', '.join(paths)}{more}"
 
 
 def _take(args: argparse.Namespace) -> int:
