@@ -4,8 +4,8 @@ Each frame is read back from the store (:func:`~sassi_bench.snapshot.video_store
 at a reduced size (every ``step``-th SLM pixel of the factored form, so no full dense cube
 is built), rendered as sRGB (:func:`~sassi_bench.calibrate.guide_render.render_rgb`) and,
 beside it, the band nearest ``band_nm`` in grey; one brightness scale for the whole video
-(the 99.5th percentile of the first frame), so frames can be compared. Written as a GIF by
-imageio.
+(the 99.5th percentile of the first frame), so frames can be compared. A strip above the
+panels names each one and the frame's number. Written as a GIF by imageio.
 """
 
 from __future__ import annotations
@@ -22,7 +22,13 @@ from sassi_bench.snapshot.video_store import read_frame
 __all__ = ["video_animation"]
 
 
-def _frame_image(cube: Rank1Cube, wavelengths, band: int, scale: float, step: int):
+#: Height of the caption strip above the panels (pixels of the GIF).
+CAPTION_PX = 18
+
+
+def _frame_image(
+    cube: Rank1Cube, wavelengths, band: int, scale: float, step: int, caption: tuple[str, str]
+):
     small = Rank1Cube(
         np.ascontiguousarray(cube.labels[::step, ::step]),
         np.ascontiguousarray(cube.scale[::step, ::step]),
@@ -31,7 +37,20 @@ def _frame_image(cube: Rank1Cube, wavelengths, band: int, scale: float, step: in
     rgb = render_rgb(small.dense(), wavelengths)
     grey = np.clip(small.band(band) / scale, 0.0, 1.0)
     image = np.concatenate([rgb, np.repeat(grey[..., None], 3, axis=2)], axis=1)
-    return (255 * np.clip(image, 0.0, 1.0)).astype(np.uint8)
+    panels = (255 * np.clip(image, 0.0, 1.0)).astype(np.uint8)
+    return np.concatenate([_caption_strip(panels.shape[1], caption), panels], axis=0)
+
+
+def _caption_strip(width: int, caption: tuple[str, str]) -> np.ndarray:
+    """A black strip with each panel's caption at the left of its half, in white."""
+    import cv2
+
+    strip = np.zeros((CAPTION_PX, width, 3), dtype=np.uint8)
+    for i, text in enumerate(caption):
+        origin = (i * (width // 2) + 4, CAPTION_PX - 5)
+        cv2.putText(strip, text, origin, cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1,
+                    cv2.LINE_AA)  # fmt: skip
+    return strip
 
 
 def video_animation(
@@ -42,7 +61,7 @@ def video_animation(
     step: int = 2,
     fps: float = 10.0,
 ) -> Path:
-    """Write the quick-look GIF of a video store (RGB rendering | one band).
+    """Write the quick-look GIF of a video store (RGB rendering | one band), captioned.
 
     Parameters
     ----------
@@ -76,8 +95,10 @@ def video_animation(
     level = float(np.percentile(first.band(band), 99.5))
     scale = level if level > 0 else 1.0
     target = Path(path)
+    frames = int(attrs["frames"])
     with imageio.get_writer(target, mode="I", duration=1000.0 / fps, loop=0) as writer:
-        for t in range(int(attrs["frames"])):
+        for t in range(frames):
             cube, _ = read_frame(store, t)
-            writer.append_data(_frame_image(cube, wavelengths, band, scale, step))
+            caption = (f"sRGB  frame {t + 1}/{frames}", f"{wavelengths[band]:.0f} nm")
+            writer.append_data(_frame_image(cube, wavelengths, band, scale, step, caption))
     return target
