@@ -150,6 +150,22 @@ class _Capture(threading.Thread):
                 self.dropped += 1
 
 
+def _compile_kernels(rig, bundle, spacing, snap, guide, plan, exposures, progress) -> None:
+    """Reconstruct one frame, not stored, with a pipeline of its own before the clock
+    starts: the kernels compile at their first call (seconds), and frames captured
+    meanwhile would fill the queue and be dropped. The live pipeline starts fresh."""
+    from tqdm.auto import tqdm
+
+    if progress:
+        tqdm.write(f"{STEP}: preparing the reconstruction (one frame, not stored)")
+    with VideoPipeline(bundle, spacing, compactness=float(snap["compactness"])) as warm:
+        for _ in range(2):  # the first frame's path, then the one frames after it take
+            rig.slm.show(plan[0])
+            spectral = rig.spectral_camera.capture().data
+            frame = warm.process(guide, spectral, *plan, exposure_s=exposures.spectral_s)
+            plan = (frame.next_mask, frame.next_samples)
+
+
 @drives_rig("snapshot live")
 def run_live(
     rig: Rig,
@@ -240,7 +256,9 @@ def run_live(
     rig.guide_camera.set_exposure(exposures.guide_s)
     pipeline = VideoPipeline(bundle, spacing, compactness=float(snap["compactness"]))
     with armed(rig):
-        first_plan = pipeline.plan(rig.guide_camera.capture().data)
+        guide = rig.guide_camera.capture().data
+        first_plan = pipeline.plan(guide)
+        _compile_kernels(rig, bundle, spacing, snap, guide, first_plan, exposures, progress)
     folder.mkdir(parents=True, exist_ok=True)
     started = datetime.now(UTC).isoformat(timespec="milliseconds")
     store: VideoStore | None = None

@@ -64,6 +64,18 @@ def test_live_on_sim_interrupted_keeps_every_captured_frame(guided_bundle, tmp_p
         return stored
 
     monkeypatch.setattr(VideoStore, "append", append_then_interrupt)
+    # The kernels compile on a pipeline of their own before the capture starts, so no frame
+    # is dropped while they do: the calls to process, by pipeline and capture started.
+    calls: list[tuple[int, bool]] = []
+    capturing: list[bool] = []
+    process, capture = snapshot_live.VideoPipeline.process, snapshot_live._Capture._capture
+    monkeypatch.setattr(
+        snapshot_live.VideoPipeline, "process",
+        lambda self, *a, **k: calls.append((id(self), bool(capturing))) or process(self, *a, **k),
+    )  # fmt: skip
+    monkeypatch.setattr(
+        snapshot_live._Capture, "_capture", lambda self: capturing.append(True) or capture(self)
+    )
     out = tmp_path / "live"
     with pytest.raises(KeyboardInterrupt):
         snapshot_live.run_live(
@@ -74,6 +86,9 @@ def test_live_on_sim_interrupted_keeps_every_captured_frame(guided_bundle, tmp_p
     attrs = dict(group.attrs)
     assert attrs["stopped"] == "interrupted" and attrs["bundle_version"] == bundle.version
     assert attrs["frames"] >= 2 and attrs["frames"] + attrs["dropped"] == attrs["captured"]
+    (warm, _), (live, _) = calls[0], calls[-1]
+    assert calls[:2] == [(warm, False), (warm, False)] and warm != live
+    assert all(started for _, started in calls[2:]) and len(calls) - 2 == attrs["frames"]
     index = group["frame_index"][: attrs["frames"]]
     assert np.all(np.diff(index) > 0) and np.all(np.diff(group["time_s"][: attrs["frames"]]) > 0)
     cube, _ = read_frame(out / "video.zarr", -1)
