@@ -90,6 +90,11 @@ def _check_same_rig(rig: Rig, bundle: CalibrationBundle) -> None:
         )
 
 
+#: The lamp exposure search when the bundle records no exposure for the lamp and the
+#: procedure gives none (procedure files older than its ``exposure`` section).
+DEFAULT_EXPOSURE = {"target_fraction": 0.6, "max_s": 10.0, "start_s": 0.05}
+
+
 def _lamp_exposure(bundle: CalibrationBundle, light: str) -> float | None:
     quality = bundle.manifest.get("quality") or {}
     for section in (quality, quality.get("spectral") or {}):
@@ -152,7 +157,12 @@ def run_health_check(
     exposure = _lamp_exposure(bundle, light)
     if exposure is None:
         rig.set_scene("white")
-        exposure = auto_exposure(rig, light, lamp_pinholes(lamp_proc), max_s=10.0)
+        search = {**DEFAULT_EXPOSURE, **(procedure.get("exposure") or {})}
+        exposure = auto_exposure(
+            rig, light, lamp_pinholes(lamp_proc),
+            target_fraction=float(search["target_fraction"]), max_s=float(search["max_s"]),
+            start_s=float(search["start_s"]),
+        )  # fmt: skip
     stamp = datetime.now(UTC)
     session_id = "check-" + stamp.strftime("%Y%m%dT%H%M%S%fZ")
     session = Session.create(desc, lamp_plan(lamp_proc, {light: exposure}), session_id=session_id,

@@ -54,6 +54,36 @@ def test_a_still_bench_holds(calibrated_sim, bundle):
     assert "verdict: holds" in check.summary()
 
 
+def test_without_an_exposure_in_the_bundle_the_procedure_s_search_sets_it(
+    calibrated_sim, bundle, monkeypatch
+):
+    from sassi_bench.workflows import health_check
+
+    rig, _, data = calibrated_sim
+    light = check_light(rig.description, load_procedure("health_check"))
+    recorded = health_check._lamp_exposure(bundle, light)  # the calibration's, at 0.6
+    monkeypatch.setattr(health_check, "_lamp_exposure", lambda *_: None)  # an older bundle
+    searched = {}
+
+    def search(*args, **kwargs):
+        searched.update(kwargs, found=auto_exposure(*args, **kwargs))
+        return searched["found"]
+
+    auto_exposure = health_check.auto_exposure
+    monkeypatch.setattr(health_check, "auto_exposure", search)
+    procedure = load_procedure("health_check")
+    # A limit under what the lamp needs (measured: the calibration's 0.056 s) is kept to.
+    procedure["exposure"] = {"target_fraction": 0.6, "max_s": 0.03, "start_s": 0.02}
+    check = run_health_check(rig, bundle, procedure, data=data)
+    assert (searched["target_fraction"], searched["max_s"], searched["start_s"]) == (
+        0.6,
+        0.03,
+        0.02,
+    )
+    assert recorded > 0.04 and searched["found"] == pytest.approx(0.03)
+    assert check.verdict == "holds", check.summary()
+
+
 def test_a_drift_of_0_2_px_is_measured_and_flagged(calibrated_sim, bundle):
     _, _, data = calibrated_sim
     rig = open_rig(rig_description_from_dict(_drifted_dict()))
