@@ -6,21 +6,29 @@ the shipped designs a 17 x 11 field grid at 10 nm steps reproduces held-out trac
 positions to 0.005 px and spot widths to 0.006 px (docs/notes/2026-11-29-optical_design.md).
 
 Evaluation goes through the B-spline design matrices: the field part (4 x 4 non-zero
-weights per point) and the wavelength part are separate, so a (points x wavelengths)
-block costs two small matrix products instead of a 64-term sum per (point, wavelength).
+weights per point) and the wavelength part are separate. For a (points x wavelengths)
+block the coefficients are first contracted with the wavelengths' basis, once per set
+of wavelengths and kept (a renderer asks for the same spectral samples frame after
+frame), and then each point costs one sparse product of its 16 field weights with them.
 Outside the grid's nodes a quantity continues linearly (with its mean slope over the
 field), so maps stay monotone where an inverse search strays off the field.
 """
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import BSpline, make_interp_spline
+from scipy.sparse import csr_array
 
 __all__ = ["GridSpline"]
+
+# Sets of wavelengths whose contracted coefficients a spline keeps (a frame's samples, the
+# dense renderer's median grid, ...; about 1.5 MB each on the shipped designs).
+_CONTRACTED_KEPT = 8
 
 
 def _basis(x: NDArray[np.float64], knots: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -73,6 +81,7 @@ class GridSpline:
         du = np.gradient(stacked, self.nodes[0], axis=0).mean(axis=(0, 1))
         dv = np.gradient(stacked, self.nodes[1], axis=1).mean(axis=(0, 1))
         self._slopes = (du, dv)  # (wavelength nodes, quantity)
+        self._contracted: OrderedDict[tuple[bytes, tuple[int, ...]], NDArray] = OrderedDict()
 
     def _field(self, u: NDArray, v: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         uc = np.clip(u, self.nodes[0][0], self.nodes[0][-1])
@@ -89,6 +98,23 @@ class GridSpline:
     def _select(self, names: tuple[str, ...]) -> list[int]:
         return [self.names.index(n) for n in names]
 
+    def _by_wavelength(self, lam: NDArray, q: list[int]) -> NDArray:
+        """The coefficients contracted with the wavelengths' basis: (field basis, K * q),
+        computed once per (wavelengths, quantities) and kept."""
+        key = (lam.tobytes(), tuple(q))
+        found = self._contracted.get(key)
+        if found is not None:
+            self._contracted.move_to_end(key)
+            return found
+        bl = self._wavelength(lam)  # (K, nodes)
+        coef = np.einsum("fnq,kn->fkq", self._coefficients[:, :, q], bl, optimize=True)
+        coef = np.ascontiguousarray(coef.reshape(coef.shape[0], -1))
+        coef.setflags(write=False)
+        self._contracted[key] = coef
+        if len(self._contracted) > _CONTRACTED_KEPT:
+            self._contracted.popitem(last=False)
+        return coef
+
     def grid(
         self, names: tuple[str, ...], u: ArrayLike, v: ArrayLike, wavelengths_nm: ArrayLike
     ) -> NDArray[np.float64]:
@@ -98,12 +124,10 @@ class GridSpline:
         lam = np.asarray(wavelengths_nm, dtype=np.float64).ravel()
         q = self._select(names)
         basis, eu, ev = self._field(u, v)
-        by_node = (basis @ self._coefficients[:, :, q].reshape(basis.shape[1], -1)).reshape(
-            u.size, -1, len(q)
-        )
-        bl = self._wavelength(lam)  # (K, nodes)
-        out = np.einsum("pnq,kn->pkq", by_node, bl, optimize=True)
+        # 16 non-zero field weights per point: a sparse product
+        out = (csr_array(basis) @ self._by_wavelength(lam, q)).reshape(u.size, lam.size, len(q))
         if np.any(eu) or np.any(ev):
+            bl = self._wavelength(lam)  # (K, nodes)
             su, sv = (bl @ s[:, q] for s in self._slopes)  # (K, q)
             out += eu[:, None, None] * su[None] + ev[:, None, None] * sv[None]
         return out

@@ -75,6 +75,7 @@ _DESIGN_KEYS = (
     "image",
     "reference_nm",
     "catalogue",
+    "file_sha256",
 )
 _STEP = "rig description: design"
 
@@ -138,6 +139,11 @@ class OpticalDesign:
 
     Build it with :meth:`from_mapping`; :meth:`to_mapping` gives it back as the YAML's
     keys and :meth:`sha256` identifies it (the key of its traced grid).
+
+    ``file_sha256`` is the SHA-256 of the design program's file the surfaces were read
+    from (None for surfaces written in the YAML): it is part of the rig's description and
+    hash, so an edited file makes another rig, but not of :meth:`sha256`, since the same
+    surfaces trace the same.
     """
 
     slm_pixel_pitch_um: float
@@ -149,6 +155,7 @@ class OpticalDesign:
     image_decenter_mm: tuple[float, float] = (0.0, 0.0)
     reference_nm: float = 550.0
     catalogue: str = "schott"
+    file_sha256: str | None = None
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any]) -> OpticalDesign:
@@ -213,6 +220,13 @@ class OpticalDesign:
             )
         image = data.get("image", {}) or {}
         _check_keys(image, ("tilt_deg", "decenter_mm"), "design.image")
+        file_sha256 = data.get("file_sha256")
+        if file_sha256 is not None and not _is_sha256(file_sha256):
+            raise _error(
+                "design.file_sha256",
+                f"{file_sha256!r} is not a SHA-256 hex digest",
+                "leave the key out: it is set when the rig reads design.file",
+            )
         return cls(
             slm_pixel_pitch_um=float(data["slm_pixel_pitch_um"]),
             camera_pixel_pitch_um=float(data["camera_pixel_pitch_um"]),
@@ -223,6 +237,7 @@ class OpticalDesign:
             image_decenter_mm=_pair(image.get("decenter_mm"), "design.image.decenter_mm"),
             reference_nm=float(data.get("reference_nm", 550.0)),
             catalogue=str(data.get("catalogue", "schott")).lower(),
+            file_sha256=file_sha256,
         )
 
     def to_mapping(self) -> dict[str, Any]:
@@ -261,10 +276,13 @@ class OpticalDesign:
             image["decenter_mm"] = list(self.image_decenter_mm)
         if image:
             out["image"] = image
+        if self.file_sha256 is not None:
+            out["file_sha256"] = self.file_sha256
         return out
 
     def sha256(self) -> str:
-        """SHA-256 of the design's canonical JSON (comments left out: they trace the same).
+        """SHA-256 of the design's canonical JSON (comments and the source file's hash left
+        out: the same surfaces trace the same).
 
         Examples
         --------
@@ -275,6 +293,7 @@ class OpticalDesign:
         64
         """
         data = self.to_mapping()
+        data.pop("file_sha256", None)
         for entry in data["surfaces"]:
             entry.pop("comment", None)
         text = json.dumps(data, sort_keys=True, separators=(",", ":"))
@@ -342,6 +361,12 @@ def _check_keys(data: Mapping[str, Any], allowed: tuple[str, ...], where: str) -
                 f"unknown key{did_you_mean(key, allowed)}",
                 f"use {', '.join(allowed)}",
             )
+
+
+def _is_sha256(value: Any) -> bool:
+    return (
+        isinstance(value, str) and len(value) == 64 and all(c in "0123456789abcdef" for c in value)
+    )
 
 
 def _triple(value: Any, key: str) -> tuple[float, float, float]:

@@ -31,6 +31,7 @@ Not run here (it needs a lab's file)::
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Mapping
 from importlib import resources
@@ -390,9 +391,11 @@ def read_zemax_design(
 
     The object surface is the SLM, the image surface the camera; the file's aperture,
     surfaces, stop, circular apertures and coordinate breaks are taken; its fields are
-    not (the SLM's size sets them). A coordinate break pair around one surface that
-    restores the axis becomes that surface's ``tilt_deg`` and ``decenter_mm``; a last
-    break of zero thickness before the image becomes ``image``.
+    not (the SLM's size sets them). The file's SHA-256 is kept as the design's
+    ``file_sha256``, so the rig's hash changes whenever the file does. A coordinate
+    break pair around one surface that restores the axis becomes that surface's
+    ``tilt_deg`` and ``decenter_mm``; a last break of zero thickness before the image
+    becomes ``image``.
 
     Parameters
     ----------
@@ -476,6 +479,7 @@ def read_zemax_design(
         "surfaces": entries,
         "reference_nm": float(reference_nm),
         "catalogue": chosen,
+        "file_sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
     }
     if image_section:
         mapping["image"] = image_section

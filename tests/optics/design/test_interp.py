@@ -23,6 +23,11 @@ def test_cubic_in_each_axis_is_reproduced_between_the_nodes():
     np.testing.assert_allclose(block[..., 1], 2 * truth, atol=1e-9)
     (points,) = spline.points(("q",), pu, pv, pl[0])
     np.testing.assert_allclose(points, truth[:, 0], atol=1e-9)
+    # the coefficients contracted with these wavelengths are kept per (wavelengths,
+    # quantities): other points, another order of the names, the same answers
+    again = spline.grid(("twice", "q"), pu[::-1], pv[::-1], pl)
+    np.testing.assert_allclose(again[..., 1], truth[::-1], atol=1e-9)
+    np.testing.assert_allclose(again[..., 0], 2 * truth[::-1], atol=1e-9)
 
 
 def test_beyond_the_nodes_quantities_continue_linearly():

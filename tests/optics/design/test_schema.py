@@ -38,6 +38,10 @@ def test_round_trip_and_hash_ignore_comments():
     surfaces[0]["thickness_mm"] = 3.6
     assert OpticalDesign.from_mapping(_with(surfaces=surfaces)).sha256() != design.sha256()
     assert design.dispersing_glass == "N-SF11"
+    # the source file's hash is the rig's business, not the traced grid's
+    from_file = OpticalDesign.from_mapping(_with(file_sha256="0" * 64))
+    assert from_file.to_mapping()["file_sha256"] == "0" * 64
+    assert from_file != design and from_file.sha256() == design.sha256()
 
 
 @pytest.mark.parametrize(
@@ -49,6 +53,7 @@ def test_round_trip_and_hash_ignore_comments():
         ({"surfaces": [{"thickness_mm": 1.0, "stop": True, "material": "N-BK7"}]}, "in glass"),
         ({"surfaces": [{"thickness_mm": 1.0, "stop": True, "tilt": [0, 1, 0]}]}, "tilt_deg"),
         ({"file": "arm.zmx"}, "read when the rig loads"),
+        ({"file_sha256": "abc"}, "not a SHA-256"),
     ],
 )
 def test_bad_designs_are_refused_with_the_key(change, message):

@@ -173,3 +173,44 @@ def test_a_break_pair_around_a_surface_becomes_its_tilt_and_decenter(tmp_path):
     path.write_text(text[:start] + new.replace("  PARM 6 1.0\n", "  PARM 6 0.0\n") + text[stop:])
     entries = read_zemax_design(path, **PITCHES).surfaces
     assert len(entries) == 12 and entries[4].is_break and entries[6].is_break
+
+
+def test_the_rig_hash_follows_the_files_bytes(tmp_path, monkeypatch):
+    """The rig's identity holds the .zmx's SHA-256: the same file gives the same hash, one
+    byte edited (a digit of a thickness, or a line the reader ignores) gives another; the
+    traced grid's key follows the surfaces only."""
+    import hashlib
+
+    from sassi_bench.rig.config.loader import load_rig_description, rig_description_from_dict
+
+    monkeypatch.setenv("SASSI_BENCH_DATA", str(tmp_path / "data"))
+    rig = yaml.safe_load((ROOT / "procedures" / "rigs" / "sim-achromat.yaml").read_text())
+    rig["design"] = {"file": "arm.zmx", **PITCHES}
+    rig.pop("as_built", None)
+    rig.pop("nuisance", None)
+    (tmp_path / "arm-rig.yaml").write_text(yaml.safe_dump(rig))
+    arm = tmp_path / "arm.zmx"
+    raw = ZMX.read_bytes()
+
+    def load(data: bytes):
+        arm.write_bytes(data)
+        return load_rig_description(tmp_path / "arm-rig.yaml")
+
+    first = load(raw)
+    assert first.design.file_sha256 == hashlib.sha256(raw).hexdigest()
+    assert first.to_dict()["design"]["file_sha256"] == first.design.file_sha256
+    assert load(raw).sha256() == first.sha256()
+    # a digit of a thickness: other surfaces and another rig
+    assert b"DISZ 2.13599999999999994E+01" in raw
+    thicker = load(raw.replace(b"DISZ 2.13599999999999994E+01", b"DISZ 2.13699999999999994E+01"))
+    assert thicker.design.sha256() != first.design.sha256()
+    assert thicker.sha256() != first.sha256()
+    # a byte in the file's title, which the design does not read: still another rig
+    assert b"NAME sim-achromat" in raw
+    retitled = load(raw.replace(b"NAME sim-achromat", b"NAME sim-achromaT"))
+    assert retitled.design.sha256() == first.design.sha256()  # traces the same
+    assert retitled.sha256() != first.sha256()
+    # the description's dictionary form (what sessions store) loads back to the same rig
+    again = rig_description_from_dict(first.to_dict())
+    assert again.sha256() == first.sha256()
+    assert again.design == first.design

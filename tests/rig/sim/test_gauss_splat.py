@@ -1,0 +1,75 @@
+"""The design bench's spot splat: profiles read from the table land as the CDF path
+computes them, column by column."""
+
+import numpy as np
+
+from sassi_bench.rig.sim._gauss_splat import profile_table, splat_gaussians
+
+
+def _spots(rng, count):
+    """Spots of every kind the design rigs render (and some they do not): round and
+    elongated, correlated up to 0.85, narrower and wider than the table, some cut by the
+    frame's edges."""
+    sx = rng.uniform(0.3, 4.0, count)
+    sy = rng.uniform(0.3, 4.0, count)
+    sx[:4] = [0.02, 9.0, 12.0, 0.2]  # outside the table's widths: the CDF path
+    rho = rng.uniform(-0.85, 0.85, count)
+    x = rng.uniform(-3.0, 63.0, count)
+    y = rng.uniform(-3.0, 43.0, count)
+    cov = (sx**2, sy**2, rho * sx * sy)
+    weights = rng.uniform(0.5, 2.0, count)
+    return [a[:, None] for a in (x, y, *cov, weights)]
+
+
+def _moments(frame):
+    rows, cols = np.indices(frame.shape)
+    total = frame.sum()
+    mx, my = (frame * cols).sum() / total, (frame * rows).sum() / total
+    cxx = (frame * (cols - mx) ** 2).sum() / total
+    cyy = (frame * (rows - my) ** 2).sum() / total
+    cxy = (frame * (cols - mx) * (rows - my)).sum() / total
+    return np.array([total, mx, my, cxx, cyy, cxy])
+
+
+def test_the_table_matches_the_cdf_path():
+    rng = np.random.default_rng(11)
+    spots = _spots(rng, 60)
+    fast = np.zeros((40, 60), np.float32)
+    exact = np.zeros((40, 60), np.float32)
+    splat_gaussians(*spots, fast)
+    splat_gaussians(*spots, exact, tabulated=False)
+    peak = float(exact.max())
+    # measured 2.4e-4 of the peak, from the narrowest spots (sigma < 0.9 px); 2.8e-5 on a
+    # pinhole frame of either design rig
+    assert np.abs(fast - exact).max() < 5e-4 * peak
+    # each spot alone: its energy, centroid and covariance as the CDF path gives them
+    checked = 0
+    for p in range(60):
+        one = [a[p : p + 1] for a in spots]
+        alone_fast = np.zeros((40, 60), np.float32)
+        alone_exact = np.zeros((40, 60), np.float32)
+        splat_gaussians(*one, alone_fast)
+        splat_gaussians(*one, alone_exact, tabulated=False)
+        if alone_exact.sum() < 0.5 * one[-1][0, 0]:
+            continue  # mostly off the frame
+        checked += 1
+        got, want = _moments(alone_fast), _moments(alone_exact)
+        assert abs(got[0] / want[0] - 1) < 5e-5  # energy; measured 1.7e-5
+        np.testing.assert_allclose(got[1:3], want[1:3], atol=5e-4)  # px; measured 2.6e-4
+        np.testing.assert_allclose(got[3:], want[3:], atol=1.5e-3)  # px**2; measured 7.5e-4
+    assert checked > 40
+
+
+def test_the_table_holds_pixel_integrated_profiles():
+    table = profile_table()
+    assert np.all(np.diff(table.sigmas) > 0)
+    n = int(np.searchsorted(table.sigmas, 2.0))
+    centred = table.taps[n, table.phases // 2].astype(np.float64)
+    j = np.arange(centred.size) - table.centre
+    # a centred profile: unit sum (but the 4-sigma cut), zero mean, variance sigma**2 + 1/12
+    assert abs(centred.sum() - 1) < 1e-4
+    assert abs((j * centred).sum()) < 1e-6
+    assert abs((j**2 * centred).sum() - table.sigmas[n] ** 2 - 1 / 12) < 5e-3
+    # zeros beyond the cut and around the taps, so rows read whole vectors
+    assert not centred[np.abs(j) > table.reach[n]].any()
+    assert not table.taps[..., : table.centre - int(table.reach.max())].any()
