@@ -554,13 +554,16 @@ def compare_with_design(
         return maps.signature() - base
 
     def explained(model: NDArray) -> float:
+        # Where a changed design loses a node (its rays vignetted), it explains nothing there.
+        model = np.where(np.isfinite(model), model, 0.0)
         return 1.0 - _weighted_sum(difference - model) / total if total > 0 else 0.0
 
     # Linear: each candidate's traced change per unit, fitted alone.
     linear = []
     for candidate in candidates:
         change = traced(candidate, candidate.step)
-        amount = _fit(change, difference) * candidate.step
+        multiple = _fit(change, difference)
+        amount = multiple * candidate.step if np.isfinite(multiple) else 0.0
         linear.append((candidate, amount, change, explained(change * amount / candidate.step)))
     linear.sort(key=lambda item: -item[3])
     diagnoses = [Diagnosis(c, a, e) for c, a, _, e in linear[refine_top:]]

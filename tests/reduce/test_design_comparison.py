@@ -16,6 +16,9 @@ import pytest
 
 from sassi_bench.optics.design import with_override
 from sassi_bench.reduce.design_comparison import (
+    Candidate,
+    DesignComparison,
+    Diagnosis,
     FieldMaps,
     candidate_perturbations,
     compare_with_design,
@@ -186,3 +189,25 @@ def test_the_comparison_reads_as_json():
     data = found.to_json()
     assert data["matches"] is True and data["diagnosis"] == []
     assert data["position_rms_px"] == pytest.approx(0.0, abs=1e-9)
+
+
+def _flat_maps(dy: float) -> FieldMaps:
+    u, v, lam = np.array([0.0, 319.0]), np.array([0.0, 199.0]), np.array([450.0, 670.0])
+    x = np.array([[10.0, 80.0], [300.0, 370.0]])
+    ones = np.ones_like(x)
+    return FieldMaps(u, v, lam, x, 20.0 + dy + 0 * x, ones, ones, 0 * ones)
+
+
+def test_a_difference_no_candidate_explains_is_said_so():
+    def shift(amount):
+        return {"image": {"decenter_mm": [0.0, amount]}}
+
+    weak = Diagnosis(Candidate("camera shifted in y", "mm", 0.02, shift, 1e3, "um"), 0.01, 0.4)
+    found = DesignComparison(_flat_maps(0.0), _flat_maps(3.0), (weak,))
+    assert not found.matches and found.best is None and found.named == ()
+    assert "no single misalignment explains" in found.verdict
+    assert "camera shifted in y by +10 um (explains 40 %)" in found.verdict
+    strong = Diagnosis(weak.candidate, 0.01, 0.95)
+    named = DesignComparison(_flat_maps(0.0), _flat_maps(3.0), (strong,))
+    assert named.best is strong
+    assert named.verdict.endswith("camera shifted in y by +10 um (explains 95 %).")
