@@ -125,8 +125,17 @@ class Candidate:
     shown_unit: str = ""
 
     def describe(self, amount: float) -> str:
-        """The candidate with an amount, as a lab reads it."""
+        """The candidate with an amount, as a lab reads it.
+
+        Examples
+        --------
+        >>> lens = Candidate("lens decentred in y", "mm", 0.02, dict, 1000.0, "um")
+        >>> lens.describe(0.05), lens.describe(-1.2)
+        ('lens decentred in y by +50 um', 'lens decentred in y by -1.2 mm')
+        """
         shown = amount * self.scale
+        if abs(shown) >= 1000.0 and self.scale != 1.0:  # a millimetre or more: in the unit
+            return f"{self.name} by {amount:+.3g} {self.unit}"
         return f"{self.name} by {shown:+.3g} {self.shown_unit or self.unit}"
 
 
