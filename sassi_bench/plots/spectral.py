@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 from scipy.stats import binned_statistic_2d
 
+from sassi_bench.plots.design_comparison import design_comparison_figure
+
 __all__ = [
     "blur_figure",
     "dispersion_figure",
@@ -268,8 +270,8 @@ def spectral_figures(result: Any) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``"residual_maps"``, ``"dispersion"``, ``"blur"`` and, with lamp anchoring,
-        ``"lamp_spectrum"`` -> figure.
+        ``"residual_maps"``, ``"dispersion"``, ``"blur"``, with lamp anchoring
+        ``"lamp_spectrum"`` and on a design rig ``"design_comparison"`` -> figure.
 
     Examples
     --------
@@ -285,4 +287,6 @@ def spectral_figures(result: Any) -> dict[str, Any]:
     }
     if getattr(result, "anchoring", None) is not None:
         figures["lamp_spectrum"] = lamp_spectrum_figure(result.anchoring, result.dispersion.model)
+    if getattr(result, "design_comparison", None) is not None:
+        figures["design_comparison"] = design_comparison_figure(result.design_comparison)
     return figures

@@ -33,6 +33,7 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
+from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
 from sassi_bench.reduce.sweep_stream import DecodedSweep
@@ -94,6 +95,8 @@ class SpectralCalibration:
     figures: dict[str, bytes] = field(default_factory=dict)
     laser_lines: dict[float, LaserLine] = field(default_factory=dict)
     anchoring: LampAnchoring | None = None
+    #: On a design rig, the measured maps against the described design.
+    design_comparison: DesignComparison | None = None
 
     @property
     def passed(self) -> bool:
@@ -374,10 +377,10 @@ def analyse_spectral_sweeps(
         )  # fmt: skip
         tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
-        return SpectralCalibration(
+        return _compared_with_design(SpectralCalibration(
             proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions,
             anchoring=anchoring,
-        )  # fmt: skip
+        ))  # fmt: skip
     lines = check_laser_lines(
         maps,
         desc.prism.glass_model(),
@@ -400,17 +403,36 @@ def analyse_spectral_sweeps(
         form=blur_form(proc, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
     )  # fmt: skip
     checks = grade(decoded, dispersion, blur, proc["tolerances"], lines)
-    return SpectralCalibration(
-        proc,
-        desc,
-        decoded,
-        dispersion,
-        blur,
-        response,
-        checks,
-        sweeps.sessions,
-        laser_lines=lines,
+    return _compared_with_design(
+        SpectralCalibration(
+            proc,
+            desc,
+            decoded,
+            dispersion,
+            blur,
+            response,
+            checks,
+            sweeps.sessions,
+            laser_lines=lines,
+        )
     )
+
+
+def _compared_with_design(result: SpectralCalibration) -> SpectralCalibration:
+    """On a rig described as an optical design, its measured maps against the design as
+    described (:mod:`sassi_bench.reduce.design_comparison`), over the lasers' band."""
+    desc = result.rig_description
+    if getattr(desc, "design", None) is None:
+        return result
+    lines = np.asarray(result.blur.wavelengths_nm, dtype=np.float64)
+    result.design_comparison = comparison_of_models(
+        desc.design,
+        result.models(),
+        (desc.slm.height, desc.slm.width),
+        (desc.spectral_camera.height, desc.spectral_camera.width),
+        (float(lines.min()), float(lines.max())),
+    )
+    return result
 
 
 #: A blur fit whose own error between the lasers (``relative_error``) exceeds this gets
@@ -429,7 +451,12 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
         spectral_notes(result)
         # ['laser 450 nm: measured 450.00 +- 0.01 nm against the HgAr, Ne lamp lines ...']
     """
-    return laser_line_notes(result) + blur_notes(result.blur)
+    design = getattr(result, "design_comparison", None)
+    return (
+        laser_line_notes(result)
+        + blur_notes(result.blur)
+        + ([f"as designed against as built: {design.verdict}"] if design is not None else [])
+    )
 
 
 def blur_notes(blur: BlurFit) -> list[str]:

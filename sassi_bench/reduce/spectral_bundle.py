@@ -101,6 +101,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
     }
     if result.anchoring is not None:
         section.update(anchoring_section(result.anchoring, disp))
+    if getattr(result, "design_comparison", None) is not None:
+        section["design_comparison"] = result.design_comparison.to_json()
     return section
 
 

@@ -5,10 +5,13 @@ The lamp pinholes sit 160 SLM px apart: the design's streaks are 125 px long (th
 procedure's 100 px pitch is made for ``sim``'s 68 px streaks and is refused here).
 """
 
+import json
+
 import numpy as np
 import pytest
 
 from sassi_bench.procedure import load_procedure
+from sassi_bench.reduce.spectral import spectral_notes
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.spectral import run_spectral_calibration
 
@@ -59,3 +62,16 @@ def test_the_field_blur_follows_the_spot_between_the_lasers(calibrated):
     # field's edges beyond the outermost pinholes, is most of it
     assert along < 0.45
     assert across < 0.30
+
+
+def test_a_bench_built_to_its_design_is_reported_matching_it(calibrated):
+    """The calibration report's comparison of the measured maps with the described design
+    (the bench here is built to it)."""
+    _, result = calibrated
+    found = result.design_comparison
+    print(found.verdict)
+    assert found.matches, found.verdict
+    assert any(note.startswith("as designed against as built: ") for note in spectral_notes(result))
+    manifest = json.loads((result.bundle_path / "manifest.json").read_text())
+    assert manifest["quality"]["design_comparison"]["matches"] is True
+    assert (result.bundle_path / "report" / "design_comparison.png").is_file()
