@@ -29,7 +29,11 @@ Medians over the rounds are printed, with each total's ratio to the frame read a
 cube copy of its own round (the machine may be shared: ratios taken side by side are
 steadier than absolute times). The paper: about 55 ms a frame (18 fps) on a GPU laptop.
 
-Run: ``python benchmarks/bench_snapshot.py [--rounds 7] [--slm crop|prototype]``
+At the paper's crop, the CPU ms per step of each density go to
+``docs/_data/snapshot_frame.json`` (the table ``docs/performance.md`` quotes; one run
+replaces it), unless ``--no-update``.
+
+Run: ``python benchmarks/bench_snapshot.py [--rounds 7] [--slm crop|prototype] [--no-update]``
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from figures import update_columns
 from threadpoolctl import threadpool_limits
 
 from sassi_bench.acquire.plan import Plan, Step
@@ -126,8 +131,25 @@ STEPS_PRINTED = (
 )
 
 
+#: The data file's rows, each from the medians of one density: (row, step, CPU or wall).
+DATA_ROWS = (
+    ("guide -> SLM warp", ("warp",), "cpu"),
+    ("superpixels (SLIC at half size)", ("superpixels",), "cpu"),
+    ("next frame's mask", ("mask",), "cpu"),
+    ("next frame's streak model (from its mask)", ("model",), "cpu"),
+    ("re-segmentation around the samples", ("resegment",), "cpu"),
+    ("spectra (offset from the previous frame, extraction, deblur)", ("spectra",), "cpu"),
+    ("rank-1, factored", ("rank1",), "cpu"),
+    ("sum of the steps", ("steps",), "cpu"),
+    ("the busier thread (spectra and streak model)", ("spectra", "model"), "cpu"),
+    ("CPU of the whole process a frame (both threads, OpenCV's helpers)", ("process",), "cpu"),
+    ("frame total, wall", ("total",), "wall"),
+    ("not in the total: guided filter, rank 6, factored", ("guided",), "wall"),
+)
+
+
 def run_density(name, bundle, spacing, session, guide, rounds, cube, copy_of):
-    """Frames of one mask density; rows of per-round times."""
+    """Frames of one mask density: prints their medians; returns the data file's column."""
     pipeline = VideoPipeline(bundle, spacing)
     mask, samples = pipeline.plan(guide)
     # Once untimed: compiles the kernels and refines the first background from scratch.
@@ -190,6 +212,11 @@ def run_density(name, bundle, spacing, session, guide, rounds, cube, copy_of):
         f"{1e3 * cpu['steps']:.0f} ms (one core's share of the budget: the two threads "
         f"split it)"
     )
+    chosen = {"cpu": cpu, "wall": median}
+    values = {
+        row: f"{1e3 * sum(chosen[kind][key] for key in keys):.0f}" for row, keys, kind in DATA_ROWS
+    }
+    return {"key": f"{name} ({int(mask.sum())} open px)", "values": values}
 
 
 def main() -> None:
@@ -199,8 +226,10 @@ def main() -> None:
     parser.add_argument(
         "--pitches", default="bundle,8,5", help="mask densities: row pitches, 'bundle' = its own"
     )
+    parser.add_argument("--no-update", action="store_true", help="print only")
     args = parser.parse_args()
     slm = SLMS[args.slm]
+    columns = []
     with tempfile.TemporaryDirectory() as scratch, threadpool_limits(1, "blas"):
         bundle = load(
             publish(
@@ -227,7 +256,14 @@ def main() -> None:
             row_pitch = None if pitch == "bundle" else int(pitch)
             spacing = bundle.mask_spacing(row_pitch=row_pitch)
             name = "bundle's spacing" if row_pitch is None else f"row pitch {row_pitch}"
-            run_density(name, bundle, spacing, session, guide, args.rounds, cube, copy_of)
+            columns.append(
+                run_density(name, bundle, spacing, session, guide, args.rounds, cube, copy_of)
+            )
+    if args.slm == "crop" and not args.no_update:
+        title = "A snapshot frame at the paper's 698 x 931 crop, CPU ms per step"
+        rows = [row for row, _, _ in DATA_ROWS]
+        path = update_columns("snapshot_frame", title, rows, columns, "step, ms", replace=True)
+        print(f"\nwritten: {path} (python benchmarks/figures.py updates the pages)")
 
 
 if __name__ == "__main__":
