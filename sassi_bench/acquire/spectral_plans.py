@@ -11,7 +11,7 @@ pinhole array under each lamp, whose atomic lines anchor the wavelength axis.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,7 @@ __all__ = [
     "LAMP_MARGIN_PX",
     "LAMP_PINHOLE_PITCH_PX",
     "LAMP_REACH_SIGMAS",
+    "blur_pinholes",
     "check_lamp_pitch",
     "grey_levels",
     "grey_plan",
@@ -248,7 +249,7 @@ def sweep_plan(
             )
         )
     blur_exposures = dict(blur_exposures or exposures)
-    pitch = [int(p) for p in blur.get("pinhole_pitch_px", [40, 40])]
+    pattern = blur_pinholes(blur.get("pinhole_pitch_px", [40, 40]), slm_shape)
     lines = sorted(set(exposures) | set(blur_exposures))
     steps: list[Step] = []
     for laser in lines:
@@ -266,7 +267,6 @@ def sweep_plan(
         exposure = float(blur_exposures[laser])
         steps.append(_frame(light, exposure, {"kind": "blank"}, {**tags, "role": "blur-blank"}))
         for frame in range(int(blur.get("frames", 2))):
-            pattern = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
             steps.append(
                 _frame(light, exposure, pattern, {**tags, "role": "pinholes", "frame": frame})
             )
@@ -279,6 +279,44 @@ def sweep_plan(
         "profile": profile,
     }
     return Plan("spectral-sweep", tuple(steps), parameters)
+
+
+def blur_pinholes(pitch: Sequence[int], slm_shape: tuple[int, int]) -> dict[str, Any]:
+    """The blur frames' pinhole pattern: a grid at least ``pitch`` apart whose first and
+    last pinholes sit on the SLM's edges, so a fit over the field interpolates between
+    spots everywhere instead of extrapolating past the outermost ones.
+
+    On each axis the grid keeps as many pinholes as ``pitch`` fits between the edges and
+    spreads them (whole SLM px) to reach both; the spare pixels split between the ends.
+
+    Parameters
+    ----------
+    pitch
+        The least (horizontal, vertical) spacing, SLM px (``blur.pinhole_pitch_px``).
+    slm_shape
+        SLM (height, width).
+
+    Returns
+    -------
+    dict
+        A ``pinholes`` pattern descriptor.
+
+    Examples
+    --------
+    >>> blur_pinholes([40, 40], (200, 320))
+    {'kind': 'pinholes', 'pitch': [45, 49], 'offset': [2, 1]}
+    """
+    spread, offset = [], []
+    for step, size in zip((int(p) for p in pitch), (slm_shape[1], slm_shape[0]), strict=True):
+        gaps = (size - 1) // step
+        if gaps == 0:  # room for one pinhole only: the middle
+            spread.append(size)
+            offset.append(size // 2)
+            continue
+        wider = (size - 1) // gaps
+        spread.append(wider)
+        offset.append((size - 1 - wider * gaps) // 2)
+    return {"kind": "pinholes", "pitch": spread, "offset": offset}
 
 
 def lamp_pinholes(procedure: Mapping[str, Any]) -> dict[str, Any]:

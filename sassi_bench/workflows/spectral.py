@@ -28,6 +28,7 @@ from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import (
+    blur_pinholes,
     check_lamp_pitch,
     grey_plan,
     lamp_pinholes,
@@ -265,8 +266,7 @@ def capture_sweep(run: SpectralRun) -> None:
     response), decoded as its frames are stored (those stored before are read back)."""
     proc, rig = run.procedure, run.rig
     if run.sweep is None:
-        pitch = [int(p) for p in proc["blur"]["pinhole_pitch_px"]]
-        pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
+        pinholes = blur_pinholes(proc["blur"]["pinhole_pitch_px"], rig.slm.shape)
         blur_exposures = {laser: run.expose(laser, pinholes) for laser in run.lasers + run.extra}
         period = int(proc["sweep"]["phase_period_px"])
         profile = (
