@@ -12,6 +12,7 @@ pinhole array under each lamp, whose atomic lines anchor the wavelength axis.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,7 @@ __all__ = [
     "LAMP_PINHOLE_PITCH_PX",
     "LAMP_REACH_SIGMAS",
     "blur_pinholes",
+    "blur_plan",
     "check_lamp_pitch",
     "grey_levels",
     "grey_plan",
@@ -279,6 +281,47 @@ def sweep_plan(
         "profile": profile,
     }
     return Plan("spectral-sweep", tuple(steps), parameters)
+
+
+def blur_plan(sweep: Plan, first: int, budget: int) -> Plan:
+    """More pinhole frames of every laser, as the sweep showed them (pattern, light and
+    exposure): frames ``first`` to ``budget - 1`` (the sweep holds the first ``first``).
+
+    Parameters
+    ----------
+    sweep
+        The sweep session's plan (:func:`sweep_plan`).
+    first, budget
+        Pinhole frames per laser the sweep took (``blur.frames``), and the most the blur
+        step may take (``blur.max_frames``).
+
+    Returns
+    -------
+    Plan
+        ``spectral-blur``: steps tagged ``role: pinholes`` with their ``laser`` and
+        ``frame``, frame by frame (every laser's next frame before any laser's after it).
+
+    Examples
+    --------
+    >>> from sassi_bench.acquire.plan_geometry import planned_spectral
+    >>> from sassi_bench.procedure import load_procedure
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> proc = planned_spectral(load_procedure("spectral_calibration"), load_rig_description("sim"))
+    >>> sweep = sweep_plan(proc, (400, 640), {532.0: 0.05, 635.0: 0.04}, list(range(0, 256, 16)))
+    >>> plan = blur_plan(sweep, 2, 5)
+    >>> len(plan), sorted({s.tags["frame"] for s in plan.steps})
+    (6, [2, 3, 4])
+    """
+    shown = {}
+    for step in sweep.steps:
+        if step.tags.get("role") == "pinholes":
+            shown.setdefault(float(step.tags["laser"]), step)
+    steps = [
+        replace(step, tags={**step.tags, "frame": frame})
+        for frame in range(first, budget)
+        for step in shown.values()
+    ]
+    return Plan("spectral-blur", tuple(steps), {"scene": "white", "sweep_frames": first})
 
 
 def blur_pinholes(pitch: Sequence[int], slm_shape: tuple[int, int]) -> dict[str, Any]:

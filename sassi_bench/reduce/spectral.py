@@ -33,6 +33,8 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
+from sassi_bench.reduce.blur_budget import BlurFrameRecord
+from sassi_bench.reduce.blur_frames import pinhole_signals
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
 from sassi_bench.reduce.sweep_stream import DecodedSweep
@@ -62,7 +64,9 @@ class SpectralSweeps:
     sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only); and
     what was measured from them as they were captured: the grey-level response, the
     sweep's decode (None: the analysis reads them from the sessions), what the lamp step
-    took and why, and its measurement (reused by the analysis with the same procedure)."""
+    took and why, and its measurement (reused by the analysis with the same procedure);
+    the blur step's added pinhole frames (None: the sweep's were enough, or the blur
+    form states no uncertainty) and what it took and why."""
 
     grey: Session | None
     sweep: Session
@@ -71,11 +75,13 @@ class SpectralSweeps:
     decoded: DecodedSweep | None = None
     lamp_record: LampFrameRecord | None = None
     lamp_measurement: LampMeasurement | None = None
+    blur: Session | None = None
+    blur_record: BlurFrameRecord | None = None
 
     @property
     def sessions(self) -> list[Session]:
         """The sessions, in capture order."""
-        return [s for s in (self.grey, self.sweep, self.lamps) if s is not None]
+        return [s for s in (self.grey, self.sweep, self.blur, self.lamps) if s is not None]
 
 
 @dataclass
@@ -94,6 +100,7 @@ class SpectralCalibration:
     figures: dict[str, bytes] = field(default_factory=dict)
     laser_lines: dict[float, LaserLine] = field(default_factory=dict)
     anchoring: LampAnchoring | None = None
+    blur_record: BlurFrameRecord | None = None
 
     @property
     def passed(self) -> bool:
@@ -311,7 +318,10 @@ def lamp_measurement(
         sweeps.sweep, proc, desc, [d.laser_map for d in decoded],
         field_degree=int(proc["fit"].get("field_degree", 5)),
         order=int(proc["fit"].get("dispersion_order", 2)),
-        pinholes=sweeps.decoded.pinholes if sweeps.decoded is not None else None,
+        pinholes=pinhole_signals(
+            sweeps.sweep, saturation, sweeps.decoded.pinholes if sweeps.decoded else None,
+            sweeps.blur,
+        ),
     )  # fmt: skip
 
 
@@ -349,7 +359,9 @@ def analyse_spectral_sweeps(
     if response is None and sweeps.grey is not None:
         response = measure_response(sweeps.grey, saturation)
     decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation, sweeps.decoded)
-    pinholes = sweeps.decoded.pinholes if sweeps.decoded is not None else None
+    pinholes = pinhole_signals(
+        sweeps.sweep, saturation, sweeps.decoded.pinholes if sweeps.decoded else None, sweeps.blur
+    )
     maps = [d.laser_map for d in decoded]
     shape = {
         "field_degree": int(proc["fit"].get("field_degree", 5)),
@@ -376,7 +388,7 @@ def analyse_spectral_sweeps(
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
         return SpectralCalibration(
             proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions,
-            anchoring=anchoring,
+            anchoring=anchoring, blur_record=sweeps.blur_record,
         )  # fmt: skip
     lines = check_laser_lines(
         maps,
@@ -410,6 +422,7 @@ def analyse_spectral_sweeps(
         checks,
         sweeps.sessions,
         laser_lines=lines,
+        blur_record=sweeps.blur_record,
     )
 
 
@@ -429,7 +442,8 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
         spectral_notes(result)
         # ['laser 450 nm: measured 450.00 +- 0.01 nm against the HgAr, Ne lamp lines ...']
     """
-    return laser_line_notes(result) + blur_notes(result.blur)
+    frames = [result.blur_record.note()] if result.blur_record is not None else []
+    return laser_line_notes(result) + blur_notes(result.blur) + frames
 
 
 def blur_notes(blur: BlurFit) -> list[str]:
