@@ -11,7 +11,8 @@ pinhole array under each lamp, whose atomic lines anchor the wavelength axis.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -28,6 +29,8 @@ __all__ = [
     "LAMP_MARGIN_PX",
     "LAMP_PINHOLE_PITCH_PX",
     "LAMP_REACH_SIGMAS",
+    "blur_pinholes",
+    "blur_plan",
     "check_lamp_pitch",
     "grey_levels",
     "grey_plan",
@@ -248,7 +251,7 @@ def sweep_plan(
             )
         )
     blur_exposures = dict(blur_exposures or exposures)
-    pitch = [int(p) for p in blur.get("pinhole_pitch_px", [40, 40])]
+    pattern = blur_pinholes(blur.get("pinhole_pitch_px", [40, 40]), slm_shape)
     lines = sorted(set(exposures) | set(blur_exposures))
     steps: list[Step] = []
     for laser in lines:
@@ -266,7 +269,6 @@ def sweep_plan(
         exposure = float(blur_exposures[laser])
         steps.append(_frame(light, exposure, {"kind": "blank"}, {**tags, "role": "blur-blank"}))
         for frame in range(int(blur.get("frames", 2))):
-            pattern = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
             steps.append(
                 _frame(light, exposure, pattern, {**tags, "role": "pinholes", "frame": frame})
             )
@@ -279,6 +281,85 @@ def sweep_plan(
         "profile": profile,
     }
     return Plan("spectral-sweep", tuple(steps), parameters)
+
+
+def blur_plan(sweep: Plan, first: int, budget: int) -> Plan:
+    """More pinhole frames of every laser, as the sweep showed them (pattern, light and
+    exposure): frames ``first`` to ``budget - 1`` (the sweep holds the first ``first``).
+
+    Parameters
+    ----------
+    sweep
+        The sweep session's plan (:func:`sweep_plan`).
+    first, budget
+        Pinhole frames per laser the sweep took (``blur.frames``), and the most the blur
+        step may take (``blur.max_frames``).
+
+    Returns
+    -------
+    Plan
+        ``spectral-blur``: steps tagged ``role: pinholes`` with their ``laser`` and
+        ``frame``, frame by frame (every laser's next frame before any laser's after it).
+
+    Examples
+    --------
+    >>> from sassi_bench.acquire.plan_geometry import planned_spectral
+    >>> from sassi_bench.procedure import load_procedure
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> proc = planned_spectral(load_procedure("spectral_calibration"), load_rig_description("sim"))
+    >>> sweep = sweep_plan(proc, (400, 640), {532.0: 0.05, 635.0: 0.04}, list(range(0, 256, 16)))
+    >>> plan = blur_plan(sweep, 2, 5)
+    >>> len(plan), sorted({s.tags["frame"] for s in plan.steps})
+    (6, [2, 3, 4])
+    """
+    shown = {}
+    for step in sweep.steps:
+        if step.tags.get("role") == "pinholes":
+            shown.setdefault(float(step.tags["laser"]), step)
+    steps = [
+        replace(step, tags={**step.tags, "frame": frame})
+        for frame in range(first, budget)
+        for step in shown.values()
+    ]
+    return Plan("spectral-blur", tuple(steps), {"scene": "white", "sweep_frames": first})
+
+
+def blur_pinholes(pitch: Sequence[int], slm_shape: tuple[int, int]) -> dict[str, Any]:
+    """The blur frames' pinhole pattern: a grid at least ``pitch`` apart whose first and
+    last pinholes sit on the SLM's edges, so a fit over the field interpolates between
+    spots everywhere instead of extrapolating past the outermost ones.
+
+    On each axis the grid keeps as many pinholes as ``pitch`` fits between the edges and
+    spreads them (whole SLM px) to reach both; the spare pixels split between the ends.
+
+    Parameters
+    ----------
+    pitch
+        The least (horizontal, vertical) spacing, SLM px (``blur.pinhole_pitch_px``).
+    slm_shape
+        SLM (height, width).
+
+    Returns
+    -------
+    dict
+        A ``pinholes`` pattern descriptor.
+
+    Examples
+    --------
+    >>> blur_pinholes([40, 40], (200, 320))
+    {'kind': 'pinholes', 'pitch': [45, 49], 'offset': [2, 1]}
+    """
+    spread, offset = [], []
+    for step, size in zip((int(p) for p in pitch), (slm_shape[1], slm_shape[0]), strict=True):
+        gaps = (size - 1) // step
+        if gaps == 0:  # room for one pinhole only: the middle
+            spread.append(size)
+            offset.append(size // 2)
+            continue
+        wider = (size - 1) // gaps
+        spread.append(wider)
+        offset.append((size - 1 - wider * gaps) // 2)
+    return {"kind": "pinholes", "pitch": spread, "offset": offset}
 
 
 def lamp_pinholes(procedure: Mapping[str, Any]) -> dict[str, Any]:

@@ -166,6 +166,10 @@ class BlurFit:
     measured_sigma_px: NDArray[np.float64]
     residual_px: NDArray[np.float64]
 
+    #: The fit's stated 1-sigma (camera px) of the spot widths it predicts, the worst over
+    #: the field and the lines' band (``field_covariance``; None: unstated).
+    width_sigma_px: float | None = None
+
     @property
     def rms_px(self) -> float:
         """RMS of the fit residuals at the measured lines."""
@@ -423,6 +427,7 @@ def fit_field_covariance(
 
     everything = np.ones(lam.size, dtype=bool)
     fitted = model(solve(everything))
+    width_sigma = _stated_width_sigma(fitted, design, targets, lines, slm_shape)
     measured_across = np.sqrt(np.maximum(spots.cyy, 1e-6))
     error = None
     if lines.size >= 4:
@@ -440,4 +445,46 @@ def fit_field_covariance(
     predicted = np.sqrt(final.covariance(spots.u, spots.v, lam)[1] + pixel)
     medians = np.array([np.median(measured_across[lam == line]) for line in lines])
     residual = np.array([np.median((predicted - measured_across)[lam == line]) for line in lines])
-    return BlurFit(final, lines, medians, residual)
+    return BlurFit(final, lines, medians, residual, width_sigma)
+
+
+#: Field points (columns x rows) and wavelengths the stated width uncertainty is the worst
+#: over: the SLM's edges and corners and the band between the outermost lines.
+_STATED_GRID = (9, 5, 12)
+
+
+def _stated_width_sigma(
+    fitted: FieldCovarianceBlur,
+    design: NDArray[np.float64],
+    targets: NDArray[np.float64],
+    lines: NDArray[np.float64],
+    slm_shape: tuple[int, int],
+) -> float | None:
+    """The worst 1-sigma (camera px) of the widths a camera would measure, as the fit's
+    residual scatter propagates through its least squares (``s² aᵀ(AᵀA)⁻¹a`` per
+    component) to every field point and wavelength: where spots are sparse, or the fit
+    extrapolates, the figure grows. None when the fit has no degrees of freedom left."""
+    rows, terms = design.shape
+    if rows <= terms:
+        return None
+    residual = targets - design @ np.linalg.lstsq(design, targets, rcond=None)[0]
+    noise = (residual**2).sum(axis=0) / (rows - terms)  # (3,) px**4
+    h, w = slm_shape
+    nu, nv, nl = _STATED_GRID
+    u, v, lam = np.meshgrid(
+        np.linspace(0, w - 1, nu), np.linspace(0, h - 1, nv), np.linspace(lines[0], lines[-1], nl)
+    )
+    u, v, lam = u.ravel(), v.ravel(), lam.ravel()
+    t = (lam - fitted.lambda_ref_nm) / fitted.lambda_scale_nm
+    u_hat, v_hat = field_coordinates(u, v, slm_shape)
+    field = legendre2d_design(u_hat, v_hat, fitted.field_degree)
+    powers = t[:, None] ** np.arange(fitted.coeffs.shape[2])
+    points = (field[:, :, None] * powers[:, None, :]).reshape(u.size, -1)
+    # aᵀ(AᵀA)⁻¹a through the pseudo-inverse: A's SVD, rank-safe
+    _, singular, vt = np.linalg.svd(design, full_matrices=False)
+    keep = singular > singular[0] * 1e-10
+    leverage = ((points @ vt[keep].T / singular[keep]) ** 2).sum(axis=1)
+    cxx, cyy, _ = fitted.covariance(u, v, lam)
+    along = np.sqrt(noise[0] * leverage) / (2 * np.sqrt(cxx + CAMERA_PIXEL_VARIANCE_PX2))
+    across = np.sqrt(noise[1] * leverage) / (2 * np.sqrt(cyy + CAMERA_PIXEL_VARIANCE_PX2))
+    return float(max(along.max(), across.max()))

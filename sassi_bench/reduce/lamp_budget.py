@@ -9,6 +9,8 @@ many frames per lamp to have next. A photon-limited uncertainty falls as one ove
 square root of the frames, so the next batch aims at the frames that would meet the
 tolerance, within the budget. The rule is a pure function of what was measured, so a
 resumed session replays the same decisions on the same frames and captures none twice.
+:func:`next_frames` is that rule alone, shared with the blur step
+(:mod:`~sassi_bench.reduce.blur_budget`).
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ __all__ = [
     "LampBatch",
     "LampFrameRecord",
     "decide_lamp_frames",
+    "frames_needed",
     "lamp_frame_settings",
+    "next_frames",
 ]
 
 #: Pinhole frames per lamp the lamp step may take when the procedure names no budget.
@@ -110,17 +114,63 @@ def decide_lamp_frames(
     >>> decide_lamp_frames(16, {670.0: 0.6}, 0.5, 16).outcome
     'budget spent'
     """
-    if frames < 1 or budget < 1:
-        raise ValueError(f"frames ({frames}) and budget ({budget}) must be positive")
     sigma = {float(k): float(v) for k, v in sigma_nm.items()}
     worst = max(sigma.values(), default=0.0)
-    if worst <= tolerance_nm:
-        return LampBatch(frames, sigma, None, "tolerance met")
+    return LampBatch(frames, sigma, *next_frames(frames, worst, tolerance_nm, budget))
+
+
+def next_frames(frames: int, sigma: float, tolerance: float, budget: int) -> tuple[int | None, str]:
+    """The stopping rule of a step that measures until confident: the frames to have next
+    (None: stop) and why, from the worst 1-sigma reached with ``frames`` frames.
+
+    A photon-limited 1-sigma falls as one over the square root of the frames: the next
+    batch aims at the frames that would meet the tolerance (at least one more), within
+    the budget.
+
+    Parameters
+    ----------
+    frames
+        Frames measured.
+    sigma
+        The worst stated 1-sigma from them.
+    tolerance
+        The 1-sigma to reach, in ``sigma``'s unit.
+    budget
+        The most frames the step may take.
+
+    Returns
+    -------
+    tuple
+        ``(next frames or None, outcome)``, the outcome ``"more frames"``,
+        ``"tolerance met"`` or ``"budget spent"``.
+
+    Examples
+    --------
+    >>> next_frames(2, 0.08, 0.05, 8)
+    (6, 'more frames')
+    >>> next_frames(8, 0.08, 0.05, 8)
+    (None, 'budget spent')
+    """
+    if frames < 1 or budget < 1:
+        raise ValueError(f"frames ({frames}) and budget ({budget}) must be positive")
+    if sigma <= tolerance:
+        return None, "tolerance met"
     if frames >= budget:
-        return LampBatch(frames, sigma, None, "budget spent")
-    # The frames at which a photon-limited 1-sigma meets the tolerance, at least one more.
-    wanted = math.ceil(frames * (worst / tolerance_nm) ** 2 - 1e-9)
-    return LampBatch(frames, sigma, min(budget, max(wanted, frames + 1)), "more frames")
+        return None, "budget spent"
+    wanted = frames_needed(frames, sigma, tolerance)
+    return min(budget, max(wanted, frames + 1)), "more frames"
+
+
+def frames_needed(frames: int, sigma: float, tolerance: float) -> int:
+    """The frames at which a photon-limited 1-sigma, ``sigma`` after ``frames``, meets the
+    tolerance.
+
+    Examples
+    --------
+    >>> frames_needed(16, 0.6, 0.5)
+    24
+    """
+    return math.ceil(frames * (sigma / tolerance) ** 2 - 1e-9)
 
 
 @dataclass(frozen=True)
@@ -175,7 +225,7 @@ class LampFrameRecord:
         if self.outcome != "budget spent":
             return None
         worst = max(self.short_of.values())
-        needed = math.ceil(self.frames * (worst / self.tolerance_nm) ** 2 - 1e-9)
+        needed = frames_needed(self.frames, worst, self.tolerance_nm)
         lasers = ", ".join(f"laser {k:g} nm at +-{v:.2f} nm" for k, v in self.short_of.items())
         said = f"{lasers} after {self.frames} lamp frames: "
         capped = [k for k, t in self.exposures_s.items() if t >= 0.999 * self.max_exposure_s]

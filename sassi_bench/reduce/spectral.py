@@ -33,6 +33,8 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
+from sassi_bench.reduce.blur_budget import BlurFrameRecord
+from sassi_bench.reduce.blur_frames import pinhole_signals
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
@@ -63,7 +65,9 @@ class SpectralSweeps:
     sweeps only), the laser sweep itself and the lamp frames (rigs with lamps only); and
     what was measured from them as they were captured: the grey-level response, the
     sweep's decode (None: the analysis reads them from the sessions), what the lamp step
-    took and why, and its measurement (reused by the analysis with the same procedure)."""
+    took and why, and its measurement (reused by the analysis with the same procedure);
+    the blur step's added pinhole frames (None: the sweep's were enough, or the blur
+    form states no uncertainty) and what it took and why."""
 
     grey: Session | None
     sweep: Session
@@ -72,11 +76,13 @@ class SpectralSweeps:
     decoded: DecodedSweep | None = None
     lamp_record: LampFrameRecord | None = None
     lamp_measurement: LampMeasurement | None = None
+    blur: Session | None = None
+    blur_record: BlurFrameRecord | None = None
 
     @property
     def sessions(self) -> list[Session]:
         """The sessions, in capture order."""
-        return [s for s in (self.grey, self.sweep, self.lamps) if s is not None]
+        return [s for s in (self.grey, self.sweep, self.blur, self.lamps) if s is not None]
 
 
 @dataclass
@@ -97,6 +103,7 @@ class SpectralCalibration:
     anchoring: LampAnchoring | None = None
     #: On a design rig, the measured maps against the described design.
     design_comparison: DesignComparison | None = None
+    blur_record: BlurFrameRecord | None = None
 
     @property
     def passed(self) -> bool:
@@ -314,7 +321,10 @@ def lamp_measurement(
         sweeps.sweep, proc, desc, [d.laser_map for d in decoded],
         field_degree=int(proc["fit"].get("field_degree", 5)),
         order=int(proc["fit"].get("dispersion_order", 2)),
-        pinholes=sweeps.decoded.pinholes if sweeps.decoded is not None else None,
+        pinholes=pinhole_signals(
+            sweeps.sweep, saturation, sweeps.decoded.pinholes if sweeps.decoded else None,
+            sweeps.blur,
+        ),
     )  # fmt: skip
 
 
@@ -352,7 +362,9 @@ def analyse_spectral_sweeps(
     if response is None and sweeps.grey is not None:
         response = measure_response(sweeps.grey, saturation)
     decoded = analyse_sweep(sweeps.sweep, proc, slm_shape, saturation, sweeps.decoded)
-    pinholes = sweeps.decoded.pinholes if sweeps.decoded is not None else None
+    pinholes = pinhole_signals(
+        sweeps.sweep, saturation, sweeps.decoded.pinholes if sweeps.decoded else None, sweeps.blur
+    )
     maps = [d.laser_map for d in decoded]
     shape = {
         "field_degree": int(proc["fit"].get("field_degree", 5)),
@@ -379,7 +391,7 @@ def analyse_spectral_sweeps(
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
         return _compared_with_design(SpectralCalibration(
             proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions,
-            anchoring=anchoring,
+            anchoring=anchoring, blur_record=sweeps.blur_record,
         ))  # fmt: skip
     lines = check_laser_lines(
         maps,
@@ -414,6 +426,7 @@ def analyse_spectral_sweeps(
             checks,
             sweeps.sessions,
             laser_lines=lines,
+            blur_record=sweeps.blur_record,
         )
     )
 
@@ -452,9 +465,11 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
         # ['laser 450 nm: measured 450.00 +- 0.01 nm against the HgAr, Ne lamp lines ...']
     """
     design = getattr(result, "design_comparison", None)
+    frames = [result.blur_record.note()] if result.blur_record is not None else []
     return (
         laser_line_notes(result)
         + blur_notes(result.blur)
+        + frames
         + ([f"as designed against as built: {design.verdict}"] if design is not None else [])
     )
 

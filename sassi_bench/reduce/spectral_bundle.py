@@ -58,7 +58,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
         ``checks``, ``residuals``, ``leave_one_out``, ``laser_lines`` and ``notes``,
         JSON-compatible; with lamp anchoring, ``laser_lines`` holds each laser's
         measured line, ``lamps`` each lamp's fit and ``lamp_frames`` what the lamp step
-        took and why (frames per lamp, the uncertainty reached, its outcome and batches).
+        took and why (frames per lamp, the uncertainty reached, its outcome and batches);
+        with a field blur, ``blur_frames`` what the blur step took and why.
 
     Examples
     --------
@@ -103,6 +104,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
         section.update(anchoring_section(result.anchoring, disp))
     if getattr(result, "design_comparison", None) is not None:
         section["design_comparison"] = result.design_comparison.to_json()
+    if result.blur_record is not None:
+        section["blur_frames"] = result.blur_record.to_json()
     return section
 
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.session import Session
 from sassi_bench.calibrate.blur import (
     BlurFit,
@@ -331,8 +332,8 @@ def blur_from_pinholes(
     session
         A session of :func:`~sassi_bench.acquire.spectral_plans.sweep_plan`.
     proc
-        The spectral-calibration procedure (``blur.pinhole_pitch_px``,
-        ``blur.window_sigmas``).
+        The spectral-calibration procedure (``blur.window_sigmas``,
+        ``blur.field_degree``); the pinholes are where the session's frames showed them.
     dispersion
         The fitted dispersion (and each line's fitted wavelength).
     slm_shape
@@ -365,19 +366,16 @@ def blur_from_pinholes(
         blur = blur_from_pinholes(sweep, proc, dispersion, (400, 640), 65535)
     """
     plan = session.plan
-    pitch = [int(p) for p in proc["blur"].get("pinhole_pitch_px", [40, 40])]
-    lasers = sorted(
-        {float(s.tags["laser"]) for s in plan.steps if s.tags.get("role") == "pinholes"}
-    )
+    shown = [s for s in plan.steps if s.tags.get("role") == "pinholes"]
+    lasers = sorted({float(s.tags["laser"]) for s in shown})
+    # the pattern the frames showed (sessions record it; older ones spaced it by pitch)
+    pattern_rows, pattern_cols = open_pixels(shown[0].pattern, slm_shape)
     sigmas = []
     moments: list[tuple[NDArray[np.float64], ...]] = []
     for laser in lasers:
         known = (pinholes or {}).get(laser)
         if known is None:
             known = pinhole_signal(session, laser, saturation)
-        pattern_rows, pattern_cols = np.mgrid[
-            pitch[1] // 2 : slm_shape[0] : pitch[1], pitch[0] // 2 : slm_shape[1] : pitch[0]
-        ]
         wavelength = dispersion.wavelengths_nm.get(laser, laser)
         x, y = dispersion.model.evaluate(pattern_cols.ravel(), pattern_rows.ravel(), wavelength)
         widths = measure_spot_widths(known.signal, x, y, 1.5, saturated=known.saturated)

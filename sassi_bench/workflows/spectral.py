@@ -28,6 +28,8 @@ from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import (
+    blur_pinholes,
+    blur_plan,
     check_lamp_pitch,
     grey_plan,
     lamp_pinholes,
@@ -38,6 +40,12 @@ from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.calibrate.grey_response import GreyResponse, sinusoid_profile
 from sassi_bench.errors import ConfigError, DeviceError, step_error
 from sassi_bench.paths import data_root
+from sassi_bench.reduce.blur_budget import (
+    BlurFrameRecord,
+    blur_frame_settings,
+    decide_blur_frames,
+)
+from sassi_bench.reduce.blur_frames import BlurMeasurement
 from sassi_bench.reduce.lamp_budget import LampFrameRecord, decide_lamp_frames, lamp_frame_settings
 from sassi_bench.reduce.lamps import LampMeasurement, lamp_frame_steps
 from sassi_bench.reduce.spectral import (
@@ -48,7 +56,7 @@ from sassi_bench.reduce.spectral import (
 )
 from sassi_bench.reduce.spectral_bundle import publish_spectral, render_figures
 from sassi_bench.reduce.sweep_stream import DecodedSweep, SweepStream
-from sassi_bench.reduce.sweeps import measure_response
+from sassi_bench.reduce.sweeps import analyse_sweep, blur_form, measure_response
 from sassi_bench.rig.lights import laser_light
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
@@ -58,6 +66,7 @@ __all__ = [
     "CAPTURE_STEPS",
     "STEPS",
     "SpectralRun",
+    "capture_blur_frames",
     "capture_lamp_frames",
     "capture_spectral_sweeps",
     "open_lamp_session",
@@ -123,7 +132,9 @@ def _capture_settings(proc: Mapping[str, Any]) -> dict[str, Any]:
     """The parts of a procedure that decide what is captured, as JSON values (so 450 and
     450.0 nm are the same laser). Fit settings and tolerances may change between capture
     and analysis (a person excluding a region in the notebook); these may not."""
-    blur = {k: v for k, v in thaw(proc.get("blur", {})).items() if k != "window_sigmas"}
+    # window_sigmas is a fit setting; max_frames bounds the blur step's own session
+    fit_only = ("window_sigmas", "max_frames")
+    blur = {k: v for k, v in thaw(proc.get("blur", {})).items() if k not in fit_only}
     settings = {k: thaw(proc.get(k)) for k in ("lasers_nm", "sweep", "exposure")}
     return json.loads(json.dumps({**settings, "blur": blur}))
 
@@ -176,6 +187,10 @@ class SpectralRun:
         The analysed calibration (its ``figures`` and ``bundle_path`` once made).
     lamp_record, lamp_measurement
         What the lamp step took and why, and what it measured with.
+    blur, blur_record
+        The blur step's session of added pinhole frames (None when the sweep's were
+        enough) and what the step took and why (None for a blur form stating no
+        uncertainty).
     """
 
     rig: Rig
@@ -195,6 +210,8 @@ class SpectralRun:
     result: SpectralCalibration | None = None
     lamp_record: LampFrameRecord | None = None
     lamp_measurement: LampMeasurement | None = None
+    blur: Session | None = None
+    blur_record: BlurFrameRecord | None = None
 
     @property
     def saturation(self) -> int:
@@ -219,7 +236,7 @@ class SpectralRun:
         """The sessions captured so far and what was measured from them."""
         return SpectralSweeps(
             self.grey, self.sweep, self.lamps, self.response, self.decoded,
-            self.lamp_record, self.lamp_measurement,
+            self.lamp_record, self.lamp_measurement, self.blur, self.blur_record,
         )  # fmt: skip
 
 
@@ -265,8 +282,7 @@ def capture_sweep(run: SpectralRun) -> None:
     response), decoded as its frames are stored (those stored before are read back)."""
     proc, rig = run.procedure, run.rig
     if run.sweep is None:
-        pitch = [int(p) for p in proc["blur"]["pinhole_pitch_px"]]
-        pinholes = {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
+        pinholes = blur_pinholes(proc["blur"]["pinhole_pitch_px"], rig.slm.shape)
         blur_exposures = {laser: run.expose(laser, pinholes) for laser in run.lasers + run.extra}
         period = int(proc["sweep"]["phase_period_px"])
         profile = (
@@ -281,6 +297,26 @@ def capture_sweep(run: SpectralRun) -> None:
         run_plan(rig, run.sweep.plan, feed.tee(), progress=run.progress)
         feed.finish()
     run.decoded = stream.result()
+
+
+def capture_blur(run: SpectralRun) -> None:
+    """More pinhole frames of every laser, on a field blur, in batches until its stated
+    width 1-sigma meets the tolerance or the budget is spent
+    (:func:`capture_blur_frames`)."""
+    desc = run.rig.description
+    if blur_form(run.procedure, desc) != "field_covariance":
+        return
+    lasers = analyse_sweep(run.sweep, run.procedure, run.rig.slm.shape, run.saturation, run.decoded)
+    fit = run.procedure.get("fit") or {}
+    measurement = BlurMeasurement(
+        run.sweep, run.procedure, desc, [d.laser_map for d in lasers],
+        run.decoded.pinholes if run.decoded is not None else None,
+        field_degree=int(fit.get("field_degree", 5)), order=int(fit.get("dispersion_order", 2)),
+    )  # fmt: skip
+    run.blur, run.blur_record = capture_blur_frames(
+        run.rig, run.sweep, run.procedure, measurement, f"{run.base}-blur",
+        data=run.data, progress=run.progress,
+    )  # fmt: skip
 
 
 def capture_lamps(run: SpectralRun) -> None:
@@ -320,13 +356,14 @@ STEPS = {
     "exposures": measure_exposures,
     "grey": capture_grey,
     "sweep": capture_sweep,
+    "blur": capture_blur,
     "lamps": capture_lamps,
     "analyse": analyse,
     "figures": figures,
     "publish": publish,
 }
 #: The steps that capture (and decode as they capture).
-CAPTURE_STEPS = ("open", "exposures", "grey", "sweep", "lamps")
+CAPTURE_STEPS = ("open", "exposures", "grey", "sweep", "blur", "lamps")
 
 
 @drives_rig("spectral calibration")
@@ -577,3 +614,90 @@ def capture_lamp_frames(
         {k: float(v) for k, v in exposures.items()},
         float(settings.get("max_s", 10.0)),
     )
+
+
+def capture_blur_frames(
+    rig: Rig,
+    sweep: Session,
+    procedure: Mapping[str, Any],
+    measurement: BlurMeasurement,
+    session_id: str,
+    *,
+    data: str | os.PathLike[str] | None = None,
+    progress: bool = True,
+) -> tuple[Session | None, BlurFrameRecord | None]:
+    """Add pinhole frames of every laser until the field blur's stated width 1-sigma meets
+    the tolerance.
+
+    The sweep's ``blur.frames`` are measured first; then, after each batch,
+    :func:`~sassi_bench.reduce.blur_budget.decide_blur_frames` says whether to stop
+    (``tolerances.blur_width_sigma_px`` met, or ``blur.max_frames`` spent) or how many
+    frames per laser to have next. The added frames go to a session planned to the budget
+    (:func:`~sassi_bench.acquire.spectral_plans.blur_plan`), made when the first batch
+    asks for more; the decisions depend on the stored frames alone, so a resumed session
+    replays them and captures only the missing frames.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    sweep
+        The sweep session (its pinhole frames come first).
+    procedure
+        The planned spectral-calibration procedure.
+    measurement
+        Fits the blur from a number of frames per laser.
+    session_id
+        The blur session's id (an existing one resumes).
+    data
+        Data root.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    tuple
+        The blur session (None when the sweep's frames were enough) and what was taken
+        and why (None when the fit states no uncertainty).
+
+    Raises
+    ------
+    ConfigError
+        When an existing blur session was planned from another sweep or budget.
+
+    Examples
+    --------
+    Not run here (it drives a bench and stores its frames)::
+
+        session, record = capture_blur_frames(rig, sweep, proc, measurement, "lab-blur")
+        record.outcome, record.frames
+        # ('tolerance met', 2)
+    """
+    first, budget, tolerance = blur_frame_settings(procedure)
+    planned = blur_plan(sweep.plan, first, budget)
+    session = _resume(session_id, data)
+    if session is not None and session.plan.sha256() != planned.sha256():
+        raise ConfigError(
+            step_error(
+                f"resume session {session.id}",
+                "its pinhole frames were planned from another sweep or blur.max_frames than "
+                "the procedure given now",
+                "resume with the same procedure file, or start a new --session",
+            )
+        )
+    frames, batches = first, []
+    while True:
+        if frames > first:
+            if session is None:
+                session = Session.create(rig.description, planned, session_id=session_id, data=data)
+            steps = [i for i, s in enumerate(planned.steps) if int(s.tags["frame"]) < frames]
+            run_plan(rig, session.plan, session, progress=progress, steps=steps)
+        sigma = measurement.fit(session, frames).width_sigma_px
+        if sigma is None:  # the fit states no uncertainty: nothing to decide from
+            return session, None
+        batch = decide_blur_frames(frames, sigma, tolerance, budget)
+        batches.append(batch)
+        if batch.next_frames is None:
+            break
+        frames = batch.next_frames
+    return session, BlurFrameRecord(tuple(batches), tolerance, budget)
