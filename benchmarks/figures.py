@@ -35,7 +35,7 @@ VIEWS = {
             "correspondences vs truth (worst laser RMS)",
             "laser line fitted at an estimate",
             "wavelength map vs truth (RMS / max)",
-            "blur width vs truth (max, 420-690 nm)",
+            "blur width vs truth (max over the field, 420-690 nm)",
             "guide homography vs truth (RMS over the SLM)",
             "response vs truth (max, 410-640 nm)",
             "Macbeth mean dE00 / spectral angle",

@@ -102,7 +102,8 @@ def test_the_checks_fail_on_a_figure_that_differs(tmp_path):
     text = (ROOT / "README.md").read_text()
     held, rendered = figures.blocks(text)[0][1:]
     assert held == rendered
-    changed = text.replace("0.06 / 0.39 deg", "0.18 / 0.39 deg")
+    cell = re.search(r"\| (\d+\.\d+ / \d+\.\d+ deg) \|", text).group(1)  # a Macbeth cell
+    changed = text.replace(cell, "9.99 / 9.99 deg", 1)
     assert figures.blocks(changed)[0][1] != figures.blocks(changed)[0][2]
     assert figures.render(changed) == text  # rewriting restores the data file's figure
     assert quoted_figures("rank-1 gives 31.3 dB, mean dE00 0.18") == ["31.3", "0.18"]
