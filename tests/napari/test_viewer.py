@@ -27,11 +27,30 @@ def viewer(monkeypatch):
     try:
         from qtpy.QtWidgets import QApplication
 
-        app = QApplication.instance() or QApplication([])
+        existing = QApplication.instance()
+        app = existing or QApplication([])
     except Exception as exc:  # no Qt binding, or no offscreen platform plugin
         pytest.skip(f"Qt cannot start offscreen here: {exc}")
     yield ViewerModel()
     app.processEvents()
+    if existing is None:  # the offscreen application goes with the test that made it
+        _delete_application(app)
+
+
+def _delete_application(app) -> None:
+    """Destroy a Qt application now (the process's next one may use another platform)."""
+    import qtpy
+
+    app.closeAllWindows()
+    app.processEvents()
+    if qtpy.API_NAME.startswith("PySide"):
+        import shiboken6
+
+        shiboken6.delete(app)
+    else:
+        from qtpy import sip
+
+        sip.delete(app)
 
 
 def _write_cube(tmp_path: Path):

@@ -92,9 +92,17 @@ def dummy_x(tmp_path_factory):
     old = {key: os.environ.get(key) for key in ("DISPLAY", "QT_QPA_PLATFORM")}
     os.environ["DISPLAY"] = server.display
     os.environ["QT_QPA_PLATFORM"] = "xcb"  # even if another test chose Qt's offscreen platform
-    yield server
     from PySide6 import QtWidgets
 
+    # A process has one Qt application, on one platform, and the SLM window reuses it: an
+    # application another test left (napari's viewer draws offscreen) goes first.
+    stale = QtWidgets.QApplication.instance()
+    if stale is not None and stale.platformName() != "xcb":
+        import shiboken6
+
+        stale.closeAllWindows()
+        shiboken6.delete(stale)
+    yield server
     app = QtWidgets.QApplication.instance()
     if app is not None:
         import shiboken6
