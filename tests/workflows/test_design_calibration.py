@@ -15,6 +15,7 @@ from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.procedure import load_procedure
 from sassi_bench.reduce.blur_frames import BlurMeasurement, captured_blur_frames
+from sassi_bench.reduce.lamps import FORM_MISFIT_NM
 from sassi_bench.reduce.spectral import analyse_spectral_sweeps, laser_line_notes, spectral_notes
 from sassi_bench.rig.sim import truth
 from sassi_bench.workflows.spectral import (
@@ -143,6 +144,7 @@ def test_the_achromat_s_wavelength_map_holds_where_its_lamp_lines_blend(achromat
     print({k: round(v, 3) for k, v in anchoring.form_shift_nm.items()}, anchoring.unpinned)
     # measured: form shifts -1.88 / -3.27 nm at 635 / 670 nm (0.04 to 0.15 nm for the
     # others); the quadratic alone measured them +0.37 / +0.69 nm off, stated +-0.09 / 0.14
+    assert anchoring.form_misfit_nm > FORM_MISFIT_NM  # measured: 0.085 nm
     assert set(anchoring.unpinned) == {635.0, 670.0}
     assert set(anchoring.confirmed) == {450.0, 520.0, 532.0}
     assert all(abs(anchoring.form_shift_nm[label]) > 1.0 for label in (635.0, 670.0))
