@@ -62,8 +62,8 @@ HELD_LABEL_NM = 1e-3
 #: wavelength map's 0.1 nm goal) the lamps' laser measurements are checked for their
 #: dependence on the form (:func:`form_shift_nm`). Where the form fits the arm, a line
 #: that moves with one more power moves because the extra power is free where the lamp
-#: lines blend, and the measurement at the model's order stands (the parametric benches:
-#: 0.001-0.008 nm; sim-singlet 0.025, sim-achromat 0.085 nm).
+#: lines blend, and the measurement at the model's order stands (the shipped rigs' misfits:
+#: docs/notes/2026-11-29-achromat-wavelength-map.md).
 FORM_MISFIT_NM = 0.05
 #: A Gaussian's full width at half maximum over its sigma.
 FWHM_PER_SIGMA = 2.0 * float(np.sqrt(2.0 * np.log(2.0)))
@@ -544,7 +544,7 @@ def described_form_misfit_nm(desc: RigDescription, order: int) -> float:
     Not run here (it ray-traces the described optics)::
 
         described_form_misfit_nm(load_rig_description("sim-achromat"), 2)
-        # 0.085
+        # 0.0852
     """
     relay = desc.nominal_relay()
     glass = get_glass(desc.prism.glass)
