@@ -547,6 +547,16 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
             )
             if float(label) in anchoring.confirmed:
                 note += "; label confirmed, fitted at it)"
+            elif float(label) in anchoring.unpinned and abs(
+                shift := anchoring.form_shift_nm.get(float(label), 0.0)
+            ) > max(float(sigma), tolerance):
+                note += (
+                    f"; the measurement moves {shift:+.2f} nm when the column model gains a "
+                    "power: the lamp lines near it blend at this dispersion and the model's "
+                    "form, not the data, decides where, so it keeps its label. More lamp "
+                    "frames do not help; a lamp with isolated lines near it, or a prism with "
+                    "more spread there, would)"
+                )
             elif float(label) in anchoring.unpinned:
                 frames = math.ceil(anchoring.frames * (sigma / tolerance) ** 2)
                 note += (
