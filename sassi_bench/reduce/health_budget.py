@@ -193,7 +193,8 @@ worst over the field; tolerance 0.03 px): tolerance met
         """
         taken = ", then ".join(str(b.frames) for b in self.batches)
         line = (
-            f"check frames: {self.frames} pinhole frames ({taken}): the shift map at "
+            f"check frames: {self.frames} pinhole frame{'s' if self.frames != 1 else ''} "
+            f"({taken}): the shift map at "
             f"+-{self.sigma_px:.3f} px (1-sigma, worst over the field; tolerance "
             f"{self.tolerance_px:g} px): {self.outcome}"
         )
