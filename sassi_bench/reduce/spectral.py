@@ -35,6 +35,7 @@ from sassi_bench.calibrate.dispersion import (
 from sassi_bench.calibrate.grey_response import GreyResponse
 from sassi_bench.reduce.blur_budget import BlurFrameRecord
 from sassi_bench.reduce.blur_frames import pinhole_signals
+from sassi_bench.reduce.bundle_checks import bundle_check_notes, measured_bundle_checks
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
@@ -164,6 +165,11 @@ def grade(
     laser_tolerance_nm
         Per label, how far the rig allows a line to be off its label.
 
+    The checks that measure the bundle follow
+    (:func:`~sassi_bench.reduce.bundle_checks.measured_bundle_checks`): the map's stated
+    1-sigma (``map_sigma_px``, ``map_sigma_nm``) and, with lamps, the lamp line furthest
+    from the map in its own sigmas (``lamp_line_max_sigmas``).
+
     Returns
     -------
     list of QualityCheck
@@ -228,7 +234,7 @@ def grade(
     )
     if anchoring is not None:
         checks += _anchoring_checks(anchoring, blur, tolerances, laser_tolerance_nm or {})
-    return checks
+    return checks + measured_bundle_checks(dispersion, anchoring, tolerances)
 
 
 def _anchoring_checks(
@@ -466,8 +472,11 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
     """
     design = getattr(result, "design_comparison", None)
     frames = [result.blur_record.note()] if result.blur_record is not None else []
+    prism = getattr(result.rig_description, "prism", None)
+    glass = str(getattr(prism, "glass", "as described"))
     return (
         laser_line_notes(result)
+        + bundle_check_notes(result.checks, result.dispersion, result.anchoring, glass)
         + blur_notes(result.blur)
         + frames
         + ([f"as designed against as built: {design.verdict}"] if design is not None else [])
