@@ -332,8 +332,8 @@ def guide_stride(desc: RigDescription) -> tuple[int, int]:
     Examples
     --------
     >>> from sassi_bench.rig.config import load_rig_description
-    >>> guide_stride(load_rig_description("sim")), guide_stride(load_rig_description("sim-singlet"))
-    ((4, 1), (2, 1))
+    >>> guide_stride(load_rig_description("sim"))  # 640 px wide; 320 px: (2, 1)
+    (4, 1)
     """
     across = GUIDE_STRIDE * desc.slm.width // GUIDE_STRIDE_WIDTH
     return max(1, min(GUIDE_STRIDE, across)), 1

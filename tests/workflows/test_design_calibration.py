@@ -162,3 +162,15 @@ def test_the_guide_scans_lattice_on_a_small_slm_keeps_the_homography(design_rigs
     assert procedure["scan"]["stride_px"] == [2, 1]
     assert derived < 0.06
     assert coarse > 0.3
+
+
+def test_the_bundle_names_the_band_where_the_field_blur_was_measured(calibrated):
+    _, result, _ = calibrated
+    quality = load(result.bundle_path).manifest["quality"]
+    notes = quality.get("spectral", quality)["notes"]
+    band = [n for n in notes if n.startswith("blur: measured over the field at the lasers")]
+    assert band == [
+        "blur: measured over the field at the lasers, 450-670 nm; the bundle's bins reach "
+        f"{result.dispersion.bins.edges_nm.min():.0f}-{result.dispersion.bins.edges_nm.max():.0f}"
+        " nm, where its widths are extrapolated"
+    ]
