@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.session import Session
@@ -52,6 +53,7 @@ __all__ = [
     "SpectralCalibration",
     "SpectralSweeps",
     "analyse_spectral_sweeps",
+    "blur_band_notes",
     "blur_notes",
     "grade",
     "lamp_measurement",
@@ -478,6 +480,7 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
         laser_line_notes(result)
         + bundle_check_notes(result.checks, result.dispersion, result.anchoring, glass)
         + blur_notes(result.blur)
+        + blur_band_notes(result.blur, result.dispersion.bins.edges_nm)
         + frames
         + ([f"as designed against as built: {design.verdict}"] if design is not None else [])
     )
@@ -515,6 +518,38 @@ def blur_notes(blur: BlurFit) -> list[str]:
         f"{100 * error:.1f} % RMS (above {100 * BLUR_NOTE_ERROR:.0f} %), so the blur curve "
         "between the lasers is uncertain (the scan's deblur allows for it); a line in "
         f"the widest gap, {lines[widest]:.0f}-{lines[widest + 1]:.0f} nm, would pin it"
+    ]
+
+
+def blur_band_notes(blur: BlurFit, bin_edges_nm: ArrayLike) -> list[str]:
+    """A note naming the band where a field blur was measured, when the bundle's bins
+    reach past it: its wavelength series is a free polynomial through the lasers' spots,
+    extrapolated beyond them (on the singlet design rig 0.5 px off at 420 nm,
+    ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``). The round blur's curve is the
+    chromatic defocus law itself, so it gets no such note.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> fit = SimpleNamespace(model=SimpleNamespace(kind="field_covariance"),
+    ...                       wavelengths_nm=np.array([450.0, 532.0, 670.0]))
+    >>> print(blur_band_notes(fit, [400.0, 500.0, 700.0])[0])  # doctest: +NORMALIZE_WHITESPACE
+    blur: measured over the field at the lasers, 450-670 nm; the bundle's bins reach
+    400-700 nm, where its widths are extrapolated
+    >>> blur_band_notes(fit, [450.0, 670.0])
+    []
+    """
+    if blur.model.kind != "field_covariance":
+        return []
+    lines = np.asarray(blur.wavelengths_nm, dtype=np.float64)
+    edges = np.asarray(bin_edges_nm, dtype=np.float64)
+    low, high = float(lines.min()), float(lines.max())
+    if edges.min() >= low and edges.max() <= high:
+        return []
+    return [
+        f"blur: measured over the field at the lasers, {low:.0f}-{high:.0f} nm; the "
+        f"bundle's bins reach {edges.min():.0f}-{edges.max():.0f} nm, where its widths are "
+        "extrapolated"
     ]
 
 
