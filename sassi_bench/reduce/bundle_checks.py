@@ -17,6 +17,10 @@
   +-0.012 nm, 11 sigma; with N-BK7 every line is within 0.3 sigma). So the largest
   ``|residual| / sigma`` is checked (``tolerances.lamp_line_max_sigmas``), and a failure
   names the glass first: it is the one stated value that bends the map's curve.
+  A line's 1-sigma includes how far the column model's form misses the described arm
+  (:func:`~sassi_bench.reduce.lamps.described_form_misfit_nm`, in quadrature): where
+  the form cannot follow the optics (the achromat arm: 0.085 nm RMS), a line sits off
+  the map by that much whatever the glass, and the check would fail a right bundle.
 """
 
 from __future__ import annotations
@@ -59,7 +63,8 @@ class LampLineOutlier:
     lamp, line_nm
         The lamp and the line's table wavelength.
     residual_nm, sigma_nm
-        Its residual from where the map puts it and its 1-sigma (nm).
+        Its residual from where the map puts it and its 1-sigma (nm): its photons' and
+        the column model's form misfit on the described arm, in quadrature.
     """
 
     lamp: str
@@ -83,8 +88,9 @@ def worst_lamp_line(anchoring: LampAnchoring) -> LampLineOutlier | None:
         worst_lamp_line(result.anchoring).sigmas
         # 0.23
     """
+    form_nm = anchoring.form_misfit_nm or 0.0
     lines = [
-        LampLineOutlier(lamp, lam, residual, sigma)
+        LampLineOutlier(lamp, lam, residual, float(np.hypot(sigma, form_nm)))
         for lamp, told in anchoring.line_residuals_nm().items()
         for lam, (residual, sigma) in told.items()
         if np.isfinite(residual) and np.isfinite(sigma) and sigma > 0
