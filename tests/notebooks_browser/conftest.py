@@ -45,6 +45,9 @@ LAB_SETTINGS = {
         "fetchNews": "false",
         "checkForUpdates": False,
     },
+    # The notebook's own kernel starts without asking, however slowly the server answers
+    # (on a loaded machine JupyterLab otherwise asks with a "Select Kernel" dialog).
+    "@jupyterlab/notebook-extension/tracker.jupyterlab-settings": {"autoStartDefaultKernel": True},
     # Widget state saved with the notebook: a reopened notebook shows its choices.
     "@jupyter-widgets/jupyterlab-manager/plugin.jupyterlab-settings": {"saveState": True},
 }
@@ -226,6 +229,11 @@ class Notebook:
         return text
 
     def _press_run(self, index: int) -> None:
+        dialog = self.page.locator(".jp-Dialog")
+        if dialog.count():  # it would take every click: say what JupyterLab asks
+            raise AssertionError(
+                f"{self.name}: JupyterLab shows a dialog: {dialog.first.inner_text()}"
+            )
         cell = self.cell(index)
         cell.locator(".jp-InputArea-prompt").click()
         self.page.wait_for_function(
@@ -250,6 +258,17 @@ class Notebook:
         while not "".join(outputs.all_inner_texts()).strip() and time.monotonic() < deadline:
             time.sleep(0.25)
         return "\n".join(outputs.all_inner_texts())
+
+    def images(self, index: int, wait_s: float = 30.0) -> int:
+        """How many pictures cell ``index``'s outputs show (a figure still rendering is
+        waited for)."""
+        cell = self.cell(index)
+        cell.scroll_into_view_if_needed()
+        pictures = cell.locator(".jp-OutputArea-output img")
+        deadline = time.monotonic() + wait_s
+        while pictures.count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.25)
+        return pictures.count()
 
     def type_into(self, index: int, text: str) -> None:
         """Type ``text`` at the end of cell ``index``'s code, as a person edits it."""

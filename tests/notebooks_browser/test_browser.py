@@ -1,9 +1,11 @@
 """The guided notebooks clicked through in JupyterLab by a headless Chromium.
 
 Each test runs a notebook cell by cell from the keyboard, changes its widgets by clicking
-and typing, and checks the effect on what the kernel holds and on what is published or
-written under the data root (not on pixels). The tests share one JupyterLab and one data
-root, in the notebooks' order: 05 validates the bundle 00 published.
+and typing, and checks the effect on what the kernel holds, on the figures it shows and on
+what is published or written under the data root, scored against the bench's truth where
+it is a measurement. The tests share one JupyterLab and one data root, in the notebooks'
+order: 05 validates the bundle 00 published. The scan, Macbeth and snapshot notebooks are
+run here only (each takes minutes); ``tests/notebooks`` runs the others without a person.
 """
 
 from __future__ import annotations
@@ -16,6 +18,9 @@ import pytest
 import yaml
 
 from sassi_bench.bundle import load, verify
+from sassi_bench.calibrate.guide_registration import field_discrepancy_px
+from sassi_bench.rig import open_rig
+from sassi_bench.rig.sim import truth
 
 
 def _published(lab) -> list[str]:
@@ -170,6 +175,7 @@ def test_05_a_moved_chart_corner_changes_the_localisation_and_the_scores(lab, op
     try:
         book.type_into(1, '\nwhite_reference = "patch"')  # the chart's white: one scan less
         book.run_all([1, 2, 3, 4, 5])
+        assert book.images(5) >= 1  # the patch grid on the chart
         assert book.kernel_value("procedure['white_reference']['source']") == "patch"
         first = book.run(6)
         assert "run-001 (new)" in first and "PASS mean_de00" in first
@@ -222,15 +228,21 @@ def test_03_a_typed_scan_pitch_is_scanned_and_its_cube_written_under_the_data_ro
             "bundle.response is not None"
         )
 
-        book.run(5)  # the scan (the figure cell is not run)
+        book.run(5)  # the scan
         assert book.kernel_value("tuple(run.session.plan.parameters['pitch'])") == SCAN_PITCH
         pinholes = book.kernel_value("len(run.session.plan.select(role='pinholes'))")
         assert pinholes == SCAN_PITCH[0] * SCAN_PITCH[1]
         assert book.kernel_value("len(run.session.completed) == len(run.session.plan.steps)")
+        book.run(6)
+        assert book.images(6) >= 1  # spectra at three pixels
         said = book.run(7)
         cube_path = lab.data / "cubes" / f"lab-spectral-colorchecker-sim-{version}.nc"
         assert f"cube: wrote {cube_path}" in said
         sha = book.kernel_value("run.session.sha256()")
+        # Run again, the response cell keeps the bundle and the cube cell the cube.
+        assert f"kept: sim/{version} already has a radiometric" in book.run(4)
+        assert f"cube: kept {cube_path}" in book.run(7)
+        assert _versions(lab) == before | {version}
     finally:
         book.close()
 
@@ -271,7 +283,11 @@ def test_04_a_rejected_homography_is_not_published_and_an_accepted_one_is(lab, o
     finally:
         book.close()
     verify(lab.data / "sim" / version)
-    np.testing.assert_allclose(load(lab.data / "sim" / version).guide_to_slm, homography)
+    published = load(lab.data / "sim" / version)
+    np.testing.assert_allclose(published.guide_to_slm, homography)
+    bench = truth(open_rig("sim"))
+    error_px, _ = field_discrepancy_px(published.guide_to_slm, bench.guide_to_slm, (400, 640))
+    assert error_px < 0.3  # RMS over the SLM against the bench's homography
 
 
 def test_06_a_rejected_fit_is_not_published_and_an_accepted_one_becomes_latest(lab, open_notebook):
@@ -315,9 +331,12 @@ def test_07_a_snapshot_taken_on_the_homography_bundle_is_scored_and_reported(lab
         book.type_into(1, "\nlow_light = False\nvideo_frames = 0\nprogress = False")
         book.run_all([1, 2])
         assert book.kernel_value("bundle.version") == with_guide[-1]
-        book.run(4)  # the scan of the scene, then the snapshots (the figures are not run)
+        book.run(4)  # the scan of the scene, then the snapshots
         runs = book.kernel_value("sorted(result.runs)")
         assert "adaptive" in runs and "adaptive_low_light" not in runs
+        for figure in (6, 8, 9, 11):  # masks, reconstruction, per-band PSNR, spectra
+            book.run(figure)
+            assert book.images(figure) >= 1, f"cell {figure} shows no figure"
         said = book.run(13)
         folder = lab.data / "reports" / "snapshot" / "run-001"
         assert book.kernel_value("str(html_path)") == str(folder / "snapshot_report.html")
@@ -327,7 +346,7 @@ def test_07_a_snapshot_taken_on_the_homography_bundle_is_scored_and_reported(lab
         book.close()
     doc = json.loads((folder / "snapshot_report.json").read_text())
     assert doc["snapshots"]["adaptive"]["scores"]["rank1"]["psnr_affine_db"] == pytest.approx(psnr)
-    assert psnr > 25.0  # as the nbclient run of this notebook checks
+    assert psnr > 25.0
 
 
 def test_08_a_typed_bundle_version_is_health_checked_and_its_verdict_kept(lab, open_notebook):
