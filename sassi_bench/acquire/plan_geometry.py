@@ -35,7 +35,12 @@ The rules (camera px unless said; ``s(l)`` the described spot sigma of one SLM p
   the period (the Gray code must resolve one period);
 - guide inliers: 30 on a 640 x 400 SLM field, in proportion to the field's area, at
   least 12 (a smaller field shows proportionally less texture; a homography has 8
-  unknowns).
+  unknowns);
+- guide scan stride: every 4th horizontal pinhole offset on a 640 px wide SLM, in
+  proportion to the width below it, at least 1 (the target filling a smaller field puts its
+  texture on fewer SLM px, and the coarse lattice's resampling then moves the features the
+  homography is fitted to: on a 320 x 200 SLM a stride of 4 left 0.67 px RMS against the
+  truth, 2 left 0.03 px, ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``).
 """
 
 from __future__ import annotations
@@ -62,6 +67,7 @@ from sassi_bench.rig.config import RigDescription
 __all__ = [
     "GUIDE_STRIDE",
     "PlanGeometry",
+    "guide_stride",
     "plan_geometry",
     "planned_guide",
     "planned_health_check",
@@ -84,6 +90,8 @@ PHASE_CONTRAST = 0.5
 MIN_PHASE_PERIOD = 16
 #: Guide inliers asked of a 640 x 400 SLM field, and the fewest asked of any field.
 GUIDE_INLIERS = (30, 640 * 400, 12)
+#: The guide scan's derived horizontal stride: ``GUIDE_STRIDE`` from this SLM width up.
+GUIDE_STRIDE_WIDTH = 640
 
 
 @dataclass(frozen=True)
@@ -317,21 +325,36 @@ def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict
     return out
 
 
-def planned_guide(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
-    """The guide procedure with its scan pitch (a multiple of its stride) and its inlier
-    count derived where ``null``.
+def guide_stride(desc: RigDescription) -> tuple[int, int]:
+    """The guide scan's derived (horizontal, vertical) stride: every 4th pinhole offset
+    along the rows on a 640 px wide SLM, in proportion below that width, at least 1.
 
     Examples
     --------
     >>> from sassi_bench.rig.config import load_rig_description
-    >>> proc = planned_guide({"scan": {"stride_px": [4, 1]}, "tolerances": {}},
+    >>> guide_stride(load_rig_description("sim"))  # 640 px wide; 320 px: (2, 1)
+    (4, 1)
+    """
+    across = GUIDE_STRIDE * desc.slm.width // GUIDE_STRIDE_WIDTH
+    return max(1, min(GUIDE_STRIDE, across)), 1
+
+
+def planned_guide(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
+    """The guide procedure with its scan stride, its scan pitch (a multiple of the stride)
+    and its inlier count derived where ``null``.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> proc = planned_guide({"scan": {"stride_px": None}, "tolerances": {}},
     ...                      load_rig_description("sim"))
-    >>> proc["scan"]["pitch_px"], proc["tolerances"]["min_inliers"]
-    ([100, 5], 30)
+    >>> proc["scan"]["stride_px"], proc["scan"]["pitch_px"], proc["tolerances"]["min_inliers"]
+    ([4, 1], [100, 5], 30)
     """
     out = copy.deepcopy(dict(procedure))
     scan = out.setdefault("scan", {})
-    stride = tuple(scan.get("stride_px") or (GUIDE_STRIDE, 1))
+    stride = tuple(int(s) for s in (scan.get("stride_px") or guide_stride(desc)))
+    scan["stride_px"] = list(stride)
     scan["pitch_px"] = list(scan_pitch(desc, scan.get("pitch_px"), stride))
     tol = out.setdefault("tolerances", {})
     tol["min_inliers"] = int(_filled(tol, "min_inliers", plan_geometry(desc).min_inliers))

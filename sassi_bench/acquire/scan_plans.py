@@ -11,12 +11,21 @@ captured (the pitch against the streaks: :mod:`~sassi_bench.acquire.streak_pitch
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import NamedTuple
 
 from sassi_bench.acquire.plan import Plan, Step
 from sassi_bench.errors import ConfigError, ProcedureError, step_error
 
-__all__ = ["Roi", "check_pitch", "check_roi", "check_stride", "coarse_scan_plan", "scan_plan"]
+__all__ = [
+    "Roi",
+    "check_pitch",
+    "check_roi",
+    "check_stride",
+    "coarse_scan_plan",
+    "refining_scan_plan",
+    "scan_plan",
+]
 
 
 class Roi(NamedTuple):
@@ -126,6 +135,41 @@ def scan_plan(
     if scene is not None:
         parameters["scene"] = scene
     return Plan("pinhole-scan", tuple(steps), parameters)
+
+
+def _phase_order(every: int) -> list[int]:
+    """``range(every)`` in farthest-first order (on the circle of the pitch): each prefix
+    spreads its phases as evenly as it can."""
+    order = [0]
+    left = list(range(1, every))
+    while left:
+        gap = [min(min(abs(p - q), every - abs(p - q)) for q in order) for p in left]
+        order.append(left.pop(gap.index(max(gap))))
+    return order
+
+
+def refining_scan_plan(plan: Plan, every: int, budget: int) -> Plan:
+    """A scan's pinhole frames reordered so that every prefix is a thinned scan: first
+    every ``every``-th offset, then the offsets halfway between them, and so on, at most
+    ``budget`` pinhole frames (the closed-SLM frame stays first).
+
+    A step that measures until confident captures a prefix, measures, and captures a
+    longer prefix if it must; each pinhole frame is tagged with its place (``frame``).
+
+    Examples
+    --------
+    >>> plan = refining_scan_plan(scan_plan((400, 640), "led", 0.1, (8, 1)), 4, 4)
+    >>> [s.tags["ox"] for s in plan.steps[1:]], plan.steps[2].tags["frame"]
+    ([0, 4, 2, 6], 1)
+    """
+    pinholes = [s for s in plan.steps if s.tags.get("role") == "pinholes"]
+    closed = [s for s in plan.steps if s.tags.get("role") != "pinholes"]
+    ordered = [s for p in _phase_order(every) for i, s in enumerate(pinholes) if i % every == p]
+    ordered = [
+        replace(s, tags={**s.tags, "frame": k}) for k, s in enumerate(ordered[: max(1, budget)])
+    ]
+    parameters = {**plan.parameters, "every": every, "max_frames": budget}
+    return Plan(plan.name, tuple(closed + ordered), parameters)
 
 
 def check_stride(pitch: Sequence[int], stride: Sequence[int]) -> tuple[int, int]:

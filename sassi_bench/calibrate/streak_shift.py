@@ -242,6 +242,10 @@ class ShiftMap:
         Their degree.
     dy
         The map of the shifts across the dispersion at the grid points (camera px).
+    sigma_px
+        The map's stated 1-sigma along the dispersion, worst over the grid (camera px):
+        the weighted fit's covariance from the pinholes' 1-sigmas, scaled by the reduced
+        chi-square when the pinholes scatter more than they state.
     """
 
     u: NDArray[np.float64]
@@ -254,6 +258,7 @@ class ShiftMap:
     coefficients: NDArray[np.float64]
     degree: int
     dy: NDArray[np.float64]
+    sigma_px: float = float("nan")
 
     @property
     def row_mean_px(self) -> float:
@@ -308,7 +313,7 @@ def shift_field_map(
                 "check that the lamp lights the whole diffuser and re-run the check",
             )
         )
-    u, v, dx, coefficients = _smooth_map(
+    u, v, dx, coefficients, sigma = _smooth_map(
         shifts.u[good], shifts.v[good], shifts.dx[good], 1.0 / shifts.dx_sigma[good], shape, degree,
         grid,
     )  # fmt: skip
@@ -332,22 +337,26 @@ def shift_field_map(
         coefficients=coefficients,
         degree=degree,
         dy=dy,
+        sigma_px=float(sigma.max()),
     )
 
 
 def _smooth_map(u, v, values, weights, shape, degree, grid):
-    """A Legendre fit of ``values`` over the SLM, evaluated on a ``grid`` of the field."""
+    """A Legendre fit of ``values`` over the SLM, evaluated on a ``grid`` of the field,
+    with its 1-sigma there (weights are inverse 1-sigmas; the covariance is scaled by the
+    reduced chi-square when above one)."""
     design = legendre2d_design(*field_coordinates(u, v, shape), degree)
     w = np.ones_like(values) if weights is None else weights
-    coefficients = np.linalg.lstsq(design * w[:, None], values * w, rcond=None)[0]
+    weighted = design * w[:, None]
+    coefficients = np.linalg.lstsq(weighted, values * w, rcond=None)[0]
+    dof = max(values.size - design.shape[1], 1)
+    chi2 = float(np.sum((weighted @ coefficients - values * w) ** 2)) / dof
+    covariance = np.linalg.pinv(weighted.T @ weighted) * max(chi2, 1.0)
     h, width = shape
     gv, gu = np.meshgrid(
         np.linspace(0, h - 1, grid[1]), np.linspace(0, width - 1, grid[0]), indexing="ij"
     )
     gu, gv = gu.ravel(), gv.ravel()
-    return (
-        gu,
-        gv,
-        legendre2d_design(*field_coordinates(gu, gv, shape), degree) @ coefficients,
-        (coefficients),
-    )
+    at_grid = legendre2d_design(*field_coordinates(gu, gv, shape), degree)
+    sigma = np.sqrt(np.clip(np.einsum("gi,ij,gj->g", at_grid, covariance, at_grid), 0.0, None))
+    return gu, gv, at_grid @ coefficients, coefficients, sigma

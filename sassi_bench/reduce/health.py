@@ -31,7 +31,8 @@ from sassi_bench.calibrate.streak_shift import (
     shift_field_map,
 )
 from sassi_bench.provenance import package_version
-from sassi_bench.reduce.lamps import camera_noise, lamp_streaks
+from sassi_bench.reduce.health_budget import ShiftFrameRecord
+from sassi_bench.reduce.lamps import camera_noise, lamp_frame_steps, lamp_streaks
 from sassi_bench.rig.config import RigDescription
 
 __all__ = ["GUIDE_NOT_TESTED", "HealthCheck", "check_session", "health_lamps"]
@@ -66,6 +67,10 @@ class HealthCheck:
         The procedure's tolerances.
     session_id
         The session holding the frames.
+    notes
+        Lines the summary prints after the verdicts.
+    frame_record
+        What the check took and why (:mod:`~sassi_bench.reduce.health_budget`).
     """
 
     rig: str
@@ -86,6 +91,7 @@ class HealthCheck:
     tolerances: dict[str, float]
     session_id: str = ""
     notes: list[str] = field(default_factory=list)
+    frame_record: ShiftFrameRecord | None = None
 
     @property
     def holds(self) -> bool:
@@ -143,7 +149,7 @@ class HealthCheck:
             f"health check of {self.rig} bundle {self.bundle_version} under {self.light} "
             f"({self.frames} frames, {self.pinholes} pinholes)",
             f"  streak shift along the dispersion: mean {f.mean_px:+.3f} px, max {f.max_px:.3f} px"
-            f" (tolerance {tol['shift_max_px']:g} px)",
+            f" +-{f.sigma_px:.3f} px (tolerance {tol['shift_max_px']:g} px)",
             f"  implied wavelength error: {f.wavelength_rms_nm:.3f} nm RMS, "
             f"{f.wavelength_max_nm:.3f} nm max (tolerance {tol['wavelength_max_nm']:g} nm)",
             f"  shift across the dispersion: mean {self.row_mean_px:+.3f} px, max "
@@ -202,6 +208,7 @@ def check_session(
     light: str,
     checked_utc: str,
     capture_s: float,
+    frames: int | None = None,
 ) -> HealthCheck:
     """Compare a health-check session's lamp streaks with the bundle.
 
@@ -217,6 +224,9 @@ def check_session(
         The rig's description.
     light, checked_utc, capture_s
         The lamp, when the check was taken and how long its capture took.
+    frames
+        Use the first ``frames`` pinhole frames and as many closed-SLM frames (None:
+        every frame of the plan).
 
     Returns
     -------
@@ -237,11 +247,12 @@ def check_session(
     started = time.perf_counter()
     lamp_proc = health_lamps(procedure, desc)
     models = bundle.models
-    (streaks,) = lamp_streaks(session, lamp_proc, desc, models.dispersion, models.blur)
+    (streaks,) = lamp_streaks(session, lamp_proc, desc, models.dispersion, models.blur, frames)
     plan = session.plan
+    used = lamp_frame_steps(plan, frames)
     signal, _ = signal_and_variance(
-        session.read_frames(plan.select(role="lamp-pinholes")),
-        session.read_frames(plan.select(role="lamp-blank")),
+        session.read_frames(lamp_frame_steps(plan, frames, role="lamp-pinholes")),
+        session.read_frames(lamp_frame_steps(plan, frames, role="lamp-blank")),
         **camera_noise(desc),
     )
     dy = row_shifts(signal, streaks.profiles, models.dispersion, streaks.lines_nm)
@@ -282,7 +293,7 @@ def check_session(
         bundle_sha256=bundle_hash,
         checked_utc=checked_utc,
         light=light,
-        frames=len(plan),
+        frames=len(used),
         pinholes=streaks.profiles.count,
         capture_s=capture_s,
         processing_s=processed - started,

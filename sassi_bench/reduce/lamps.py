@@ -11,10 +11,11 @@ maps and the lamp lines together (:mod:`sassi_bench.calibrate.anchored`).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan
@@ -33,7 +34,7 @@ from sassi_bench.calibrate.lamp_streaks import (
     signal_and_variance,
 )
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.optics.glass import get_glass
+from sassi_bench.optics.glass import Glass, get_glass
 from sassi_bench.optics.lamps import LineList
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.sweep_stream import PinholeSignal
@@ -41,6 +42,7 @@ from sassi_bench.reduce.sweeps import blur_form, blur_from_pinholes
 from sassi_bench.rig.config import RigDescription
 
 __all__ = [
+    "FORM_MISFIT_NM",
     "HELD_LABEL_NM",
     "LampAnchoring",
     "LampMeasurement",
@@ -48,12 +50,21 @@ __all__ = [
     "camera_noise",
     "captured_lamp_frames",
     "check_lamp_signal",
+    "described_form_misfit_nm",
+    "form_shift_nm",
     "lamp_frame_steps",
     "lamp_streaks",
 ]
 
 #: The prior width (nm) that holds a confirmed laser line at its label.
 HELD_LABEL_NM = 1e-3
+#: Above this misfit of the column model's form to the described arm (nm RMS, half the
+#: wavelength map's 0.1 nm goal) the lamps' laser measurements are checked for their
+#: dependence on the form (:func:`form_shift_nm`). Where the form fits the arm, a line
+#: that moves with one more power moves because the extra power is free where the lamp
+#: lines blend, and the measurement at the model's order stands (the shipped rigs' misfits:
+#: docs/notes/2026-11-29-achromat-wavelength-map.md).
+FORM_MISFIT_NM = 0.05
 #: A Gaussian's full width at half maximum over its sigma.
 FWHM_PER_SIGMA = 2.0 * float(np.sqrt(2.0 * np.log(2.0)))
 
@@ -277,6 +288,13 @@ class LampAnchoring:
     record
         What the lamp step took and why (its batches and outcome), when it measured
         until confident.
+    form_shift_nm
+        Per label, how far the lamps' measurement moves when the column model gains a
+        power (:func:`form_shift_nm`); added to the 1-sigma in quadrature when deciding
+        which lines are confirmed or unpinned; measured only where the column model's
+        form misses the described arm by more than :data:`FORM_MISFIT_NM`.
+    form_misfit_nm
+        That misfit (:func:`described_form_misfit_nm`).
     """
 
     fit: AnchoredWavelengths
@@ -288,6 +306,8 @@ class LampAnchoring:
     confirmed: tuple[float, ...] = ()
     unpinned: tuple[float, ...] = ()
     record: LampFrameRecord | None = None
+    form_shift_nm: dict[float, float] = field(default_factory=dict)
+    form_misfit_nm: float | None = None
 
     def method(self, label: float) -> str:
         """How the fit took the line labelled ``label``: ``lamp-confirmed label``,
@@ -481,8 +501,14 @@ def anchor_wavelengths(
     streaks, measured = measurement.measure(lamps, frames)
     maps, tolerance = measurement.maps, measurement.tolerance
     glass, slm_shape, shape = measurement.glass, measurement.slm_shape, measurement.shape
-    confirmed = _confirmed_labels(measured, procedure)
-    unpinned = _unpinned_labels(measured, procedure) - confirmed
+    misfit = described_form_misfit_nm(desc, int(shape["order"]))
+    form_shift = (
+        form_shift_nm(measured, maps, streaks, glass, slm_shape, tolerance, shape)
+        if misfit > FORM_MISFIT_NM
+        else {}
+    )
+    confirmed = _confirmed_labels(measured, procedure, form_shift)
+    unpinned = _unpinned_labels(measured, procedure, form_shift) - confirmed
     fit = measured
     if confirmed or unpinned:
         # A label the lamps cannot tell from the measurement is exact to better than the
@@ -502,21 +528,103 @@ def anchor_wavelengths(
         confirmed=tuple(sorted(confirmed)),
         unpinned=tuple(sorted(unpinned)),
         record=record,
+        form_shift_nm=form_shift,
+        form_misfit_nm=misfit,
     )
 
 
-def _unpinned_labels(measured: AnchoredWavelengths, procedure: Mapping[str, Any]) -> set[float]:
-    """Labels the lamps measure with a 1-sigma above ``tolerances.laser_wavelength_sigma_nm``."""
+def described_form_misfit_nm(desc: RigDescription, order: int) -> float:
+    """How far the column model's form (a polynomial of ``order`` in the glass index at
+    each field point) misses the described arm: RMS over the field and 400-700 nm, in nm.
+
+    Read from the rig's described optics (``nominal_relay``), never the bench as built.
+
+    Examples
+    --------
+    Not run here (it ray-traces the described optics)::
+
+        described_form_misfit_nm(load_rig_description("sim-achromat"), 2)
+        # 0.0852
+    """
+    relay = desc.nominal_relay()
+    glass = get_glass(desc.prism.glass)
+    h, w = desc.slm.height, desc.slm.width
+    u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
+    lam = np.linspace(400.0, 700.0, 31)
+    x, _ = relay.forward(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    index = glass.index(lam)
+    spectral = (index - glass.index(550.0)) / (index[0] - index[-1])
+    powers = spectral[:, None] ** np.arange(order + 1)[None, :]
+    coeffs, *_ = np.linalg.lstsq(powers, x.T, rcond=None)
+    error_nm = ((powers @ coeffs).T - x) / np.gradient(x, lam, axis=1)
+    return float(np.sqrt(np.mean(error_nm**2)))
+
+
+def form_shift_nm(
+    measured: AnchoredWavelengths,
+    maps: Sequence[LaserMap],
+    streaks: Sequence[LampStreaks],
+    glass: Glass,
+    slm_shape: tuple[int, int],
+    tolerance: Sequence[float],
+    shape: Mapping[str, int],
+) -> dict[float, float]:
+    """How far each laser's lamp measurement moves when the column model gains a power.
+
+    Where the lamp lines near a laser blend (a spot many lines wide at the red end of a
+    low-dispersion arm), their free amplitudes trade against the positions and the
+    model's form decides where the laser's line is measured, by far more than its stated
+    1-sigma (docs/notes/2026-11-29-achromat-wavelength-map.md). The move is part of the
+    measurement's uncertainty. It costs one more anchored fit (seconds, no frames).
+
+    Returns
+    -------
+    dict
+        Label -> measured wavelength at ``order + 1`` minus at ``order`` (nm).
+    """
+    richer = fit_anchored_wavelengths(
+        maps, streaks, glass, slm_shape, tolerance,
+        field_degree=int(shape["field_degree"]), order=int(shape["order"]) + 1,
+    )  # fmt: skip
+    return {
+        float(label): float(high - low)
+        for label, high, low in zip(
+            measured.labels_nm, richer.wavelengths_nm, measured.wavelengths_nm, strict=True
+        )
+    }
+
+
+def _total_sigma_nm(
+    measured: AnchoredWavelengths, form_shift: Mapping[float, float]
+) -> NDArray[np.float64]:
+    """Each laser's 1-sigma with its form shift added in quadrature."""
+    shift = np.array([form_shift.get(float(label), 0.0) for label in measured.labels_nm])
+    return np.hypot(measured.sigma_nm, shift)
+
+
+def _unpinned_labels(
+    measured: AnchoredWavelengths,
+    procedure: Mapping[str, Any],
+    form_shift: Mapping[float, float] | None = None,
+) -> set[float]:
+    """Labels the lamps measure with a 1-sigma (its form shift added) above
+    ``tolerances.laser_wavelength_sigma_nm``."""
     tolerance = float((procedure.get("tolerances") or {}).get("laser_wavelength_sigma_nm", 0.5))
-    return {float(label) for label in measured.labels_nm[measured.sigma_nm > tolerance]}
+    sigma = _total_sigma_nm(measured, form_shift or {})
+    return {float(label) for label in measured.labels_nm[sigma > tolerance]}
 
 
-def _confirmed_labels(measured: AnchoredWavelengths, procedure: Mapping[str, Any]) -> set[float]:
+def _confirmed_labels(
+    measured: AnchoredWavelengths,
+    procedure: Mapping[str, Any],
+    form_shift: Mapping[float, float] | None = None,
+) -> set[float]:
     """Labels the lamps confirm: the freely measured line within ``fit.confirm_sigmas``
-    of its 1-sigma uncertainty and within ``fit.confirm_max_nm`` of its label."""
+    of its 1-sigma uncertainty (its form shift added) and within ``fit.confirm_max_nm``
+    of its label."""
     fit = procedure.get("fit") or {}
     sigmas = float(fit.get("confirm_sigmas", 3.0))
     largest = float(fit.get("confirm_max_nm", 0.3))
     off = np.abs(measured.wavelengths_nm - measured.labels_nm)
-    keep = (off <= sigmas * measured.sigma_nm) & (off <= largest)
+    keep = (off <= sigmas * _total_sigma_nm(measured, form_shift or {})) & (off <= largest)
     return {float(label) for label in measured.labels_nm[keep]}

@@ -26,12 +26,20 @@ from sassi_bench.calibrate.radiometry import (
     temperature_sensitivity,
 )
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.reduce.response_budget import ResponseFrameRecord
 from sassi_bench.rig.config import RigDescription
+from sassi_bench.spectra.deblur import MeanSpectrum
 from sassi_bench.spectra.forward import StreakForwardModel
 from sassi_bench.spectra.scan import ScanCube
 from sassi_bench.spectra.scan_deblur import scan_mean_spectrum
 
-__all__ = ["LAMP_DELTA_K", "ResponseSource", "publish_response", "response_source"]
+__all__ = [
+    "LAMP_DELTA_K",
+    "ResponseSource",
+    "publish_response",
+    "response_source",
+    "white_mean",
+]
 
 
 #: The lamp temperature uncertainty whose effect on the response is reported (K).
@@ -164,6 +172,25 @@ def response_source(
     return ResponseSource(float(kelvin), None, f"blackbody {kelvin:g} K")
 
 
+def _lit(scan: ScanCube) -> np.ndarray:
+    return (scan.quality == 0) & (np.abs(scan.cube).sum(axis=-1) > 0)
+
+
+def white_mean(scan: ScanCube, bundle: CalibrationBundle) -> MeanSpectrum:
+    """The white diffuser's deblurred mean spectrum over its lit pixels, with its 1-sigma.
+
+    The white's column sums are averaged first and deblurred once, at the mean's noise:
+    noise averages out of a mean, the per-pixel deblur's smoothing bias would not.
+
+    Examples
+    --------
+    Not run here (it needs captured sessions)::
+
+        white = white_mean(scan, bundle)
+    """
+    return scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle), _lit(scan))
+
+
 def publish_response(
     scan: ScanCube,
     session: Session,
@@ -177,6 +204,7 @@ def publish_response(
     reflectance: float = 1.0,
     data: str | os.PathLike[str] | None = None,
     allow_failed: bool = False,
+    frames: ResponseFrameRecord | None = None,
 ) -> Path:
     """The per-bin response from a white diffuser's scan, published in a new bundle.
 
@@ -202,6 +230,9 @@ def publish_response(
         Data root for bundles.
     allow_failed
         Publish although a check failed.
+    frames
+        What the scan took and why (:mod:`~sassi_bench.reduce.response_budget`): recorded,
+        and its stated 1-sigma checked against its tolerance (``response.sigma_relative``).
 
     Returns
     -------
@@ -215,11 +246,8 @@ def publish_response(
         path = publish_response(scan, session, bundle, desc, source, light="halogen",
                                 pitch=(100, 5), every=25)
     """
-    lit = (scan.quality == 0) & (np.abs(scan.cube).sum(axis=-1) > 0)
-    spectra = scan.cube[lit]
-    # The white's column sums are averaged first and deblurred once, at the mean's noise:
-    # noise averages out of a mean, the per-pixel deblur's smoothing bias would not.
-    white = scan_mean_spectrum(scan, StreakForwardModel.from_bundle(bundle), lit)
+    spectra = scan.cube[_lit(scan)]
+    white = white_mean(scan, bundle)
     response = response_from_white(
         white.band, source.photons_in_bins(bundle.bin_edges), reflectance, pixels=white.count
     )
@@ -233,6 +261,10 @@ def publish_response(
         QualityCheck("response_positive", float(positive), 1.0, "1", positive, ">="),
         QualityCheck.at_most("white_uniformity", spread, 0.1, "1"),
     ]
+    if frames is not None:
+        residuals["response_frames"] = frames.to_json()
+        residuals["notes"] = [frames.note()]
+        checks.append(QualityCheck.at_most("sigma_relative", frames.sigma, frames.tolerance, "1"))
     return publish_derived(
         bundle,
         stage="response",

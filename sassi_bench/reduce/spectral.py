@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.session import Session
@@ -35,6 +36,7 @@ from sassi_bench.calibrate.dispersion import (
 from sassi_bench.calibrate.grey_response import GreyResponse
 from sassi_bench.reduce.blur_budget import BlurFrameRecord
 from sassi_bench.reduce.blur_frames import pinhole_signals
+from sassi_bench.reduce.bundle_checks import bundle_check_notes, measured_bundle_checks
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
@@ -51,6 +53,7 @@ __all__ = [
     "SpectralCalibration",
     "SpectralSweeps",
     "analyse_spectral_sweeps",
+    "blur_band_notes",
     "blur_notes",
     "grade",
     "lamp_measurement",
@@ -164,6 +167,11 @@ def grade(
     laser_tolerance_nm
         Per label, how far the rig allows a line to be off its label.
 
+    The checks that measure the bundle follow
+    (:func:`~sassi_bench.reduce.bundle_checks.measured_bundle_checks`): the map's stated
+    1-sigma (``map_sigma_px``, ``map_sigma_nm``) and, with lamps, the lamp line furthest
+    from the map in its own sigmas (``lamp_line_max_sigmas``).
+
     Returns
     -------
     list of QualityCheck
@@ -228,7 +236,7 @@ def grade(
     )
     if anchoring is not None:
         checks += _anchoring_checks(anchoring, blur, tolerances, laser_tolerance_nm or {})
-    return checks
+    return checks + measured_bundle_checks(dispersion, anchoring, tolerances)
 
 
 def _anchoring_checks(
@@ -466,9 +474,13 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
     """
     design = getattr(result, "design_comparison", None)
     frames = [result.blur_record.note()] if result.blur_record is not None else []
+    prism = getattr(result.rig_description, "prism", None)
+    glass = str(getattr(prism, "glass", "as described"))
     return (
         laser_line_notes(result)
+        + bundle_check_notes(result.checks, result.dispersion, result.anchoring, glass)
         + blur_notes(result.blur)
+        + blur_band_notes(result.blur, result.dispersion.bins.edges_nm)
         + frames
         + ([f"as designed against as built: {design.verdict}"] if design is not None else [])
     )
@@ -506,6 +518,38 @@ def blur_notes(blur: BlurFit) -> list[str]:
         f"{100 * error:.1f} % RMS (above {100 * BLUR_NOTE_ERROR:.0f} %), so the blur curve "
         "between the lasers is uncertain (the scan's deblur allows for it); a line in "
         f"the widest gap, {lines[widest]:.0f}-{lines[widest + 1]:.0f} nm, would pin it"
+    ]
+
+
+def blur_band_notes(blur: BlurFit, bin_edges_nm: ArrayLike) -> list[str]:
+    """A note naming the band where a field blur was measured, when the bundle's bins
+    reach past it: its wavelength series is a free polynomial through the lasers' spots,
+    extrapolated beyond them (on the singlet design rig 0.5 px off at 420 nm,
+    ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``). The round blur's curve is the
+    chromatic defocus law itself, so it gets no such note.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> fit = SimpleNamespace(model=SimpleNamespace(kind="field_covariance"),
+    ...                       wavelengths_nm=np.array([450.0, 532.0, 670.0]))
+    >>> print(blur_band_notes(fit, [400.0, 500.0, 700.0])[0])  # doctest: +NORMALIZE_WHITESPACE
+    blur: measured over the field at the lasers, 450-670 nm; the bundle's bins reach
+    400-700 nm, where its widths are extrapolated
+    >>> blur_band_notes(fit, [450.0, 670.0])
+    []
+    """
+    if blur.model.kind != "field_covariance":
+        return []
+    lines = np.asarray(blur.wavelengths_nm, dtype=np.float64)
+    edges = np.asarray(bin_edges_nm, dtype=np.float64)
+    low, high = float(lines.min()), float(lines.max())
+    if edges.min() >= low and edges.max() <= high:
+        return []
+    return [
+        f"blur: measured over the field at the lasers, {low:.0f}-{high:.0f} nm; the "
+        f"bundle's bins reach {edges.min():.0f}-{edges.max():.0f} nm, where its widths are "
+        "extrapolated"
     ]
 
 
@@ -547,6 +591,16 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
             )
             if float(label) in anchoring.confirmed:
                 note += "; label confirmed, fitted at it)"
+            elif float(label) in anchoring.unpinned and abs(
+                shift := anchoring.form_shift_nm.get(float(label), 0.0)
+            ) > max(float(sigma), tolerance):
+                note += (
+                    f"; the measurement moves {shift:+.2f} nm when the column model gains a "
+                    "power: the lamp lines near it blend at this dispersion and the model's "
+                    "form, not the data, decides where, so it keeps its label. More lamp "
+                    "frames do not help; a lamp with isolated lines near it, or a prism with "
+                    "more spread there, would)"
+                )
             elif float(label) in anchoring.unpinned:
                 frames = math.ceil(anchoring.frames * (sigma / tolerance) ** 2)
                 note += (

@@ -143,6 +143,12 @@ def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
             "fitted_nm": dispersion.wavelengths_nm.get(float(label), float(measured)),
             "method": anchoring.method(label),
             "anchors": sorted(fit.lamps),
+            # How far the measurement moves with one more power in the column model.
+            **(
+                {"form_shift_nm": anchoring.form_shift_nm[float(label)]}
+                if float(label) in anchoring.form_shift_nm
+                else {}
+            ),
         }
         for label, measured, sigma in zip(
             free.labels_nm, free.wavelengths_nm, free.sigma_nm, strict=True

@@ -24,8 +24,10 @@ from sassi_bench.snapshot.adaptive import (
     AdaptiveMask,
     adaptive_mask,
     place_samples,
+    plan_image,
     planned_mask,
     segment_around_samples,
+    snapshot_regions,
 )
 from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube, spectral_basis
 from sassi_bench.snapshot.guided import guided_cube, guided_factors
@@ -77,6 +79,7 @@ __all__ = [
     "measure_samples",
     "measure_with_background",
     "place_samples",
+    "plan_image",
     "planned_mask",
     "psnr",
     "random_mask",
@@ -85,6 +88,7 @@ __all__ = [
     "reconstruct_frame",
     "segment_around_samples",
     "snapshot_dataset",
+    "snapshot_regions",
     "spectral_basis",
     "ssim",
     "superpixels",

@@ -40,8 +40,10 @@ __all__ = [
     "adaptive_mask",
     "guide_rank1_error",
     "place_samples",
+    "plan_image",
     "planned_mask",
     "segment_around_samples",
+    "snapshot_regions",
 ]
 
 #: How far a sample's region may reach, in mean region sides ``S`` each way (Chebyshev).
@@ -57,8 +59,9 @@ REACH_SIDES = 2
 #: the fill put pixels on 10 instead of 12.
 FILL_REACH_SIDES = 1
 #: Gaussian sigma (SLM px) of the smoothing the guide image gets before a plan is drawn
-#: from it: enough to take the guide camera's pixel noise out of the superpixels, well
-#: under a region's size.
+#: from it and before a snapshot's regions are drawn around the plan's samples: enough to
+#: take the guide camera's pixel noise out of the superpixels and the region boundaries,
+#: well under a region's size.
 PLAN_SMOOTHING_PX = 1.0
 #: The superpixel counts :func:`planned_mask` draws candidate masks for, as factors on
 #: :func:`default_segments`.
@@ -365,6 +368,49 @@ def guide_rank1_error(guide_slm: ArrayLike, plan: AdaptiveMask) -> float:
     return float(np.mean((cube.dense() - image) ** 2))
 
 
+def plan_image(
+    guide_slm: ArrayLike, smoothing_px: float = PLAN_SMOOTHING_PX
+) -> NDArray[np.float32]:
+    """The guide image that plans and regions are drawn on: smoothed by a Gaussian of
+    ``smoothing_px`` SLM pixels (0: unchanged), so that the guide camera's pixel noise
+    moves neither the superpixels nor the region boundaries.
+
+    A snapshot's regions come from the frame's own guide image, whose noise differs from
+    the preview's: drawn on the raw image, a small bright patch (a specular highlight) goes
+    to one sample or another with the noise, and rank-1 gives it a spectrum of another
+    colour (``benchmarks/bench_snapshot_noise.py``; docs/notes/2026-11-29-snapshot-regions.md).
+
+    Examples
+    --------
+    >>> image = np.zeros((9, 9, 1), np.float32); image[4, 4] = 1.0
+    >>> smooth = plan_image(image)
+    >>> smooth.shape, round(float(smooth[4, 4, 0]), 2), round(float(smooth.sum()), 2)
+    ((9, 9, 1), 0.16, 1.0)
+    """
+    import cv2
+
+    image = np.asarray(guide_slm, np.float32)
+    if smoothing_px > 0:
+        # OpenCV drops a single channel's axis; the shape is kept.
+        image = cv2.GaussianBlur(image, (0, 0), float(smoothing_px)).reshape(image.shape)
+    return image
+
+
+def snapshot_regions(
+    guide_slm: ArrayLike, samples: ArrayLike, *, compactness: float = 10.0
+) -> NDArray[np.int32]:
+    """A snapshot frame's regions: its guide image, smoothed as plans are
+    (:func:`plan_image`), re-segmented around the samples (:func:`segment_around_samples`).
+
+    Examples
+    --------
+    >>> image = np.zeros((6, 10), np.float32); image[:, 5:] = 1.0
+    >>> snapshot_regions(image, [[2, 1], [3, 8]])[0].tolist()
+    [0, 0, 0, 0, 0, 1, 1, 1, 1, 1]
+    """
+    return segment_around_samples(plan_image(guide_slm), samples, compactness=compactness)
+
+
 def planned_mask(
     guide_slm: ArrayLike,
     spacing: MaskSpacing,
@@ -411,11 +457,7 @@ def planned_mask(
 
         plan = planned_mask(guide_on_slm(bundle, preview), bundle.mask_spacing())
     """
-    import cv2
-
-    image = np.asarray(guide_slm, np.float32)
-    if smoothing_px > 0:
-        image = cv2.GaussianBlur(image, (0, 0), float(smoothing_px))
+    image = plan_image(guide_slm, smoothing_px)
     base = default_segments(spacing)
     counts = dict.fromkeys(max(1, round(base * factor)) for factor in segment_factors)
     if not counts:

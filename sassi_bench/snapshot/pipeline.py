@@ -8,8 +8,10 @@ output; ``sassi-bench snapshot take`` and ``snapshot reconstruct`` write it to d
 
 The regions follow the samples the mask was drawn around: for an adaptive mask, the
 superpixel centres of the guide image the mask was computed from (in video mode the
-previous frame's), re-segmented on this frame's guide image; for any other mask, every
-open pixel is a region centre.
+previous frame's), re-segmented on this frame's guide image smoothed as plans are
+(:func:`~sassi_bench.snapshot.adaptive.snapshot_regions`), so the guide camera's noise does not
+move their boundaries; for any other mask, every open pixel is a region centre. Rank-1
+scales each region's spectrum by the unsmoothed guide image.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import CalibrationBundle, MaskSpacing
-from sassi_bench.snapshot.adaptive import planned_mask, segment_around_samples
+from sassi_bench.snapshot.adaptive import planned_mask, snapshot_regions
 from sassi_bench.snapshot.factored import LowRankCube, Rank1Cube
 from sassi_bench.snapshot.guided import guided_factors
 from sassi_bench.snapshot.reconstruct import measure_samples, rank1_factors
@@ -134,7 +136,8 @@ def reconstruct_frame(
         (N, 2) (row, column) region centres (see :func:`adaptive_samples`); None: every
         open pixel.
     compactness
-        SLIC's weight of space against colour in the re-segmentation.
+        SLIC's weight of space against colour in the re-segmentation (drawn on the guide
+        image smoothed as plans are, :func:`~sassi_bench.snapshot.adaptive.snapshot_regions`).
     guided_radius, guided_eps
         The guided filter's window radius (None: about nine open pixels a window) and ridge.
     deblur
@@ -157,7 +160,7 @@ def reconstruct_frame(
     mask = np.asarray(mask, dtype=bool)
     centres = np.argwhere(mask) if samples is None else np.asarray(samples)
     centres = centres.astype(np.int32)
-    labels = segment_around_samples(guide_slm, centres, compactness=compactness)
+    labels = snapshot_regions(guide_slm, centres, compactness=compactness)
     spectra, units = measure_samples(spectral, mask, bundle, exposure_s=exposure_s, deblur=deblur)
     return FrameReconstruction(
         mask=mask,

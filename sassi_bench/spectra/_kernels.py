@@ -27,6 +27,10 @@ from numba import njit
 from sassi_bench.maths.banded import band_solve
 from sassi_bench.maths.normal import tabulated_cdf
 
+#: A cell reaches at least this far (camera rows) from its centre, so it always holds the
+#: row of its centre (a row belongs to a cell by its upper edge, up to one row away).
+MIN_CELL_REACH_PX = 1.0
+
 
 @njit(nogil=True, error_model="numpy")
 def _polynomial(coeffs, n, s):  # pragma: no cover - compiled
@@ -141,9 +145,13 @@ def cell_bounds(
 
     The cell of (pixel, bin) is the rows nearer to its bin centre than to the stacked
     neighbours' (``index``: (G, S) pixels of an SLM column, top to bottom, -1 pads at the
-    end), at most ``reach_sigmas`` blur sigmas away; a row belongs to a cell when its
-    upper edge lies in the cell. Returns how many (pixel, bin) have a non-finite centre or
-    column bound (their cells are left unset: the caller refuses such a geometry).
+    end), at most ``reach_sigmas`` blur sigmas away but at least one row; a row belongs to
+    a cell when its upper edge lies in the cell. The one-row floor keeps the centre's row
+    in the cell of a spot much narrower than a row (a field blur fitted from the lasers
+    and extrapolated past them thinned the singlet arm's blue end to 0.04 px, whose
+    cells then held no row and unmixed to 0 / 0). Returns how many (pixel, bin) have a
+    non-finite centre or column bound (their cells are left unset: the caller refuses such
+    a geometry).
     """
     groups, stack = index.shape
     bins = y.shape[1]
@@ -164,7 +172,7 @@ def cell_bounds(
                 ):
                     bad += 1
                     continue
-                reach = reach_sigmas * sigma[n, b]
+                reach = max(reach_sigmas * sigma[n, b], MIN_CELL_REACH_PX)
                 upper = centre - reach
                 if up >= 0:
                     upper = max(upper, 0.5 * (centre + y[up, b]))

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping
+from dataclasses import replace
 from datetime import UTC, datetime
 from typing import Any
 
@@ -22,6 +23,12 @@ from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.errors import ConfigError, step_error
 from sassi_bench.reduce.health import HealthCheck, check_session, health_lamps
+from sassi_bench.reduce.health_budget import (
+    ShiftFrameRecord,
+    decide_shift_frames,
+    shift_frame_settings,
+)
+from sassi_bench.reduce.lamps import lamp_frame_steps
 from sassi_bench.rig.config import RigDescription, rig_dict_sha256
 from sassi_bench.rig.rig import Rig
 from sassi_bench.workflows.rig_lock import drives_rig
@@ -113,8 +120,14 @@ def run_health_check(
     *,
     data: str | os.PathLike[str] | None = None,
     progress: bool = False,
+    session_id: str | None = None,
 ) -> HealthCheck:
     """Capture the check's frames and compare the lamp streaks with the bundle.
+
+    The check measures until confident: ``frames`` pinhole frames first, then, while the
+    shift map's stated 1-sigma is above ``tolerances.shift_sigma_px``, the frames
+    :func:`~sassi_bench.reduce.health_budget.decide_shift_frames` asks for, at most
+    ``max_frames``; what it took and why is in the check's notes and ``frame_record``.
 
     Parameters
     ----------
@@ -129,6 +142,8 @@ def run_health_check(
         Data root (the frames go into a session ``check-<time>``).
     progress
         Show a progress bar.
+    session_id
+        The session holding the frames (an existing one resumes; None: ``check-<time>``).
 
     Returns
     -------
@@ -164,13 +179,31 @@ def run_health_check(
             start_s=float(search["start_s"]),
         )  # fmt: skip
     stamp = datetime.now(UTC)
-    session_id = "check-" + stamp.strftime("%Y%m%dT%H%M%S%fZ")
-    session = Session.create(desc, lamp_plan(lamp_proc, {light: exposure}), session_id=session_id,
-                             data=data)  # fmt: skip
-    rig.set_scene("white")
-    run_plan(rig, session.plan, session, progress=progress)
-    captured = time.perf_counter()
-    return check_session(
-        session, bundle, procedure, desc, light=light,
-        checked_utc=stamp.isoformat(timespec="seconds"), capture_s=captured - started,
+    first, budget, tolerance = shift_frame_settings(procedure)
+    session = Session.resume_or_plan(
+        desc, lambda: lamp_plan(lamp_proc, {light: exposure}, frames=budget),
+        session_id=session_id or "check-" + stamp.strftime("%Y%m%dT%H%M%S%fZ"), data=data,
     )  # fmt: skip
+    planned = 1 + max(int(step.tags.get("frame", 0)) for step in session.plan.steps)
+    budget = min(budget, planned)  # a resumed session keeps the budget it was planned to
+    rig.set_scene("white")
+    frames, batches = min(first, budget), []
+    capture_s = time.perf_counter() - started  # the exposure search's
+    while True:
+        began = time.perf_counter()
+        run_plan(rig, session.plan, session, progress=progress,
+                 steps=lamp_frame_steps(session.plan, frames))  # fmt: skip
+        capture_s += time.perf_counter() - began
+        check = check_session(
+            session, bundle, procedure, desc, light=light, frames=frames,
+            checked_utc=stamp.isoformat(timespec="seconds"), capture_s=capture_s,
+        )  # fmt: skip
+        batch = decide_shift_frames(
+            frames, check.field.sigma_px, check.field.max_px, tolerance, budget
+        )
+        batches.append(batch)
+        if batch.next_frames is None:
+            break
+        frames = batch.next_frames
+    record = ShiftFrameRecord(tuple(batches), tolerance, budget)
+    return replace(check, notes=[*check.notes, record.note()], frame_record=record)

@@ -28,16 +28,22 @@ from sassi_bench.acquire.frame_feed import FrameFeed
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.plan_geometry import scan_pitch
 from sassi_bench.acquire.runner import run_plan
-from sassi_bench.acquire.scan_plans import check_pitch, check_roi, scan_plan
+from sassi_bench.acquire.scan_plans import check_pitch, check_roi, refining_scan_plan, scan_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.streak_pitch import check_scan_pitch
 from sassi_bench.bundle import CalibrationBundle
 from sassi_bench.bundle.derive import check_parent
-from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.reduce.response import publish_response, response_source
-from sassi_bench.reduce.scan import ScanRun, finish_scan, read_stored, scan_assembly
+from sassi_bench.errors import ConfigError, ProcedureError, step_error
+from sassi_bench.reduce.response import publish_response, response_source, white_mean
+from sassi_bench.reduce.response_budget import (
+    ResponseFrameRecord,
+    decide_response_frames,
+    response_frame_settings,
+    response_sigma,
+)
+from sassi_bench.reduce.scan import ScanRun, finish_scan, read_stored
 from sassi_bench.rig.rig import Rig, check_light, check_scene
-from sassi_bench.spectra.scan import ScanCube
+from sassi_bench.spectra.scan import ScanAssembly, ScanCube
 from sassi_bench.workflows.rig_lock import drives_rig
 
 __all__ = ["capture_scan", "check_scan", "run_response", "run_scan"]
@@ -99,6 +105,7 @@ def capture_scan(
     keep_raw: bool = False,
     unmixing: str = "mixed",
     progress: bool = True,
+    frames: int | None = None,
 ) -> ScanCube:
     """Capture what a scan session misses and assemble the scan as its frames are stored.
 
@@ -113,6 +120,9 @@ def capture_scan(
         As for :func:`~sassi_bench.reduce.scan.assemble_scan`.
     progress
         Show progress bars.
+    frames
+        Only the first ``frames`` pinhole frames of a refining plan
+        (:func:`~sassi_bench.acquire.scan_plans.refining_scan_plan`); None: every frame.
 
     Returns
     -------
@@ -124,17 +134,28 @@ def capture_scan(
 
         scan = capture_scan(rig, session, bundle, keep_raw=True)
     """
-    assembly = scan_assembly(
-        session, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing
+    plan = session.plan if frames is None else _prefix(session.plan, frames)
+    assembly = ScanAssembly(
+        plan, session.rig, bundle, roi=roi, deblur=deblur, keep_raw=keep_raw, unmixing=unmixing
     )
     stored = session.completed
     read_stored(assembly, session, [i for i in assembly.steps if i in stored], progress=progress)
     todo = [i for i in assembly.steps if i not in stored]
     with FrameFeed(session, todo, assembly.read, label="scan") as feed:
-        run_plan(rig, session.plan, feed.tee(), progress=progress)
+        run_plan(rig, session.plan, feed.tee(), progress=progress, steps=range(len(plan.steps)))
         feed.finish()
     release_memory()  # the reading pass's per-frame buffers, before the cube's work
     return finish_scan(assembly, session, progress=progress)
+
+
+def _prefix(plan: Plan, frames: int) -> Plan:
+    """The closed-SLM frame and the first ``frames`` pinhole frames of a refining plan,
+    which come first in it (so a step's index is the session's)."""
+    count = 1 + max(
+        (i for i, s in enumerate(plan.steps) if int(s.tags.get("frame", -1)) < frames),
+        default=-1,
+    )
+    return Plan(plan.name, plan.steps[:count], plan.parameters)
 
 
 def _plan(rig: Rig, scene: str, light: str, pitch, every: int, target: float) -> Plan:
@@ -165,6 +186,8 @@ def run_response(
     reflectance: float = 1.0,
     pitch: tuple[int, int] | None = None,
     every: int = 25,
+    max_frames: int | None = None,
+    sigma_max: float | None = None,
     session_id: str | None = None,
     data=None,
     progress: bool = True,
@@ -176,6 +199,13 @@ def run_response(
     ``light.halogen_k``) or a reference CSV (wavelength_nm, power). The new bundle
     carries ``bundle``'s quality checks; a parent published with an override is refused
     (before anything is captured) unless ``allow_failed``.
+
+    The scan measures until confident: every ``every``-th pinhole offset first, then,
+    while the response's stated relative 1-sigma (its worst bin) is above ``sigma_max``,
+    the offsets between them
+    (:func:`~sassi_bench.reduce.response_budget.decide_response_frames`), at most
+    ``max_frames`` pinhole frames; what was taken and why goes into the bundle
+    (``quality.residuals.response.response_frames``).
 
     Parameters
     ----------
@@ -193,7 +223,11 @@ def run_response(
         (horizontal, vertical) pinhole pitch in SLM pixels; None: derived from the rig's
         optics (:func:`~sassi_bench.acquire.plan_geometry.scan_pitch`).
     every
-        Keep every n-th pinhole offset (a thinned scan is enough for a flat target).
+        Keep every n-th pinhole offset first (a thinned scan is enough for a flat target).
+    max_frames, sigma_max
+        The budget of pinhole frames and the response's relative 1-sigma to reach
+        (None: :data:`~sassi_bench.reduce.response_budget.DEFAULT_MAX_FRAMES`,
+        :data:`~sassi_bench.reduce.response_budget.DEFAULT_TOLERANCE`).
     session_id
         Id of the raw session; an existing id resumes.
     data
@@ -219,17 +253,47 @@ def run_response(
     pitch = scan_pitch(rig.description, pitch)
     check_scan(rig, "white", light, pitch)
     source = response_source(rig.description, temperature_k, reference_csv)
+    first = -(-pitch[0] * pitch[1] // every)
+    first, budget, tolerance = response_frame_settings(
+        {"max_frames": max_frames, "sigma_max": sigma_max}, first
+    )
     session = Session.resume_or_plan(
         rig.description,
-        lambda: _plan(rig, "white", light, pitch, every, 0.6),
+        lambda: refining_scan_plan(_plan(rig, "white", light, pitch, 1, 0.6), every, budget),
         session_id=session_id or _stamp("response"),
         data=data,
     )
-    scan = capture_scan(rig, session, bundle, keep_raw=True, progress=progress)
+    _check_response_session(session, every, budget)
+    frames, batches = first, []
+    while True:
+        scan = capture_scan(rig, session, bundle, keep_raw=True, progress=progress, frames=frames)
+        batch = decide_response_frames(
+            frames, response_sigma(white_mean(scan, bundle)), tolerance, budget
+        )
+        batches.append(batch)
+        if batch.next_frames is None:
+            break
+        frames = batch.next_frames
+        release_memory()
     return publish_response(
         scan, session, bundle, rig.description, source, light=light, pitch=pitch, every=every,
         reflectance=reflectance, data=data, allow_failed=allow_failed,
+        frames=ResponseFrameRecord(tuple(batches), tolerance, budget, every),
     )  # fmt: skip
+
+
+def _check_response_session(session: Session, every: int, budget: int) -> None:
+    planned = session.plan.parameters
+    if planned.get("every") != every or planned.get("max_frames") != budget:
+        raise ConfigError(
+            step_error(
+                f"resume session {session.id}",
+                f"its white frames were planned for every={planned.get('every')} and "
+                f"max_frames={planned.get('max_frames')}, not every={every} and "
+                f"max_frames={budget}",
+                "resume with the same response settings, or start a new --session",
+            )
+        )
 
 
 @drives_rig("scan")

@@ -7,6 +7,7 @@ import pytest
 import yaml
 
 from sassi_bench.acquire.plan_geometry import (
+    guide_stride,
     plan_geometry,
     planned_guide,
     planned_health_check,
@@ -113,6 +114,24 @@ def test_a_smaller_slm_asks_fewer_guide_inliers():
     # 30 on 640 x 400; a 320 x 240 field shows 0.3 of that texture: 9, at least 12.
     assert plan_geometry(small).min_inliers == 12
     assert plan_geometry(load_rig_description("sim")).min_inliers == 30
+
+
+def test_a_narrower_slm_gets_a_finer_guide_scan_lattice():
+    """The guide scan's derived stride: 4 on 640 px wide, in proportion below, never 0;
+    a procedure's own stride stays and the derived pitch is a multiple of either."""
+    for width, stride in {640: 4, 480: 3, 320: 2, 200: 1}.items():
+        desc = rig_description_from_dict(_rig(slm__width=width))
+        assert guide_stride(desc) == (stride, 1), width
+    assert guide_stride(load_rig_description("sim-prototype")) == (4, 1)  # 1920 px wide
+    small = rig_description_from_dict(
+        _rig(slm__width=320, slm__height=240, guide_camera__width=300, guide_camera__height=240)
+    )
+    planned = planned_guide(load_procedure("guide_registration"), small)["scan"]
+    assert planned["stride_px"] == [2, 1]
+    check_stride(planned["pitch_px"], planned["stride_px"])
+    given = load_procedure("guide_registration")
+    given["scan"]["stride_px"] = [4, 1]
+    assert planned_guide(given, small)["scan"]["stride_px"] == [4, 1]
 
 
 def test_a_streak_too_long_for_the_slm_is_refused_naming_the_optics():

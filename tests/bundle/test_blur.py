@@ -105,3 +105,16 @@ def test_the_gaussian_profiles_table_is_its_cdf():
     u = t - i
     table = cubic[i, 0] + u * (cubic[i, 1] + u * (cubic[i, 2] + u * cubic[i, 3]))
     assert np.abs(table - ndtr(z)).max() < 1e-10
+
+
+def test_the_field_blur_is_never_narrower_than_the_slm_pixels_image():
+    """A covariance series that dives below zero (a fit extrapolated past its lasers did,
+    on the singlet arm's blue end) is held at the SLM pixel's image on both axes."""
+    coeffs = np.zeros((3, 3, 2))
+    coeffs[0, 0] = [1.0, 2.0]  # cxx = 1 + 2 t: negative below t = -0.5
+    coeffs[1, 0] = [0.5, 2.0]  # cyy = 0.5 + 2 t: negative below t = -0.25
+    blur = FieldCovarianceBlur(coeffs, 1, (200, 320), 550.0, 150.0, 3.0, 0.09)
+    cxx, cyy, cxy = blur.covariance(100.0, 50.0, [400.0, 550.0])
+    np.testing.assert_allclose(cxx, [0.09, 1.0])
+    np.testing.assert_allclose(cyy, [0.09, 0.5])
+    assert np.all(cxy == 0.0)

@@ -5,7 +5,7 @@ import pytest
 
 from sassi_bench.bundle import load
 from sassi_bench.maths.normal import box_overlap
-from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum
+from sassi_bench.spectra.cells import cell_layout, cell_sums, column_cumsum, unmix_rows
 from sassi_bench.spectra.deblur import PIXEL_GUARD_WEIGHT, SpectralDeblur
 from sassi_bench.spectra.geometry import StreakGeometry, reached_rows, streak_geometry
 from sassi_bench.spectra.priors import SmoothnessPrior
@@ -116,3 +116,28 @@ def test_a_geometry_with_nan_is_refused():
     )
     with pytest.raises(ValueError, match=r"spectrum extraction.*not finite.*bundle verify"):
         cell_layout(geo, (8, 8))
+
+
+def test_a_spot_narrower_than_a_row_keeps_its_centres_row():
+    """Two stacked pixels whose spots are far narrower than a camera row (a field blur
+    extrapolated past its lasers gave the singlet's blue end 0.04 px): every cell holds
+    the row of its centre, and the unmixing gives the light back, not 0 / 0."""
+    centres = np.array([[18.0, 18.3, 17.7], [24.0, 24.3, 23.7]])
+    geo = StreakGeometry(
+        rows=np.array([0, 7]),
+        cols=np.array([3, 3]),
+        x_left=np.full((2, 3), 10.0),
+        x_right=np.full((2, 3), 11.0),
+        y=centres,
+        sigma=np.full(3, 0.04),
+        guard=0,
+    )
+    layout = cell_layout(geo, (40, 30))
+    assert np.all(layout.lo < centres) and np.all(centres < layout.hi)
+    light = np.array([[5.0, 7.0, 11.0], [13.0, 17.0, 19.0]])
+    # The whole spot in its centre's row; a cell sums the rows between its bounds.
+    rows = np.floor(centres + 0.5)
+    sums = light * ((layout.lo < rows) & (rows < layout.hi))
+    amplitudes = unmix_rows(sums, layout, geo)
+    assert np.isfinite(amplitudes).all()
+    np.testing.assert_allclose(amplitudes, light, rtol=1e-6)

@@ -12,6 +12,7 @@ import pytest
 import yaml
 
 from sassi_bench import open_rig
+from sassi_bench.acquire.session import Session
 from sassi_bench.bundle import load
 from sassi_bench.calibrate.lamp_streaks import StreakProfiles
 from sassi_bench.commands import main
@@ -82,6 +83,30 @@ def test_without_an_exposure_in_the_bundle_the_procedure_s_search_sets_it(
     )
     assert recorded > 0.04 and searched["found"] == pytest.approx(0.03)
     assert check.verdict == "holds", check.summary()
+
+
+def test_the_check_takes_frames_until_its_shift_is_confident_and_resumes(calibrated_sim, bundle):
+    rig, _, data = calibrated_sim
+    procedure = load_procedure("health_check")
+    # sim's map states +-0.0014 px after one frame, 0.0012 after two (measured): a
+    # tolerance under both makes the check add frames up to its budget of three.
+    procedure["tolerances"]["shift_sigma_px"] = 0.0008
+    procedure["max_frames"] = 3
+    check = run_health_check(rig, bundle, procedure, data=data, session_id="hc-until")
+    record = check.frame_record
+    taken = [b.frames for b in record.batches]
+    assert taken[0] == 1 and taken[-1] == 3 and taken == sorted(set(taken))
+    assert record.outcome == "budget spent" and check.frames == 6  # and 3 closed-SLM frames
+    assert record.sigma_px < record.batches[0].sigma_px
+    # The still bench measured against its truth (no shift): measured 0.0010 px largest.
+    assert check.field.max_px < 0.003
+    assert "check frames: 3 pinhole frames (1, then" in check.summary()
+    assert record.advice() in check.summary()
+    # Run again on the same session: the same decisions on the stored frames, none taken.
+    stored = set(Session.open("hc-until", data=data).completed)
+    again = run_health_check(rig, bundle, procedure, data=data, session_id="hc-until")
+    assert set(Session.open("hc-until", data=data).completed) == stored
+    assert again.frame_record.to_json() == record.to_json()
 
 
 def test_a_drift_of_0_2_px_is_measured_and_flagged(calibrated_sim, bundle):

@@ -131,8 +131,11 @@ class FieldCovarianceBlur(BlurModel):
         basis = np.broadcast_to(basis, (*shape, basis.shape[-1]))
         powers = np.broadcast_to(powers, (*shape, powers.shape[-1]))
         out = np.einsum("...f,cfl,...l->c...", basis, self.coeffs, powers, optimize=True)
-        cxx = np.maximum(out[0], _MIN_VARIANCE)
-        cyy = np.maximum(out[1], _MIN_VARIANCE)
+        # The spot holds the SLM pixel's image: never narrower than that on either axis
+        # (a fit extrapolated past its lasers can dive below it).
+        floor = max(_MIN_VARIANCE, self.pixel_variance_px2)
+        cxx = np.maximum(out[0], floor)
+        cyy = np.maximum(out[1], floor)
         limit = _MAX_CORRELATION * np.sqrt(cxx * cyy)
         return cxx, cyy, np.clip(out[2], -limit, limit)
 

@@ -1,0 +1,215 @@
+"""Checks that measure the bundle against what it is used for, and what to do when one fails.
+
+- **The map's stated uncertainty.** The dispersion fit states the 1-sigma of the column it
+  predicts at the field centre, the worst over 400-700 nm
+  (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.position_sigma_px`, from the
+  laser maps' scatter about the joint model). The bundle places streaks to a tenth of a
+  pixel and wavelengths to 0.3 nm; its own 1-sigma must be well inside both
+  (``tolerances.map_sigma_px``, ``tolerances.map_sigma_nm``; in nm over the smallest
+  local dispersion of the band, the conservative reading).
+- **Lamp lines against their own uncertainty.** Every lamp line bright enough to tell has a
+  residual from where the map puts it and a 1-sigma from its photons (scaled by its
+  lamp's reduced chi-square). Against the line's width (``lamp_line_rms_fwhm``) a wrong
+  glass hides at low dispersion: the lasers, free within their diodes' tolerance, and
+  the dense lines elsewhere bend the map to the described glass's curve, and the line
+  left over at the band's end sits a few hundredths of its FWHM off, yet many of its
+  own sigmas (on the noisy N-BK7 bench described with F2, HgAr 404.7 nm: -0.14 nm at
+  +-0.012 nm, 11 sigma; with N-BK7 every line is within 0.3 sigma). So the largest
+  ``|residual| / sigma`` is checked (``tolerances.lamp_line_max_sigmas``), and a failure
+  names the glass first: it is the one stated value that bends the map's curve.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from sassi_bench.bundle import QualityCheck
+from sassi_bench.calibrate.dispersion import DispersionFit
+from sassi_bench.reduce.lamps import LampAnchoring
+
+__all__ = [
+    "LAMP_LINE_MAX_SIGMAS",
+    "MAP_SIGMA_NM",
+    "MAP_SIGMA_PX",
+    "LampLineOutlier",
+    "bundle_check_notes",
+    "map_sigma_nm",
+    "measured_bundle_checks",
+    "worst_lamp_line",
+]
+
+#: The map's 1-sigma (camera px) when the procedure names none: half the 0.1 px a bundle
+#: places streaks to.
+MAP_SIGMA_PX = 0.05
+#: The map's 1-sigma (nm) when the procedure names none: half the 0.3 nm of its wavelengths.
+MAP_SIGMA_NM = 0.15
+#: How many of its own sigmas a lamp line may sit off the map when the procedure names none.
+LAMP_LINE_MAX_SIGMAS = 5.0
+
+
+@dataclass(frozen=True)
+class LampLineOutlier:
+    """The lamp line furthest from the map in units of its own 1-sigma.
+
+    Attributes
+    ----------
+    lamp, line_nm
+        The lamp and the line's table wavelength.
+    residual_nm, sigma_nm
+        Its residual from where the map puts it and its 1-sigma (nm).
+    """
+
+    lamp: str
+    line_nm: float
+    residual_nm: float
+    sigma_nm: float
+
+    @property
+    def sigmas(self) -> float:
+        """``|residual| / sigma``."""
+        return abs(self.residual_nm) / self.sigma_nm
+
+
+def worst_lamp_line(anchoring: LampAnchoring) -> LampLineOutlier | None:
+    """The lamp line furthest from the map in its own sigmas (None without a told line).
+
+    Examples
+    --------
+    Not run here (it needs captured sessions)::
+
+        worst_lamp_line(result.anchoring).sigmas
+        # 0.23
+    """
+    lines = [
+        LampLineOutlier(lamp, lam, residual, sigma)
+        for lamp, told in anchoring.line_residuals_nm().items()
+        for lam, (residual, sigma) in told.items()
+        if np.isfinite(residual) and np.isfinite(sigma) and sigma > 0
+    ]
+    return max(lines, key=lambda line: line.sigmas, default=None)
+
+
+def map_sigma_nm(fit: DispersionFit) -> float:
+    """The map's stated 1-sigma in nm: the worst column 1-sigma over the smallest local
+    dispersion of 400-700 nm at the field centre (px per nm).
+
+    Examples
+    --------
+    Not run here (it needs captured sessions)::
+
+        map_sigma_nm(result.dispersion)
+        # 0.0012
+    """
+    model = fit.model
+    h, w = model.slm_shape
+    lam = np.linspace(400.0, 700.0, 61)
+    x, _ = model.evaluate((w - 1) / 2, (h - 1) / 2, lam)
+    slope = float(np.abs(np.gradient(np.asarray(x, dtype=np.float64).ravel(), lam)).min())
+    return fit.position_sigma_px / slope if slope > 0 else float("inf")
+
+
+def measured_bundle_checks(
+    fit: DispersionFit, anchoring: LampAnchoring | None, tolerances: Mapping[str, float]
+) -> list[QualityCheck]:
+    """The map's stated 1-sigma in px and nm and, with lamps, the lamp line furthest from
+    the map in its own sigmas.
+
+    Parameters
+    ----------
+    fit
+        The dispersion fit.
+    anchoring
+        The lamp anchoring, if any.
+    tolerances
+        The spectral procedure's ``tolerances``.
+
+    Returns
+    -------
+    list of QualityCheck
+        ``map_sigma_px``, ``map_sigma_nm`` and, with lamps, ``lamp_line_max_sigmas``.
+
+    Examples
+    --------
+    Not run here (it needs captured sessions)::
+
+        [c.name for c in measured_bundle_checks(result.dispersion, None, tolerances)]
+        # ['map_sigma_px', 'map_sigma_nm']
+    """
+    checks = [
+        QualityCheck.at_most(
+            "map_sigma_px",
+            fit.position_sigma_px,
+            float(tolerances.get("map_sigma_px", MAP_SIGMA_PX)),
+            "px",
+        ),
+        QualityCheck.at_most(
+            "map_sigma_nm",
+            map_sigma_nm(fit),
+            float(tolerances.get("map_sigma_nm", MAP_SIGMA_NM)),
+            "nm",
+        ),
+    ]
+    worst = worst_lamp_line(anchoring) if anchoring is not None else None
+    if worst is not None:
+        checks.append(
+            QualityCheck.at_most(
+                "lamp_line_max_sigmas",
+                worst.sigmas,
+                float(tolerances.get("lamp_line_max_sigmas", LAMP_LINE_MAX_SIGMAS)),
+                "1",
+            )
+        )
+    return checks
+
+
+def bundle_check_notes(
+    checks: list[QualityCheck],
+    fit: DispersionFit,
+    anchoring: LampAnchoring | None,
+    glass: str,
+) -> list[str]:
+    """A note for every failed check of :func:`measured_bundle_checks`: the physical cause
+    and the fix a person can carry out.
+
+    Parameters
+    ----------
+    checks
+        The calibration's checks (those of :func:`measured_bundle_checks` are read).
+    fit, anchoring
+        The dispersion fit and the lamp anchoring.
+    glass
+        The prism's glass as described (``prism.glass``).
+
+    Examples
+    --------
+    >>> bundle_check_notes([], None, None, "F2")
+    []
+    """
+    failed = {c.name: c for c in checks if not c.passed}
+    notes = []
+    if "map_sigma_px" in failed or "map_sigma_nm" in failed:
+        notes.append(
+            f"wavelength map: it states +-{fit.position_sigma_px:.3f} px "
+            f"(+-{map_sigma_nm(fit):.3f} nm where the dispersion is lowest), more than the "
+            "bundle is used for: the laser maps scatter about the joint dispersion model. "
+            "Fix: check each laser's correspondence residual (a noisy or clipped sweep: a "
+            "longer or shorter exposure), add a laser line, or lower fit.dispersion_order "
+            "with fewer lines"
+        )
+    worst = worst_lamp_line(anchoring) if anchoring is not None else None
+    if "lamp_line_max_sigmas" in failed and worst is not None:
+        notes.append(
+            f"lamp line {worst.lamp} {worst.line_nm:.1f} nm: {worst.residual_nm:+.3f} nm "
+            f"(+-{worst.sigma_nm:.3f} nm, {worst.sigmas:.0f} sigma) from where the map puts it, "
+            "though small against its width: the map's curve across the band does not follow "
+            f"the bench. The prism's glass may not be the one described ({glass}): the map "
+            "follows the described glass's dispersion and the lasers, free within their "
+            "tolerance, absorb the difference. Fix: check prism.glass against the prism's "
+            "datasheet or melt sheet and calibrate again; if the glass is right, check the "
+            f"{worst.lamp} table near {worst.line_nm:.0f} nm (a line missing from it blends "
+            "into this one at this dispersion)"
+        )
+    return notes
