@@ -48,6 +48,26 @@ def within_targets(record: dict) -> bool:
     return True
 
 
+def on_target(record: dict) -> bool | None:
+    """Whether the bundle's figures are all within the targets, whatever its checks said;
+    None when there is no bundle to score (refused, crashed)."""
+    if "wl_nm" not in record:
+        return None
+    return within_targets({**record, "outcome": "published"})
+
+
+def checks_verdict(record: dict) -> str:
+    """Whether the bundle's checks judged it right: a bundle on target that passes and one
+    off target that fails are both right; the other two are the checks' errors."""
+    scored = on_target(record)
+    if scored is None:
+        return "no bundle"
+    published = record.get("outcome") == "published"
+    if scored == published:
+        return "right"
+    return "passed off target" if published else "failed on target"
+
+
 def score(rig, result) -> dict:
     """The chain's models against the bench's truth (as ``accuracy_table.py`` scores them)."""
     from accuracy_table import _chart_scan_scores
@@ -122,19 +142,30 @@ def print_table(records: list[dict]) -> None:
     def f(r: dict, key: str, fmt: str) -> str:
         return fmt.format(r[key]) if r.get(key) is not None else "-"
 
-    print("| rig | outcome | corr px | wavelength nm RMS (max) | dE00 | scan dB | time s | cause |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print(
+        "| rig | outcome | checks | corr px | wavelength nm RMS (max) | dE00 | scan dB | "
+        "time s | cause |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in records:
         wl = f"{r['wl_nm']:.3f} ({r['wl_max_nm']:.3f})" if "wl_nm" in r else "-"
         print(
-            f"| {r['rig']} | {r['outcome']} | {f(r, 'corr_px', '{:.3f}')} | {wl} | "
+            f"| {r['rig']} | {r['outcome']} | {checks_verdict(r)} | {f(r, 'corr_px', '{:.3f}')} | "
+            f"{wl} | "
             f"{f(r, 'de00', '{:.2f}')} | {f(r, 'scan_db', '{:.1f}')} | {r['time_s']} | "
             f"{_cause(r)} |"
         )
     ok = sum(bool(r.get("within_targets")) for r in records)
+    verdicts = [checks_verdict(r) for r in records]
     print(
         f"\nrig family: {ok} of {len(records)} published within the targets "
         "(0.1 px, 0.3 nm, dE00 0.5, 45 dB)"
+    )
+    print(
+        f"checks: right on {verdicts.count('right')} of {len(records)} "
+        f"({verdicts.count('passed off target')} passed off target, "
+        f"{verdicts.count('failed on target')} failed on target, "
+        f"{verdicts.count('no bundle')} without a bundle)"
     )
 
 

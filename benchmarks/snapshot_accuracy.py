@@ -42,8 +42,9 @@ def _bundle(rig, data: Path):
     except BundleError:  # none published yet: calibrate (minutes to half an hour)
         procedure = load_procedure("full_calibration")
         result = run_full_calibration(
-            rig, procedure, session_id="accuracy", data=data, progress=True, allow_failed=True
-        )
+            rig, procedure, session_id=f"accuracy-{rig.description.name}", data=data,
+            progress=True, allow_failed=True,
+        )  # fmt: skip
         return load(result.bundle_path)
 
 
