@@ -59,8 +59,11 @@ def test_a_laser_off_its_label_fails_a_check_that_names_it(swept):
     failed = {c.name for c in result.checks if not c.passed}
     assert "laser_line_635nm" in failed
     assert not {c for c in failed if c.startswith("laser_line_") and c != "laser_line_635nm"}
-    # Only the line and what it spoils fail: the glass, apex and SLM gamma are absorbed.
-    assert failed <= {"laser_line_635nm", "leave_one_out_rms_nm", "leave_one_out_max_px"}
+    # Only the line and what it spoils fail (leave-one-out, and the map's stated 1-sigma,
+    # which the mislabelled line's scatter inflates): the glass, apex and SLM gamma are
+    # absorbed.
+    spoiled = {"leave_one_out_rms_nm", "leave_one_out_max_px", "map_sigma_px", "map_sigma_nm"}
+    assert failed <= {"laser_line_635nm"} | spoiled
     (note,) = laser_line_notes(result)
     assert note.startswith("laser 635 nm: the 450, 520, 532, 670 nm lines put it at 637.8")
     assert "estimate_laser_wavelengths" in note
