@@ -39,8 +39,8 @@ The rules (camera px unless said; ``s(l)`` the described spot sigma of one SLM p
 - guide scan stride: every 4th horizontal pinhole offset on a 640 px wide SLM, in
   proportion to the width below it, at least 1 (the target filling a smaller field puts its
   texture on fewer SLM px, and the coarse lattice's resampling then moves the features the
-  homography is fitted to: on a 320 x 200 SLM a stride of 4 left 0.67 px RMS against the
-  truth, 2 left 0.03 px, ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``).
+  homography is fitted to: measured on a 320 x 200 SLM in
+  ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``).
 """
 
 from __future__ import annotations
