@@ -37,7 +37,7 @@ import yaml
 from sassi_bench.errors import SassiBenchError
 from sassi_bench.rig.config import rig_description_from_dict
 
-__all__ = ["GLASSES", "family_rig", "family_rigs", "test_sheet_lines"]
+__all__ = ["GLASSES", "family_rig", "family_rigs", "measured_laser_lines"]
 
 #: Glasses, from low to high dispersion.
 GLASSES = ("N-BK7", "F2", "N-SF5", "SF10", "N-SF11")
@@ -141,7 +141,7 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
     else:
         rig.pop("wavelength_lamps", None)
         if true_lasers:
-            described, accuracy = test_sheet_lines(seed, true_lasers)
+            described, accuracy = measured_laser_lines(seed, true_lasers)
             rig["lasers_nm"] = [described.get(label, label) for label in lasers]
             rig["laser_tolerance_nm"] = {m: accuracy for m in described.values()}
             true_lasers = {described[label]: line for label, line in true_lasers.items()}
@@ -169,7 +169,7 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
     return rig
 
 
-def test_sheet_lines(seed: int, true_lines: dict[int, float]) -> tuple[dict[int, float], float]:
+def measured_laser_lines(seed: int, true_lines: dict[int, float]) -> tuple[dict[int, float], float]:
     """What the diodes' test sheets state: each line's measured centre, off the true line
     by the sheet's accuracy (its 2-sigma, 0.2-0.3 nm, drawn from ``seed``).
 
@@ -183,7 +183,7 @@ def test_sheet_lines(seed: int, true_lines: dict[int, float]) -> tuple[dict[int,
 
     Examples
     --------
-    >>> sheet, accuracy = test_sheet_lines(7, {520: 522.34, 635: 633.0})
+    >>> sheet, accuracy = measured_laser_lines(7, {520: 522.34, 635: 633.0})
     >>> 0.2 <= accuracy <= 0.3, all(abs(sheet[k] - v) < 4 * accuracy for k, v in
     ...                            {520: 522.34, 635: 633.0}.items())
     (True, True)
