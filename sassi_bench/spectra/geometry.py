@@ -174,12 +174,16 @@ def bin_wavelengths(bundle: CalibrationBundle, geometry: StreakGeometry) -> NDAr
 
 
 def clipped_blur(
-    bundle: CalibrationBundle, rows: ArrayLike, cols: ArrayLike, wavelength_nm: ArrayLike
+    bundle: CalibrationBundle,
+    rows: ArrayLike,
+    cols: ArrayLike,
+    wavelength_nm: ArrayLike,
+    direction: str = "along",
 ) -> NDArray[np.float64]:
-    """The bundle's blur sigma along the streak (camera px) at SLM pixels (rows, cols) and
-    wavelengths (broadcast together), kept within half the band's narrowest and twice its
-    widest blur: outside the band the fitted curve is an extrapolation past the lasers, and
-    a fit that bends away there must not give nonsense.
+    """The bundle's blur sigma along the streak (or ``direction="across"`` it; camera px)
+    at SLM pixels (rows, cols) and wavelengths (broadcast together), kept within half the
+    band's narrowest and twice its widest blur: outside the band the fitted curve is an
+    extrapolation past the lasers, and a fit that bends away there must not give nonsense.
 
     Examples
     --------
@@ -188,8 +192,10 @@ def clipped_blur(
     """
     blur = bundle.models.blur
     band = np.asarray(blur.sigma(bundle.wavelengths), dtype=np.float64)
-    along = blur.spot(cols, rows, np.asarray(wavelength_nm, float)).along
-    return np.clip(np.asarray(along, dtype=np.float64), 0.5 * np.min(band), 2.0 * np.max(band))
+    if direction not in ("along", "across"):
+        raise ValueError(f"clipped_blur: direction must be 'along' or 'across', got {direction!r}")
+    width = getattr(blur.spot(cols, rows, np.asarray(wavelength_nm, float)), direction)
+    return np.clip(np.asarray(width, dtype=np.float64), 0.5 * np.min(band), 2.0 * np.max(band))
 
 
 def reached_rows(
