@@ -672,11 +672,10 @@ _STIFF_START_POWERS = 2
 def _fit(problem: _Problem, max_iterations: int, map_sigma_px: float) -> AnchoredWavelengths:
     # Two starts, the lower cost kept. The column model through the maps at the labels
     # bends with the labels' errors: two lasers close in wavelength with one of them a
-    # few nm off its label (a 520 nm diode at 522.3 nm next to an exact 532 nm line) give
-    # a curvature that puts the lamp lines at the band's ends several nm from where they
-    # are, and the fit settles with lamp lines taken for their neighbours (HgAr 404.7 nm
-    # fitted as 407.8 nm, the red laser 9 nm off: docs/notes/2026-11-30-rig-family-lamps.md).
-    # A straight line in s(λ) through the maps cannot bend that way.
+    # few nm off its label give a curvature that puts the lamp lines at the band's ends
+    # several nm from where they are, and the fit settles with lamp lines taken for their
+    # neighbours (docs/notes/2026-11-30-rig-family-lamps.md). A straight line in s(λ)
+    # through the maps cannot bend that way.
     starts = [problem.start()]
     if problem.order + 1 > _STIFF_START_POWERS:
         starts.append(problem.start(_STIFF_START_POWERS))

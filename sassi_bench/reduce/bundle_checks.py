@@ -223,8 +223,8 @@ def bundle_check_notes(
 
 def _lamp_fit_clause(anchoring: LampAnchoring) -> str:
     """How well each lamp's streaks fit, for the lamp-line note: a lamp that fits far worse
-    than the other had lines taken for their neighbours (fam07's HgAr before the stiff
-    start: reduced chi-square 79 against Ne's 2.3; after, 3.8 and 1.1)."""
+    than the other had lines taken for their neighbours
+    (docs/notes/2026-11-30-rig-family-lamps.md)."""
     chi2 = {name: fit.chi2 for name, fit in anchoring.fit.lamps.items()}
     if len(chi2) < 2:
         return ""
