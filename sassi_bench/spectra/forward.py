@@ -33,7 +33,7 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra.geometry import (
     GUARD_BINS,
     bin_wavelengths,
-    clipped_blur,
+    clipped_spot_widths,
     streak_geometry,
 )
 
@@ -143,11 +143,10 @@ class StreakForwardModel:
                     "load a bundle whose blur fit passed its checks (sassi-bench bundle verify)",
                 )
             )
-        sigma = clipped_blur(bundle, rows[:, None], cols[:, None], lam)
         # A design's spot is not round (narrower along the streak than across it in
         # places): the row unmixing mixes its sources' widths across the streak
         # (docs/notes/2026-11-30-design-rig-chart-angle.md).
-        across = clipped_blur(bundle, rows[:, None], cols[:, None], lam, direction="across")
+        sigma, across = clipped_spot_widths(bundle, rows[:, None], cols[:, None], lam)
         spill = blur.profile.box_overlap(geo.x_left, geo.x_right, sigma)
         error = blur.relative_error
         spill_error = None
