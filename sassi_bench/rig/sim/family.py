@@ -169,6 +169,10 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
     return rig
 
 
+#: The test sheets' own random stream beside the rig's seed, so their draw moves no other.
+_TEST_SHEET_STREAM = 45
+
+
 def measured_laser_lines(seed: int, true_lines: dict[int, float]) -> tuple[dict[int, float], float]:
     """What the diodes' test sheets state: each line's measured centre, off the true line
     by the sheet's accuracy (its 2-sigma, 0.2-0.3 nm, drawn from ``seed``).
@@ -188,7 +192,7 @@ def measured_laser_lines(seed: int, true_lines: dict[int, float]) -> tuple[dict[
     ...                            {520: 522.34, 635: 633.0}.items())
     (True, True)
     """
-    rng = np.random.default_rng([seed, 45])
+    rng = np.random.default_rng([seed, _TEST_SHEET_STREAM])
     accuracy = _r(rng.uniform(0.2, 0.3), 2)
     sheet = {label: _r(line + rng.normal(0, accuracy / 2), 2) for label, line in true_lines.items()}
     return sheet, accuracy
