@@ -57,6 +57,7 @@ __all__ = [
     "blur_notes",
     "grade",
     "lamp_measurement",
+    "laser_line_checks",
     "laser_line_notes",
     "spectral_notes",
 ]
@@ -157,8 +158,10 @@ def grade(
     laser_lines
         From :func:`~sassi_bench.calibrate.dispersion.check_laser_lines`: adds one check
         per line fitted at its label, ``laser_line_<label>nm``, how far the other lines
-        put it from its label. A line fitted at its estimate has no such check (it
-        agrees with the others by construction); the bundle records its estimate.
+        put it from its label, against ``laser_line_nm`` and, in quadrature, how far the
+        others' stated accuracy moves their estimate (wide for an end line, whose
+        estimate is an extrapolation). A line fitted at its estimate has no such check
+        (it agrees with the others by construction); the bundle records its estimate.
     anchoring
         The lamp anchoring, if any: adds ``lamp_line_rms_fwhm`` (the lamp lines'
         residuals at the fitted model, each over its line's FWHM), and per laser
@@ -203,17 +206,9 @@ def grade(
                 "1",
             )
         )
-    estimated = set(dispersion.estimated_lines)
-    for label, line in (laser_lines or {}).items():
-        if label not in estimated and np.isfinite(line.estimated_nm):
-            checks.append(
-                QualityCheck.at_most(
-                    f"laser_line_{label:g}nm",
-                    abs(line.offset_nm),
-                    tolerances.get("laser_line_nm", 0.5),
-                    "nm",
-                )
-            )
+    checks += laser_line_checks(
+        laser_lines or {}, tolerances.get("laser_line_nm", 0.5), dispersion.estimated_lines
+    )
     if dispersion.leave_one_out:
         checks.append(
             QualityCheck.at_most(
@@ -237,6 +232,49 @@ def grade(
     if anchoring is not None:
         checks += _anchoring_checks(anchoring, blur, tolerances, laser_tolerance_nm or {})
     return checks + measured_bundle_checks(dispersion, anchoring, tolerances)
+
+
+def laser_line_checks(
+    laser_lines: Mapping[float, LaserLine],
+    tolerance_nm: float,
+    estimated: Sequence[float] = (),
+) -> list[QualityCheck]:
+    """One ``laser_line_<label>nm`` check per line fitted at its label: how far the other
+    lines put it from its label, against what a right bundle allows there
+    (:meth:`~sassi_bench.calibrate.dispersion.LaserLine.allowed_nm`: ``tolerance_nm`` and,
+    in quadrature, how far the others' stated accuracy moves their estimate).
+
+    Parameters
+    ----------
+    laser_lines
+        From :func:`~sassi_bench.calibrate.dispersion.check_laser_lines`.
+    tolerance_nm
+        The procedure's ``tolerances.laser_line_nm``.
+    estimated
+        Labels fitted at their estimate: no check (they agree with the others by
+        construction).
+
+    Returns
+    -------
+    list of QualityCheck
+
+    Examples
+    --------
+    >>> from sassi_bench.calibrate.dispersion import LaserLine
+    >>> lines = {405.0: LaserLine(405.0, 401.3, (516.0, 532.0, 637.0), False, 8.1),
+    ...          516.0: LaserLine(516.0, 516.2, (405.0, 532.0, 637.0), False, 0.5)}
+    >>> [c.describe() for c in laser_line_checks(lines, 0.5)]  # doctest: +NORMALIZE_WHITESPACE
+    ['laser_line_405nm = 3.7 nm (tolerance <= 8.115 nm)',
+     'laser_line_516nm = 0.2 nm (tolerance <= 0.7071 nm)']
+    """
+    skip = set(estimated)
+    return [
+        QualityCheck.at_most(
+            f"laser_line_{label:g}nm", abs(line.offset_nm), line.allowed_nm(tolerance_nm), "nm"
+        )
+        for label, line in laser_lines.items()
+        if label not in skip and np.isfinite(line.estimated_nm)
+    ]
 
 
 def _anchoring_checks(
@@ -406,6 +444,7 @@ def analyse_spectral_sweeps(
         desc.prism.glass_model(),
         slm_shape,
         float(proc["tolerances"].get("laser_line_nm", 0.5)),
+        accuracy_nm={m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps},
         **shape,
     )
     estimate = bool(proc["fit"].get("estimate_laser_wavelengths", False))
@@ -565,9 +604,10 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
     Returns
     -------
     list of str
-        A note for every line fitted at its estimate or off its label by more than
-        the tolerance; empty when the labels agree. With lamp anchoring, every laser's
-        measured line.
+        A note for every line fitted at its estimate, off its label by more than its
+        check allows, or passed by a check wider than :data:`LOOSE_LINE_CHECK` times the
+        tolerance (an end line far from the others: what would check it closer); empty
+        when the labels agree closely. With lamp anchoring, every laser's measured line.
 
     Examples
     --------
@@ -632,7 +672,9 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
                 f"estimated from the {', '.join(f'{x:g}' for x in line.from_lines)} nm lines "
                 f"({line.offset_nm:+.2f} nm from its label)"
             )
-        elif abs(line.offset_nm) > tolerance:
+        elif not np.isfinite(line.estimated_nm):
+            continue
+        elif abs(line.offset_nm) > (allowed := line.allowed_nm(tolerance)):
             cause = (
                 "this line is off its label"
                 if line.off_label
@@ -640,8 +682,39 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
             )
             notes.append(
                 f"laser {label:g} nm: the {', '.join(f'{x:g}' for x in line.from_lines)} nm "
-                f"lines put it at {line.estimated_nm:.2f} nm ({line.offset_nm:+.2f} nm): "
+                f"lines put it at {line.estimated_nm:.2f} nm ({line.offset_nm:+.2f} nm, "
+                f"beyond the {allowed:.2f} nm allowed: {tolerance:g} nm and "
+                f"{line.propagated_nm:.2f} nm for the others' stated accuracy): "
                 f"{cause}. Fix: measure the line with a spectrometer and correct lasers_nm, "
                 "or set fit.estimate_laser_wavelengths: true in the procedure"
             )
+        elif allowed > LOOSE_LINE_CHECK * tolerance:
+            notes.append(_loose_line_note(label, line, allowed))
     return notes
+
+
+#: A laser line whose check allows more than this many times ``laser_line_nm`` (the
+#: others' accuracy, propagated to it, moves their estimate that far) gets a note.
+LOOSE_LINE_CHECK = 2.0
+
+
+def _loose_line_note(label: float, line: LaserLine, allowed: float) -> str:
+    """Why a line passed a check this wide, and what would check it closer."""
+    others = line.from_lines
+    outside = label < min(others) or label > max(others)
+    nearest = min(others, key=lambda x: abs(x - label))
+    where = (
+        f"an extrapolation {abs(nearest - label):.0f} nm beyond the nearest, {nearest:g} nm"
+        if outside
+        else f"{abs(nearest - label):.0f} nm from the nearest, {nearest:g} nm"
+    )
+    return (
+        f"laser {label:g} nm: checked only within {allowed:.2f} nm: the "
+        f"{', '.join(f'{x:g}' for x in others)} nm lines put it at {line.estimated_nm:.2f} nm "
+        f"({line.offset_nm:+.2f} nm), but their stated accuracy, carried through the fit, "
+        f"moves that estimate by {line.propagated_nm:.2f} nm there ({where}), so its label "
+        "rests on its own "
+        "measurement (a test sheet's centre, lasers_nm). To check it closer, add a laser "
+        "line nearer it or wavelength lamps, or state the other lines' accuracy "
+        "(laser_tolerance_nm) if it is better than the check's"
+    )

@@ -95,6 +95,12 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
                 "fitted_nm": disp.wavelengths_nm.get(label, label),
                 "from_lines_nm": list(line.from_lines),
                 "off_label": line.off_label,
+                # How far the estimate may be from the label on a right bundle (the
+                # laser_line check's tolerance) and the part the others' accuracy adds.
+                "propagated_nm": line.propagated_nm,
+                "allowed_nm": line.allowed_nm(
+                    float(result.procedure["tolerances"].get("laser_line_nm", 0.5))
+                ),
             }
             for label, line in result.laser_lines.items()
         },
