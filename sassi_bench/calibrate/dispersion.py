@@ -385,8 +385,8 @@ class LaserLine:
         stated accuracy (quadrature sum of each line's accuracy times the estimate's
         derivative with respect to that line's wavelength). An interior line's estimate
         moves about as much as its neighbours may; an end line's is an extrapolation
-        and moves many times more (on a 60 px SF10 prism, lines 516 and 532 nm put the
-        403 nm estimate 17 nm further per nm they move).
+        and moves many times more (measured on the rig family:
+        docs/notes/2026-11-30-rig-family-lamps.md).
     """
 
     label_nm: float
