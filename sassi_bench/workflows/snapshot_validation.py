@@ -218,7 +218,7 @@ def run_snapshot(
         video = capture_snapshots(
             rig, next_mask, prefix=f"{prefix}-{name.replace('_', '-')}", scene=scene,
             light=light, exposure_pattern=exposure_pattern, low_light=factor,
-            mask_kind=name.split("_")[0], closed_frame=bool(snap.get("closed_frame", False)),
+            mask_kind=name.split("_")[0], closed_frame=bool(snap.get("closed_frame", True)),
             data=data, progress=False,
         )  # fmt: skip
         kind = "adaptive" if name.startswith("adaptive") else "fixed"
