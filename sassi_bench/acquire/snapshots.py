@@ -11,7 +11,10 @@ planned before the frame it depends on exists:
     frame (step 1), both taken while the SLM shows that frame's mask. The mask is
     stored exactly as a ``pixels`` pattern descriptor (the open pixels' rows and
     columns, see :func:`~sassi_bench.acquire.patterns.pixels_descriptor`) in both
-    steps, so :func:`snapshot_mask` gives it back from the session alone.
+    steps, so :func:`snapshot_mask` gives it back from the session alone. With a
+    closed-SLM frame (``closed_frame=True``) a third step (step 2) takes the spectral
+    camera with every SLM pixel closed, at the same exposure: the closed pixels' leak
+    the snapshot's spectra then subtract pixel by pixel.
 
 The mask of frame ``t`` is computed from the guide image of frame ``t - 1`` (the
 preview for ``t = 0``) by a caller-supplied function, so this module depends on no
@@ -40,6 +43,7 @@ from sassi_bench.rig.rig import Rig
 from sassi_bench.rig.scene_pose import ScenePose
 
 __all__ = [
+    "CLOSED_STEP",
     "GUIDE_STEP",
     "SPECTRAL_STEP",
     "SnapshotExposures",
@@ -54,6 +58,8 @@ GUIDE_STEP = 0
 """Index of the guide frame in a snapshot frame session."""
 SPECTRAL_STEP = 1
 """Index of the spectral frame in a snapshot frame session."""
+CLOSED_STEP = 2
+"""Index of the closed-SLM spectral frame in a snapshot frame session that has one."""
 
 
 @dataclass(frozen=True)
@@ -131,8 +137,10 @@ def snapshot_plan(
     scene: str | None = None,
     pose: ScenePose | None = None,
     mask_kind: str = "adaptive",
+    closed_frame: bool = False,
 ) -> Plan:
-    """The plan of one snapshot frame: guide then spectral, with ``mask`` on the SLM.
+    """The plan of one snapshot frame: guide then spectral, with ``mask`` on the SLM, then
+    (``closed_frame``) a spectral frame of the closed SLM at the same exposure.
 
     Examples
     --------
@@ -141,6 +149,9 @@ def snapshot_plan(
     >>> plan = snapshot_plan(mask, "led", SnapshotExposures(0.1, 0.02), frame=3)
     >>> [s.camera for s in plan], plan.steps[1].pattern["cols"], plan.parameters["frame"]
     (['guide', 'spectral'], (2,), 3)
+    >>> plan = snapshot_plan(mask, "led", SnapshotExposures(0.1, 0.02), closed_frame=True)
+    >>> plan.steps[CLOSED_STEP].pattern["kind"], plan.steps[CLOSED_STEP].tags["role"]
+    ('blank', 'closed')
     """
     descriptor = pixels_descriptor(np.asarray(mask, dtype=bool))
     tags = {"frame": int(frame), "mask_kind": mask_kind}
@@ -148,6 +159,9 @@ def snapshot_plan(
         Step("guide", light, exposures.guide_s, descriptor, {"role": "guide", **tags}),
         Step("spectral", light, exposures.spectral_s, descriptor, {"role": "snapshot", **tags}),
     )
+    if closed_frame:
+        blank = {"kind": "blank"}
+        steps += (Step("spectral", light, exposures.spectral_s, blank, {"role": "closed", **tags}),)
     parameters: dict[str, Any] = {
         "frame": int(frame),
         "light": light,
@@ -209,6 +223,13 @@ class SnapshotVideo:
         """The spectral frame of frame ``t``."""
         return self.frames[t].read_frame(SPECTRAL_STEP)
 
+    def closed(self, t: int) -> NDArray[Any] | None:
+        """The closed-SLM spectral frame of frame ``t`` (None: the frame took none)."""
+        steps = self.frames[t].plan.steps
+        if len(steps) <= CLOSED_STEP or steps[CLOSED_STEP].tags.get("role") != "closed":
+            return None
+        return self.frames[t].read_frame(CLOSED_STEP)
+
     def pose(self, t: int) -> ScenePose | None:
         """The scene pose the plan of frame ``t`` set (``None``: not set, a static scene)."""
         pose = self.frames[t].plan.parameters.get("scene_pose")
@@ -233,6 +254,7 @@ def capture_snapshots(
     low_light: float = 1.0,
     motion: tuple[tuple[float, float], float] | None = None,
     mask_kind: str = "adaptive",
+    closed_frame: bool = False,
     data: str | os.PathLike[str] | None = None,
     progress: bool = True,
 ) -> SnapshotVideo:
@@ -260,6 +282,11 @@ def capture_snapshots(
         ``ScenePose.at_frame(t, ...)``, the preview at t = -1. ``None``: static.
     mask_kind
         Recorded in each frame's plan (``adaptive``, ``uniform``, ``random``, ``user``).
+    closed_frame
+        Also take a spectral frame of the closed SLM after each snapshot, at its exposure
+        (:data:`CLOSED_STEP`; one more spectral frame a snapshot): the leak the spectra
+        subtract. Exact for a still scene; a moving one changes between the two frames.
+        A session already planned keeps its plan.
     data
         Data root.
     progress
@@ -315,7 +342,7 @@ def capture_snapshots(
             mask = next_mask(guide)
             return snapshot_plan(
                 mask, light, exposures, frame=t, scene=scene, pose=_pose(motion, t),
-                mask_kind=mask_kind,
+                mask_kind=mask_kind, closed_frame=closed_frame,
             )  # fmt: skip
 
         session = Session.resume_or_plan(

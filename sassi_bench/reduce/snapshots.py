@@ -162,7 +162,8 @@ def reconstruct_snapshots(
     ----------
     video
         The snapshot sessions (:func:`take_snapshots` or
-        :func:`~sassi_bench.acquire.snapshot_ids.open_snapshots`).
+        :func:`~sassi_bench.acquire.snapshot_ids.open_snapshots`); a frame that took the
+        closed SLM has its leak subtracted pixel by pixel.
     bundle
         The bundle to reconstruct with.
     procedure
@@ -198,7 +199,7 @@ def reconstruct_snapshots(
             exposure_s=video.exposures.spectral_s,
             samples=frame_samples(video, t, bundle, spacing, compactness),
             compactness=compactness, guided_radius=recon["guided_radius_px"],
-            guided_eps=recon["guided_eps"], deblur=deblur,
+            guided_eps=recon["guided_eps"], deblur=deblur, closed=video.closed(t),
         )  # fmt: skip
 
 

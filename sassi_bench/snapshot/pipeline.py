@@ -117,6 +117,7 @@ def reconstruct_frame(
     guided_radius: int | None = None,
     guided_eps: float = 1e-3,
     deblur: SpectralDeblur | None = None,
+    closed: ArrayLike | None = None,
 ) -> FrameReconstruction:
     """Reconstruct one snapshot frame by rank-1 per region and by the masked guided filter.
 
@@ -143,6 +144,9 @@ def reconstruct_frame(
     deblur
         The within-streak unmixing; built from the bundle when None (pass one to reconstruct
         many frames).
+    closed
+        The spectral frame of the closed SLM at the same exposure, when taken: the
+        background of the spectra (see :func:`~sassi_bench.snapshot.reconstruct.measure_samples`).
 
     Returns
     -------
@@ -161,7 +165,9 @@ def reconstruct_frame(
     centres = np.argwhere(mask) if samples is None else np.asarray(samples)
     centres = centres.astype(np.int32)
     labels = snapshot_regions(guide_slm, centres, compactness=compactness)
-    spectra, units = measure_samples(spectral, mask, bundle, exposure_s=exposure_s, deblur=deblur)
+    spectra, units = measure_samples(
+        spectral, mask, bundle, exposure_s=exposure_s, deblur=deblur, closed=closed
+    )
     return FrameReconstruction(
         mask=mask,
         samples=centres,

@@ -167,6 +167,7 @@ def measure_samples(
     full_scale: float = 65535.0,
     background_block: tuple[int, int] = (8, 16),
     background_passes: int | None = None,
+    closed: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], str]:
     """Spectra of the open SLM pixels of one spectral frame, offset removed.
 
@@ -197,6 +198,13 @@ def measure_samples(
         :data:`DENSE_BACKGROUND_PASSES` when streaks of different SLM columns overlap (a
         dense mask leaves too few pixels outside the footprints), else none. Streaks of
         different columns are always unmixed jointly where they overlap.
+    closed
+        A raw frame of the closed SLM (all pixels closed) of the same scene, light and
+        exposure: it is the background, pixel by pixel, in place of the estimate. The
+        closed pixels' leak is the scene dispersed and can vary faster than the estimate's
+        blocks follow; where the open pixels' footprints cover most of the frame (wide
+        spots, a dense mask) the estimate then misses leak under them, and a closed frame
+        measures it (the measurements: docs/notes/2026-11-30-singlet-snapshot-spectra.md).
 
     Returns
     -------
@@ -216,7 +224,7 @@ def measure_samples(
     """
     spectra, units, _ = measure_with_background(
         frame, pixels, bundle, exposure_s=exposure_s, deblur=deblur, full_scale=full_scale,
-        background_block=background_block, background_passes=background_passes,
+        background_block=background_block, background_passes=background_passes, closed=closed,
     )  # fmt: skip
     return spectra, units
 
@@ -233,6 +241,7 @@ def measure_with_background(
     background_passes: int | None = None,
     background_start: BlockBackground | NDArray[np.floating] | None = None,
     prepared: MaskModel | None = None,
+    closed: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], str, Background | BlockBackground]:
     """:func:`measure_samples`, also returning the background it removed, and starting its
     refinements from ``background_start`` when given (video: the previous frame's
@@ -242,6 +251,9 @@ def measure_with_background(
     ----------
     frame, pixels, bundle, exposure_s, deblur, full_scale, background_block, background_passes
         As :func:`measure_samples`.
+    closed
+        As :func:`measure_samples`: the background is this frame (the returned
+        background is its :class:`~sassi_bench.spectra.offset.Background`, blocks unused).
     background_start
         The background of the reached camera rows to refine when the mask is dense (a
         returned :class:`~sassi_bench.spectra.offset.BlockBackground`, or an image), by
@@ -301,7 +313,18 @@ def measure_with_background(
         background_passes = WARM_BACKGROUND_PASSES if warm else DENSE_BACKGROUND_PASSES
     if isinstance(background_start, Background):
         background_start = background_start.image
-    if background_passes:
+    if closed is not None:
+        background = _closed_background(closed, image.shape, top, bottom, step)
+        light = window - background.image
+        if prepared.dense is not None:
+            # The open pixels' light alone: unmixed across columns with no background left.
+            spectra, _, _ = extract_with_background(
+                light, geometry, deblur, block=background_block, passes=0,
+                start=np.zeros(light.shape), prepared=prepared.dense,
+            )  # fmt: skip
+        else:
+            spectra, _ = extract_spectra(light, geometry, deblur)
+    elif background_passes:
         spectra, _, background = extract_with_background(
             window, geometry, deblur, block=background_block, passes=background_passes,
             start=background_start, settle=DENSE_BACKGROUND_PASSES, prepared=prepared.dense,
@@ -315,6 +338,21 @@ def measure_with_background(
     if bundle.response is not None:
         return spectra / np.asarray(bundle.response), RADIANCE_UNITS, background
     return spectra, CAMERA_UNITS, background
+
+
+def _closed_background(
+    closed: ArrayLike, shape: tuple[int, ...], top: int, bottom: int, step: str
+) -> Background:
+    """The closed-SLM frame's reached rows as the background (float64)."""
+    image = np.asarray(closed)
+    fix = "pass a spectral-camera frame of the closed SLM at the snapshot's exposure"
+    check_dtype_kind(image, "iuf", step=step, name="the closed-SLM frame", fix=fix)
+    check_shape(
+        image, tuple(shape), step=step, name="the closed-SLM frame",
+        expected_for="the snapshot frame", fix=fix,
+    )  # fmt: skip
+    # Measured at every pixel: no fit residual, every pixel free.
+    return Background(np.asarray(image[top:bottom], dtype=np.float64), 0.0, 1.0)
 
 
 def guide_intensity(guide_slm: ArrayLike) -> NDArray[np.float32]:

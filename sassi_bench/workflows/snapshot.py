@@ -94,7 +94,9 @@ def take_snapshots(
         Device handles and the bundle whose homography and spacing rule draw the masks.
     procedure
         ``load_procedure("snapshot_validation")``: its ``snapshot`` (light, compactness,
-        row pitch) and ``video`` (motion) sections.
+        row pitch, closed frame) and ``video`` (motion) sections. A still scene's frames
+        also take the closed SLM when ``snapshot.closed_frame`` says so (the default); a
+        moving scene's take none, as it moves between the two exposures.
     scene
         What is in front of the bench.
     frames
@@ -137,5 +139,7 @@ def take_snapshots(
     return capture_snapshots(
         rig, next_mask, prefix=session_id, frames=frames, scene=scene, light=snap["light"],
         exposure_pattern={"kind": "pinholes", "pitch": [spacing.uniform_step, spacing.pitch]},
-        low_light=low_light, motion=motion, mask_kind="adaptive", data=data, progress=progress,
+        low_light=low_light, motion=motion, mask_kind="adaptive",
+        closed_frame=bool(snap.get("closed_frame", True)) and not moving, data=data,
+        progress=progress,
     )  # fmt: skip

@@ -69,7 +69,7 @@ def _reconstruct(
     frame = reconstruct_frame(
         bundle, video.guide(t), video.spectral(t), mask, exposure_s=exposure, samples=samples,
         compactness=compactness, guided_radius=recon["guided_radius_px"],
-        guided_eps=recon["guided_eps"],
+        guided_eps=recon["guided_eps"], closed=video.closed(t),
     )  # fmt: skip
     scores, detail_psnr, error_split = frame_scores(frame, reference, valid, detail)
     return MaskRun(
@@ -218,7 +218,8 @@ def run_snapshot(
         video = capture_snapshots(
             rig, next_mask, prefix=f"{prefix}-{name.replace('_', '-')}", scene=scene,
             light=light, exposure_pattern=exposure_pattern, low_light=factor,
-            mask_kind=name.split("_")[0], data=data, progress=False,
+            mask_kind=name.split("_")[0], closed_frame=bool(snap.get("closed_frame", True)),
+            data=data, progress=False,
         )  # fmt: skip
         kind = "adaptive" if name.startswith("adaptive") else "fixed"
         runs[name] = _reconstruct(

@@ -75,6 +75,30 @@ def test_spectra_of_the_open_pixels_are_recovered(synthetic_bundle, scene):
     np.testing.assert_allclose(again, measured[::-1])
 
 
+def test_a_closed_slm_frame_removes_a_leak_the_estimate_cannot_follow(synthetic_bundle, scene):
+    mask, spectra, frame = scene
+    rows = np.arange(CAMERA[0])[:, None]
+    # A leak with structure every 6 rows (a scene's edges, dispersed), up to 600 ADU: the
+    # blocks' medians between the streaks cannot follow it under them.
+    leak = 300.0 * (1 + np.sin(2 * np.pi * rows / 6.0)) * np.linspace(0, 1, CAMERA[1])[None, :]
+    yy, xx = np.mgrid[: CAMERA[0], : CAMERA[1]] / 2048.0
+    closed = 100.0 + 20.0 * xx + 10.0 * yy**2 + leak  # the scene's background, and the leak
+    leaky = frame + leak
+
+    def error(measured):
+        recovered = measured * synthetic_bundle.response * 0.5
+        return np.abs(recovered - spectra) / spectra.max(axis=1, keepdims=True)
+
+    estimated, _ = measure_samples(leaky, mask, synthetic_bundle, exposure_s=0.5)
+    subtracted, _ = measure_samples(leaky, mask, synthetic_bundle, exposure_s=0.5, closed=closed)
+    # Measured: median error 15.8 % of each spectrum's peak from the estimate, 0.22 % with
+    # the closed frame (as without the leak: the smooth background is in it too).
+    assert np.median(error(estimated)) > 0.08
+    assert np.median(error(subtracted)) < 0.004
+    with pytest.raises(ProcedureError, match="closed-SLM frame"):
+        measure_samples(leaky, mask, synthetic_bundle, exposure_s=0.5, closed=closed[:-1])
+
+
 def test_bad_frames_and_pixels_are_refused(synthetic_bundle, scene):
     mask, _, frame = scene
     with pytest.raises(ProcedureError, match="one spectral-camera frame"):
@@ -133,7 +157,7 @@ def dense_snapshot(calibrated_sim):
                 remaining &= ~pinholes
                 frames += 1
     assert frames <= 2 * subsets
-    return bundle, deblur, mask, frame, exposure, reference
+    return bundle, deblur, mask, frame, exposure, reference, closed
 
 
 def _psnr_db(estimate, reference):
@@ -143,7 +167,7 @@ def _psnr_db(estimate, reference):
 def test_dense_snapshot_spectra_agree_with_pinhole_frames(dense_snapshot):
     from sassi_bench.spectra.crosstalk import columns_interact
 
-    bundle, deblur, mask, frame, exposure, reference = dense_snapshot
+    bundle, deblur, mask, frame, exposure, reference, _ = dense_snapshot
     rows, cols = np.nonzero(mask)
     assert mask.sum() > 250
     assert columns_interact(streak_geometry(bundle, rows, cols))
@@ -157,3 +181,16 @@ def test_dense_snapshot_spectra_agree_with_pinhole_frames(dense_snapshot):
     # streaks, and the refinements from the fitted streaks' residual recover it.
     assert accuracy > 38.0
     assert accuracy > unrefined + 12.0
+
+
+def test_dense_snapshot_spectra_with_a_closed_slm_frame(dense_snapshot):
+    bundle, deblur, mask, frame, exposure, reference, closed = dense_snapshot
+    subtracted, _ = measure_samples(
+        frame, mask, bundle, exposure_s=exposure, deblur=deblur, closed=closed
+    )
+    refined, _ = measure_samples(frame, mask, bundle, exposure_s=exposure, deblur=deblur)
+    accuracy, estimated = _psnr_db(subtracted, reference), _psnr_db(refined, reference)
+    # Measured 47.08 dB, against 45.48 dB from the refined estimate of the leakage (the
+    # reference's pinhole frames subtract the same closed frame, so its noise is shared).
+    assert accuracy > 44.0
+    assert accuracy > estimated

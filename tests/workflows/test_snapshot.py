@@ -10,7 +10,7 @@ from scipy.io import loadmat
 
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.snapshot_ids import open_snapshots, resolve_snapshot
-from sassi_bench.acquire.snapshots import GUIDE_STEP, SPECTRAL_STEP
+from sassi_bench.acquire.snapshots import CLOSED_STEP, GUIDE_STEP, SPECTRAL_STEP
 from sassi_bench.commands import main
 
 
@@ -62,6 +62,27 @@ def test_each_mask_comes_from_the_previous_guide_frame(taken):
     # The scene moved between the frames, so their adaptive masks differ.
     assert not np.array_equal(video.mask(0), video.mask(1))
     assert all(f.plan.parameters["mask_kind"] == "adaptive" for f in video.frames)
+
+
+def test_a_moving_scene_takes_no_closed_frame_and_a_still_one_does(taken, tmp_path):
+    """The closed SLM's leak is measured only where the scene holds still between the
+    snapshot and the closed frame; it is taken at the snapshot's exposure."""
+    _, bundle, root, _ = taken
+    moving = open_snapshots("mov", data=root)
+    assert [moving.closed(t) for t in range(2)] == [None, None]
+    status = main(
+        ["snapshot", "take", "--rig", "sim", "--bundle", str(bundle.path), "--frames", "1",
+         "--session", "still", "--data", str(root), "--out", str(tmp_path), "--quiet"]
+    )  # fmt: skip
+    assert status == 0
+    still = open_snapshots("still", data=root)
+    steps = still.frames[0].plan.steps
+    assert steps[CLOSED_STEP].pattern == {"kind": "blank"}
+    assert steps[CLOSED_STEP].exposure_s == steps[SPECTRAL_STEP].exposure_s
+    closed, spectral = still.closed(0), still.spectral(0)
+    assert closed.shape == spectral.shape
+    # The open pixels' streaks add light: the snapshot frame is brighter than the leak.
+    assert float(spectral.astype(float).sum()) > float(closed.astype(float).sum())
 
 
 def test_reconstruct_from_disk_gives_the_cubes_take_wrote(taken, tmp_path):
