@@ -372,7 +372,11 @@ def fit_field_covariance(
     field_degree
         Total degree of the field series.
     wavelength_degree
-        Degree in wavelength; None: one less than the number of lines, at most 3.
+        Degree in wavelength; None: two less than the number of lines, at most 3, or 4
+        from six lines (lamp lines past the lasers' band: with the HgAr 404.7 and 435.8 nm
+        lines beside five lasers, degree 3 misses the singlet design rig's truth by
+        0.19 px at 400-420 nm, degree 4 by 0.05 px,
+        ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``).
 
     Returns
     -------
@@ -406,7 +410,10 @@ def fit_field_covariance(
                 "measure the blur under at least three laser lines",
             )
         )
-    degree = min(3, lines.size - 2) if wavelength_degree is None else int(wavelength_degree)
+    if wavelength_degree is None:
+        degree = min(3, lines.size - 2) if lines.size <= 5 else 4
+    else:
+        degree = int(wavelength_degree)
     t = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
     u_hat, v_hat = field_coordinates(spots.u, spots.v, slm_shape)
     field = legendre2d_design(u_hat, v_hat, field_degree)  # (N, F)

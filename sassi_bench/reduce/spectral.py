@@ -39,7 +39,12 @@ from sassi_bench.reduce.blur_frames import pinhole_signals
 from sassi_bench.reduce.bundle_checks import bundle_check_notes, measured_bundle_checks
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
-from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
+from sassi_bench.reduce.lamps import (
+    LampAnchoring,
+    LampMeasurement,
+    anchor_wavelengths,
+    lamp_field_spots,
+)
 from sassi_bench.reduce.sweep_stream import DecodedSweep
 from sassi_bench.reduce.sweeps import (
     LaserDecode,
@@ -391,9 +396,14 @@ def analyse_spectral_sweeps(
             x_information=anchoring.fit.information,
             **shape,
         )
+        form = blur_form(proc, desc)
+        lamp_spots = None
+        if form == "field_covariance":
+            lasers = [m.wavelength_nm for m in maps]
+            lamp_spots = lamp_field_spots(sweeps.lamps, desc, dispersion.model, lasers)
         blur = blur_from_pinholes(
             sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor,
-            form=blur_form(proc, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
+            form=form, laser_fwhm_nm=desc.light.laser_fwhm_nm, lamp_spots=lamp_spots,
         )  # fmt: skip
         tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
