@@ -278,7 +278,8 @@ def lamp_field_spots(
     for light in dict.fromkeys(plan.steps[i].tags["lamp"] for i in field):
         lines = tables[light]
         chosen = blur_lamp_lines(lines, lasers_nm, desc)
-        blank = session.read_frames(lamp_frame_steps(plan, None, role="lamp-blank", lamp=light))
+        taken = lamp_frame_steps(plan, None, role="lamp-blank", lamp=light)
+        blank = session.read_frames([i for i in taken if i in session.completed])
         closed = blank.astype(np.float64).mean(axis=0)
         offsets = sorted({int(plan.steps[i].tags["offset"]) for i in field})
         for offset in offsets:
