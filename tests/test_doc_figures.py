@@ -59,6 +59,8 @@ def test_the_readme_is_short_and_keeps_the_commands_ci_runs():
         '.venv/bin/pip install "torch==2.13.0" && .venv/bin/pip install -e ".[dev]" && '
         ".venv/bin/pip install --no-build-isolation fast-slic==0.4.0 && .venv/bin/python -m pytest"
     ) in readme
+    readme_args = re.search(r"\.venv/bin/python -m pytest(.*)$", readme, re.MULTILINE)[1]
+    assert f'"$py" -m pytest -q{readme_args}\n' in ci, "CI runs the README's test command"
 
 
 def test_every_data_file_says_when_where_and_how_it_was_measured():

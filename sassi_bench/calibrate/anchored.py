@@ -372,9 +372,14 @@ class _Problem:
     def coeffs(self, globals_):
         return globals_[: self.n_coeffs].reshape(self.order + 1, -1)
 
-    def start(self) -> _State:
-        powers = self.spectral.powers(self.labels)
-        coeffs = np.linalg.pinv(powers) @ self.xs @ np.linalg.pinv(self.field).T
+    def start(self, powers_used: int | None = None) -> _State:
+        """The fit's start: the column model through the laser maps at the labels, with
+        its first ``powers_used`` spectral powers (None: all), the lamps' linear unknowns
+        solved for it."""
+        used = self.order + 1 if powers_used is None else min(powers_used, self.order + 1)
+        powers = self.spectral.powers(self.labels)[:, :used]
+        coeffs = np.zeros((self.order + 1, self.field.shape[1]))
+        coeffs[:used] = np.linalg.pinv(powers) @ self.xs @ np.linalg.pinv(self.field).T
         parts = [coeffs.ravel(), self.labels]
         gains, backgrounds = [], []
         for lamp in self.lamps:
@@ -660,8 +665,23 @@ def fit_anchored_wavelengths(
         return _fit(problem, max_iterations, map_sigma_px)
 
 
+#: The spectral powers of the stiff start (:func:`_fit`): a straight line in ``s(λ)``.
+_STIFF_START_POWERS = 2
+
+
 def _fit(problem: _Problem, max_iterations: int, map_sigma_px: float) -> AnchoredWavelengths:
-    state, iterations = _solve(problem, problem.start(), max_iterations)
+    # Two starts, the lower cost kept. The column model through the maps at the labels
+    # bends with the labels' errors: two lasers close in wavelength with one of them a
+    # few nm off its label give a curvature that puts the lamp lines at the band's ends
+    # several nm from where they are, and the fit settles with lamp lines taken for their
+    # neighbours (docs/notes/2026-11-30-rig-family-lamps.md). A straight line in s(λ)
+    # through the maps cannot bend that way.
+    starts = [problem.start()]
+    if problem.order + 1 > _STIFF_START_POWERS:
+        starts.append(problem.start(_STIFF_START_POWERS))
+    solved = [_solve(problem, start, max_iterations) for start in starts]
+    state = min(solved, key=lambda pair: pair[0].cost)[0]
+    iterations = sum(count for _, count in solved)
     # Each lamp's noise scaled to its reduced chi-square (the spot model is never exact,
     # least of all for a bright lamp), then the fit finished with those weights.
     noise = []

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from sassi_bench.reduce.batch_record import BatchRecord
 from sassi_bench.reduce.lamp_budget import frames_needed, next_frames
 
 __all__ = [
@@ -31,9 +32,6 @@ DEFAULT_MAX_FRAMES = 8
 #: The stated 1-sigma (camera px) when the procedure names none: half the 0.1 px a lab
 #: expects of the blur anywhere on the field.
 DEFAULT_TOLERANCE_PX = 0.05
-#: A batch whose 1-sigma fell by less than this share of what photons alone would give
-#: is limited by something frames do not change (the field series, the lines).
-PHOTON_SHARE = 0.5
 
 
 def blur_frame_settings(procedure: Mapping[str, Any]) -> tuple[int, int, float]:
@@ -115,8 +113,9 @@ def decide_blur_frames(frames: int, sigma_px: float, tolerance_px: float, budget
 
 
 @dataclass(frozen=True)
-class BlurFrameRecord:
-    """What the blur step took and why.
+class BlurFrameRecord(BatchRecord):
+    """What the blur step took and why (its frames, outcome and batches as
+    :class:`~sassi_bench.reduce.batch_record.BatchRecord` reads them).
 
     Attributes
     ----------
@@ -131,35 +130,9 @@ class BlurFrameRecord:
     budget: int
 
     @property
-    def frames(self) -> int:
-        """Pinhole frames per laser taken."""
-        return self.batches[-1].frames
-
-    @property
     def sigma_px(self) -> float:
         """The stated worst 1-sigma at the end (camera px)."""
         return self.batches[-1].sigma_px
-
-    @property
-    def outcome(self) -> str:
-        """``"tolerance met"`` or ``"budget spent"``."""
-        return self.batches[-1].outcome
-
-    def photon_limited(self) -> bool | None:
-        """Whether the 1-sigma fell with the frames as photon noise does (None after one
-        batch): a 1-sigma that hardly falls is set by the model, not by photons.
-
-        Examples
-        --------
-        >>> batches = (BlurBatch(2, 0.08, 6, "more frames"), BlurBatch(6, 0.075, 8, "more frames"))
-        >>> BlurFrameRecord(batches, 0.05, 8).photon_limited()
-        False
-        """
-        if len(self.batches) < 2:
-            return None
-        first, last = self.batches[0], self.batches[-1]
-        photons = first.sigma_px * (first.frames / last.frames) ** 0.5
-        return first.sigma_px - last.sigma_px >= PHOTON_SHARE * (first.sigma_px - photons)
 
     def advice(self) -> str | None:
         """What would meet the tolerance when the budget was spent (None otherwise).
@@ -200,14 +173,11 @@ class BlurFrameRecord:
         blur frames: 4 pinhole frames per laser (2, then 4): the field blur's widths at \
 +-0.045 px (1-sigma, worst over the field; tolerance 0.05 px): tolerance met
         """
-        taken = ", then ".join(str(b.frames) for b in self.batches)
-        line = (
-            f"blur frames: {self.frames} pinhole frames per laser ({taken}): the field "
-            f"blur's widths at +-{self.sigma_px:.3f} px (1-sigma, worst over the field; "
-            f"tolerance {self.tolerance_px:g} px): {self.outcome}"
+        return self.with_advice(
+            f"blur frames: {self.frames} pinhole frames per laser ({self.taken()}): the "
+            f"field blur's widths at +-{self.sigma_px:.3f} px (1-sigma, worst over the "
+            f"field; tolerance {self.tolerance_px:g} px): {self.outcome}"
         )
-        advice = self.advice()
-        return line if advice is None else f"{line}; {advice}"
 
     def to_json(self) -> dict[str, Any]:
         """The record as JSON values, for the bundle's quality section."""

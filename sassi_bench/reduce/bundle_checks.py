@@ -216,6 +216,22 @@ def bundle_check_notes(
             "tolerance, absorb the difference. Fix: check prism.glass against the prism's "
             "datasheet or melt sheet and calibrate again; if the glass is right, check the "
             f"{worst.lamp} table near {worst.line_nm:.0f} nm (a line missing from it blends "
-            "into this one at this dispersion)"
+            "into this one at this dispersion)" + _lamp_fit_clause(anchoring)
         )
     return notes
+
+
+def _lamp_fit_clause(anchoring: LampAnchoring) -> str:
+    """How well each lamp's streaks fit, for the lamp-line note: a lamp that fits far worse
+    than the other had lines taken for their neighbours
+    (docs/notes/2026-11-30-rig-family-lamps.md)."""
+    chi2 = {name: fit.chi2 for name, fit in anchoring.fit.lamps.items()}
+    if len(chi2) < 2:
+        return ""
+    told = ", ".join(f"{name} {value:.1f}" for name, value in chi2.items())
+    return (
+        f". The lamps' streaks fit with reduced chi-squares of {told}: where one lamp fits "
+        "far worse than the other, its lines were taken for their neighbours, and the "
+        "lasers, free within their labels' tolerance, followed; state the lasers' lines "
+        "as measured (laser_tolerance_nm) and calibrate again"
+    )

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from sassi_bench.reduce.blur_budget import PHOTON_SHARE
+from sassi_bench.reduce.batch_record import BatchRecord
 from sassi_bench.reduce.lamp_budget import frames_needed, next_frames
 
 __all__ = [
@@ -107,8 +107,9 @@ def decide_shift_frames(
 
 
 @dataclass(frozen=True)
-class ShiftFrameRecord:
-    """What the health check took and why.
+class ShiftFrameRecord(BatchRecord):
+    """What the health check took and why (its frames, outcome and batches as
+    :class:`~sassi_bench.reduce.batch_record.BatchRecord` reads them).
 
     Attributes
     ----------
@@ -123,36 +124,9 @@ class ShiftFrameRecord:
     budget: int
 
     @property
-    def frames(self) -> int:
-        """Pinhole frames taken."""
-        return self.batches[-1].frames
-
-    @property
     def sigma_px(self) -> float:
         """The shift map's 1-sigma at the end (camera px)."""
         return self.batches[-1].sigma_px
-
-    @property
-    def outcome(self) -> str:
-        """``"tolerance met"`` or ``"budget spent"``."""
-        return self.batches[-1].outcome
-
-    def photon_limited(self) -> bool | None:
-        """Whether the 1-sigma fell with the frames as photon noise does (None after one
-        batch).
-
-        Examples
-        --------
-        >>> batches = (ShiftBatch(1, 0.0014, 0.0, 2, "more frames"),
-        ...            ShiftBatch(8, 0.00105, 0.0, None, "budget spent"))
-        >>> ShiftFrameRecord(batches, 0.001, 8).photon_limited()
-        False
-        """
-        if len(self.batches) < 2:
-            return None
-        first, last = self.batches[0], self.batches[-1]
-        photons = first.sigma_px * (first.frames / last.frames) ** 0.5
-        return first.sigma_px - last.sigma_px >= PHOTON_SHARE * (first.sigma_px - photons)
 
     def advice(self) -> str | None:
         """What would meet the tolerance when the budget was spent (None otherwise).
@@ -191,15 +165,12 @@ to 15 in the health-check procedure), or expose the lamp longer
         check frames: 3 pinhole frames (1, then 3): the shift map at +-0.028 px (1-sigma, \
 worst over the field; tolerance 0.03 px): tolerance met
         """
-        taken = ", then ".join(str(b.frames) for b in self.batches)
-        line = (
+        return self.with_advice(
             f"check frames: {self.frames} pinhole frame{'s' if self.frames != 1 else ''} "
-            f"({taken}): the shift map at "
+            f"({self.taken()}): the shift map at "
             f"+-{self.sigma_px:.3f} px (1-sigma, worst over the field; tolerance "
             f"{self.tolerance_px:g} px): {self.outcome}"
         )
-        advice = self.advice()
-        return line if advice is None else f"{line}; {advice}"
 
     def to_json(self) -> dict[str, Any]:
         """The record as JSON values."""

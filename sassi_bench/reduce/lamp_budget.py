@@ -20,6 +20,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from sassi_bench.reduce.batch_record import BatchRecord
+
 __all__ = [
     "DEFAULT_MAX_FRAMES",
     "LampBatch",
@@ -174,9 +176,10 @@ def frames_needed(frames: int, sigma: float, tolerance: float) -> int:
 
 
 @dataclass(frozen=True)
-class LampFrameRecord:
+class LampFrameRecord(BatchRecord):
     """What the lamp step took and why: its batches, the outcome and, when the budget was
-    spent, what would meet the tolerance.
+    spent, what would meet the tolerance (frames and outcome as
+    :class:`~sassi_bench.reduce.batch_record.BatchRecord` reads them).
 
     Attributes
     ----------
@@ -195,16 +198,6 @@ class LampFrameRecord:
     budget: int
     exposures_s: dict[str, float]
     max_exposure_s: float
-
-    @property
-    def frames(self) -> int:
-        """Pinhole frames per lamp taken."""
-        return self.batches[-1].frames
-
-    @property
-    def outcome(self) -> str:
-        """``"tolerance met"`` or ``"budget spent"``."""
-        return self.batches[-1].outcome
 
     @property
     def short_of(self) -> dict[float, float]:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from sassi_bench.reduce.batch_record import BatchRecord
 from sassi_bench.reduce.lamp_budget import frames_needed, next_frames
 from sassi_bench.spectra.deblur import MeanSpectrum
 
@@ -139,8 +140,9 @@ def decide_response_frames(
 
 
 @dataclass(frozen=True)
-class ResponseFrameRecord:
-    """What the response step took and why.
+class ResponseFrameRecord(BatchRecord):
+    """What the response step took and why (its frames, outcome and batches as
+    :class:`~sassi_bench.reduce.batch_record.BatchRecord` reads them).
 
     Attributes
     ----------
@@ -152,25 +154,17 @@ class ResponseFrameRecord:
         The first batch's thinning: every n-th pinhole offset.
     """
 
+    sigma_attribute = "sigma"
+
     batches: tuple[ResponseBatch, ...]
     tolerance: float
     budget: int
     every: int
 
     @property
-    def frames(self) -> int:
-        """Pinhole frames of the white taken."""
-        return self.batches[-1].frames
-
-    @property
     def sigma(self) -> float:
         """The response's worst relative 1-sigma at the end."""
         return self.batches[-1].sigma
-
-    @property
-    def outcome(self) -> str:
-        """``"tolerance met"`` or ``"budget spent"``."""
-        return self.batches[-1].outcome
 
     def advice(self) -> str | None:
         """What would meet the tolerance when the budget was spent (None otherwise).
@@ -203,14 +197,11 @@ the diffuser brighter in the blue
         response frames: 40 pinhole frames of the white (20, then 40): the response at \
 +-0.29 % (1-sigma, worst bin; tolerance 0.30 %): tolerance met
         """
-        taken = ", then ".join(str(b.frames) for b in self.batches)
-        line = (
-            f"response frames: {self.frames} pinhole frames of the white ({taken}): the "
-            f"response at +-{100 * self.sigma:.2f} % (1-sigma, worst bin; tolerance "
+        return self.with_advice(
+            f"response frames: {self.frames} pinhole frames of the white ({self.taken()}): "
+            f"the response at +-{100 * self.sigma:.2f} % (1-sigma, worst bin; tolerance "
             f"{100 * self.tolerance:.2f} %): {self.outcome}"
         )
-        advice = self.advice()
-        return line if advice is None else f"{line}; {advice}"
 
     def to_json(self) -> dict[str, Any]:
         """The record as JSON values, for the bundle's quality section."""

@@ -33,7 +33,7 @@ from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.spectra.geometry import (
     GUARD_BINS,
     bin_wavelengths,
-    clipped_blur,
+    clipped_spot_widths,
     streak_geometry,
 )
 
@@ -88,6 +88,10 @@ class StreakForwardModel:
         ``models.blur.relative_error``); None when the bundle does not state it.
     profile
         The blur's profile (its shares across the streak, for the row unmixing).
+    sigma_across_px
+        (P, B') blur sigma *across* the streak at each bin's own wavelength (camera px),
+        the widths of the sources the row unmixing mixes
+        (:mod:`~sassi_bench.spectra.row_mixture`); None: ``sigma_px`` (a round spot).
     """
 
     grid_u: NDArray[np.float64]
@@ -98,6 +102,7 @@ class StreakForwardModel:
     guard: int = GUARD_BINS
     spill_error: NDArray[np.float64] | None = None
     profile: GaussianProfile = field(default=GAUSSIAN, repr=False)
+    sigma_across_px: NDArray[np.float64] | None = None
 
     @classmethod
     def from_bundle(
@@ -138,14 +143,22 @@ class StreakForwardModel:
                     "load a bundle whose blur fit passed its checks (sassi-bench bundle verify)",
                 )
             )
-        sigma = clipped_blur(bundle, rows[:, None], cols[:, None], lam)
+        # A design's spot is not round (narrower along the streak than across it in
+        # places): the row unmixing mixes its sources' widths across the streak
+        # (docs/notes/2026-11-30-design-rig-chart-angle.md).
+        sigma, across = clipped_spot_widths(bundle, rows[:, None], cols[:, None], lam)
         spill = blur.profile.box_overlap(geo.x_left, geo.x_right, sigma)
         error = blur.relative_error
         spill_error = None
         if error is not None:
             wider = blur.profile.box_overlap(geo.x_left, geo.x_right, sigma * (1.0 + error))
             spill_error = wider - spill
-        return cls(gu, gv, lam, sigma, spill, guard, spill_error, blur.profile)
+        return cls(gu, gv, lam, sigma, spill, guard, spill_error, blur.profile, across)
+
+    @property
+    def row_sigma_px(self) -> NDArray[np.float64]:
+        """(P, B') the blur across the streak at each bin's own wavelength (camera px)."""
+        return self.sigma_px if self.sigma_across_px is None else self.sigma_across_px
 
     @property
     def n_bins(self) -> int:

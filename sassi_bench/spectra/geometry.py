@@ -35,6 +35,7 @@ __all__ = [
     "StreakGeometry",
     "bin_wavelengths",
     "clipped_blur",
+    "clipped_spot_widths",
     "streak_geometry",
 ]
 
@@ -173,23 +174,39 @@ def bin_wavelengths(bundle: CalibrationBundle, geometry: StreakGeometry) -> NDAr
     return lam
 
 
+def clipped_spot_widths(
+    bundle: CalibrationBundle, rows: ArrayLike, cols: ArrayLike, wavelength_nm: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The bundle's blur sigmas along and across the streak (camera px) at SLM pixels
+    (rows, cols) and wavelengths (broadcast together), each kept within half the band's
+    narrowest and twice its widest blur: outside the band the fitted curve is an
+    extrapolation past the lasers, and a fit that bends away there must not give nonsense.
+
+    Examples
+    --------
+    >>> along, across = clipped_spot_widths(bundle, 200, 320, [550.0, 760.0])
+    >>> along.round(2).tolist() == across.round(2).tolist()  # sim's spot is round
+    True
+    """
+    blur = bundle.models.blur
+    band = np.asarray(blur.sigma(bundle.wavelengths), dtype=np.float64)
+    spot = blur.spot(cols, rows, np.asarray(wavelength_nm, float))
+    low, high = 0.5 * np.min(band), 2.0 * np.max(band)
+    along = np.clip(np.asarray(spot.along, dtype=np.float64), low, high)
+    return along, np.clip(np.asarray(spot.across, dtype=np.float64), low, high)
+
+
 def clipped_blur(
     bundle: CalibrationBundle, rows: ArrayLike, cols: ArrayLike, wavelength_nm: ArrayLike
 ) -> NDArray[np.float64]:
-    """The bundle's blur sigma along the streak (camera px) at SLM pixels (rows, cols) and
-    wavelengths (broadcast together), kept within half the band's narrowest and twice its
-    widest blur: outside the band the fitted curve is an extrapolation past the lasers, and
-    a fit that bends away there must not give nonsense.
+    """The bundle's blur sigma along the streak, clipped as :func:`clipped_spot_widths`.
 
     Examples
     --------
     >>> clipped_blur(bundle, 200, 320, [550.0, 760.0]).round(2).tolist()
     [1.2, 14.07]
     """
-    blur = bundle.models.blur
-    band = np.asarray(blur.sigma(bundle.wavelengths), dtype=np.float64)
-    along = blur.spot(cols, rows, np.asarray(wavelength_nm, float)).along
-    return np.clip(np.asarray(along, dtype=np.float64), 0.5 * np.min(band), 2.0 * np.max(band))
+    return clipped_spot_widths(bundle, rows, cols, wavelength_nm)[0]
 
 
 def reached_rows(

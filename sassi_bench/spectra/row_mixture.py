@@ -99,9 +99,9 @@ class RowMixture:
         bins = reaches.shape[0]
         first = np.argmax(reaches, axis=1)
         stop = bins - np.argmax(reaches[:, ::-1], axis=1)
-        high = np.where(reaches, model.sigma_px.max(axis=0)[None, :], 0.0).max(axis=1)
+        high = np.where(reaches, model.row_sigma_px.max(axis=0)[None, :], 0.0).max(axis=1)
         weight = spill / spill.sum(axis=2, keepdims=True)
-        sigma = model.sigma_px[:, None, :]
+        sigma = model.row_sigma_px[:, None, :]
         moments = np.stack([(weight * sigma).sum(axis=2), (weight * sigma**2).sum(axis=2)], -1)
         return cls(model, first.astype(np.intp), stop.astype(np.intp), high, moments)
 
@@ -175,7 +175,7 @@ def unmix_rows_mixed(
     _mixture_kernels.mixture_nodes(
         points,
         np.ascontiguousarray(model.spill, dtype=np.float64),
-        np.ascontiguousarray(model.sigma_px, dtype=np.float64),
+        np.ascontiguousarray(model.row_sigma_px, dtype=np.float64),
         np.ascontiguousarray(geometry.y, dtype=np.float64),
         mixture.first,
         mixture.stop,

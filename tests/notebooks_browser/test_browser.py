@@ -185,12 +185,8 @@ def test_05_a_moved_chart_corner_changes_the_localisation_and_the_scores(lab, op
         moved = round(start + 12.0, 1)  # what is typed, and so what the slider holds
         slider = book.cell(4).locator(".widget-slider").first  # u 1, v 1, u 6, ... u 19, v 19
         assert slider.locator(".widget-label").inner_text().strip() == "u 1"
-        readout = slider.locator(".widget-readout")
-        readout.click()
-        book.page.keyboard.press("Control+a")
-        book.page.keyboard.type(f"{moved:g}")
-        book.page.keyboard.press("Enter")
-        assert book.kernel_value("float(chart_corners(corners)[0, 0])") == moved
+        book.type_readout(slider.locator(".widget-readout"), f"{moved:g}")
+        book.kernel_until("float(chart_corners(corners)[0, 0])", moved)
 
         book.run(5)
         second = book.run(6)

@@ -44,11 +44,10 @@ def natural_run(guided_bundle, tmp_path_factory):
 
 
 #: The adaptive mask follows the guide image, so its score moves with the guide's noise:
-#: over eight noise realisations of this run (sensor streams split differently) its
-#: rank-1 detail PSNR spread from 23.3 to 26.5 dB (mean 24.7), the random mask's from 22.9
-#: to 23.1 and the uniform one's 14.5 to 14.9. One run shows the adaptive mask far ahead
-#: of the uniform lattice and not behind the random mask; its mean lead over the random
-#: mask (1.7 dB) is within one run's spread.
+#: over eight noise realisations on `sim` its rank-1 detail PSNR spreads by 0.78 dB
+#: (docs/notes/2026-11-29-snapshot-regions.md), the random mask's by about 0.2 dB. One
+#: run shows the adaptive mask far ahead of the uniform lattice and not behind the random
+#: mask by more than that spread allows.
 ADAPTIVE_LEAD_OVER_UNIFORM_DB = 5.0
 ADAPTIVE_SHORTFALL_TO_RANDOM_DB = 0.5
 

@@ -9,7 +9,11 @@ to 480 x 270, the fast subset), a relay scale of 0.95-1.2 rotated within +-2 deg
 camera of 2-10 e- read noise and 10k-60k e- full well, an SLM contrast of 200-2000
 (log-uniform), a fill factor of 0.85-0.97, a PSF of 1.2-3 px at the band's ends and 0.4-1 px
 in its middle, 4 to 6 lasers (diode lines within +-5 nm of their labels; DPSS, OPSL and HeNe
-lines exact), HgAr and Ne lamps on every other rig. As built, by a datasheet's tolerance
+lines exact), HgAr and Ne lamps on every other rig. A rig with lamps describes its lasers by
+their labels; one without (no wavelength reference but its lasers' test sheets) describes
+each diode by its test sheet's measured centre, off the true line by the sheet's accuracy
+(a 2-sigma of 0.2-0.3 nm drawn per rig, stated as the rig's ``laser_tolerance_nm``), while
+the bench keeps the true lines. As built, by a datasheet's tolerance
 (one sigma): the relay's scale 1 %, its rotation 0.1 degree and offset 1 px, the fill
 factor 0.01, the PSF 10 %, the read noise 10 %, the gain 3 %, the full well 3 %, the glass
 melt 0.0005 in index, the apex 0.05 degree, the halogen lamp 60 K, the SLM gamma 0.1, the
@@ -33,7 +37,7 @@ import yaml
 from sassi_bench.errors import SassiBenchError
 from sassi_bench.rig.config import rig_description_from_dict
 
-__all__ = ["GLASSES", "family_rig", "family_rigs"]
+__all__ = ["GLASSES", "family_rig", "family_rigs", "measured_laser_lines"]
 
 #: Glasses, from low to high dispersion.
 GLASSES = ("N-BK7", "F2", "N-SF5", "SF10", "N-SF11")
@@ -103,6 +107,7 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
         label: _r(label + rng.uniform(-5, 5), 2) for label in lasers if _LASERS[label] == "diode"
     }
     name = f"fam{index:02d}-{glass.lower()}-{int(spread)}px-{w}x{h}" + ("-lamps" if lamps else "")
+    seed = int(rng.integers(1, 2**31 - 1))
     rig = _base()
     rig.update(
         {
@@ -110,9 +115,9 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
             "description": (
                 f"family rig {index}: {glass} {spread} px, SLM {w}x{h}, read {read} e-, well "
                 f"{well:.0f} e-, contrast {contrast:.0f}, rotation {rotation} deg, lasers "
-                f"{lasers}" + (", HgAr+Ne" if lamps else "")
+                f"{lasers}" + (", HgAr+Ne" if lamps else ", test-sheet lines")
             ),
-            "seed": int(rng.integers(1, 2**31 - 1)),
+            "seed": seed,
         }
     )
     rig["slm"].update({"width": w, "height": h, "contrast_ratio": contrast, "fill_factor": fill})
@@ -135,6 +140,11 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
         rig["wavelength_lamps"] = ["HgAr", "Ne"]
     else:
         rig.pop("wavelength_lamps", None)
+        if true_lasers:
+            described, accuracy = measured_laser_lines(seed, true_lasers)
+            rig["lasers_nm"] = [described.get(label, label) for label in lasers]
+            rig["laser_tolerance_nm"] = {m: accuracy for m in described.values()}
+            true_lasers = {described[label]: line for label, line in true_lasers.items()}
     rig = _fit_camera(rig)
     offset = rig["relay"]["offset_px"]
     camera = rig["spectral_camera"]
@@ -157,6 +167,35 @@ def family_rig(rng: np.random.Generator, index: int, small: bool, lamps: bool) -
     }
     rig_description_from_dict(rig)  # the bench as built loads too
     return rig
+
+
+#: The test sheets' own random stream beside the rig's seed, so their draw moves no other.
+_TEST_SHEET_STREAM = 45
+
+
+def measured_laser_lines(seed: int, true_lines: dict[int, float]) -> tuple[dict[int, float], float]:
+    """What the diodes' test sheets state: each line's measured centre, off the true line
+    by the sheet's accuracy (its 2-sigma, 0.2-0.3 nm, drawn from ``seed``).
+
+    Drawn from a generator of the rig's own ``seed``, so stating the lines leaves every
+    other draw of the family as it was.
+
+    Returns
+    -------
+    dict, float
+        Label -> the sheet's measured centre (nm, 0.01 nm), and the sheet's accuracy (nm).
+
+    Examples
+    --------
+    >>> sheet, accuracy = measured_laser_lines(7, {520: 522.34, 635: 633.0})
+    >>> 0.2 <= accuracy <= 0.3, all(abs(sheet[k] - v) < 4 * accuracy for k, v in
+    ...                            {520: 522.34, 635: 633.0}.items())
+    (True, True)
+    """
+    rng = np.random.default_rng([seed, _TEST_SHEET_STREAM])
+    accuracy = _r(rng.uniform(0.2, 0.3), 2)
+    sheet = {label: _r(line + rng.normal(0, accuracy / 2), 2) for label, line in true_lines.items()}
+    return sheet, accuracy
 
 
 def _fit_camera(rig: dict[str, Any]) -> dict[str, Any]:

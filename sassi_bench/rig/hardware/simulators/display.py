@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
+import select
 import shutil
 import signal
 import subprocess
@@ -82,47 +83,68 @@ def _die_with_parent() -> None:  # pragma: no cover - runs in the child
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
 
 
-def _free_display() -> int:
-    for number in range(40, 200):
-        if (
-            not Path(f"/tmp/.X{number}-lock").exists()
-            and not Path(f"/tmp/.X11-unix/X{number}").exists()
-        ):
-            return number
-    raise RuntimeError("no free X display number in 40..199")
+def _read_display_number(fd: int, proc: subprocess.Popen, log: Path) -> int:
+    """The display number Xorg writes to ``-displayfd`` once it listens on it."""
+    deadline = time.monotonic() + 15
+    text = b""
+    while not text.endswith(b"\n"):
+        ready, _, _ = select.select([fd], [], [], 0.05)
+        if ready:
+            chunk = os.read(fd, 16)
+            if not chunk:
+                break
+            text += chunk
+        elif proc.poll() is not None or time.monotonic() > deadline:
+            break
+    if not text.strip().isdigit():
+        raise RuntimeError(f"Xorg did not report a display number; see {log}")
+    return int(text)
 
 
 class DummyXServer:
     """Xorg with two monitors: DUMMY0 (the operator's) and DUMMY1 (the SLM) to its right."""
 
     def __init__(self, workdir: Path, slm_size: tuple[int, int], main_size=(800, 600)) -> None:
-        self.number = _free_display()
-        self.display = f":{self.number}"
         conf = workdir / "xorg.conf"
         conf.write_text(XORG_CONF)
         (workdir / "conf.d").mkdir(exist_ok=True)
         self.log = workdir / "xorg.log"
-        self.proc = subprocess.Popen(
-            [
-                "Xorg",
-                self.display,
-                "-config",
-                str(conf),
-                "-configdir",
-                str(workdir / "conf.d"),
-                "-noreset",
-                "-nolisten",
-                "tcp",
-                "-logfile",
-                str(self.log),
-            ],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            preexec_fn=_die_with_parent,
-        )
-        socket = Path(f"/tmp/.X11-unix/X{self.number}")
+        # Xorg picks a free display itself (-displayfd): two test processes starting a
+        # server at once cannot both take the number a lock-file scan found free.
+        read_fd, write_fd = os.pipe()
+        try:
+            self.proc = subprocess.Popen(
+                [
+                    "Xorg",
+                    "-displayfd",
+                    str(write_fd),
+                    "-config",
+                    str(conf),
+                    "-configdir",
+                    str(workdir / "conf.d"),
+                    "-noreset",
+                    "-nolisten",
+                    "tcp",
+                    "-logfile",
+                    str(self.log),
+                ],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                pass_fds=(write_fd,),
+                preexec_fn=_die_with_parent,
+            )
+        finally:
+            os.close(write_fd)
+        try:
+            self.number = _read_display_number(read_fd, self.proc, self.log)
+        except RuntimeError:
+            self.close()
+            raise
+        finally:
+            os.close(read_fd)
+        self.display = f":{self.number}"
         deadline = time.monotonic() + 15
-        while not socket.exists() or self._xrandr().returncode != 0:
+        while self._xrandr().returncode != 0:
             if self.proc.poll() is not None or time.monotonic() > deadline:
                 self.close()
                 raise RuntimeError(f"Xorg {self.display} did not start; see {self.log}")

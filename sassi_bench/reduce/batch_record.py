@@ -1,0 +1,83 @@
+"""What a step that measures until confident took: the reading its records share.
+
+The lamp, blur, response and health-check steps each decide after every batch of frames
+whether to stop (:func:`~sassi_bench.reduce.lamp_budget.next_frames`) and keep the
+decisions as a record of batches. :class:`BatchRecord` reads such a record the same way
+for all of them (the frames taken, the outcome, the batches in a line, whether the
+1-sigma fell as photon noise does); each step's record adds its own wording and JSON.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+__all__ = ["PHOTON_SHARE", "BatchRecord"]
+
+#: A batch whose 1-sigma fell by less than this share of what photons alone would give
+#: is limited by something frames do not change (the model's form, the lines).
+PHOTON_SHARE = 0.5
+
+
+class BatchRecord:
+    """The shared reading of a record of batches (a base of the steps' frozen dataclasses).
+
+    A subclass is a dataclass with a ``batches`` field, each batch having ``frames`` and
+    ``outcome`` and the 1-sigma in the attribute ``sigma_attribute`` names, and defines
+    :meth:`advice`.
+
+    Examples
+    --------
+    >>> from dataclasses import dataclass
+    >>> @dataclass(frozen=True)
+    ... class Batch:
+    ...     frames: int
+    ...     sigma_px: float
+    ...     outcome: str
+    >>> @dataclass(frozen=True)
+    ... class Record(BatchRecord):
+    ...     batches: tuple
+    ...     def advice(self):
+    ...         return None
+    >>> record = Record((Batch(2, 0.08, "more frames"), Batch(6, 0.075, "budget spent")))
+    >>> record.frames, record.outcome, record.taken(), record.photon_limited()
+    (6, 'budget spent', '2, then 6', False)
+    """
+
+    batches: Sequence[Any]
+    #: The name of the batches' 1-sigma attribute.
+    sigma_attribute: ClassVar[str] = "sigma_px"
+
+    @property
+    def frames(self) -> int:
+        """Frames taken (the last batch's)."""
+        return self.batches[-1].frames
+
+    @property
+    def outcome(self) -> str:
+        """``"tolerance met"`` or ``"budget spent"``."""
+        return self.batches[-1].outcome
+
+    def taken(self) -> str:
+        """The frames after each batch, in order (``"2, then 6"``)."""
+        return ", then ".join(str(b.frames) for b in self.batches)
+
+    def photon_limited(self) -> bool | None:
+        """Whether the 1-sigma fell with the frames as photon noise does (None after one
+        batch): one that hardly falls is set by the model or the lines, not by photons."""
+        if len(self.batches) < 2:
+            return None
+        first, last = self.batches[0], self.batches[-1]
+        first_sigma = getattr(first, self.sigma_attribute)
+        last_sigma = getattr(last, self.sigma_attribute)
+        photons = first_sigma * (first.frames / last.frames) ** 0.5
+        return first_sigma - last_sigma >= PHOTON_SHARE * (first_sigma - photons)
+
+    def advice(self) -> str | None:
+        """What would meet the tolerance when the budget was spent (None otherwise)."""
+        raise NotImplementedError
+
+    def with_advice(self, line: str) -> str:
+        """``line``, followed by the advice when there is some."""
+        advice = self.advice()
+        return line if advice is None else f"{line}; {advice}"
