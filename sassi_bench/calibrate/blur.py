@@ -384,7 +384,8 @@ def fit_field_covariance(
     field_degree
         Total degree of the field series.
     wavelength_degree
-        Degree in wavelength; None: two less than the number of lines, at most 3.
+        Degree in wavelength; None: three less than the number of lines, from 1 to 3
+        (the five lasers alone: 2, the defocus law of one glass in ``1/λ²``).
     wavelength_coordinate
         ``"inverse_square"`` (powers of a coordinate linear in ``1/λ²``) or
         ``"wavelength"`` (powers of ``λ``), see
@@ -426,7 +427,7 @@ def fit_field_covariance(
                 "measure the blur under at least three laser lines",
             )
         )
-    degree = min(3, lines.size - 2) if wavelength_degree is None else int(wavelength_degree)
+    degree = min(3, max(1, lines.size - 3)) if wavelength_degree is None else int(wavelength_degree)
     u_hat, v_hat = field_coordinates(spots.u, spots.v, slm_shape)
     field = legendre2d_design(u_hat, v_hat, field_degree)  # (N, F)
     band = (float(lines[0]), float(lines[-1])) if extrapolate_linearly else None

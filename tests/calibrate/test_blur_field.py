@@ -63,11 +63,13 @@ def test_field_blur_follows_the_spot_over_the_field_and_band(design_rigs, name):
         f"max {round_err.max():.3f} px"
     )
     # measured (noise-free frames): along / across / correlation max error achromat
-    # 0.011 px / 0.009 px / 0.010, singlet 0.042 px / 0.011 px / 0.062; the widest round
-    # spot is 0.74 / 0.96 px off across
+    # 0.028 px / 0.011 px / 0.033, singlet 0.042 px / 0.011 px / 0.062; the widest round
+    # spot is 0.74 / 0.96 px off across. Five lines fit a quadratic in 1/λ² (one glass's
+    # defocus law): the achromat's secondary spectrum is left over (a cubic: 0.011 px /
+    # 0.009 px / 0.010, but a larger stated uncertainty from noisy spots)
     assert along_err.max() < {"achromat": 0.04, "singlet": 0.10}[name]
     assert across_err.max() < {"achromat": 0.03, "singlet": 0.02}[name]
-    assert np.abs(spot.correlation - rho_true).max() < {"achromat": 0.02, "singlet": 0.10}[name]
+    assert np.abs(spot.correlation - rho_true).max() < {"achromat": 0.05, "singlet": 0.10}[name]
     assert across_err.max() < 0.1 * round_err.max()
 
 
@@ -113,7 +115,7 @@ def _noisy_spots(rng, noise_px2, reach_edges, shape=(200, 320)):
         v, u = np.mgrid[20:h:40, 20:w:40]
     u, v = np.tile(u.ravel(), len(LASERS)), np.tile(v.ravel(), len(LASERS))
     lam = np.repeat(LASERS, u.size // len(LASERS))
-    cxx = 4.0 + 0.01 * u + 3 * ((lam - 550) / 100) ** 2
+    cxx = 4.0 + 0.01 * u + 3 * (((550 / lam) ** 2 - 1) / 0.4) ** 2  # defocus: quadratic in 1/λ²
     cyy = 3.0 + 0.01 * v
     cxy = 0.003 * (u - 160)
     noise = rng.normal(0.0, noise_px2, (3, u.size))
@@ -135,7 +137,7 @@ def test_the_stated_width_uncertainty_is_the_scatter_of_the_fit(reach_edges):
         spot = fit.model.spot(u.ravel(), v.ravel(), lam.ravel())
         widths.append(np.r_[np.sqrt(spot.along**2 + 1 / 12), np.sqrt(spot.across**2 + 1 / 12)])
     scatter = np.std(widths, axis=0).max()
-    # measured: inside 0.101 stated / 0.115 scattered; to the edges 0.030 / 0.031
+    # measured: inside 0.077 stated / 0.088 scattered; to the edges 0.025 / 0.031
     assert np.median(stated) == pytest.approx(scatter, rel=0.25)
 
 
