@@ -26,15 +26,23 @@ from sassi_bench.rig.config import RigDescription
 from sassi_bench.rig.lights import laser_light
 
 __all__ = [
+    "BLUR_LINE_CLEAR_NM",
+    "BLUR_LINE_MARGIN_NM",
+    "BLUR_LINE_MIN_INTENSITY",
+    "BLUR_LINE_NEIGHBOUR_SHARE",
+    "LAMP_FIELD_FRAMES",
+    "LAMP_FIELD_OFFSETS",
     "LAMP_MARGIN_PX",
     "LAMP_PINHOLE_PITCH_PX",
     "LAMP_REACH_SIGMAS",
+    "blur_lamp_lines",
     "blur_pinholes",
     "blur_plan",
     "check_lamp_pitch",
     "grey_levels",
     "grey_plan",
     "lamp_band",
+    "lamp_field_pinholes",
     "lamp_pinholes",
     "lamp_plan",
     "sweep_plan",
@@ -375,8 +383,75 @@ def lamp_pinholes(procedure: Mapping[str, Any]) -> dict[str, Any]:
     return {"kind": "pinholes", "pitch": pitch, "offset": [pitch[0] // 2, pitch[1] // 2]}
 
 
+#: A lamp line the field blur is measured at, past the lasers' band: at least this share of
+#: its lamp's strongest line (the table's typical intensities; only to choose lines) ...
+BLUR_LINE_MIN_INTENSITY = 0.1
+#: ... with no line of at least this share of its own light within
+#: :data:`BLUR_LINE_CLEAR_NM` (weaker neighbours are fitted beside it:
+#: :func:`~sassi_bench.calibrate.line_spots.measure_line_spots`) ...
+BLUR_LINE_NEIGHBOUR_SHARE = 0.25
+BLUR_LINE_CLEAR_NM = 15.0
+#: ... and at least this far (nm) outside the lasers' band (the lasers measure inside it).
+BLUR_LINE_MARGIN_NM = 5.0
+#: The lamp field frames: the lamp pinhole grid at this many offsets, evenly over one pitch
+#: on both axes, so the lines' spots reach across the field ...
+LAMP_FIELD_OFFSETS = 4
+#: ... each taken this many times.
+LAMP_FIELD_FRAMES = 2
+
+
+def blur_lamp_lines(lines: LineList, lasers_nm: Sequence[float], desc: RigDescription):
+    """The lamp's lines a field blur is measured at beyond the lasers' band: strong, clear
+    of comparable lines, on the rig's spectral grid and outside the lasers' band.
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> desc = load_rig_description("sim-singlet")
+    >>> lasers = (450, 520, 532, 635, 670)
+    >>> [blur_lamp_lines(t, lasers, desc).tolist() for t in desc.lamp_lines().values()]
+    [[404.6565, 435.8335], []]
+    """
+    lam, power = lines.wavelengths_nm, lines.relative_intensity
+    grid = desc.spectral_grid
+    strong = power >= BLUR_LINE_MIN_INTENSITY * power.max()
+    comparable = power[None, :] >= BLUR_LINE_NEIGHBOUR_SHARE * power[:, None]
+    close = np.abs(lam[:, None] - lam[None, :]) < BLUR_LINE_CLEAR_NM
+    clear = ~(comparable & close & ~np.eye(lam.size, dtype=bool)).any(axis=1)
+    low, high = min(lasers_nm), max(lasers_nm)
+    outside = (lam < low - BLUR_LINE_MARGIN_NM) | (lam > high + BLUR_LINE_MARGIN_NM)
+    on_grid = (lam >= grid.start_nm) & (lam <= grid.stop_nm)
+    return lam[strong & clear & outside & on_grid]
+
+
+def lamp_field_pinholes(pattern: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The lamp field frames' patterns: the lamp pinhole grid at :data:`LAMP_FIELD_OFFSETS`
+    offsets spread evenly over one pitch on both axes.
+
+    Examples
+    --------
+    >>> [p["offset"] for p in lamp_field_pinholes({"kind": "pinholes", "pitch": [155, 27]})]
+    [[0, 0], [39, 7], [78, 14], [116, 20]]
+    """
+    pitch = [int(p) for p in pattern["pitch"]]
+    return [
+        {
+            "kind": "pinholes",
+            "pitch": pitch,
+            "offset": [
+                round(j * pitch[0] / LAMP_FIELD_OFFSETS),
+                round(j * pitch[1] / LAMP_FIELD_OFFSETS),
+            ],
+        }
+        for j in range(LAMP_FIELD_OFFSETS)
+    ]
+
+
 def lamp_plan(
-    procedure: Mapping[str, Any], exposures: Mapping[str, float], frames: int | None = None
+    procedure: Mapping[str, Any],
+    exposures: Mapping[str, float],
+    frames: int | None = None,
+    field_lamps: Sequence[str] = (),
 ) -> Plan:
     """Pinhole frames under each wavelength lamp, with as many closed-SLM frames.
 
@@ -392,12 +467,17 @@ def lamp_plan(
         Exposure (s) per lamp light (``"lamp:HgAr"``).
     frames
         Pinhole frames per lamp planned (None: ``lamps.frames``).
+    field_lamps
+        Lamps (light names) whose lines measure a field blur past the lasers' band
+        (:func:`blur_lamp_lines`): they also get ``role: lamp-field`` frames, the pinhole
+        grid at every offset of :func:`lamp_field_pinholes`, :data:`LAMP_FIELD_FRAMES`
+        each (tagged ``offset`` and ``frame`` 0, 1, ..., so the first batch takes them).
 
     Returns
     -------
     Plan
-        Steps tagged ``role: lamp-blank`` and ``role: lamp-pinholes`` with their ``lamp``
-        (light name) and ``frame``.
+        Steps tagged ``role: lamp-blank`` and ``role: lamp-pinholes`` (and
+        ``lamp-field``) with their ``lamp`` (light name) and ``frame``.
 
     Examples
     --------
@@ -417,6 +497,11 @@ def lamp_plan(
             for frame in range(frames):
                 tags = {"lamp": light, "role": role, "frame": frame}
                 steps.append(_frame(light, exposure, shown, tags))
+        if light in field_lamps:
+            for offset, shown in enumerate(lamp_field_pinholes(pattern)):
+                for frame in range(LAMP_FIELD_FRAMES):
+                    tags = {"lamp": light, "role": "lamp-field", "frame": frame, "offset": offset}
+                    steps.append(_frame(light, exposure, shown, tags))
     parameters = {
         "scene": "white",
         "procedure": {k: v for k, v in procedure.items() if k != "source"},

@@ -38,7 +38,7 @@ from sassi_bench.bundle import QuadraticBlur
 from sassi_bench.bundle.blur.field_covariance import FieldCovarianceBlur
 from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
 from sassi_bench.errors import ProcedureError, step_error
-from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design, legendre2d_terms
 
 __all__ = [
     "CAMERA_PIXEL_VARIANCE_PX2",
@@ -351,13 +351,25 @@ def fit_field_covariance(
     window_sigmas: float = 3.0,
     field_degree: int = 4,
     wavelength_degree: int | None = None,
+    wavelength_coordinate: str = "inverse_square",
+    extrapolate_linearly: bool = True,
 ) -> BlurFit:
     """Fit the field-covariance blur (:class:`FieldCovarianceBlur`) to pinhole spots'
     second moments over the field and lines.
 
     Each component of the spot's covariance before the camera pixel (the measured moment
     less ``1/12`` px**2 on each axis) is a Legendre series of ``field_degree`` over the SLM
-    whose coefficients are polynomials in wavelength, fitted linearly by least squares.
+    whose coefficients are polynomials in wavelength, fitted linearly by least squares;
+    products of field and wavelength terms above total degree ``field_degree + 1`` are
+    left out.
+
+    The series is in ``1/λ²`` by default: a lens's chromatic focal shift follows its
+    glasses' index, close to a Cauchy ``A + B/λ²``, and a defocused spot's variance grows
+    with the square of the shift, so the spot is a low-order polynomial there, and the
+    red end, where ``1/λ²`` changes slowly, is not left to a series bending past the last
+    line. Past the outermost lines the series continues linearly
+    (``docs/notes/2026-11-30-singlet-snapshot-spectra.md`` compares the bases on the
+    design rigs).
 
     Parameters
     ----------
@@ -372,7 +384,15 @@ def fit_field_covariance(
     field_degree
         Total degree of the field series.
     wavelength_degree
-        Degree in wavelength; None: one less than the number of lines, at most 3.
+        Degree in wavelength; None: three less than the number of lines, from 1 to 3
+        (the five lasers alone: 2, the defocus law of one glass in ``1/λ²``).
+    wavelength_coordinate
+        ``"inverse_square"`` (powers of a coordinate linear in ``1/λ²``) or
+        ``"wavelength"`` (powers of ``λ``), see
+        :func:`~sassi_bench.bundle.blur.field_covariance.wavelength_terms`.
+    extrapolate_linearly
+        Continue the series linearly past the outermost lines (the model's ``band_nm``);
+        False: the polynomial everywhere.
 
     Returns
     -------
@@ -387,13 +407,14 @@ def fit_field_covariance(
     >>> rng = np.random.default_rng(0)
     >>> u, v = rng.uniform(0, 319, 200), rng.uniform(0, 199, 200)
     >>> lam = rng.choice([450.0, 520.0, 532.0, 635.0, 670.0], 200)
-    >>> cxx = 1.0 + 0.004 * u + ((lam - 550) / 100) ** 2
+    >>> defocus = lambda lam: 2.0 * ((550.0 / lam) ** 2 - 1.0) ** 2  # quadratic in 1/λ²
+    >>> cxx = 1.0 + 0.004 * u + defocus(lam)
     >>> cyy = 0.8 + 0.002 * v
     >>> cxy = 0.001 * (u - 160)
     >>> spots = SpotMoments(u, v, lam, cxx + 1 / 12, cyy + 1 / 12, cxy)
     >>> fit = fit_field_covariance(spots, (200, 320), 0.07, field_degree=2)
     >>> spot = fit.model.spot(300.0, 20.0, 600.0)
-    >>> round(float(spot.along), 4) == round(float(np.sqrt(1 + 1.2 + 0.25)), 4)
+    >>> round(float(spot.along), 4) == round(float(np.sqrt(1 + 1.2 + defocus(600.0))), 4)
     True
     """
     lam = np.asarray(spots.wavelength_nm, dtype=np.float64)
@@ -406,28 +427,32 @@ def fit_field_covariance(
                 "measure the blur under at least three laser lines",
             )
         )
-    degree = min(3, lines.size - 2) if wavelength_degree is None else int(wavelength_degree)
-    t = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
+    degree = min(3, max(1, lines.size - 3)) if wavelength_degree is None else int(wavelength_degree)
     u_hat, v_hat = field_coordinates(spots.u, spots.v, slm_shape)
     field = legendre2d_design(u_hat, v_hat, field_degree)  # (N, F)
-    powers = t[:, None] ** np.arange(degree + 1)  # (N, L)
-    design = (field[:, :, None] * powers[:, None, :]).reshape(lam.size, -1)
+    band = (float(lines[0]), float(lines[-1])) if extrapolate_linearly else None
+
+    def model(coeffs: NDArray[np.float64], error: float | None = None) -> FieldCovarianceBlur:
+        return FieldCovarianceBlur(
+            coeffs, field_degree, slm_shape, LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas,
+            pixel_variance_px2=pixel_variance_px2, relative_error=error,
+            wavelength_coordinate=wavelength_coordinate, band_nm=band,
+        )  # fmt: skip
+
+    powers = model(np.zeros((3, field.shape[1], degree + 1))).wavelength_terms(lam)  # (N, L)
+    kept = _kept_terms(field_degree, degree)  # (F*L,)
+    design = (field[:, :, None] * powers[:, None, :]).reshape(lam.size, -1)[:, kept]
     pixel = CAMERA_PIXEL_VARIANCE_PX2
     targets = np.stack([spots.cxx - pixel, spots.cyy - pixel, spots.cxy], axis=1)  # (N, 3)
 
     def solve(rows: NDArray[np.bool_]) -> NDArray[np.float64]:
-        coeffs = np.linalg.lstsq(design[rows], targets[rows], rcond=None)[0]  # (F*L, 3)
+        coeffs = np.zeros((kept.size, 3))
+        coeffs[kept] = np.linalg.lstsq(design[rows], targets[rows], rcond=None)[0]
         return coeffs.T.reshape(3, field.shape[1], degree + 1)
-
-    def model(coeffs: NDArray[np.float64]) -> FieldCovarianceBlur:
-        return FieldCovarianceBlur(
-            coeffs, field_degree, slm_shape, LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas,
-            pixel_variance_px2=pixel_variance_px2,
-        )  # fmt: skip
 
     everything = np.ones(lam.size, dtype=bool)
     fitted = model(solve(everything))
-    width_sigma = _stated_width_sigma(fitted, design, targets, lines, slm_shape)
+    width_sigma = _stated_width_sigma(fitted, design, kept, targets, lines, slm_shape)
     measured_across = np.sqrt(np.maximum(spots.cyy, 1e-6))
     error = None
     if lines.size >= 4:
@@ -438,14 +463,21 @@ def fit_field_covariance(
             cyy = left.covariance(spots.u[out], spots.v[out], lam[out])[1]
             missed.append((np.sqrt(cyy + pixel) - measured_across[out]) / measured_across[out])
         error = min(float(np.sqrt(np.mean(np.concatenate(missed) ** 2))), 0.5)
-    final = FieldCovarianceBlur(
-        fitted.coeffs, field_degree, slm_shape, LAMBDA_REF_NM, LAMBDA_SCALE_NM, window_sigmas,
-        pixel_variance_px2=pixel_variance_px2, relative_error=error,
-    )  # fmt: skip
+    final = model(fitted.coeffs, error)
     predicted = np.sqrt(final.covariance(spots.u, spots.v, lam)[1] + pixel)
     medians = np.array([np.median(measured_across[lam == line]) for line in lines])
     residual = np.array([np.median((predicted - measured_across)[lam == line]) for line in lines])
     return BlurFit(final, lines, medians, residual, width_sigma)
+
+
+def _kept_terms(field_degree: int, wavelength_degree: int) -> NDArray[np.bool_]:
+    """Which (field term, wavelength power) products the field blur fits, flattened as its
+    design's columns: those of total degree at most ``field_degree + 1``, so the whole
+    field series may change linearly with wavelength and the higher powers only with its
+    smoother terms (the full product fits the few blue lamp spots' scatter, see
+    ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``)."""
+    field = np.array([a + b for a, b in legendre2d_terms(field_degree)])
+    return (field[:, None] + np.arange(wavelength_degree + 1) <= field_degree + 1).ravel()
 
 
 #: Field points (columns x rows) and wavelengths the stated width uncertainty is the worst
@@ -456,6 +488,7 @@ _STATED_GRID = (9, 5, 12)
 def _stated_width_sigma(
     fitted: FieldCovarianceBlur,
     design: NDArray[np.float64],
+    kept: NDArray[np.bool_],
     targets: NDArray[np.float64],
     lines: NDArray[np.float64],
     slm_shape: tuple[int, int],
@@ -475,11 +508,10 @@ def _stated_width_sigma(
         np.linspace(0, w - 1, nu), np.linspace(0, h - 1, nv), np.linspace(lines[0], lines[-1], nl)
     )
     u, v, lam = u.ravel(), v.ravel(), lam.ravel()
-    t = (lam - fitted.lambda_ref_nm) / fitted.lambda_scale_nm
     u_hat, v_hat = field_coordinates(u, v, slm_shape)
     field = legendre2d_design(u_hat, v_hat, fitted.field_degree)
-    powers = t[:, None] ** np.arange(fitted.coeffs.shape[2])
-    points = (field[:, :, None] * powers[:, None, :]).reshape(u.size, -1)
+    powers = fitted.wavelength_terms(lam)
+    points = (field[:, :, None] * powers[:, None, :]).reshape(u.size, -1)[:, kept]
     # aᵀ(AᵀA)⁻¹a through the pseudo-inverse: A's SVD, rank-safe
     _, singular, vt = np.linalg.svd(design, full_matrices=False)
     keep = singular > singular[0] * 1e-10

@@ -20,19 +20,27 @@ from numpy.typing import NDArray
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan
 from sassi_bench.acquire.session import Session
-from sassi_bench.acquire.spectral_plans import LAMP_REACH_SIGMAS, lamp_band, lamp_pinholes
+from sassi_bench.acquire.spectral_plans import (
+    BLUR_LINE_CLEAR_NM,
+    LAMP_REACH_SIGMAS,
+    blur_lamp_lines,
+    lamp_band,
+    lamp_pinholes,
+)
 from sassi_bench.bundle import BlurModel, DispersionModel
 from sassi_bench.calibrate.anchored import (
     AnchoredWavelengths,
     LampStreaks,
     fit_anchored_wavelengths,
 )
+from sassi_bench.calibrate.blur import SpotMoments
 from sassi_bench.calibrate.dispersion import LaserMap, fit_dispersion
 from sassi_bench.calibrate.lamp_streaks import (
     StreakProfiles,
     extract_streak_profiles,
     signal_and_variance,
 )
+from sassi_bench.calibrate.line_spots import measure_line_spots
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.optics.glass import Glass, get_glass
 from sassi_bench.optics.lamps import LineList
@@ -52,6 +60,7 @@ __all__ = [
     "check_lamp_signal",
     "described_form_misfit_nm",
     "form_shift_nm",
+    "lamp_field_spots",
     "lamp_frame_steps",
     "lamp_streaks",
 ]
@@ -226,6 +235,78 @@ def lamp_streaks(
             )
         )
     return out
+
+
+def lamp_field_spots(
+    session: Session,
+    desc: RigDescription,
+    model: DispersionModel,
+    lasers_nm: Sequence[float],
+) -> SpotMoments | None:
+    """The field blur's spots at the lamp lines past the lasers' band, from the lamp
+    session's field frames (``role: lamp-field``, the pinhole grid at several offsets).
+
+    Each offset's frames, less the lamp's closed-SLM frames, give every pinhole's spot of
+    every line of :func:`~sassi_bench.acquire.spectral_plans.blur_lamp_lines`, placed by
+    ``model``; its weaker neighbours within
+    :data:`~sassi_bench.acquire.spectral_plans.BLUR_LINE_CLEAR_NM` are fitted beside it
+    (:func:`~sassi_bench.calibrate.line_spots.measure_line_spots`). Atomic lines are
+    narrow: nothing of the line's own width is taken out.
+
+    Returns
+    -------
+    SpotMoments or None
+        None when the session has no field frames (planned without them, or a rig whose
+        blur is round).
+
+    Examples
+    --------
+    Not run here (it needs a captured session)::
+
+        spots = lamp_field_spots(sweeps.lamps, desc, dispersion.model, [450, 532, 670])
+        np.unique(spots.wavelength_nm)
+        # array([404.6565, 435.8335])
+    """
+    plan = session.plan
+    field = plan.select(role="lamp-field")
+    if not field or not all(i in session.completed for i in field):
+        return None
+    tables = {lines.light: lines for lines in desc.lamp_lines().values()}
+    slm_shape = (desc.slm.height, desc.slm.width)
+    saturation = 2**desc.spectral_camera.bit_depth - 1
+    parts = []
+    for light in dict.fromkeys(plan.steps[i].tags["lamp"] for i in field):
+        lines = tables[light]
+        chosen = blur_lamp_lines(lines, lasers_nm, desc)
+        taken = lamp_frame_steps(plan, None, role="lamp-blank", lamp=light)
+        blank = session.read_frames([i for i in taken if i in session.completed])
+        closed = blank.astype(np.float64).mean(axis=0)
+        offsets = sorted({int(plan.steps[i].tags["offset"]) for i in field})
+        for offset in offsets:
+            steps = plan.select(role="lamp-field", lamp=light, offset=offset)
+            frames = session.read_frames(steps)
+            signal = frames.astype(np.float64).mean(axis=0) - closed
+            saturated = (frames >= saturation).any(axis=0)
+            rows, cols = open_pixels(plan.steps[steps[0]].pattern, slm_shape)
+            u, v = cols.ravel().astype(np.float64), rows.ravel().astype(np.float64)
+            for line in chosen:
+                x, y = model.evaluate(u, v, line)
+                near = lines.wavelengths_nm[
+                    (np.abs(lines.wavelengths_nm - line) < BLUR_LINE_CLEAR_NM)
+                    & (lines.wavelengths_nm != line)
+                ]
+                others = np.empty((u.size, 0))
+                if near.size:
+                    others = np.stack([model.evaluate(u, v, lam)[0] for lam in near], axis=1)
+                spots = measure_line_spots(signal, x, y, others, 1.5, saturated)
+                ok = spots.valid
+                parts.append(
+                    (u[ok], v[ok], np.full(int(ok.sum()), line), spots.cxx[ok], spots.cyy[ok],
+                     spots.cxy[ok])
+                )  # fmt: skip
+    if not parts:
+        return None
+    return SpotMoments(*(np.concatenate(p) for p in zip(*parts, strict=True)))
 
 
 def check_lamp_signal(profiles: StreakProfiles) -> None:

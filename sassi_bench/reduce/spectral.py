@@ -39,7 +39,12 @@ from sassi_bench.reduce.blur_frames import pinhole_signals
 from sassi_bench.reduce.bundle_checks import bundle_check_notes, measured_bundle_checks
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
-from sassi_bench.reduce.lamps import LampAnchoring, LampMeasurement, anchor_wavelengths
+from sassi_bench.reduce.lamps import (
+    LampAnchoring,
+    LampMeasurement,
+    anchor_wavelengths,
+    lamp_field_spots,
+)
 from sassi_bench.reduce.sweep_stream import DecodedSweep
 from sassi_bench.reduce.sweeps import (
     LaserDecode,
@@ -429,9 +434,14 @@ def analyse_spectral_sweeps(
             x_information=anchoring.fit.information,
             **shape,
         )
+        form = blur_form(proc, desc)
+        lamp_spots = None
+        if form == "field_covariance":
+            lasers = [m.wavelength_nm for m in maps]
+            lamp_spots = lamp_field_spots(sweeps.lamps, desc, dispersion.model, lasers)
         blur = blur_from_pinholes(
             sweeps.sweep, proc, dispersion, slm_shape, saturation, pinholes, desc.slm.fill_factor,
-            form=blur_form(proc, desc), laser_fwhm_nm=desc.light.laser_fwhm_nm,
+            form=form, laser_fwhm_nm=desc.light.laser_fwhm_nm, lamp_spots=lamp_spots,
         )  # fmt: skip
         tolerance = {m.wavelength_nm: desc.laser_tolerance(m.wavelength_nm) for m in maps}
         checks = grade(decoded, dispersion, blur, proc["tolerances"], None, anchoring, tolerance)
@@ -562,10 +572,11 @@ def blur_notes(blur: BlurFit) -> list[str]:
 
 def blur_band_notes(blur: BlurFit, bin_edges_nm: ArrayLike) -> list[str]:
     """A note naming the band where a field blur was measured, when the bundle's bins
-    reach past it: its wavelength series is a free polynomial through the lasers' spots,
-    extrapolated beyond them (on the singlet design rig 0.5 px off at 420 nm,
-    ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``). The round blur's curve is the
-    chromatic defocus law itself, so it gets no such note.
+    reach past it: its wavelength series is a free polynomial through the lines' spots
+    (the lasers', and the lamp lines' past them where the lamp frames hold field frames),
+    extrapolated beyond them (on the singlet design rig, from the lasers alone, 0.5 px off
+    at 420 nm, ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``). The round blur's
+    curve is the chromatic defocus law itself, so it gets no such note.
 
     Examples
     --------
@@ -573,7 +584,7 @@ def blur_band_notes(blur: BlurFit, bin_edges_nm: ArrayLike) -> list[str]:
     >>> fit = SimpleNamespace(model=SimpleNamespace(kind="field_covariance"),
     ...                       wavelengths_nm=np.array([450.0, 532.0, 670.0]))
     >>> print(blur_band_notes(fit, [400.0, 500.0, 700.0])[0])  # doctest: +NORMALIZE_WHITESPACE
-    blur: measured over the field at the lasers, 450-670 nm; the bundle's bins reach
+    blur: measured over the field at 3 lines, 450-670 nm; the bundle's bins reach
     400-700 nm, where its widths are extrapolated
     >>> blur_band_notes(fit, [450.0, 670.0])
     []
@@ -586,7 +597,7 @@ def blur_band_notes(blur: BlurFit, bin_edges_nm: ArrayLike) -> list[str]:
     if edges.min() >= low and edges.max() <= high:
         return []
     return [
-        f"blur: measured over the field at the lasers, {low:.0f}-{high:.0f} nm; the "
+        f"blur: measured over the field at {lines.size} lines, {low:.0f}-{high:.0f} nm; the "
         f"bundle's bins reach {edges.min():.0f}-{edges.max():.0f} nm, where its widths are "
         "extrapolated"
     ]

@@ -318,6 +318,7 @@ def blur_from_pinholes(
     fill_factor: float | None = None,
     form: str = "psf_quadratic",
     laser_fwhm_nm: float = 0.0,
+    lamp_spots: SpotMoments | None = None,
 ) -> BlurFit:
     """Fit the blur model to the spot widths of the sweep session's pinhole frames.
 
@@ -354,6 +355,11 @@ def blur_from_pinholes(
     laser_fwhm_nm
         The lasers' line width: its dispersed image widens a spot along the streak, and
         is taken out of the moments along it (``field_covariance``).
+    lamp_spots
+        Spots of lamp lines past the lasers' band
+        (:func:`~sassi_bench.reduce.lamps.lamp_field_spots`), fitted with the lasers'
+        (``field_covariance``), so the field blur is measured where the bundle's bins
+        reach instead of extrapolated there.
 
     Returns
     -------
@@ -404,6 +410,11 @@ def blur_from_pinholes(
     window = float(proc["blur"].get("window_sigmas", 3.0))
     if form == "field_covariance" and fill_factor is not None:
         aperture = slm_pixel_image_px(dispersion, slm_shape, fill_factor, wavelengths)
+        if lamp_spots is not None:
+            moments.append(
+                (lamp_spots.u, lamp_spots.v, lamp_spots.wavelength_nm, lamp_spots.cxx,
+                 lamp_spots.cyy, lamp_spots.cxy)
+            )  # fmt: skip
         spots = SpotMoments(*(np.concatenate(parts) for parts in zip(*moments, strict=True)))
         degree = int(proc["blur"].get("field_degree", 4))
         return fit_field_covariance(spots, slm_shape, aperture**2 / 12.0, window, degree)

@@ -28,6 +28,7 @@ from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import (
+    blur_lamp_lines,
     blur_pinholes,
     blur_plan,
     check_lamp_pitch,
@@ -540,7 +541,15 @@ def open_lamp_session(
                 )
             ) from exc
     budget = lamp_frame_settings(procedure)[1]
-    plan = lamp_plan(procedure, exposures, frames=budget)
+    field_lamps = []
+    if blur_form(procedure, desc) == "field_covariance":  # measured past the lasers' band
+        lasers = procedure_lasers(procedure, desc.lasers_nm)
+        field_lamps = [
+            lines.light
+            for lines in desc.lamp_lines().values()
+            if blur_lamp_lines(lines, lasers, desc).size
+        ]
+    plan = lamp_plan(procedure, exposures, frames=budget, field_lamps=field_lamps)
     return Session.create(desc, plan, session_id=session_id, data=data)
 
 

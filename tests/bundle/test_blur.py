@@ -118,3 +118,54 @@ def test_the_field_blur_is_never_narrower_than_the_slm_pixels_image():
     np.testing.assert_allclose(cxx, [0.09, 1.0])
     np.testing.assert_allclose(cyy, [0.09, 0.5])
     assert np.all(cxy == 0.0)
+
+
+def test_the_field_blur_continues_linearly_past_its_measured_band():
+    """Past ``band_nm`` the series follows its tangent at the band's end (no bend), in the
+    coordinate it is written in, and is the polynomial inside."""
+    coeffs = np.zeros((3, 1, 4))
+    coeffs[0, 0] = [1.0, 0.5, 0.8, 0.3]  # positive over 380-720 nm in both coordinates
+    coeffs[1, 0, 0] = 0.5
+    band = (405.0, 670.0)
+    for coordinate in ("wavelength", "inverse_square"):
+        free = FieldCovarianceBlur(
+            coeffs, 0, (200, 320), 550.0, 150.0, 3.0, wavelength_coordinate=coordinate
+        )
+        held = FieldCovarianceBlur(
+            coeffs, 0, (200, 320), 550.0, 150.0, 3.0,
+            wavelength_coordinate=coordinate, band_nm=band,
+        )  # fmt: skip
+        inside = np.linspace(*band, 7)
+        np.testing.assert_allclose(
+            held.covariance(0, 0, inside)[0], free.covariance(0, 0, inside)[0]
+        )
+        for beyond in (np.linspace(670.0, 720.0, 6), np.linspace(405.0, 380.0, 6)):
+            t = held.wavelength_terms(beyond)[:, 1]  # the coordinate itself
+            cxx = held.covariance(0, 0, beyond)[0]
+            assert cxx.min() > 0.1  # above the floor, so the line is the series
+            slope = np.diff(cxx) / np.diff(t)
+            np.testing.assert_allclose(slope, slope[0], rtol=1e-9)
+            assert not np.allclose(free.covariance(0, 0, beyond)[0], cxx)
+
+
+def test_a_field_blur_entry_without_a_wavelength_coordinate_is_a_series_in_wavelength():
+    entry = EXAMPLES["field_covariance"].to_manifest()
+    del entry["wavelength_coordinate"]
+    blur = blur_from_manifest(entry)
+    assert blur.wavelength_coordinate == "wavelength" and blur.band_nm is None
+    t = (600.0 - 550.0) / 150.0
+    np.testing.assert_allclose(blur.wavelength_terms(600.0), [1.0, t, t**2])
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("wavelength_coordinate", "frequency", "must be one of wavelength, inverse_square"),
+        ("band_nm", [670.0, 450.0], "0 < low < high"),
+        ("band_nm", [450.0], "must hold 2 numbers"),
+    ],
+)
+def test_a_bad_field_blur_band_or_coordinate_is_refused(key, value, message):
+    entry = EXAMPLES["field_covariance"].to_manifest() | {key: value}
+    with pytest.raises(BundleSchemaError, match=message):
+        blur_from_manifest(entry)

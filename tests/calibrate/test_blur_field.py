@@ -11,16 +11,16 @@ LASERS = (450.0, 520.0, 532.0, 635.0, 670.0)
 FWHM_NM = 1.0
 
 
-def _pinhole_moments(rig, pitch=40):
-    """Every pinhole's measured moments under each laser (noise-free frames), the laser's
-    dispersed line width taken out along the streak."""
+def _pinhole_moments(rig, pitch=40, lines=LASERS):
+    """Every pinhole's measured moments under each line (noise-free frames), the line's
+    dispersed width taken out along the streak."""
     t = truth(rig)
     bench = t.bench
     h, w = bench.slm_shape
     rows, cols = np.mgrid[pitch // 2 : h : pitch, pitch // 2 : w : pitch]
     rows, cols = rows.ravel(), cols.ravel()
     parts = []
-    for laser in LASERS:
+    for laser in lines:
         line = laser_samples(laser, FWHM_NM, 1.0e6)
         rate = bench.renderer.render_sparse(
             rows, cols, np.ones(rows.size, np.float32), bench.scene_named("white"), line
@@ -63,12 +63,46 @@ def test_field_blur_follows_the_spot_over_the_field_and_band(design_rigs, name):
         f"max {round_err.max():.3f} px"
     )
     # measured (noise-free frames): along / across / correlation max error achromat
-    # 0.019 px / 0.014 px / 0.009, singlet 0.050 px / 0.010 px / 0.057; the widest round
-    # spot is 0.74 / 0.96 px off across
+    # 0.028 px / 0.011 px / 0.033, singlet 0.042 px / 0.011 px / 0.062; the widest round
+    # spot is 0.74 / 0.96 px off across. Five lines fit a quadratic in 1/λ² (one glass's
+    # defocus law): the achromat's secondary spectrum is left over (a cubic: 0.011 px /
+    # 0.009 px / 0.010, but a larger stated uncertainty from noisy spots)
     assert along_err.max() < {"achromat": 0.04, "singlet": 0.10}[name]
     assert across_err.max() < {"achromat": 0.03, "singlet": 0.02}[name]
-    assert np.abs(spot.correlation - rho_true).max() < {"achromat": 0.02, "singlet": 0.10}[name]
+    assert np.abs(spot.correlation - rho_true).max() < {"achromat": 0.05, "singlet": 0.10}[name]
     assert across_err.max() < 0.1 * round_err.max()
+
+
+@pytest.mark.parametrize("name", ["achromat", "singlet"])
+def test_with_blue_lines_the_field_blur_holds_over_the_band_without_bending_past_it(
+    design_rigs, name
+):
+    """Spots at two lines below the lasers (the HgAr lines the lamp frames hold) measure
+    the blue end, and the series, in ``1/λ²`` and continued linearly past its outermost
+    lines, does not bend at the red end, 30 nm past the last laser."""
+    rig = design_rigs(name)
+    t = truth(rig)
+    bench = t.bench
+    spots = _pinhole_moments(rig, lines=(404.6565, 435.8335, *LASERS))
+    fit = fit_field_covariance(spots, bench.slm_shape, bench.renderer.aperture_variance)
+    h, w = bench.slm_shape
+    u, v = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 5))
+    u, v = u.ravel()[:, None], v.ravel()[:, None]
+    worst = {}
+    for low, high in ((400.0, 450.0), (450.0, 670.0), (670.0, 700.0)):
+        lam = np.linspace(low, high, 11)[None, :]
+        cxx, cyy, _ = t.spot_covariance(u, v, lam)
+        spot = fit.model.spot(u, v, lam)
+        worst[low] = (
+            np.abs(spot.along - np.sqrt(cxx - 1 / 12)).max(),
+            np.abs(spot.across - np.sqrt(cyy - 1 / 12)).max(),
+        )
+    print(name, {k: tuple(round(float(x), 3) for x in w) for k, w in worst.items()})
+    # measured (noise-free frames), along / across px, 400-450 / 450-670 / 670-700 nm:
+    # achromat 0.011 / 0.011, 0.015 / 0.011, 0.022 / 0.023; singlet 0.059 / 0.042,
+    # 0.035 / 0.009, 0.024 / 0.017
+    assert max(worst[670.0]) < 0.05
+    assert max(max(w) for w in worst.values()) < 0.1
 
 
 def _noisy_spots(rng, noise_px2, reach_edges, shape=(200, 320)):
@@ -81,7 +115,7 @@ def _noisy_spots(rng, noise_px2, reach_edges, shape=(200, 320)):
         v, u = np.mgrid[20:h:40, 20:w:40]
     u, v = np.tile(u.ravel(), len(LASERS)), np.tile(v.ravel(), len(LASERS))
     lam = np.repeat(LASERS, u.size // len(LASERS))
-    cxx = 4.0 + 0.01 * u + 3 * ((lam - 550) / 100) ** 2
+    cxx = 4.0 + 0.01 * u + 3 * (((550 / lam) ** 2 - 1) / 0.4) ** 2  # defocus: quadratic in 1/λ²
     cyy = 3.0 + 0.01 * v
     cxy = 0.003 * (u - 160)
     noise = rng.normal(0.0, noise_px2, (3, u.size))
@@ -103,7 +137,7 @@ def test_the_stated_width_uncertainty_is_the_scatter_of_the_fit(reach_edges):
         spot = fit.model.spot(u.ravel(), v.ravel(), lam.ravel())
         widths.append(np.r_[np.sqrt(spot.along**2 + 1 / 12), np.sqrt(spot.across**2 + 1 / 12)])
     scatter = np.std(widths, axis=0).max()
-    # measured: inside 0.101 stated / 0.115 scattered; to the edges 0.030 / 0.031
+    # measured: inside 0.077 stated / 0.088 scattered; to the edges 0.025 / 0.031
     assert np.median(stated) == pytest.approx(scatter, rel=0.25)
 
 

@@ -5,7 +5,12 @@ orientation over the field, by a factor of 2-8 on catalogue-lens arms; a round
 ``sigma(λ)`` misses such a spot by 0.4 px (achromats) to 1.2 px (singlets). This form
 holds the spot's covariance, ``cxx`` along the streak (camera columns), ``cyy`` across it
 and ``cxy``, each a 2-D Legendre series over the SLM (the field maps' basis) whose
-coefficients are polynomials in ``t = (λ - lambda_ref_nm) / lambda_scale_nm``. The
+coefficients are polynomials in a wavelength coordinate ``t``: ``(λ - lambda_ref_nm) /
+lambda_scale_nm`` (``wavelength_coordinate: wavelength``, the default) or the same scaled
+to first order but linear in ``1/λ²`` (``inverse_square``: a lens's chromatic focal shift
+follows its glasses' index, which a Cauchy term in ``1/λ²`` describes, so the spot is a
+gentler function of it). Past the measured band (``band_nm``, when given) each component
+continues along its tangent at the band's end instead of as the polynomial. The
 covariance, not the widths and their correlation, is what is fitted and interpolated:
 the correlation is ill-conditioned near astigmatic line foci, where one width is small.
 
@@ -22,10 +27,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle.blur.model import BLUR_FORMS, BlurModel, Spot
-from sassi_bench.bundle.model_checks import bad, real
+from sassi_bench.bundle.model_checks import bad, real, reals
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design, legendre2d_terms
 
-__all__ = ["FieldCovarianceBlur"]
+__all__ = ["WAVELENGTH_COORDINATES", "FieldCovarianceBlur", "wavelength_terms"]
+
+#: The wavelength coordinates a field blur's series may be written in.
+WAVELENGTH_COORDINATES = ("wavelength", "inverse_square")
 
 #: The smallest variance (camera px**2) a component is allowed, so widths stay real.
 _MIN_VARIANCE = 0.04**2
@@ -33,6 +41,45 @@ _MIN_VARIANCE = 0.04**2
 _MAX_CORRELATION = 0.98
 #: Field points (columns x rows) :meth:`FieldCovarianceBlur.sigma` takes its widest over.
 _WIDEST_GRID = (17, 11)
+
+
+def wavelength_terms(
+    wavelength_nm: ArrayLike,
+    degree: int,
+    lambda_ref_nm: float,
+    lambda_scale_nm: float,
+    coordinate: str = "wavelength",
+    band_nm: tuple[float, float] | None = None,
+) -> NDArray[np.float64]:
+    """The wavelength series' terms ``1, t, ..., t**degree`` at each wavelength, (..., degree + 1).
+
+    ``t`` is ``(λ - lambda_ref_nm) / lambda_scale_nm`` (``coordinate="wavelength"``) or
+    ``(1 - (lambda_ref_nm / λ)²) lambda_ref_nm / (2 lambda_scale_nm)``
+    (``"inverse_square"``: linear in ``1/λ²``, equal to the first to first order at the
+    reference). Outside ``band_nm`` each term continues along its tangent at the nearer
+    end, so a series fitted inside the band is extrapolated linearly in ``t``.
+
+    Examples
+    --------
+    >>> wavelength_terms([550.0, 700.0], 2, 550.0, 150.0).round(3).tolist()
+    [[1.0, 0.0, 0.0], [1.0, 1.0, 1.0]]
+    >>> wavelength_terms([700.0], 2, 550.0, 150.0, band_nm=(450.0, 670.0)).round(3).tolist()
+    [[1.0, 1.0, 0.96]]
+    """
+    lam = np.asarray(wavelength_nm, dtype=np.float64)
+
+    def coordinate_of(lam: NDArray[np.float64]) -> NDArray[np.float64]:
+        if coordinate == "inverse_square":
+            return (1.0 - (lambda_ref_nm / lam) ** 2) * lambda_ref_nm / (2.0 * lambda_scale_nm)
+        return (lam - lambda_ref_nm) / lambda_scale_nm
+
+    t = coordinate_of(lam)
+    powers = np.arange(degree + 1)
+    if band_nm is None:
+        return t[..., None] ** powers
+    inside = np.clip(t, *np.sort(coordinate_of(np.asarray(band_nm, dtype=np.float64))))
+    slope = powers * inside[..., None] ** np.maximum(powers - 1, 0)
+    return inside[..., None] ** powers + slope * (t - inside)[..., None]
 
 
 @BLUR_FORMS.register("field_covariance")
@@ -51,13 +98,20 @@ class FieldCovarianceBlur(BlurModel):
     slm_shape
         SLM (height, width): the field's normalisation.
     lambda_ref_nm, lambda_scale_nm
-        ``t = (λ − lambda_ref_nm) / lambda_scale_nm``.
+        The reference and scale of the wavelength coordinate ``t``
+        (:func:`wavelength_terms`).
     window_sigmas
         Half-width of the summation window in units of sigma.
     pixel_variance_px2
         The SLM pixel's image's variance (camera px**2) inside the spot.
     relative_error
         The fit's own estimate of its error, as a fraction of the width (None: unstated).
+    wavelength_coordinate
+        ``"wavelength"`` (the series in ``λ``; bundles without the key) or
+        ``"inverse_square"`` (in ``1/λ²``).
+    band_nm
+        (low, high) wavelengths the series holds between; past them it continues linearly
+        in ``t`` (None: the polynomial everywhere).
 
     Examples
     --------
@@ -83,6 +137,8 @@ class FieldCovarianceBlur(BlurModel):
     window_sigmas: float
     pixel_variance_px2: float = 0.0
     relative_error: float | None = None
+    wavelength_coordinate: str = "wavelength"
+    band_nm: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         where = "models.blur"
@@ -111,6 +167,18 @@ class FieldCovarianceBlur(BlurModel):
                 self, key, real(getattr(self, key), f"{where}.{key}", positive=positive)
             )
         self._check_pixel_and_error(where)
+        if self.wavelength_coordinate not in WAVELENGTH_COORDINATES:
+            raise bad(
+                f"{where}.wavelength_coordinate",
+                f"must be one of {', '.join(WAVELENGTH_COORDINATES)}, "
+                f"got {self.wavelength_coordinate!r}",
+            )
+        if self.band_nm is not None:
+            low, high = reals(self.band_nm, 2, f"{where}.band_nm")
+            if not 0 < low < high:
+                raise bad(f"{where}.band_nm", f"must be [low, high] with 0 < low < high, got "
+                          f"{list(self.band_nm)}")  # fmt: skip
+            object.__setattr__(self, "band_nm", (low, high))
 
     @property
     def kind(self) -> str:
@@ -122,11 +190,8 @@ class FieldCovarianceBlur(BlurModel):
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """The spot's covariance (cxx, cyy, cxy; camera px**2) at (u, v, λ), broadcast."""
         u_hat, v_hat = field_coordinates(u, v, self.slm_shape)
-        t = (
-            np.asarray(wavelength_nm, dtype=np.float64) - self.lambda_ref_nm
-        ) / self.lambda_scale_nm
         basis = legendre2d_design(u_hat, v_hat, self.field_degree)  # (..., terms)
-        powers = t[..., None] ** np.arange(self.coeffs.shape[2])  # (..., degree + 1)
+        powers = self.wavelength_terms(wavelength_nm)  # (..., degree + 1)
         shape = np.broadcast_shapes(basis.shape[:-1], powers.shape[:-1])
         basis = np.broadcast_to(basis, (*shape, basis.shape[-1]))
         powers = np.broadcast_to(powers, (*shape, powers.shape[-1]))
@@ -138,6 +203,13 @@ class FieldCovarianceBlur(BlurModel):
         cyy = np.maximum(out[1], floor)
         limit = _MAX_CORRELATION * np.sqrt(cxx * cyy)
         return cxx, cyy, np.clip(out[2], -limit, limit)
+
+    def wavelength_terms(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """The wavelength series' terms at each wavelength (:func:`wavelength_terms`)."""
+        return wavelength_terms(
+            wavelength_nm, self.coeffs.shape[2] - 1, self.lambda_ref_nm, self.lambda_scale_nm,
+            self.wavelength_coordinate, self.band_nm,
+        )  # fmt: skip
 
     def spot(self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike) -> Spot:
         """Widths along and across the streak and their correlation at (u, v, λ)."""
@@ -181,7 +253,10 @@ class FieldCovarianceBlur(BlurModel):
             "lambda_scale_nm": self.lambda_scale_nm,
             "window_sigmas": self.window_sigmas,
             "pixel_variance_px2": self.pixel_variance_px2,
+            "wavelength_coordinate": self.wavelength_coordinate,
         }
+        if self.band_nm is not None:
+            entry["band_nm"] = list(self.band_nm)
         if self.relative_error is not None:
             entry["relative_error"] = self.relative_error
         return entry
@@ -208,4 +283,6 @@ class FieldCovarianceBlur(BlurModel):
             window_sigmas=entry["window_sigmas"],
             pixel_variance_px2=entry.get("pixel_variance_px2", 0.0),
             relative_error=entry.get("relative_error"),
+            wavelength_coordinate=entry.get("wavelength_coordinate", "wavelength"),
+            band_nm=entry.get("band_nm"),
         )

@@ -1,0 +1,137 @@
+"""Second moments of lamp-line spots whose weaker neighbours share their streak.
+
+A pinhole under a wavelength lamp makes one spot per atomic line along its streak. Below
+the lasers' band the lamp lines are the only narrow light a bench has (HgAr 404.7 and
+435.8 nm), so they are where the field blur is measured there. A neighbouring line of the
+same lamp sits a few camera px along the streak (Hg 407.8 nm, 3 px from 404.7 nm on the
+singlet design rig, at 7 % of its light): it leaves the moments across the streak alone
+(it lies on the same row) but widens the windowed moment along it by ``p d²`` (0.29 px
+there, ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``). Along the streak the spot
+is therefore fitted instead: the column profile as pixel-integrated Gaussians at every
+line within reach, one width, free amplitudes (linear), the width by a grid search. Across
+it, and the cross moment, are the windowed moments of
+:func:`~sassi_bench.calibrate.blur.measure_spot_widths`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.special import ndtr
+
+from sassi_bench.calibrate.blur import CAMERA_PIXEL_VARIANCE_PX2, measure_spot_widths
+
+__all__ = ["LineSpots", "measure_line_spots"]
+
+#: Widths (camera px) the profile fit searches, and its step.
+_SIGMA_GRID = np.arange(0.25, 6.0, 0.005)
+
+
+@dataclass(frozen=True)
+class LineSpots:
+    """Second moments (camera px², camera pixel included) of one line's spots, (N,)."""
+
+    cxx: NDArray[np.float64]
+    cyy: NDArray[np.float64]
+    cxy: NDArray[np.float64]
+    valid: NDArray[np.bool_]
+
+
+def measure_line_spots(
+    signal: ArrayLike,
+    x: ArrayLike,
+    y: ArrayLike,
+    neighbours_x: ArrayLike,
+    sigma_guess: float = 1.5,
+    saturated: ArrayLike | None = None,
+) -> LineSpots:
+    """Moments of a line's spots at (x, y), neighbouring lines at ``neighbours_x``.
+
+    Parameters
+    ----------
+    signal
+        Background-free image (pinhole frames less closed-SLM frames), float.
+    x, y
+        The line's spot centres (camera px), (N,).
+    neighbours_x
+        (N, K) columns of the same pinholes' other lines (NaN: none); those within the
+        profile's reach are fitted with their own amplitude and the line's width.
+    sigma_guess
+        A rough width for the first moment window.
+    saturated
+        Boolean image of saturated pixels; spots touching one are invalid.
+
+    Returns
+    -------
+    LineSpots
+        ``cxx`` the fitted profile's variance plus the camera pixel's ``1/12`` (what a
+        second moment of an isolated spot measures), ``cyy`` and ``cxy`` the windowed
+        moments.
+
+    Examples
+    --------
+    >>> yy, xx = np.mgrid[0:40, 0:60]
+    >>> def spot(cx, a):
+    ...     return a * np.exp(-((xx - cx) ** 2 / (2 * 1.2**2) + (yy - 20.2) ** 2 / (2 * 0.9**2)))
+    >>> image = spot(25.3, 1.0) + spot(28.4, 0.1)  # a weak neighbour 3.1 px along
+    >>> found = measure_line_spots(image, [25.3], [20.2], [[28.4]])
+    >>> round(float(np.sqrt(found.cxx[0])), 2), round(float(np.sqrt(found.cyy[0])), 2)
+    (1.2, 0.9)
+    >>> from sassi_bench.calibrate.blur import measure_spot_widths
+    >>> round(float(measure_spot_widths(image, [25.3], [20.2], 1.5).sigma_x[0]), 2)  # widened
+    1.46
+    """
+    image = np.asarray(signal, dtype=np.float64)
+    x = np.asarray(x, dtype=np.float64).ravel()
+    y = np.asarray(y, dtype=np.float64).ravel()
+    others = np.asarray(neighbours_x, dtype=np.float64).reshape(x.size, -1)
+    widths = measure_spot_widths(image, x, y, sigma_guess, saturated=saturated)
+    sigma_x = _profile_sigma(image, x, y, others, widths)
+    valid = widths.valid & np.isfinite(sigma_x)
+    cxx = np.where(valid, sigma_x**2 + CAMERA_PIXEL_VARIANCE_PX2, np.nan)
+    return LineSpots(cxx, widths.sigma_y**2, widths.cov_xy, valid)
+
+
+def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
+    """Each spot's width along the streak: its column profile (rows within 3 sigmas of
+    the spot's) fitted by Gaussians at its own and its neighbours' columns."""
+    along = np.median(widths.sigma_x[widths.valid]) if widths.valid.any() else 1.5
+    across = np.median(widths.sigma_y[widths.valid]) if widths.valid.any() else 1.5
+    half = max(3, int(np.ceil(4.5 * along)))
+    half_rows = max(2, int(np.ceil(3.0 * across)))
+    cx, cy = np.rint(x).astype(np.intp), np.rint(y).astype(np.intp)
+    cols = cx[:, None] + np.arange(-half, half + 1)[None, :]  # (N, P)
+    rows = cy[:, None] + np.arange(-half_rows, half_rows + 1)[None, :]  # (N, R)
+    inside = (cols.min(axis=1) >= 0) & (cols.max(axis=1) < image.shape[1])
+    inside &= (rows.min(axis=1) >= 0) & (rows.max(axis=1) < image.shape[0])
+    rows_c = np.clip(rows, 0, image.shape[0] - 1)
+    cols_c = np.clip(cols, 0, image.shape[1] - 1)
+    profile = image[rows_c[:, :, None], cols_c[:, None, :]].sum(axis=1)  # (N, P)
+    centres = np.concatenate([x[:, None], others], axis=1)  # (N, K)
+    reach = np.abs(centres - cx[:, None]) <= half + 0.5
+    reach[:, 0] = True
+    centres = np.where(reach & np.isfinite(centres), centres, np.nan)
+    left = cols - 0.5  # each column's left edge
+    out = np.full(x.size, np.nan)
+    residual = np.empty((x.size, _SIGMA_GRID.size))
+    for k, sigma in enumerate(_SIGMA_GRID):  # a few hundred widths, every spot at once
+        share = ndtr((left[:, :, None] + 1.0 - centres[:, None, :]) / sigma) - ndtr(
+            (left[:, :, None] - centres[:, None, :]) / sigma
+        )  # (N, P, K)
+        share = np.nan_to_num(share)
+        normal = np.einsum("npk,npj->nkj", share, share) + 1e-12 * np.eye(centres.shape[1])
+        rhs = np.einsum("npk,np->nk", share, profile)
+        amplitude = np.linalg.solve(normal, rhs[..., None])[..., 0]
+        residual[:, k] = ((np.einsum("npk,nk->np", share, amplitude) - profile) ** 2).sum(axis=1)
+    best = np.argmin(residual, axis=1)
+    inner = (best > 0) & (best < _SIGMA_GRID.size - 1)
+    # a parabola through the grid's three nearest residuals refines the width
+    i = np.clip(best, 1, _SIGMA_GRID.size - 2)
+    r0, r1, r2 = (residual[np.arange(x.size), i + d] for d in (-1, 0, 1))
+    curvature = r0 - 2 * r1 + r2
+    step = np.where(curvature > 0, 0.5 * (r0 - r2) / np.where(curvature > 0, curvature, 1), 0)
+    refined = _SIGMA_GRID[i] + np.clip(step, -1, 1) * (_SIGMA_GRID[1] - _SIGMA_GRID[0])
+    out[inner & inside] = refined[inner & inside]
+    return out
