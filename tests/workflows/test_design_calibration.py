@@ -60,19 +60,26 @@ def test_positions_and_wavelengths_hold_on_real_optics(calibrated):
     assert rms < 0.07
 
 
+def _worst_blur_error(t, model, slm_shape, band) -> tuple[float, float]:
+    """The blur model's worst error against the bench's spots, along and across the
+    streak (px), over a 9 x 5 field grid and ``band`` = (first nm, last nm, count)."""
+    h, w = slm_shape
+    u, v = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 5))
+    u, v = u.ravel()[:, None], v.ravel()[:, None]
+    lam = np.linspace(*band)[None, :]
+    cxx, cyy, _ = t.spot_covariance(u, v, lam)
+    spot = model.spot(u, v, lam)
+    along = np.abs(np.sqrt(spot.along**2 + 1 / 12) - np.sqrt(cxx)).max()
+    across = np.abs(np.sqrt(spot.across**2 + 1 / 12) - np.sqrt(cyy)).max()
+    return float(along), float(across)
+
+
 def test_the_field_blur_follows_the_spot_between_the_lasers(calibrated):
     rig, result, _ = calibrated
     t = truth(rig)
     model = result.blur.model
     assert model.kind == "field_covariance"
-    h, w = rig.slm.shape
-    u, v = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 5))
-    u, v = u.ravel()[:, None], v.ravel()[:, None]
-    lam = np.linspace(450.0, 670.0, 23)[None, :]
-    cxx, cyy, _ = t.spot_covariance(u, v, lam)
-    spot = model.spot(u, v, lam)
-    along = np.abs(np.sqrt(spot.along**2 + 1 / 12) - np.sqrt(cxx)).max()
-    across = np.abs(np.sqrt(spot.across**2 + 1 / 12) - np.sqrt(cyy)).max()
+    along, across = _worst_blur_error(t, model, rig.slm.shape, (450.0, 670.0, 23))
     print(f"blur over the field, 450-670 nm: along {along:.3f} px, across {across:.3f} px")
     # measured: along 0.025 px, across 0.032 px with the lamp lines' spots (the series in
     # 1/λ²); along 0.079 px, across 0.035 px from the lasers alone (in λ), 6 pinhole frames per
@@ -239,14 +246,7 @@ def test_the_lamp_lines_measure_the_field_blur_below_the_lasers(calibrated):
     assert lamps.plan.select(role="lamp-field", lamp="lamp:Ne") == []
     assert result.blur.wavelengths_nm[:2].tolist() == [404.6565, 435.8335]
     model = result.blur.model
-    h, w = rig.slm.shape
-    u, v = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 5))
-    u, v = u.ravel()[:, None], v.ravel()[:, None]
-    lam = np.linspace(400.0, 450.0, 11)[None, :]
-    cxx, cyy, _ = t.spot_covariance(u, v, lam)
-    spot = model.spot(u, v, lam)
-    along = np.abs(np.sqrt(spot.along**2 + 1 / 12) - np.sqrt(cxx)).max()
-    across = np.abs(np.sqrt(spot.across**2 + 1 / 12) - np.sqrt(cyy)).max()
+    along, across = _worst_blur_error(t, model, rig.slm.shape, (400.0, 450.0, 11))
     print(f"blur over the field, 400-450 nm: along {along:.3f} px, across {across:.3f} px")
     # measured: along 0.056 px, across 0.066 px here (lamp pitch [160, 24]); 0.039 /
     # 0.099 px with the derived pitch [155, 27], worst within 400-420 nm, below the
@@ -262,14 +262,7 @@ def test_the_field_blur_does_not_bend_past_the_last_laser(calibrated):
     t = truth(rig)
     model = result.blur.model
     assert model.band_nm == (404.6565, pytest.approx(670.0, abs=0.01))
-    h, w = rig.slm.shape
-    u, v = np.meshgrid(np.linspace(0, w - 1, 9), np.linspace(0, h - 1, 5))
-    u, v = u.ravel()[:, None], v.ravel()[:, None]
-    lam = np.linspace(670.0, 700.0, 7)[None, :]
-    cxx, cyy, _ = t.spot_covariance(u, v, lam)
-    spot = model.spot(u, v, lam)
-    along = np.abs(np.sqrt(spot.along**2 + 1 / 12) - np.sqrt(cxx)).max()
-    across = np.abs(np.sqrt(spot.across**2 + 1 / 12) - np.sqrt(cyy)).max()
+    along, across = _worst_blur_error(t, model, rig.slm.shape, (670.0, 700.0, 7))
     print(f"blur over the field, 670-700 nm: along {along:.3f} px, across {across:.3f} px")
     # measured: along 0.025 px, across 0.025 px (the series in λ, degree 4, free past
     # 670 nm: 0.19 / 0.11 px on the shipped lamp pitch, see
