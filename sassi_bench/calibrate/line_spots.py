@@ -31,6 +31,9 @@ __all__ = ["LineSpots", "measure_line_spots"]
 _SIGMA_GRID = np.arange(0.25, 6.0, 0.005)
 #: Shifts (camera px) of the lines' modelled columns the profile fit searches.
 _SHIFT_GRID = np.arange(-1.0, 1.0 + 1e-9, 0.01)
+#: Changes (camera px) of the width searched once the shift is fitted: a shift of a few
+#: tenths of a pixel changes the width by about a tenth.
+_SIGMA_NUDGE = np.arange(-0.25, 0.25 + 1e-9, 0.005)
 
 
 @dataclass(frozen=True)
@@ -121,10 +124,14 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     left = cols - 0.5  # each column's left edge
 
     def at_width(sigma, shift):
-        return _profile_residual(profile, left, centres + shift[:, None], np.full(x.size, sigma))
+        sigma = np.broadcast_to(sigma, x.shape)
+        return _profile_residual(profile, left, centres + shift[:, None], sigma)
 
     def at_shift(shift, sigma):
         return _profile_residual(profile, left, centres + shift, sigma)
+
+    def nudged(change, at):
+        return at_width(at[0] + change, at[1])
 
     # The lines' columns come from the dispersion model, which can be a few tenths of a
     # pixel off at the band's ends (0.21 px at 404.7 nm on the achromat design rig); a
@@ -136,7 +143,8 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     sigma, ok = _grid_minimum(_SIGMA_GRID, at_width, shift)
     for _ in range(2):
         shift, shift_ok = _grid_minimum(_SHIFT_GRID, at_shift, sigma, nearest=0.0)
-        sigma, ok = _grid_minimum(_SIGMA_GRID, at_width, shift)
+        nudge, ok = _grid_minimum(_SIGMA_NUDGE, nudged, (sigma, shift))
+        sigma = sigma + nudge
     out = np.full(x.size, np.nan)
     keep = ok & shift_ok & inside
     out[keep] = sigma[keep]
