@@ -248,7 +248,7 @@ def test_the_lamp_lines_measure_the_field_blur_below_the_lasers(calibrated):
     along = np.abs(np.sqrt(spot.along**2 + 1 / 12) - np.sqrt(cxx)).max()
     across = np.abs(np.sqrt(spot.across**2 + 1 / 12) - np.sqrt(cyy)).max()
     print(f"blur over the field, 400-450 nm: along {along:.3f} px, across {across:.3f} px")
-    # measured: along 0.056 px, across 0.066 px here (lamp pitch [160, 24]); 0.039 /
+    # measured: along 0.047 px, across 0.066 px here (lamp pitch [160, 24]); 0.039 /
     # 0.099 px with the derived pitch [155, 27], worst within 400-420 nm, below the
     # 404.7 nm line; from the lasers alone 1.05 / 0.57 px
     assert along < 0.1
