@@ -8,7 +8,9 @@ singlet design rig, at 7 % of its light): it leaves the moments across the strea
 (it lies on the same row) but widens the windowed moment along it by ``p d²`` (0.29 px
 there, ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``). Along the streak the spot
 is therefore fitted instead: the column profile as pixel-integrated Gaussians at every
-line within reach, one width, free amplitudes (linear), the width by a grid search. Across
+line within reach, one width, free amplitudes (linear), the width by a grid search, and
+one shift of all the lines' columns (the dispersion model places a line at the band's end
+a few tenths of a pixel off, which a fixed centre reads as width). Across
 it, and the cross moment, are the windowed moments of
 :func:`~sassi_bench.calibrate.blur.measure_spot_widths`.
 """
@@ -27,6 +29,11 @@ __all__ = ["LineSpots", "measure_line_spots"]
 
 #: Widths (camera px) the profile fit searches, and its step.
 _SIGMA_GRID = np.arange(0.25, 6.0, 0.005)
+#: Shifts (camera px) of the lines' modelled columns the profile fit searches.
+_SHIFT_GRID = np.arange(-1.0, 1.0 + 1e-9, 0.01)
+#: Changes (camera px) of the width searched once the shift is fitted: a shift of a few
+#: tenths of a pixel changes the width by about a tenth.
+_SIGMA_NUDGE = np.arange(-0.25, 0.25 + 1e-9, 0.005)
 
 
 @dataclass(frozen=True)
@@ -96,7 +103,8 @@ def measure_line_spots(
 
 def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     """Each spot's width along the streak: its column profile (rows within 3 sigmas of
-    the spot's) fitted by Gaussians at its own and its neighbours' columns."""
+    the spot's) fitted by Gaussians at its own and its neighbours' columns, all moved by
+    one shift fitted with the width."""
     along = np.median(widths.sigma_x[widths.valid]) if widths.valid.any() else 1.5
     across = np.median(widths.sigma_y[widths.valid]) if widths.valid.any() else 1.5
     half = max(3, int(np.ceil(4.5 * along)))
@@ -114,24 +122,66 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     reach[:, 0] = True
     centres = np.where(reach & np.isfinite(centres), centres, np.nan)
     left = cols - 0.5  # each column's left edge
+
+    def at_width(sigma, shift):
+        sigma = np.broadcast_to(sigma, x.shape)
+        return _profile_residual(profile, left, centres + shift[:, None], sigma)
+
+    def at_shift(shift, sigma):
+        return _profile_residual(profile, left, centres + shift, sigma)
+
+    def nudged(change, at):
+        return at_width(at[0] + change, at[1])
+
+    # The lines' columns come from the dispersion model, which can be a few tenths of a
+    # pixel off at the band's ends (0.21 px at 404.7 nm on the achromat design rig); a
+    # width fitted about a misplaced centre grows to cover the offset, so the shift is
+    # fitted too: the width at no shift, then the shift and the width in turn. The shift
+    # is the residual's local minimum nearest none: a neighbour less than a pixel away
+    # (Hg 434.7 nm beside 435.8 nm) makes a second one, the two lines' roles swapped.
+    shift = np.zeros(x.size)
+    sigma, ok = _grid_minimum(_SIGMA_GRID, at_width, shift)
+    for _ in range(2):
+        shift, shift_ok = _grid_minimum(_SHIFT_GRID, at_shift, sigma, nearest=0.0)
+        nudge, ok = _grid_minimum(_SIGMA_NUDGE, nudged, (sigma, shift))
+        sigma = sigma + nudge
     out = np.full(x.size, np.nan)
-    residual = np.empty((x.size, _SIGMA_GRID.size))
-    for k, sigma in enumerate(_SIGMA_GRID):  # a few hundred widths, every spot at once
-        share = ndtr((left[:, :, None] + 1.0 - centres[:, None, :]) / sigma) - ndtr(
-            (left[:, :, None] - centres[:, None, :]) / sigma
-        )  # (N, P, K)
-        share = np.nan_to_num(share)
-        normal = np.einsum("npk,npj->nkj", share, share) + 1e-12 * np.eye(centres.shape[1])
-        rhs = np.einsum("npk,np->nk", share, profile)
-        amplitude = np.linalg.solve(normal, rhs[..., None])[..., 0]
-        residual[:, k] = ((np.einsum("npk,nk->np", share, amplitude) - profile) ** 2).sum(axis=1)
-    best = np.argmin(residual, axis=1)
-    inner = (best > 0) & (best < _SIGMA_GRID.size - 1)
-    # a parabola through the grid's three nearest residuals refines the width
-    i = np.clip(best, 1, _SIGMA_GRID.size - 2)
-    r0, r1, r2 = (residual[np.arange(x.size), i + d] for d in (-1, 0, 1))
+    keep = ok & shift_ok & inside
+    out[keep] = sigma[keep]
+    return out
+
+
+def _profile_residual(profile, left, centres, sigma) -> NDArray[np.float64]:
+    """Squared residual (N,) of each profile (N, P) against pixel-integrated Gaussians of
+    width ``sigma`` (N,) at ``centres`` (N, K; NaN: none), amplitudes fitted (linear)."""
+    s = sigma[:, None, None]
+    share = ndtr((left[:, :, None] + 1.0 - centres[:, None, :]) / s) - ndtr(
+        (left[:, :, None] - centres[:, None, :]) / s
+    )  # (N, P, K)
+    share = np.nan_to_num(share)
+    normal = np.einsum("npk,npj->nkj", share, share) + 1e-12 * np.eye(centres.shape[1])
+    rhs = np.einsum("npk,np->nk", share, profile)
+    amplitude = np.linalg.solve(normal, rhs[..., None])[..., 0]
+    return ((np.einsum("npk,nk->np", share, amplitude) - profile) ** 2).sum(axis=1)
+
+
+def _grid_minimum(
+    grid, residual, fixed, nearest: float | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Each spot's minimum of ``residual(value, fixed) -> (N,)`` over ``grid`` (the local
+    minimum nearest ``nearest`` if given, else the lowest), refined by a parabola through
+    the three nearest values; False where it is at the grid's edge."""
+    table = np.stack([residual(value, fixed) for value in grid], axis=1)  # (N, G)
+    n = table.shape[0]
+    best = np.argmin(table, axis=1)
+    if nearest is not None:
+        local = np.zeros(table.shape, dtype=bool)
+        local[:, 1:-1] = (table[:, 1:-1] <= table[:, :-2]) & (table[:, 1:-1] <= table[:, 2:])
+        distance = np.where(local, np.abs(grid - nearest)[None, :], np.inf)
+        best = np.where(local.any(axis=1), np.argmin(distance, axis=1), best)
+    inner = (best > 0) & (best < grid.size - 1)
+    i = np.clip(best, 1, grid.size - 2)
+    r0, r1, r2 = (table[np.arange(n), i + d] for d in (-1, 0, 1))
     curvature = r0 - 2 * r1 + r2
     step = np.where(curvature > 0, 0.5 * (r0 - r2) / np.where(curvature > 0, curvature, 1), 0)
-    refined = _SIGMA_GRID[i] + np.clip(step, -1, 1) * (_SIGMA_GRID[1] - _SIGMA_GRID[0])
-    out[inner & inside] = refined[inner & inside]
-    return out
+    return grid[i] + np.clip(step, -1, 1) * (grid[1] - grid[0]), inner

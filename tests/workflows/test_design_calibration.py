@@ -248,7 +248,7 @@ def test_the_lamp_lines_measure_the_field_blur_below_the_lasers(calibrated):
     model = result.blur.model
     along, across = _worst_blur_error(t, model, rig.slm.shape, (400.0, 450.0, 11))
     print(f"blur over the field, 400-450 nm: along {along:.3f} px, across {across:.3f} px")
-    # measured: along 0.056 px, across 0.066 px here (lamp pitch [160, 24]); 0.039 /
+    # measured: along 0.047 px, across 0.066 px here (lamp pitch [160, 24]); 0.039 /
     # 0.099 px with the derived pitch [155, 27], worst within 400-420 nm, below the
     # 404.7 nm line; from the lasers alone 1.05 / 0.57 px
     assert along < 0.1
