@@ -3,14 +3,14 @@
 A pinhole under a wavelength lamp makes one spot per atomic line along its streak. Below
 the lasers' band the lamp lines are the only narrow light a bench has (HgAr 404.7 and
 435.8 nm), so they are where the field blur is measured there. A neighbouring line of the
-same lamp sits a few camera px along the streak (Hg 407.8 nm, 3 px from 404.7 nm on the
-singlet design rig, at 7 % of its light): it leaves the moments across the streak alone
-(it lies on the same row) but widens the windowed moment along it by ``p d²`` (0.29 px
-there, ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``). Along the streak the spot
-is therefore fitted instead: the column profile as pixel-integrated Gaussians at every
-line within reach, one width, free amplitudes (linear), the width by a grid search, and
-one shift of all the lines' columns (the dispersion model places a line at the band's end
-a few tenths of a pixel off, which a fixed centre reads as width). Across
+same lamp sits a few camera px along the streak (Hg 407.8 nm beside 404.7 nm): it
+leaves the moments across the streak alone (it lies on the same row) but widens the
+windowed moment along it by ``p d²`` for a neighbour of share ``p`` at ``d`` px
+(measured: ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``). Along the streak the
+spot is therefore fitted instead: the column profile as pixel-integrated Gaussians at
+every line within reach, one width, free amplitudes (linear), the width by a grid search,
+and one shift of all the lines' columns (the dispersion model can place a line at the
+band's end a few tenths of a pixel off, which a fixed centre reads as width). Across
 it, and the cross moment, are the windowed moments of
 :func:`~sassi_bench.calibrate.blur.measure_spot_widths`.
 """
@@ -134,8 +134,8 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
         return at_width(at[0] + change, at[1])
 
     # The lines' columns come from the dispersion model, which can be a few tenths of a
-    # pixel off at the band's ends (0.21 px at 404.7 nm on the achromat design rig); a
-    # width fitted about a misplaced centre grows to cover the offset, so the shift is
+    # pixel off at the band's ends (docs/notes/2026-11-30-singlet-snapshot-spectra.md);
+    # a width fitted about a misplaced centre grows to cover the offset, so the shift is
     # fitted too: the width at no shift, then the shift and the width in turn. The shift
     # is the residual's local minimum nearest none: a neighbour less than a pixel away
     # (Hg 434.7 nm beside 435.8 nm) makes a second one, the two lines' roles swapped.
