@@ -161,7 +161,7 @@ def run_snapshot(
     light = snap["light"]
     notes: list[str] = []
 
-    # 1. The ground truth: a pinhole scan of the scene (or a given scan cube).
+    # 1. The reference: a pinhole scan of the scene (or a given scan cube).
     scan_dataset = None
     if scan_path is not None:
         reference, valid, units = load_scan_cube(scan_path, bundle)
