@@ -572,10 +572,10 @@ def blur_notes(blur: BlurFit) -> list[str]:
 
 def blur_band_notes(blur: BlurFit, bin_edges_nm: ArrayLike) -> list[str]:
     """A note naming the band where a field blur was measured, when the bundle's bins
-    reach past it: its wavelength series is a free polynomial through the lines' spots
-    (the lasers', and the lamp lines' past them where the lamp frames hold field frames),
-    extrapolated beyond them (on the singlet design rig, from the lasers alone, 0.5 px off
-    at 420 nm, ``docs/notes/2026-11-29-design-rig-scan-and-guide.md``). The round blur's
+    reach past it: its wavelength series is fitted through the lines' spots (the lasers',
+    and the lamp lines' past them where the lamp frames hold field frames) and only
+    continued linearly beyond them, unmeasured there (how far that is off on the design
+    rigs: ``docs/notes/2026-11-30-singlet-snapshot-spectra.md``). The round blur's
     curve is the chromatic defocus law itself, so it gets no such note.
 
     Examples
