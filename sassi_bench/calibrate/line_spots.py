@@ -123,15 +123,10 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     centres = np.where(reach & np.isfinite(centres), centres, np.nan)
     left = cols - 0.5  # each column's left edge
 
-    def at_width(sigma, shift):
-        sigma = np.broadcast_to(sigma, x.shape)
-        return _profile_residual(profile, left, centres + shift[:, None], sigma)
-
-    def at_shift(shift, sigma):
-        return _profile_residual(profile, left, centres + shift, sigma)
-
-    def nudged(change, at):
-        return at_width(at[0] + change, at[1])
+    def residual(sigma, shift) -> NDArray[np.float64]:
+        """(N,) residuals at per-spot or common widths and shifts."""
+        shifts = np.broadcast_to(shift, x.shape)[:, None]
+        return _profile_residual(profile, left, centres + shifts, np.broadcast_to(sigma, x.shape))
 
     # The lines' columns come from the dispersion model, which can be a few tenths of a
     # pixel off at the band's ends (docs/notes/2026-11-30-singlet-snapshot-spectra.md);
@@ -140,10 +135,10 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     # is the residual's local minimum nearest none: a neighbour less than a pixel away
     # (Hg 434.7 nm beside 435.8 nm) makes a second one, the two lines' roles swapped.
     shift = np.zeros(x.size)
-    sigma, ok = _grid_minimum(_SIGMA_GRID, at_width, shift)
+    sigma, ok = _grid_minimum(_SIGMA_GRID, lambda s: residual(s, shift))
     for _ in range(2):
-        shift, shift_ok = _grid_minimum(_SHIFT_GRID, at_shift, sigma, nearest=0.0)
-        nudge, ok = _grid_minimum(_SIGMA_NUDGE, nudged, (sigma, shift))
+        shift, shift_ok = _grid_minimum(_SHIFT_GRID, lambda d, s=sigma: residual(s, d), nearest=0.0)
+        nudge, ok = _grid_minimum(_SIGMA_NUDGE, lambda c, s=sigma, d=shift: residual(s + c, d))
         sigma = sigma + nudge
     out = np.full(x.size, np.nan)
     keep = ok & shift_ok & inside
@@ -166,12 +161,12 @@ def _profile_residual(profile, left, centres, sigma) -> NDArray[np.float64]:
 
 
 def _grid_minimum(
-    grid, residual, fixed, nearest: float | None = None
+    grid, residual, nearest: float | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Each spot's minimum of ``residual(value, fixed) -> (N,)`` over ``grid`` (the local
-    minimum nearest ``nearest`` if given, else the lowest), refined by a parabola through
-    the three nearest values; False where it is at the grid's edge."""
-    table = np.stack([residual(value, fixed) for value in grid], axis=1)  # (N, G)
+    """Each spot's minimum of ``residual(value) -> (N,)`` over ``grid`` (the local minimum
+    nearest ``nearest`` if given, else the lowest), refined by a parabola through the
+    three nearest values; False where it is at the grid's edge."""
+    table = np.stack([residual(value) for value in grid], axis=1)  # (N, G)
     n = table.shape[0]
     best = np.argmin(table, axis=1)
     if nearest is not None:
