@@ -28,14 +28,14 @@ by a similar factor on every rig measured (the note above).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import QuadraticBlur
-from sassi_bench.bundle.blur.field_covariance import FieldCovarianceBlur
+from sassi_bench.bundle.blur.field_covariance import FieldCovarianceBlur, wavelength_terms
 from sassi_bench.calibrate.dispersion import LAMBDA_REF_NM, LAMBDA_SCALE_NM
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design, legendre2d_terms
@@ -428,8 +428,6 @@ def fit_field_covariance(
             )
         )
     degree = min(3, max(1, lines.size - 3)) if wavelength_degree is None else int(wavelength_degree)
-    u_hat, v_hat = field_coordinates(spots.u, spots.v, slm_shape)
-    field = legendre2d_design(u_hat, v_hat, field_degree)  # (N, F)
     band = (float(lines[0]), float(lines[-1])) if extrapolate_linearly else None
 
     def model(coeffs: NDArray[np.float64], error: float | None = None) -> FieldCovarianceBlur:
@@ -439,16 +437,21 @@ def fit_field_covariance(
             wavelength_coordinate=wavelength_coordinate, band_nm=band,
         )  # fmt: skip
 
-    powers = model(np.zeros((3, field.shape[1], degree + 1))).wavelength_terms(lam)  # (N, L)
     kept = _kept_terms(field_degree, degree)  # (F*L,)
-    design = (field[:, :, None] * powers[:, None, :]).reshape(lam.size, -1)[:, kept]
+    field_terms = kept.size // (degree + 1)
+    design = _design(
+        spots.u, spots.v, lam, slm_shape, field_degree, kept,
+        lambda at: wavelength_terms(
+            at, degree, LAMBDA_REF_NM, LAMBDA_SCALE_NM, wavelength_coordinate, band
+        ),
+    )  # fmt: skip
     pixel = CAMERA_PIXEL_VARIANCE_PX2
     targets = np.stack([spots.cxx - pixel, spots.cyy - pixel, spots.cxy], axis=1)  # (N, 3)
 
     def solve(rows: NDArray[np.bool_]) -> NDArray[np.float64]:
         coeffs = np.zeros((kept.size, 3))
         coeffs[kept] = np.linalg.lstsq(design[rows], targets[rows], rcond=None)[0]
-        return coeffs.T.reshape(3, field.shape[1], degree + 1)
+        return coeffs.T.reshape(3, field_terms, degree + 1)
 
     everything = np.ones(lam.size, dtype=bool)
     fitted = model(solve(everything))
@@ -468,6 +471,23 @@ def fit_field_covariance(
     medians = np.array([np.median(measured_across[lam == line]) for line in lines])
     residual = np.array([np.median((predicted - measured_across)[lam == line]) for line in lines])
     return BlurFit(final, lines, medians, residual, width_sigma)
+
+
+def _design(
+    u: ArrayLike,
+    v: ArrayLike,
+    wavelength_nm: NDArray[np.float64],
+    slm_shape: tuple[int, int],
+    field_degree: int,
+    kept: NDArray[np.bool_],
+    wavelength_terms_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+) -> NDArray[np.float64]:
+    """The field blur's design matrix (N, kept terms): each kept product of a field term
+    at (u, v) and a wavelength term at ``wavelength_nm``."""
+    u_hat, v_hat = field_coordinates(u, v, slm_shape)
+    field = legendre2d_design(u_hat, v_hat, field_degree)  # (N, F)
+    powers = wavelength_terms_at(wavelength_nm)  # (N, L)
+    return (field[:, :, None] * powers[:, None, :]).reshape(field.shape[0], -1)[:, kept]
 
 
 def _kept_terms(field_degree: int, wavelength_degree: int) -> NDArray[np.bool_]:
@@ -508,10 +528,7 @@ def _stated_width_sigma(
         np.linspace(0, w - 1, nu), np.linspace(0, h - 1, nv), np.linspace(lines[0], lines[-1], nl)
     )
     u, v, lam = u.ravel(), v.ravel(), lam.ravel()
-    u_hat, v_hat = field_coordinates(u, v, slm_shape)
-    field = legendre2d_design(u_hat, v_hat, fitted.field_degree)
-    powers = fitted.wavelength_terms(lam)
-    points = (field[:, :, None] * powers[:, None, :]).reshape(u.size, -1)[:, kept]
+    points = _design(u, v, lam, slm_shape, fitted.field_degree, kept, fitted.wavelength_terms)
     # aᵀ(AᵀA)⁻¹a through the pseudo-inverse: A's SVD, rank-safe
     _, singular, vt = np.linalg.svd(design, full_matrices=False)
     keep = singular > singular[0] * 1e-10
