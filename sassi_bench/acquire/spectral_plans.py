@@ -30,7 +30,6 @@ __all__ = [
     "BLUR_LINE_MARGIN_NM",
     "BLUR_LINE_MIN_INTENSITY",
     "BLUR_LINE_NEIGHBOUR_SHARE",
-    "LAMP_FIELD_FRAMES",
     "LAMP_FIELD_OFFSETS",
     "LAMP_MARGIN_PX",
     "LAMP_PINHOLE_PITCH_PX",
@@ -394,10 +393,10 @@ BLUR_LINE_CLEAR_NM = 15.0
 #: ... and at least this far (nm) outside the lasers' band (the lasers measure inside it).
 BLUR_LINE_MARGIN_NM = 5.0
 #: The lamp field frames: the lamp pinhole grid at this many offsets, evenly over one pitch
-#: on both axes, so the lines' spots reach across the field ...
+#: on both axes, so the lines' spots reach across the field, each taken as many times as
+#: the lamp step's first batch of pinhole frames (``lamps.frames``): a dim blue line's spot
+#: widths are photon-limited (``docs/notes/2026-11-30-design-rig-blue-blur-and-scan-pitch.md``).
 LAMP_FIELD_OFFSETS = 4
-#: ... each taken this many times.
-LAMP_FIELD_FRAMES = 2
 
 
 def blur_lamp_lines(lines: LineList, lasers_nm: Sequence[float], desc: RigDescription):
@@ -470,8 +469,8 @@ def lamp_plan(
     field_lamps
         Lamps (light names) whose lines measure a field blur past the lasers' band
         (:func:`blur_lamp_lines`): they also get ``role: lamp-field`` frames, the pinhole
-        grid at every offset of :func:`lamp_field_pinholes`, :data:`LAMP_FIELD_FRAMES`
-        each (tagged ``offset`` and ``frame`` 0, 1, ..., so the first batch takes them).
+        grid at every offset of :func:`lamp_field_pinholes`, ``lamps.frames`` times each
+        (tagged ``offset`` and ``frame`` 0, 1, ..., so the first batch takes them).
 
     Returns
     -------
@@ -488,8 +487,9 @@ def lamp_plan(
     >>> [s.tags["frame"] for s in lamp_plan({}, {"lamp:HgAr": 0.05}, frames=2).steps]
     [0, 1, 0, 1]
     """
+    first = int((procedure.get("lamps") or {}).get("frames", 4))
     if frames is None:
-        frames = int((procedure.get("lamps") or {}).get("frames", 4))
+        frames = first
     pattern = lamp_pinholes(procedure)
     steps = []
     for light, exposure in exposures.items():
@@ -499,7 +499,7 @@ def lamp_plan(
                 steps.append(_frame(light, exposure, shown, tags))
         if light in field_lamps:
             for offset, shown in enumerate(lamp_field_pinholes(pattern)):
-                for frame in range(LAMP_FIELD_FRAMES):
+                for frame in range(min(first, frames)):
                     tags = {"lamp": light, "role": "lamp-field", "frame": frame, "offset": offset}
                     steps.append(_frame(light, exposure, shown, tags))
     parameters = {

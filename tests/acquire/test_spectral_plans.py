@@ -44,23 +44,22 @@ def test_the_field_blur_lamp_lines_are_strong_clear_lines_past_the_lasers():
 
 def test_field_lamps_get_pinhole_frames_at_offsets_over_one_pitch():
     from sassi_bench.acquire.patterns import open_pixels
-    from sassi_bench.acquire.spectral_plans import (
-        LAMP_FIELD_FRAMES,
-        LAMP_FIELD_OFFSETS,
-        lamp_plan,
-    )
+    from sassi_bench.acquire.spectral_plans import LAMP_FIELD_OFFSETS, lamp_plan
 
-    procedure = {"lamps": {"pinhole_pitch_px": [155, 27], "frames": 2}}
+    procedure = {"lamps": {"pinhole_pitch_px": [155, 27], "frames": 3}}
     exposures = {"lamp:HgAr": 0.05, "lamp:Ne": 0.1}
     plain = lamp_plan(procedure, exposures)
     assert plain.select(role="lamp-field") == []
     plan = lamp_plan(procedure, exposures, field_lamps=["lamp:HgAr"])
     field = plan.select(role="lamp-field")
     assert len(plan) == len(plain) + len(field)
-    assert len(field) == LAMP_FIELD_OFFSETS * LAMP_FIELD_FRAMES
+    # each offset as many times as the first batch's pinhole frames, which takes them all
+    assert len(field) == LAMP_FIELD_OFFSETS * 3
     assert {plan.steps[i].tags["lamp"] for i in field} == {"lamp:HgAr"}
-    # the first batch (frame < lamps.frames) takes them all
-    assert max(plan.steps[i].tags["frame"] for i in field) < 2
+    assert max(plan.steps[i].tags["frame"] for i in field) == 2
+    # a budget under the first batch caps them
+    small = lamp_plan(procedure, exposures, frames=2, field_lamps=["lamp:HgAr"])
+    assert len(small.select(role="lamp-field")) == LAMP_FIELD_OFFSETS * 2
     columns = set()
     for i in field:
         columns |= set(open_pixels(plan.steps[i].pattern, (200, 320))[1].ravel().tolist())
