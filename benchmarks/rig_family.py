@@ -73,6 +73,7 @@ def score(rig, result) -> dict:
     from accuracy_table import _chart_scan_scores
 
     from sassi_bench.bundle import load
+    from sassi_bench.bundle.jsonio import thaw
     from sassi_bench.rig.sim import truth
 
     t = truth(rig)
@@ -89,6 +90,9 @@ def score(rig, result) -> dict:
         "de00": float(result.stages["macbeth"].summary()["mean_de00"]),
     }
     bundle = load(result.bundle_path)
+    taken = thaw(bundle.manifest["quality"]["residuals"]["response"]["response_frames"])
+    out["response"] = {k: taken[k] for k in ("frames", "outcome", "de00_sigma", "sigma_relative")}
+    out["response"]["batches"] = taken["batches"]
     chart = result.stages["macbeth"].settings["chart_session"]
     scores, _ = _chart_scan_scores(rig, bundle, result.stages["staging"], chart)
     out["scan_db"] = float(scores.split(" dB")[0])
