@@ -8,7 +8,8 @@ process and data root, publishing with ``allow_failed`` so a failing bundle is s
 too), and prints per rig whether it published (every check passed) and its accuracy
 against the bench's truth: the worst laser's correspondence RMS (px), the wavelength
 map's RMS and largest error over the field (nm), the Macbeth mean dE00, and the chart
-scan's PSNR against the truth cube (dB). It ends with the line
+scan's PSNR against the truth cube (dB); the ``--out`` records also keep the response's
+frames and stated 1-sigma (``response``). It ends with the line
 ``rig family: P of N published within the targets`` (0.1 px, 0.3 nm, dE00 0.5, 45 dB).
 
 Run: ``python benchmarks/rig_family.py --small`` (24 small rigs, 3-6 minutes each on two
@@ -73,6 +74,7 @@ def score(rig, result) -> dict:
     from accuracy_table import _chart_scan_scores
 
     from sassi_bench.bundle import load
+    from sassi_bench.bundle.jsonio import thaw
     from sassi_bench.rig.sim import truth
 
     t = truth(rig)
@@ -89,6 +91,9 @@ def score(rig, result) -> dict:
         "de00": float(result.stages["macbeth"].summary()["mean_de00"]),
     }
     bundle = load(result.bundle_path)
+    taken = thaw(bundle.manifest["quality"]["residuals"]["response"]["response_frames"])
+    out["response"] = {k: taken[k] for k in ("frames", "outcome", "de00_sigma", "sigma_relative")}
+    out["response"]["batches"] = taken["batches"]
     chart = result.stages["macbeth"].settings["chart_session"]
     scores, _ = _chart_scan_scores(rig, bundle, result.stages["staging"], chart)
     out["scan_db"] = float(scores.split(" dB")[0])

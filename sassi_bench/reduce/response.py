@@ -232,7 +232,9 @@ def publish_response(
         Publish although a check failed.
     frames
         What the scan took and why (:mod:`~sassi_bench.reduce.response_budget`): recorded,
-        and its stated 1-sigma checked against its tolerance (``response.sigma_relative``).
+        and the colour 1-sigma its noise causes checked against its tolerance
+        (``response.de00_sigma``); the worst bin's relative 1-sigma too
+        (``response.sigma_relative``) when the procedure set one.
 
     Returns
     -------
@@ -264,7 +266,14 @@ def publish_response(
     if frames is not None:
         residuals["response_frames"] = frames.to_json()
         residuals["notes"] = [frames.note()]
-        checks.append(QualityCheck.at_most("sigma_relative", frames.sigma, frames.tolerance, "1"))
+        tolerances = frames.settings
+        checks.append(
+            QualityCheck.at_most("de00_sigma", frames.de00_sigma, tolerances.de00_max, "dE00")
+        )
+        if tolerances.sigma_max is not None:
+            checks.append(
+                QualityCheck.at_most("sigma_relative", frames.sigma, tolerances.sigma_max, "1")
+            )
     return publish_derived(
         bundle,
         stage="response",

@@ -197,6 +197,18 @@ class _Operators:
                 out[block] += 2.0 * np.einsum("nbj,nj->nb", pairs, covariance[block, k - 1, :-k])
         return np.sqrt(np.maximum(out, 0.0))
 
+    def noise_covariance(
+        self, point: NDArray[np.intp], weights: NDArray, variance: NDArray
+    ) -> NDArray:
+        """(N, B', B') covariance between bins of the solution from noise of ``variance``
+        (N,), white across bins: ``Z diag(f^2 |A z_i|^2) Z^T v``, whose diagonal is
+        :meth:`noise_std` squared (the ``A z_i`` are orthogonal)."""
+        filt = self.filters(point, weights)
+        expand = self.expand[point]
+        scaled = expand * (filt**2 * self.gains[point])[:, None, :]
+        cov = np.einsum("nbi,nci->nbc", scaled, expand)
+        return np.asarray(variance, dtype=np.float64)[:, None, None] * cov
+
 
 @dataclass(frozen=True)
 class SpectralDeblur:
@@ -457,6 +469,10 @@ class MeanSpectrum:
         How its regularisation was chosen.
     guard
         Guard bins at each end.
+    covariance
+        (B', B') the covariance between bins from the noise alone (the deblur is linear
+        in the data, so the pixels' noise passes through the same operator; its
+        diagonal is ``std**2``); None when only the standard deviation is known.
     """
 
     spectrum: NDArray[np.float64]
@@ -464,11 +480,28 @@ class MeanSpectrum:
     count: int
     choice: RegularisationChoice
     guard: int
+    covariance: NDArray[np.float64] | None = None
 
     @property
     def band(self) -> NDArray[np.float64]:
         """The spectrum at the bundle's bins, (B,)."""
         return self.spectrum[self.guard : self.spectrum.size - self.guard]
+
+    @property
+    def band_covariance(self) -> NDArray[np.float64]:
+        """The covariance between the bundle's bins, (B, B); ``diag(std**2)`` when no
+        covariance is stated.
+
+        Examples
+        --------
+        >>> mean = MeanSpectrum(np.ones(4), np.array([9.0, 0.1, 0.2, 9.0]), 50, None, 1)
+        >>> mean.band_covariance.round(2).tolist()
+        [[0.01, 0.0], [0.0, 0.04]]
+        """
+        band = slice(self.guard, self.spectrum.size - self.guard)
+        if self.covariance is None:
+            return np.diag(self.std[band] ** 2)
+        return self.covariance[band, band]
 
 
 def _group_means(values, variance, point, trim):
@@ -621,6 +654,7 @@ class MeanDeblur:
         alpha = judge(choose, noise, means, groups, ops, self.model.spill_error)
         solved = ops.solve(means, groups, alpha)
         std = ops.noise_std(groups, alpha, noise)
+        covariance = ops.noise_covariance(groups, alpha, noise)
         total = int(counts.sum())
         choice = RegularisationChoice(
             rule, "weight", float(np.median(alpha)), spectra=total,
@@ -632,6 +666,8 @@ class MeanDeblur:
             count=total,
             choice=choice,
             guard=self.model.guard,
+            covariance=np.einsum("n,nbc->bc", counts.astype(np.float64) ** 2, covariance)
+            / total**2,
         )
 
 

@@ -20,6 +20,7 @@ __all__ = [
     "reflectance_to_srgb",
     "reflectance_to_xyz",
     "rmse",
+    "white_chromaticity",
 ]
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
@@ -72,6 +73,19 @@ def reflectance_to_xyz(wavelengths_nm: ArrayLike, reflectance: ArrayLike) -> NDA
     return xyz.reshape(*refl.shape[:-1], 3)
 
 
+def white_chromaticity() -> NDArray[np.float64]:
+    """The CIELAB white: the illuminant's chromaticity xy for the observer.
+
+    Examples
+    --------
+    >>> np.round(white_chromaticity(), 4).tolist()
+    [0.3127, 0.329]
+    """
+    import colour
+
+    return np.asarray(colour.CCS_ILLUMINANTS[OBSERVER][ILLUMINANT], dtype=np.float64)
+
+
 def reflectance_to_lab(wavelengths_nm: ArrayLike, reflectance: ArrayLike) -> NDArray[np.float64]:
     """CIELAB (D65 white) of reflectance spectra.
 
@@ -82,8 +96,8 @@ def reflectance_to_lab(wavelengths_nm: ArrayLike, reflectance: ArrayLike) -> NDA
     """
     import colour
 
-    white = colour.CCS_ILLUMINANTS[OBSERVER][ILLUMINANT]
-    return colour.XYZ_to_Lab(reflectance_to_xyz(wavelengths_nm, reflectance), white)
+    xyz = reflectance_to_xyz(wavelengths_nm, reflectance)
+    return colour.XYZ_to_Lab(xyz, white_chromaticity())
 
 
 def reflectance_to_srgb(wavelengths_nm: ArrayLike, reflectance: ArrayLike) -> NDArray[np.float64]:

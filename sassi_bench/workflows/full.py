@@ -163,7 +163,8 @@ def response(run: FullRun) -> None:
         run_response(
             run.rig, load(run.spectral.bundle_path), light=cfg["light"], every=int(cfg["every"]),
             reflectance=float(cfg["reflectance"]), pitch=run.response_pitch,
-            max_frames=cfg.get("max_frames"), sigma_max=cfg.get("sigma_max"),
+            max_frames=cfg.get("max_frames"), de00_sigma_max=cfg.get("de00_sigma_max"),
+            sigma_max=cfg.get("sigma_max"),
             session_id=f"{run.base}-response",
             data=run.staging, progress=run.progress, allow_failed=True,
         )

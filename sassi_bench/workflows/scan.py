@@ -22,6 +22,8 @@ from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
+import numpy as np
+
 from sassi_bench._shared.memory import release_memory
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.frame_feed import FrameFeed
@@ -38,15 +40,30 @@ from sassi_bench.reduce.response import publish_response, response_source, white
 from sassi_bench.reduce.response_budget import (
     ResponseFrameRecord,
     decide_response_frames,
+    response_de00_sigma,
     response_frame_settings,
     response_sigma,
 )
+from sassi_bench.reduce.response_colour import ColourChart
 from sassi_bench.reduce.scan import ScanRun, finish_scan, read_stored
 from sassi_bench.rig.rig import Rig, check_light, check_scene
 from sassi_bench.spectra.scan import ScanAssembly, ScanCube
+from sassi_bench.validate.colorimetry import reflectance_to_xyz, white_chromaticity
+from sassi_bench.validate.reference import reference_chart
 from sassi_bench.workflows.rig_lock import drives_rig
 
-__all__ = ["capture_scan", "check_scan", "run_response", "run_scan"]
+__all__ = [
+    "RESPONSE_CHART",
+    "capture_scan",
+    "check_scan",
+    "response_colour_chart",
+    "run_response",
+    "run_scan",
+]
+
+#: The reference ColorChecker the response's colour error is computed on (the Macbeth
+#: validation's default).
+RESPONSE_CHART = "BabelColor Average"
 
 
 def _stamp(prefix: str) -> str:
@@ -187,6 +204,7 @@ def run_response(
     pitch: tuple[int, int] | None = None,
     every: int = 25,
     max_frames: int | None = None,
+    de00_sigma_max: float | None = None,
     sigma_max: float | None = None,
     session_id: str | None = None,
     data=None,
@@ -201,8 +219,9 @@ def run_response(
     (before anything is captured) unless ``allow_failed``.
 
     The scan measures until confident: every ``every``-th pinhole offset first, then,
-    while the response's stated relative 1-sigma (its worst bin) is above ``sigma_max``,
-    the offsets between them
+    while the colour error the response's stated noise causes (the mean CIEDE2000
+    1-sigma over the ColorChecker's patches) is above ``de00_sigma_max`` (or its worst
+    bin's relative 1-sigma above ``sigma_max``, when given), the offsets between them
     (:func:`~sassi_bench.reduce.response_budget.decide_response_frames`), at most
     ``max_frames`` pinhole frames; what was taken and why goes into the bundle
     (``quality.residuals.response.response_frames``).
@@ -224,10 +243,12 @@ def run_response(
         optics (:func:`~sassi_bench.acquire.plan_geometry.scan_pitch`).
     every
         Keep every n-th pinhole offset first (a thinned scan is enough for a flat target).
-    max_frames, sigma_max
-        The budget of pinhole frames and the response's relative 1-sigma to reach
+    max_frames, de00_sigma_max
+        The budget of pinhole frames and the response's colour 1-sigma to reach
         (None: :data:`~sassi_bench.reduce.response_budget.DEFAULT_MAX_FRAMES`,
-        :data:`~sassi_bench.reduce.response_budget.DEFAULT_TOLERANCE`).
+        :data:`~sassi_bench.reduce.response_budget.DEFAULT_DE00_TOLERANCE`).
+    sigma_max
+        The worst bin's relative 1-sigma to reach as well; None: recorded only.
     session_id
         Id of the raw session; an existing id resumes.
     data
@@ -254,9 +275,11 @@ def run_response(
     check_scan(rig, "white", light, pitch)
     source = response_source(rig.description, temperature_k, reference_csv)
     first = -(-pitch[0] * pitch[1] // every)
-    first, budget, tolerance = response_frame_settings(
-        {"max_frames": max_frames, "sigma_max": sigma_max}, first
+    settings = response_frame_settings(
+        {"max_frames": max_frames, "de00_sigma_max": de00_sigma_max, "sigma_max": sigma_max},
+        first,
     )
+    budget = settings.budget
     session = Session.resume_or_plan(
         rig.description,
         lambda: refining_scan_plan(_plan(rig, "white", light, pitch, 1, 0.6), every, budget),
@@ -264,12 +287,13 @@ def run_response(
         data=data,
     )
     _check_response_session(session, every, budget)
-    frames, batches = first, []
+    chart = response_colour_chart(bundle)
+    frames, batches = settings.first, []
     while True:
         scan = capture_scan(rig, session, bundle, keep_raw=True, progress=progress, frames=frames)
-        batch = decide_response_frames(
-            frames, response_sigma(white_mean(scan, bundle)), tolerance, budget
-        )
+        white = white_mean(scan, bundle)
+        de00 = response_de00_sigma(white, chart)
+        batch = decide_response_frames(frames, response_sigma(white), de00, settings)
         batches.append(batch)
         if batch.next_frames is None:
             break
@@ -278,8 +302,29 @@ def run_response(
     return publish_response(
         scan, session, bundle, rig.description, source, light=light, pitch=pitch, every=every,
         reflectance=reflectance, data=data, allow_failed=allow_failed,
-        frames=ResponseFrameRecord(tuple(batches), tolerance, budget, every),
+        frames=ResponseFrameRecord(tuple(batches), settings, every),
     )  # fmt: skip
+
+
+def response_colour_chart(bundle: CalibrationBundle) -> ColourChart:
+    """The ColorChecker the response's colour error is computed on: the Macbeth
+    validation's default reference averaged over the bundle's bins, with its colour
+    matching (CIE 1931 2 degree observer, D65, :mod:`~sassi_bench.validate.colorimetry`).
+
+    Examples
+    --------
+    Not run here (it needs a bundle)::
+
+        chart = response_colour_chart(bundle)
+        chart.reflectance.shape == (24, bundle.wavelengths.size)
+        # True
+    """
+    lam = bundle.wavelengths
+    return ColourChart(
+        reference_chart(RESPONSE_CHART).bin_average(bundle.bin_edges),
+        reflectance_to_xyz(lam, np.eye(lam.size)),
+        white_chromaticity(),
+    )
 
 
 def _check_response_session(session: Session, every: int, budget: int) -> None:

@@ -74,14 +74,15 @@ def test_a_mean_spectrum_is_recovered_at_the_red_end(model):
     assert mean.choice.rule == "reml" and mean.count == values.shape[0]
 
 
-def _sloped_light_means(m, count=200):
+def _sloped_light_means(m, count=200, noise=1.0):
     rows, cols = m.point_pixels()
     lam = m.wavelengths_nm
     light = np.where(lam < 720, 1000.0 + 2.0 * (lam - 400.0), 0.0)  # (P, B')
     clean = np.einsum("pij,pj->pi", m.spill, light)
     values = np.repeat(clean, count, axis=0)
     variance = np.full(values.shape[0], 1e-4 * clean.mean() ** 2)
-    values += np.random.default_rng(5).normal(size=values.shape) * np.sqrt(variance)[:, None]
+    draw = np.random.default_rng(5).normal(size=values.shape)
+    values += noise * draw * np.sqrt(variance)[:, None]
     return values, np.repeat(rows, count), np.repeat(cols, count), variance
 
 
@@ -122,6 +123,36 @@ def test_a_stated_blur_error_is_weighed_as_the_forward_models_error(
     assert weights[0.0] < weights[0.1] < weights[0.3]
     with pytest.raises(ValueError, match="model_error"):
         MeanDeblur(m, model_error="none")
+
+
+def test_a_means_stated_covariance_is_its_noise_through_the_deblur(model):
+    """The mean's covariance between bins: its diagonal is the stated variance, and it
+    states the noise of sums over the band's bins that noisy draws of the same light
+    give, which the variances alone overstate (neighbouring bins correlate)."""
+    _, m = model
+    deblur_mean = MeanDeblur(m)
+    values, rows, cols, variance = _sloped_light_means(m, count=20)
+    stated = deblur_mean(values, rows, cols, variance)
+    np.testing.assert_allclose(np.diag(stated.covariance), stated.std**2, rtol=1e-9)
+    clean, _, _, _ = _sloped_light_means(m, count=20, noise=0.0)
+    rng = np.random.default_rng(11)
+    draws = np.array(
+        [
+            deblur_mean(
+                clean + rng.normal(size=clean.shape) * np.sqrt(variance)[:, None],
+                rows, cols, variance,
+            ).band
+            for _ in range(250)
+        ]
+    )  # fmt: skip
+    bins = draws.shape[1]
+    for weights in (np.ones(bins), np.sin(np.linspace(0, np.pi, bins)), (-1.0) ** np.arange(bins)):
+        full = weights @ stated.band_covariance @ weights
+        measured = np.var(draws @ weights, ddof=1)
+        # 250 draws: about 9 % on a variance; measured 1-7 % off.
+        assert measured == pytest.approx(full, rel=0.2)
+    diagonal = np.sum(stated.std[m.core] ** 2)
+    assert diagonal > 2 * (np.ones(bins) @ stated.band_covariance @ np.ones(bins))  # 2.4 x
 
 
 def test_the_per_pixel_strength_is_chosen_from_the_noise(model):
