@@ -258,7 +258,7 @@ class ResponseFrameRecord(BatchRecord):
         --------
         >>> last = ResponseBatch(80, 0.012, 0.06, None, "budget spent")
         >>> print(ResponseFrameRecord((last,), ResponseSettings(20, 80, 0.05), 25).advice())
-        response's colour 1-sigma dE00 0.060 after 80 pinhole frames of the white: take \
+        response's colour 1-sigma 0.060 CIEDE2000 after 80 pinhole frames of the white: take \
 about 116 (set response.max_frames to 116 and run the response under a new --session), \
 or light the diffuser brighter
         """
@@ -267,7 +267,7 @@ or light the diffuser brighter
         ratio = shortfall(self.de00_sigma, self.sigma, self.settings)
         needed = frames_needed(self.frames, ratio, 1.0)
         return (
-            f"response's colour 1-sigma dE00 {self.de00_sigma:.3f} after {self.frames} "
+            f"response's colour 1-sigma {self.de00_sigma:.3f} CIEDE2000 after {self.frames} "
             f"pinhole frames of the white: take about {needed} (set response.max_frames to "
             f"{needed} and run the response under a new --session), or light the diffuser "
             "brighter"
@@ -282,7 +282,7 @@ or light the diffuser brighter
         >>> last = ResponseBatch(40, 0.0065, 0.049, None, "tolerance met")
         >>> print(ResponseFrameRecord((first, last), ResponseSettings(20, 80, 0.05), 25).note())
         response frames: 40 pinhole frames of the white (20, then 40): the colour error \
-from its noise dE00 0.049 (1-sigma, mean over the ColorChecker; tolerance 0.050), \
+from its noise 0.049 CIEDE2000 (1-sigma, mean over the ColorChecker; tolerance 0.050), \
 the worst bin at +-0.65 %: tolerance met
         """
         relative = f"the worst bin at +-{100 * self.sigma:.2f} %"
@@ -290,7 +290,7 @@ the worst bin at +-0.65 %: tolerance met
             relative += f" (tolerance {100 * self.settings.sigma_max:.2f} %)"
         return self.with_advice(
             f"response frames: {self.frames} pinhole frames of the white ({self.taken()}): "
-            f"the colour error from its noise dE00 {self.de00_sigma:.3f} (1-sigma, mean over "
+            f"the colour error from its noise {self.de00_sigma:.3f} CIEDE2000 (1-sigma, mean over "
             f"the ColorChecker; tolerance {self.settings.de00_max:.3f}), {relative}: "
             f"{self.outcome}"
         )
