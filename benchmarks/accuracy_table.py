@@ -142,6 +142,12 @@ def score(rig, result) -> dict[str, str]:
         float(np.abs(np.sqrt(spot.along**2 + pixel) - np.sqrt(cxx)).max()),
         float(np.abs(np.sqrt(spot.across**2 + pixel) - np.sqrt(cyy)).max()),
     )
+    # ... and over the whole band, where the blue end leans on the lamp lines' spots
+    whole = np.linspace(400, 700, 31)[None, :]
+    spot = cal.blur.model.spot(u, v, whole)
+    cxx, cyy, _ = t.spot_covariance(u, v, whole)
+    whole_along = float(np.abs(np.sqrt(spot.along**2 + pixel) - np.sqrt(cxx)).max())
+    whole_across = float(np.abs(np.sqrt(spot.across**2 + pixel) - np.sqrt(cyy)).max())
     guide_rms, _ = field_discrepancy_px(bundle.guide_to_slm, t.guide_to_slm, rig.slm.shape)
     relative = np.asarray(bundle.response) / t.relative_response(bundle.bin_edges)
     relative /= np.median(relative)
@@ -167,6 +173,9 @@ def score(rig, result) -> dict[str, str]:
         "laser line fitted at an estimate": laser,
         "wavelength map vs truth (RMS / max)": f"{map_rms:.3f} / {map_max:.3f} nm",
         "blur width vs truth (max over the field, 420-690 nm)": f"{blur:.3f} px",
+        "blur width vs truth, along / across (max over the field, 400-700 nm)": (
+            f"{whole_along:.3f} / {whole_across:.3f} px"
+        ),
         "guide homography vs truth (RMS over the SLM)": f"{guide_rms:.3f} px",
         "response vs truth (max, 410-640 nm)": f"{100 * np.abs(relative[core] - 1).max():.1f} %",
         "response vs truth (max, 410-690 nm)": f"{100 * np.abs(relative[wide] - 1).max():.1f} %",
