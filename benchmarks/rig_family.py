@@ -14,12 +14,14 @@ frames and stated 1-sigma (``response``). It ends with the line
 
 Run: ``python benchmarks/rig_family.py --small`` (24 small rigs, 3-6 minutes each on two
 busy cores); ``--only 3 9`` runs some rigs; ``--out family.jsonl`` keeps the results,
-and a second run skips the rigs already in it; ``--table family.jsonl`` prints the table.
+and a second run skips the rigs already in it; ``--table family.jsonl`` prints the table
+(``--update-docs`` also writes it to ``docs/_data/rig_family.json`` for the docs).
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import os
 import subprocess
@@ -174,6 +176,66 @@ def print_table(records: list[dict]) -> None:
     )
 
 
+def _response_frames(r: dict) -> str:
+    """The response's pinhole frames from a record (older records keep none)."""
+    response = r.get("response")
+    if isinstance(response, str):
+        response = ast.literal_eval(response)
+    return str(response["frames"]) if isinstance(response, dict) else "-"
+
+
+#: The docs table's columns: a figure of each rig's record.
+DOC_COLUMNS = (
+    "outcome",
+    "checks",
+    "corr px",
+    "wavelength nm RMS (max)",
+    "dE00",
+    "scan dB",
+    "response frames",
+    "time s",
+)
+
+
+def write_docs_table(records: list[dict]) -> Path:
+    """The per-rig table into ``docs/_data/rig_family.json`` (one row per rig, the family's
+    line last), which ``python benchmarks/figures.py`` puts into ``docs/rig_family.md``."""
+    from figures import update_columns
+
+    def f(r: dict, key: str, fmt: str) -> str:
+        return fmt.format(r[key]) if r.get(key) is not None else "-"
+
+    cells = {}
+    for r in records:
+        wl = f"{r['wl_nm']:.3f} ({r['wl_max_nm']:.3f})" if "wl_nm" in r else "-"
+        cells[r["rig"]] = {
+            "outcome": r["outcome"],
+            "checks": checks_verdict(r),
+            "corr px": f(r, "corr_px", "{:.3f}"),
+            "wavelength nm RMS (max)": wl,
+            "dE00": f(r, "de00", "{:.2f}"),
+            "scan dB": f(r, "scan_db", "{:.1f}"),
+            "response frames": _response_frames(r),
+            "time s": f(r, "time_s", "{:.0f}"),
+        }
+    ok = sum(bool(r.get("within_targets")) for r in records)
+    cells["rig family"] = {"outcome": f"{ok} of {len(records)} published within the targets"}
+    rows = list(cells)
+    columns = [
+        {"key": name, "values": {rig: row[name] for rig, row in cells.items() if name in row}}
+        for name in DOC_COLUMNS
+    ]
+    return update_columns(
+        "rig_family",
+        "The default chain on the family's small rigs, scored against the virtual bench's "
+        "truth (targets 0.1 px, 0.3 nm, dE00 0.5, 45 dB)",
+        rows,
+        columns,
+        row_label="rig",
+        replace=True,
+    )
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=45)
@@ -182,13 +244,22 @@ def main() -> int:
     parser.add_argument("--only", type=int, nargs="+", help="indices of the rigs to run")
     parser.add_argument("--out", help="JSON lines of the results (resumable)")
     parser.add_argument("--table", help="print the table of a results file and stop")
+    parser.add_argument(
+        "--update-docs",
+        action="store_true",
+        help="with --table: also write docs/_data/rig_family.json",
+    )
     parser.add_argument("--one", nargs=2, metavar=("RIG", "DATA"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
         print(json.dumps(run_one(Path(args.one[0]), Path(args.one[1])), default=str))
         return 0
     if args.table:
-        print_table([json.loads(x) for x in Path(args.table).read_text().splitlines() if x])
+        records = [json.loads(x) for x in Path(args.table).read_text().splitlines() if x]
+        print_table(records)
+        if args.update_docs:
+            path = write_docs_table(records)
+            print(f"wrote {path}; `python benchmarks/figures.py` rewrites docs/rig_family.md")
         return 0
     from sassi_bench.rig.sim.family import family_rigs
 
