@@ -653,21 +653,21 @@ class MeanDeblur:
         judge = MODEL_ERROR_METHODS[self.model_error]
         alpha = judge(choose, noise, means, groups, ops, self.model.spill_error)
         solved = ops.solve(means, groups, alpha)
-        std = ops.noise_std(groups, alpha, noise)
-        covariance = ops.noise_covariance(groups, alpha, noise)
         total = int(counts.sum())
+        # the field points' means averaged by pixel count: their covariances by its square
+        weight = counts.astype(np.float64) ** 2 / total**2
+        covariance = np.einsum("n,nbc->bc", weight, ops.noise_covariance(groups, alpha, noise))
         choice = RegularisationChoice(
             rule, "weight", float(np.median(alpha)), spectra=total,
             guard_weight=getattr(self.prior, "guard_weight", None), prior=self.prior.label,
         )  # fmt: skip
         return MeanSpectrum(
             spectrum=(solved * counts[:, None]).sum(axis=0) / total,
-            std=np.sqrt(((std * counts[:, None]) ** 2).sum(axis=0)) / total,
+            std=np.sqrt(np.maximum(np.diagonal(covariance), 0.0)),
             count=total,
             choice=choice,
             guard=self.model.guard,
-            covariance=np.einsum("n,nbc->bc", counts.astype(np.float64) ** 2, covariance)
-            / total**2,
+            covariance=covariance,
         )
 
 
