@@ -145,20 +145,17 @@ def de00_metric(lab: ArrayLike) -> NDArray[np.float64]:
     import colour
 
     lab = np.atleast_2d(np.asarray(lab, dtype=np.float64))
-    pairs = [(i, i) for i in range(3)] + [(0, 1), (0, 2), (1, 2)]
-    directions = []
-    for i, j in pairs:
-        directions.append(np.eye(3)[i] + np.eye(3)[j] if i != j else np.eye(3)[i])
-        if i != j:
-            directions.append(np.eye(3)[i] - np.eye(3)[j])
-    d = _LAB_STEP * np.asarray(directions)  # (K, 3)
+    eye = np.eye(3)
+    off = [(0, 1), (0, 2), (1, 2)]
+    # each axis, then each pair of axes summed and differenced (polarisation)
+    directions = [*eye] + [eye[i] + sign * eye[j] for i, j in off for sign in (1.0, -1.0)]
+    d = _LAB_STEP * np.asarray(directions)  # (9, 3)
     # colour-science's CIEDE2000, as the Macbeth validation computes it
     pair = (lab[:, None, :] - d / 2, lab[:, None, :] + d / 2)
     q = np.asarray(colour.delta_E(*pair, method="CIE 2000")) ** 2 / _LAB_STEP**2
     metric = np.empty((lab.shape[0], 3, 3))
-    for k in range(3):
-        metric[:, k, k] = q[:, k]
-    for n, (i, j) in enumerate(pairs[3:]):
+    metric[:, range(3), range(3)] = q[:, :3]
+    for n, (i, j) in enumerate(off):
         metric[:, i, j] = metric[:, j, i] = (q[:, 3 + 2 * n] - q[:, 4 + 2 * n]) / 4.0
     return metric
 
