@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["Clipping", "clipping", "clipping_of_views"]
+__all__ = ["Clipping", "clip_level", "clipping", "clipping_of_views"]
 
 #: Above this fraction of saturated pixels a frame gets advice (a few hot or specular
 #: pixels are a trace; more is an exposure to change).
@@ -30,6 +30,13 @@ SATURATED_TOLERANCE = 1e-3
 #: Above this fraction of pixels at zero the dark level clips (a camera's black level set
 #: to zero, or a dark frame subtracted on board).
 ZERO_TOLERANCE = 0.01
+#: A sensor whose pixels fill before its ADC does clips below full scale (a datasheet's
+#: full well is a typical value, a few per cent either way): a value above this fraction
+#: of full scale that many pixels share is where the frames clip.
+CLIP_SEARCH_FRACTION = 0.8
+#: How many pixels must share that value: a bright peak that is not clipped reaches its
+#: largest value in one pixel, or by chance in two or three.
+CLIP_PILE_UP_PIXELS = 4
 
 
 @dataclass(frozen=True)
@@ -102,6 +109,39 @@ class Clipping:
         if not advice:
             return f"{line}; brightest {100 * self.brightest:.0f} % of full scale: fine"
         return f"{line}. {advice}"
+
+
+def clip_level(frames: ArrayLike, full_scale: int) -> int:
+    """The value at which ``frames`` clip: the sensor's full scale, or the largest value
+    when at least :data:`CLIP_PILE_UP_PIXELS` pixels hold exactly it above
+    :data:`CLIP_SEARCH_FRACTION` of full scale (the pixels' well filled first).
+
+    Parameters
+    ----------
+    frames
+        Raw frames, any shape.
+    full_scale
+        The sensor's largest value (ADU).
+
+    Returns
+    -------
+    int
+        Pixels at or above it are clipped.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> peak = np.array([100, 900, 64713, 64713, 64713, 64713, 900], np.uint16)
+    >>> clip_level(peak, 65535), clip_level(peak[:4], 65535)
+    (64713, 65535)
+    """
+    data = np.asarray(frames)
+    if data.size == 0:
+        return int(full_scale)
+    top = int(data.max())
+    if top >= full_scale or top < CLIP_SEARCH_FRACTION * full_scale:
+        return int(full_scale)
+    return top if int(np.count_nonzero(data == top)) >= CLIP_PILE_UP_PIXELS else int(full_scale)
 
 
 def clipping(frame: ArrayLike, *, bit_depth: int, name: str = "frame") -> Clipping:

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan import Plan
+from sassi_bench.acquire.saturation import clip_level
 from sassi_bench.acquire.session import Session
 from sassi_bench.acquire.spectral_plans import (
     BLUR_LINE_CLEAR_NM,
@@ -212,7 +213,7 @@ def lamp_streaks(
             light=light,
             half_rows=half_rows,
             variance=variance,
-            invalid=(pinhole_frames >= saturation).any(axis=0),
+            invalid=(pinhole_frames >= clip_level(pinhole_frames, saturation)).any(axis=0),
         )
         check_lamp_signal(profiles)
         modelled = (lines.wavelengths_nm >= band[0]) & (lines.wavelengths_nm <= band[1])
@@ -286,7 +287,7 @@ def lamp_field_spots(
             steps = plan.select(role="lamp-field", lamp=light, offset=offset)
             frames = session.read_frames(steps)
             signal = frames.astype(np.float64).mean(axis=0) - closed
-            saturated = (frames >= saturation).any(axis=0)
+            saturated = (frames >= clip_level(frames, saturation)).any(axis=0)
             rows, cols = open_pixels(plan.steps[steps[0]].pattern, slm_shape)
             u, v = cols.ravel().astype(np.float64), rows.ravel().astype(np.float64)
             for line in chosen:
