@@ -8,7 +8,6 @@ from typing import Any
 import numpy as np
 
 from sassi_bench.acquire.patterns import render_pattern
-from sassi_bench.acquire.saturation import clip_level
 from sassi_bench.acquire.trigger_gate import armed
 from sassi_bench.errors import DeviceError, step_error
 from sassi_bench.rig.rig import Rig
@@ -27,15 +26,12 @@ def auto_exposure(
     max_s: float = 2.0,
     percentile: float = 99.95,
     iterations: int = 6,
-    bright_pixels: int | None = None,
 ) -> float:
     """Exposure (s) at which the bright end of a frame sits at ``target_fraction``.
 
     Captures a few frames of ``pattern`` under ``light``, scaling the exposure by the
     ratio of the target level to the measured ``percentile`` level above the camera's
-    dark level (measured once with the light off). Saturated frames (at full scale, or
-    clipped below it: :func:`~sassi_bench.acquire.saturation.clip_level`) halve the
-    exposure.
+    dark level (measured once with the light off). Saturated frames halve the exposure.
 
     Parameters
     ----------
@@ -49,15 +45,6 @@ def auto_exposure(
         Target level as a fraction of the ADC range.
     start_s, max_s
         First guess and upper limit (seconds); the camera's own range also applies.
-    percentile
-        The frame's level: this percentile of its pixels.
-    iterations
-        Exposures tried at most.
-    bright_pixels
-        Instead of ``percentile``, the level of the frame's ``bright_pixels``-th brightest
-        pixel: for a sparse pattern whose brightest feature covers a few pixels per
-        opening (a lamp's lines through pinholes), where any percentile of the frame
-        misses it.
 
     Returns
     -------
@@ -79,9 +66,8 @@ def auto_exposure(
     """
     with armed(rig):  # a camera on a line trigger exposes for the pulses it passes
         return _auto_exposure(
-            rig, light, pattern, camera, target_fraction, percentile, start_s, max_s, iterations,
-            bright_pixels,
-        )  # fmt: skip
+            rig, light, pattern, camera, target_fraction, percentile, start_s, max_s, iterations
+        )
 
 
 def _auto_exposure(
@@ -94,7 +80,6 @@ def _auto_exposure(
     start_s: float,
     max_s: float,
     iterations: int,
-    bright_pixels: int | None = None,
 ) -> float:
     cam = rig.spectral_camera if camera == "spectral" else rig.guide_camera
     lo, hi = cam.exposure_range_s
@@ -109,12 +94,8 @@ def _auto_exposure(
     for _ in range(iterations):
         cam.set_exposure(exposure)
         data = cam.capture().data
-        if bright_pixels:
-            k = min(int(bright_pixels), data.size)
-            level = float(np.partition(data.ravel(), -k)[-k]) - dark
-        else:
-            level = float(np.percentile(data, percentile)) - dark
-        if data.max() >= clip_level(data, full_scale):
+        level = float(np.percentile(data, percentile)) - dark
+        if data.max() >= full_scale:
             proposal = exposure / 2
         elif level <= 0:
             proposal = exposure * 10

@@ -24,7 +24,6 @@ from typing import Any
 
 from sassi_bench.acquire.exposure import auto_exposure
 from sassi_bench.acquire.frame_feed import FrameFeed
-from sassi_bench.acquire.patterns import open_pixels
 from sassi_bench.acquire.plan_geometry import planned_spectral
 from sassi_bench.acquire.runner import run_plan
 from sassi_bench.acquire.session import Session
@@ -519,10 +518,6 @@ def open_lamp_session(
     check_lamp_pitch(desc, procedure)
     settings = procedure.get("lamps") or {}
     pattern = lamp_pinholes(procedure)
-    # A lamp's brightest line lights a few pixels per pinhole; any percentile of the frame
-    # misses it, so its level is read off as many of the brightest pixels as there are
-    # pinholes (about the median pinhole's peak).
-    pinholes = int(open_pixels(pattern, tuple(rig.slm.shape))[0].size)
     exposures = {}
     for lines in desc.lamp_lines().values():
         rig.set_scene("white")
@@ -534,7 +529,6 @@ def open_lamp_session(
                 target_fraction=float(settings.get("target_fraction", 0.6)),
                 start_s=float(settings.get("start_s", 0.05)),
                 max_s=float(settings.get("max_s", 10.0)),
-                bright_pixels=pinholes,
             )
         except DeviceError as exc:
             raise DeviceError(

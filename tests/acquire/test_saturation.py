@@ -57,3 +57,36 @@ def test_the_quick_start_views_warn_about_the_saturated_all_open_frame():
     named = clipping_of_views(arrays, rig)
     expected = [found["guide"].full_scale, found["spectral pinholes"].full_scale]
     assert [c.full_scale for c in named] == expected
+
+
+def test_a_well_that_fills_before_the_adc_is_found_on_a_bench_frame(tmp_path):
+    """A camera built off its datasheet, its pixels filling at 90 % of the described well:
+    an overexposed frame clips below full scale, where ``clip_level`` finds it."""
+    from importlib import resources
+
+    import yaml
+
+    from sassi_bench import open_rig
+    from sassi_bench.acquire.patterns import render_pattern
+    from sassi_bench.acquire.saturation import clip_level
+
+    rigs = resources.files("sassi_bench.procedures").joinpath("rigs")
+    rig = yaml.safe_load(rigs.joinpath("sim.yaml").read_text())
+    cam = rig["spectral_camera"]
+    gain = cam["full_well_e"] / (2 ** cam["bit_depth"] - 1 - cam["dark_offset_adu"])
+    rig.setdefault("as_built", {}).update(gain_e_per_adu=gain, full_well_e=0.9 * cam["full_well_e"])
+    path = tmp_path / "low-well.yaml"
+    path.write_text(yaml.safe_dump(rig))
+    bench = open_rig(str(path))
+    bench.slm.show(render_pattern({"kind": "full"}, bench.slm.shape))
+    bench.light.select("laser:532")
+    bench.spectral_camera.set_exposure(1.0)
+    frame = bench.spectral_camera.capture().data
+    clips_at = round(0.9 * cam["full_well_e"] / gain) + cam["dark_offset_adu"]
+    assert frame.max() < 65535
+    assert abs(clip_level(frame, 65535) - clips_at) <= 1
+    assert np.count_nonzero(frame >= clip_level(frame, 65535)) > 100
+    # A short exposure: its brightest pixel stands alone, and the full scale stands.
+    bench.spectral_camera.set_exposure(0.01)
+    short = bench.spectral_camera.capture().data
+    assert 0.8 * 65535 > short.max() > 1000 and clip_level(short, 65535) == 65535
