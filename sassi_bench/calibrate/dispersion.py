@@ -82,6 +82,12 @@ class DispersionFit:
     anchored
         Whether lamp lines anchor the fit (every laser at its lamp-anchored wavelength,
         the lamp streaks in every refit): then every line is graded by leave-one-out.
+    line_sigma_nm, line_sigma_max_nm
+        The map's 1-sigma (nm) at the field centre from the uncertainty of the wavelengths
+        its lines are fitted at (``wavelength_sigma_nm`` of :func:`fit_dispersion`: each
+        line moved by its 1-sigma and the fit made again, in quadrature): RMS over
+        400-700 nm, and the worst there (most where the map reaches past its lines);
+        0 when every line is exact.
     """
 
     model: DispersionModel
@@ -91,6 +97,8 @@ class DispersionFit:
     position_sigma_px: float
     wavelengths_nm: dict[float, float] = field(default_factory=dict)
     anchored: bool = False
+    line_sigma_nm: float = 0.0
+    line_sigma_max_nm: float = 0.0
 
     @property
     def estimated_lines(self) -> list[float]:
@@ -265,6 +273,7 @@ def fit_dispersion(
     grid: tuple[int, int] = (33, 21),
     wavelengths_nm: Mapping[float, float] | None = None,
     x_information=None,
+    wavelength_sigma_nm: Mapping[float, float] | None = None,
 ) -> DispersionFit:
     """Fit the joint dispersion model to per-laser maps.
 
@@ -289,6 +298,10 @@ def fit_dispersion(
         The lamp lines' normal equations for the column coefficients
         (:class:`~sassi_bench.calibrate.anchored.XInformation`), added to the fit and to
         every leave-one-laser-out refit; the fit is then ``anchored``.
+    wavelength_sigma_nm
+        Label -> the 1-sigma of the wavelength that line is fitted at (a test sheet's
+        accuracy, a lamp measurement's uncertainty); lines left out are exact. Carried
+        into the map (``line_sigma_nm``, ``line_sigma_max_nm``).
 
     Returns
     -------
@@ -353,6 +366,11 @@ def fit_dispersion(
                 "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
     sigma = _centre_position_sigma(model, samples.sx(lam), xs, field_design, order, slm_shape)
+    line_rms, line_max = _line_wavelength_sigma(
+        model, lambda ax: model_from(ax, model.y_coeffs), labels, lam,
+        lambda moved: samples.fit_x(moved, everything, order, x_information),
+        wavelength_sigma_nm or {},
+    )  # fmt: skip
     return DispersionFit(
         model=model,
         bins=wavelength_bins(model),
@@ -361,6 +379,8 @@ def fit_dispersion(
         position_sigma_px=sigma,
         wavelengths_nm={float(label): float(w) for label, w in zip(labels, lam, strict=True)},
         anchored=x_information is not None,
+        line_sigma_nm=line_rms,
+        line_sigma_max_nm=line_max,
     )
 
 
@@ -520,6 +540,28 @@ def _dispersion_px_per_nm(model: DispersionModel, u, v, wavelength_nm: float) ->
     lo, _ = model.evaluate(u, v, wavelength_nm - step)
     hi, _ = model.evaluate(u, v, wavelength_nm + step)
     return (hi - lo) / (2 * step)
+
+
+def _line_wavelength_sigma(model, with_x, labels, lam, refit_x, sigma_nm) -> tuple[float, float]:
+    """The map's wavelength at the field centre over the band, moved by each line's
+    wavelength 1-sigma in turn (the fit made again), in quadrature: its RMS over the band
+    and its largest, nm."""
+    h, w = model.slm_shape
+    band = np.linspace(*BAND_NM, 31)
+    centre = ((w - 1) / 2, (h - 1) / 2)
+    x0 = np.asarray(model.evaluate(*centre, band)[0], dtype=np.float64).ravel()
+    slope = np.maximum(np.abs(np.gradient(x0, band)), 1e-12)
+    moved_px2 = np.zeros_like(band)
+    for i, label in enumerate(labels):
+        sigma = float(sigma_nm.get(float(label), 0.0))
+        if sigma <= 0:
+            continue
+        moved = lam.copy()
+        moved[i] += sigma
+        x1 = np.asarray(with_x(refit_x(moved)).evaluate(*centre, band)[0], dtype=np.float64)
+        moved_px2 += (x1.ravel() - x0) ** 2
+    moved_nm = np.sqrt(moved_px2) / slope
+    return float(np.sqrt(np.mean(moved_nm**2))), float(moved_nm.max())
 
 
 def _centre_position_sigma(model, sx, xs, field_design, order, slm_shape) -> float:

@@ -7,6 +7,12 @@
   pixel and wavelengths to 0.3 nm; its own 1-sigma must be well inside both
   (``tolerances.map_sigma_px``, ``tolerances.map_sigma_nm``; in nm over the smallest
   local dispersion of the band, the conservative reading).
+- **The lines' own wavelengths, recorded.** What the lasers' wavelength uncertainty (a
+  test sheet's accuracy as the rig states it, a lamp measurement's 1-sigma) moves the
+  map by (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.line_sigma_nm`) is
+  recorded and noted above ``MAP_SIGMA_NM`` (:func:`line_uncertainty_notes`), not
+  graded: a map whose lines are off by their accuracy and one whose lines happen to be
+  right state the same, so a tolerance on it fails right bundles as often as wrong ones.
 - **Lamp lines against their own uncertainty.** Every lamp line bright enough to tell has a
   residual from where the map puts it and a 1-sigma from its photons (scaled by its
   lamp's reduced chi-square). Against the line's width (``lamp_line_rms_fwhm``) a wrong
@@ -40,6 +46,7 @@ __all__ = [
     "MAP_SIGMA_PX",
     "LampLineOutlier",
     "bundle_check_notes",
+    "line_uncertainty_notes",
     "map_sigma_nm",
     "measured_bundle_checks",
     "worst_lamp_line",
@@ -235,3 +242,30 @@ def _lamp_fit_clause(anchoring: LampAnchoring) -> str:
         "lasers, free within their labels' tolerance, followed; state the lasers' lines "
         "as measured (laser_tolerance_nm) and calibrate again"
     )
+
+
+def line_uncertainty_notes(fit: DispersionFit) -> list[str]:
+    """A note when the laser lines' own wavelength uncertainty carries more than
+    :data:`MAP_SIGMA_NM` RMS into the map over 400-700 nm (recorded in the bundle as
+    ``line_sigma_nm``, not graded: no check can tell a map whose lines are off by their
+    stated accuracy from one whose lines happen to be right).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> fit = SimpleNamespace(line_sigma_nm=0.26, line_sigma_max_nm=0.6)
+    >>> print(line_uncertainty_notes(fit)[0])  # doctest: +ELLIPSIS
+    wavelength map: the laser lines' own wavelengths carry +-0.26 nm RMS into it over ...
+    >>> line_uncertainty_notes(SimpleNamespace(line_sigma_nm=0.02, line_sigma_max_nm=0.05))
+    []
+    """
+    if fit.line_sigma_nm <= MAP_SIGMA_NM:
+        return []
+    return [
+        f"wavelength map: the laser lines' own wavelengths carry +-{fit.line_sigma_nm:.2f} nm "
+        f"RMS into it over 400-700 nm (+-{fit.line_sigma_max_nm:.2f} nm at worst, where it "
+        "reaches past its lines), as the rig states them (laser_tolerance_nm) or the lamps "
+        f"measure them: more than the {MAP_SIGMA_NM:g} nm the map's own 1-sigma is held to. "
+        "To pin them: wavelength lamps on the diffuser, a spectrometer's reading of each "
+        "line, or a laser nearer the band's open end"
+    ]

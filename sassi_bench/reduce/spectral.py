@@ -36,7 +36,11 @@ from sassi_bench.calibrate.dispersion import (
 from sassi_bench.calibrate.grey_response import GreyResponse
 from sassi_bench.reduce.blur_budget import BlurFrameRecord
 from sassi_bench.reduce.blur_frames import pinhole_signals
-from sassi_bench.reduce.bundle_checks import bundle_check_notes, measured_bundle_checks
+from sassi_bench.reduce.bundle_checks import (
+    bundle_check_notes,
+    line_uncertainty_notes,
+    measured_bundle_checks,
+)
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
 from sassi_bench.reduce.lamps import (
@@ -65,6 +69,7 @@ __all__ = [
     "laser_line_checks",
     "laser_line_notes",
     "spectral_notes",
+    "stated_line_sigma_nm",
 ]
 
 
@@ -432,6 +437,9 @@ def analyse_spectral_sweeps(
             slm_shape,
             wavelengths_nm=anchoring.fit.by_label,
             x_information=anchoring.fit.information,
+            wavelength_sigma_nm=dict(
+                zip(anchoring.fit.labels_nm, anchoring.fit.sigma_nm, strict=True)
+            ),
             **shape,
         )
         form = blur_form(proc, desc)
@@ -465,6 +473,7 @@ def analyse_spectral_sweeps(
         wavelengths_nm={k: v.estimated_nm for k, v in lines.items() if v.off_label}
         if estimate
         else None,
+        wavelength_sigma_nm=stated_line_sigma_nm(desc, [m.wavelength_nm for m in maps]),
         **shape,
     )
     blur = blur_from_pinholes(
@@ -486,6 +495,30 @@ def analyse_spectral_sweeps(
             blur_record=sweeps.blur_record,
         )
     )
+
+
+def stated_line_sigma_nm(desc: Any, labels: Sequence[float]) -> dict[float, float]:
+    """The 1-sigma of each laser line a rig without lamps states (its
+    ``laser_tolerance_nm``, read as the prior's sigma as the lamp-anchored fit reads it):
+    a test sheet's accuracy. A line the rig states nothing for is taken at its label;
+    the other lines check it (``laser_line_<label>nm``).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> rig = SimpleNamespace(laser_tolerance_nm={441.93: 0.28})
+    >>> stated_line_sigma_nm(rig, [441.93, 488.0])
+    {441.93: 0.28}
+    >>> stated_line_sigma_nm(SimpleNamespace(laser_tolerance_nm=None), [488.0])
+    {}
+    """
+    given = desc.laser_tolerance_nm
+    if given is None:
+        return {}
+    if isinstance(given, Mapping):
+        stated = {float(k): float(v) for k, v in given.items()}
+        return {float(x): stated[float(x)] for x in labels if float(x) in stated}
+    return {float(x): float(given) for x in labels}
 
 
 def _compared_with_design(result: SpectralCalibration) -> SpectralCalibration:
@@ -528,6 +561,7 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
     return (
         laser_line_notes(result)
         + bundle_check_notes(result.checks, result.dispersion, result.anchoring, glass)
+        + line_uncertainty_notes(result.dispersion)
         + blur_notes(result.blur)
         + blur_band_notes(result.blur, result.dispersion.bins.edges_nm)
         + frames

@@ -113,3 +113,23 @@ def test_a_mislabelled_end_line_fails_where_the_others_reach_it(
     else:
         assert label in failing
         assert abs(lines[label].offset_nm) > 1.5 * lines[label].allowed_nm(0.5)  # 2.1-3.8x
+
+
+def test_a_line_s_wavelength_uncertainty_is_what_it_moves_the_map_by(sim_rig, true_laser_maps):
+    """A line fitted 0.3 nm off its true wavelength moves the map by as much as the fit
+    states for a 1-sigma of 0.3 nm on that line; exact lines state nothing."""
+    labels = list(sim_rig.description.lasers_nm)
+    maps = true_laser_maps(sim_rig, labels)
+    bench = truth(sim_rig)
+    true_nm = {label: bench.laser_centre_nm(label) for label in labels}
+    exact = fit_dispersion(maps, "N-BK7", sim_rig.slm.shape, wavelengths_nm=true_nm)
+    assert exact.line_sigma_nm == 0.0 and exact.line_sigma_max_nm == 0.0
+    blue = min(labels)
+    off = fit_dispersion(
+        maps, "N-BK7", sim_rig.slm.shape, wavelengths_nm={**true_nm, blue: true_nm[blue] + 0.3},
+        wavelength_sigma_nm={blue: 0.3},
+    )  # fmt: skip
+    error = bench.wavelength_map_error_nm(off.model) - bench.wavelength_map_error_nm(exact.model)
+    assert off.line_sigma_nm == pytest.approx(_rms(error), rel=0.1)
+    assert off.line_sigma_max_nm == pytest.approx(float(np.abs(error).max()), rel=0.1)
+    assert off.line_sigma_max_nm >= 0.3 * 0.9  # at the line itself the map moves with it
