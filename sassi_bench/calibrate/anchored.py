@@ -172,6 +172,11 @@ class AnchoredWavelengths:
             float(k): float(w) for k, w in zip(self.labels_nm, self.wavelengths_nm, strict=True)
         }
 
+    @property
+    def sigma_by_label(self) -> dict[float, float]:
+        """Label -> the fitted wavelength's 1-sigma (what ``fit_dispersion`` carries)."""
+        return {float(k): float(s) for k, s in zip(self.labels_nm, self.sigma_nm, strict=True)}
+
 
 class _Spectral:
     """The spectral coordinate ``s(λ) = (n(λ) − n(550)) / (n(400) − n(700))`` and powers."""

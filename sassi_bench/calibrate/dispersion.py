@@ -366,11 +366,13 @@ def fit_dispersion(
                 "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
     sigma = _centre_position_sigma(model, samples.sx(lam), xs, field_design, order, slm_shape)
+
+    def refit_x(moved: NDArray[np.float64]) -> DispersionModel:
+        return model_from(samples.fit_x(moved, everything, order, x_information), model.y_coeffs)
+
     line_rms, line_max = _line_wavelength_sigma(
-        model, lambda ax: model_from(ax, model.y_coeffs), labels, lam,
-        lambda moved: samples.fit_x(moved, everything, order, x_information),
-        wavelength_sigma_nm or {},
-    )  # fmt: skip
+        model, refit_x, labels, lam, wavelength_sigma_nm or {}
+    )
     return DispersionFit(
         model=model,
         bins=wavelength_bins(model),
@@ -542,10 +544,10 @@ def _dispersion_px_per_nm(model: DispersionModel, u, v, wavelength_nm: float) ->
     return (hi - lo) / (2 * step)
 
 
-def _line_wavelength_sigma(model, with_x, labels, lam, refit_x, sigma_nm) -> tuple[float, float]:
+def _line_wavelength_sigma(model, refit, labels, lam, sigma_nm) -> tuple[float, float]:
     """The map's wavelength at the field centre over the band, moved by each line's
-    wavelength 1-sigma in turn (the fit made again), in quadrature: its RMS over the band
-    and its largest, nm."""
+    wavelength 1-sigma in turn (``refit``: the model fitted at moved wavelengths), in
+    quadrature: its RMS over the band and its largest, nm."""
     h, w = model.slm_shape
     band = np.linspace(*BAND_NM, 31)
     centre = ((w - 1) / 2, (h - 1) / 2)
@@ -558,7 +560,7 @@ def _line_wavelength_sigma(model, with_x, labels, lam, refit_x, sigma_nm) -> tup
             continue
         moved = lam.copy()
         moved[i] += sigma
-        x1 = np.asarray(with_x(refit_x(moved)).evaluate(*centre, band)[0], dtype=np.float64)
+        x1 = np.asarray(refit(moved).evaluate(*centre, band)[0], dtype=np.float64)
         moved_px2 += (x1.ravel() - x0) ** 2
     moved_nm = np.sqrt(moved_px2) / slope
     return float(np.sqrt(np.mean(moved_nm**2))), float(moved_nm.max())

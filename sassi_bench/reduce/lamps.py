@@ -506,8 +506,7 @@ class LampMeasurement:
 
     def sigma_nm(self, lamps: Session, frames: int) -> dict[float, float]:
         """Every laser's 1-sigma (nm), by label, from every lamp's first ``frames`` frames."""
-        fit = self.measure(lamps, frames)[1]
-        return {float(k): float(v) for k, v in zip(fit.labels_nm, fit.sigma_nm, strict=True)}
+        return self.measure(lamps, frames)[1].sigma_by_label
 
 
 def anchor_wavelengths(

@@ -437,9 +437,7 @@ def analyse_spectral_sweeps(
             slm_shape,
             wavelengths_nm=anchoring.fit.by_label,
             x_information=anchoring.fit.information,
-            wavelength_sigma_nm=dict(
-                zip(anchoring.fit.labels_nm, anchoring.fit.sigma_nm, strict=True)
-            ),
+            wavelength_sigma_nm=anchoring.fit.sigma_by_label,
             **shape,
         )
         form = blur_form(proc, desc)
