@@ -40,7 +40,7 @@ from collections.abc import Callable
 import numpy as np
 
 from sassi_bench import open_rig
-from sassi_bench.acquire.patterns import pinhole_pattern, render_pattern
+from sassi_bench.acquire.patterns import gray_bit_count, pinhole_pattern, render_pattern
 from sassi_bench.rig.sim import truth
 
 
@@ -101,8 +101,10 @@ def bench_rig(name, frames: int) -> dict[str, tuple[float, float]]:
     rig.light.select(f"laser:{rig.description.lasers_nm[2]:g}")
     _expose_for(rig, render_pattern({"kind": "full"}, shape))
 
+    bits = gray_bit_count(shape[1], 8)
+
     def gray(i: int) -> None:
-        bit = {"kind": "gray", "axis": "x", "bit": i % 7, "block": 8, "inverse": bool(i % 2)}
+        bit = {"kind": "gray", "axis": "x", "bit": i % bits, "block": 8, "inverse": bool(i % 2)}
         rig.slm.show(render_pattern(bit, shape))
         camera.capture()
 
