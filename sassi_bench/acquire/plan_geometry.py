@@ -80,6 +80,12 @@ __all__ = [
 GUIDE_STRIDE = 4
 #: Stacked pinholes of a scan are at least this many widest row sigmas apart.
 ROW_SEPARATION_SIGMAS = 1.5
+#: ... and at least this many of the band's median widest sigma: a spot wide over most of
+#: the band (a singlet focused in the blue) mixes stacked rows in most bins, where the
+#: unmixing carries its blur error and noise into every spectrum, not into a few bins at
+#: the band's ends (measured on ``sim-singlet``'s chart:
+#: ``docs/notes/2026-11-30-design-rig-blue-blur-and-scan-pitch.md``).
+ROW_SEPARATION_MEDIAN_SIGMAS = 2.25
 #: The lamp reduction cuts at most this many rows each side of a streak.
 LAMP_MAX_HALF_ROWS = 10
 #: Half-width of a blur spot's window, in spot sigmas.
@@ -226,7 +232,10 @@ def plan_geometry(desc: RigDescription, guide_stride: int = GUIDE_STRIDE) -> Pla
     _refuse_too_long(desc, "pinhole scan", room.needed_pitch, room.footprint_px)
     stride = max(1, int(guide_stride))
     scan_u = stride * math.ceil(room.needed_pitch / stride)
-    scan_v = max(2, math.ceil(ROW_SEPARATION_SIGMAS * s_max / rows))
+    s_row = max(
+        ROW_SEPARATION_SIGMAS * s_max, ROW_SEPARATION_MEDIAN_SIGMAS * float(np.median(spot))
+    )
+    scan_v = max(2, math.ceil(s_row / rows))
 
     lamp_pitch = None
     band = _lamp_band(desc)

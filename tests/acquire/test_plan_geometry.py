@@ -1,8 +1,10 @@
 """Plans from the rig's nominal optics: every spacing derived at plan time, YAML values
 overrides, a plan that cannot fit refused naming the optical change that fixes it."""
 
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -17,7 +19,11 @@ from sassi_bench.acquire.plan_geometry import (
 )
 from sassi_bench.acquire.scan_plans import check_stride
 from sassi_bench.acquire.spectral_plans import check_lamp_pitch
-from sassi_bench.acquire.streak_pitch import check_scan_pitch, scan_pitch_room
+from sassi_bench.acquire.streak_pitch import (
+    check_scan_pitch,
+    described_spot_sigma,
+    scan_pitch_room,
+)
 from sassi_bench.errors import ConfigError, ProcedureError
 from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
@@ -61,6 +67,31 @@ def test_derived_pitches_are_the_smallest_that_keep_the_streaks_apart(spread):
         check_lamp_pitch(desc, lamps)
     # A longer streak needs a longer pitch.
     assert geo.scan_pitch[0] > spread
+
+
+def test_a_spot_wide_over_most_of_the_band_spaces_the_scan_rows_further():
+    """Stacked rows are 1.5 widest sigmas apart when the spot is wide only at the band's
+    ends, and 2.25 of the band's median sigma apart when it is wide over most of it."""
+    ends = {400: 3.0, 450: 0.9, 550: 0.7, 650: 0.9, 700: 3.0}
+    wide = {400: 3.0, 450: 2.7, 550: 2.6, 650: 2.7, 700: 3.0}
+    at_ends = plan_geometry(rig_description_from_dict(_rig(blur__sigma_px=ends)))
+    desc = rig_description_from_dict(_rig(blur__sigma_px=wide))
+    geo = plan_geometry(desc)
+    assert at_ends.spot_sigma_px[1] == pytest.approx(geo.spot_sigma_px[1], rel=0.02)
+    rows = at_ends.rows_per_slm_px
+    assert at_ends.scan_pitch[1] == math.ceil(1.5 * at_ends.spot_sigma_px[1] / rows)
+    median = float(np.median(described_spot_sigma(desc, np.linspace(400, 700, 31))))
+    assert geo.scan_pitch[1] == math.ceil(2.25 * median / geo.rows_per_slm_px)
+    assert geo.scan_pitch[1] > at_ends.scan_pitch[1]
+    assert geo.scan_pitch[0] == at_ends.scan_pitch[0]
+
+
+def test_the_design_rigs_rows_follow_their_spots_over_the_band():
+    # The singlet's spot is 3.3 SLM rows wide at the band's median (focused in the blue),
+    # the achromat's 2.1; the parametric rigs' 1.0-1.3 keep the widest-sigma rule.
+    assert plan_geometry(load_rig_description("sim-singlet")).scan_pitch[1] == 8
+    assert plan_geometry(load_rig_description("sim-achromat")).scan_pitch[1] == 5
+    assert plan_geometry(load_rig_description("sim-prototype")).scan_pitch[1] == 6
 
 
 def test_the_spectral_procedure_gets_derived_values_and_keeps_overrides():
