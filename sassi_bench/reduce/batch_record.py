@@ -55,7 +55,9 @@ class BatchRecord:
 
     @property
     def outcome(self) -> str:
-        """``"tolerance met"`` or ``"budget spent"``."""
+        """``"tolerance met"``, ``"budget spent"`` or ``"out of reach"`` (a floor frames do
+        not lower keeps the tolerance out of reach:
+        :func:`~sassi_bench.reduce.lamp_budget.next_frames`)."""
         return self.batches[-1].outcome
 
     def taken(self) -> str:

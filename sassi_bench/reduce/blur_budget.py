@@ -64,7 +64,7 @@ class BlurBatch:
     next_frames
         Frames per laser to have next; None when the step stops.
     outcome
-        ``"more frames"``, ``"tolerance met"`` or ``"budget spent"``.
+        ``"more frames"``, ``"tolerance met"``, ``"budget spent"`` or ``"out of reach"``.
     """
 
     frames: int
@@ -82,7 +82,13 @@ class BlurBatch:
         }
 
 
-def decide_blur_frames(frames: int, sigma_px: float, tolerance_px: float, budget: int) -> BlurBatch:
+def decide_blur_frames(
+    frames: int,
+    sigma_px: float,
+    tolerance_px: float,
+    budget: int,
+    earlier: BlurBatch | None = None,
+) -> BlurBatch:
     """Stop, or the pinhole frames per laser to have next, from the stated 1-sigma so far.
 
     Parameters
@@ -95,6 +101,9 @@ def decide_blur_frames(frames: int, sigma_px: float, tolerance_px: float, budget
         The 1-sigma to reach.
     budget
         The most pinhole frames per laser the step may take.
+    earlier
+        The previous batch, which tells photons from a floor
+        (:func:`~sassi_bench.reduce.lamp_budget.next_frames`).
 
     Returns
     -------
@@ -109,7 +118,10 @@ def decide_blur_frames(frames: int, sigma_px: float, tolerance_px: float, budget
     >>> decide_blur_frames(8, 0.08, 0.05, 8).outcome
     'budget spent'
     """
-    return BlurBatch(frames, float(sigma_px), *next_frames(frames, sigma_px, tolerance_px, budget))
+    before = None if earlier is None else (earlier.frames, earlier.sigma_px)
+    return BlurBatch(
+        frames, float(sigma_px), *next_frames(frames, sigma_px, tolerance_px, budget, before)
+    )
 
 
 @dataclass(frozen=True)
@@ -135,7 +147,8 @@ class BlurFrameRecord(BatchRecord):
         return self.batches[-1].sigma_px
 
     def advice(self) -> str | None:
-        """What would meet the tolerance when the budget was spent (None otherwise).
+        """What would meet the tolerance when the step stopped short of it (None
+        otherwise).
 
         Examples
         --------
@@ -144,7 +157,7 @@ class BlurFrameRecord(BatchRecord):
         field blur widths at +-0.060 px after 8 pinhole frames per laser: take about 12 \
 (set blur.max_frames to 12 and capture under a new --session)
         """
-        if self.outcome != "budget spent":
+        if self.outcome not in ("budget spent", "out of reach"):
             return None
         said = (
             f"field blur widths at +-{self.sigma_px:.3f} px after {self.frames} pinhole "

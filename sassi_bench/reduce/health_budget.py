@@ -66,7 +66,7 @@ class ShiftBatch:
     next_frames
         Pinhole frames to have next; None when the check stops.
     outcome
-        ``"more frames"``, ``"tolerance met"`` or ``"budget spent"``.
+        ``"more frames"``, ``"tolerance met"``, ``"budget spent"`` or ``"out of reach"``.
     """
 
     frames: int
@@ -87,9 +87,16 @@ class ShiftBatch:
 
 
 def decide_shift_frames(
-    frames: int, sigma_px: float, shift_max_px: float, tolerance_px: float, budget: int
+    frames: int,
+    sigma_px: float,
+    shift_max_px: float,
+    tolerance_px: float,
+    budget: int,
+    earlier: ShiftBatch | None = None,
 ) -> ShiftBatch:
-    """Stop, or the pinhole frames to have next, from the shift map's stated 1-sigma.
+    """Stop, or the pinhole frames to have next, from the shift map's stated 1-sigma (and
+    the previous batch's, ``earlier``, which tells photons from a floor:
+    :func:`~sassi_bench.reduce.lamp_budget.next_frames`).
 
     Examples
     --------
@@ -102,7 +109,13 @@ def decide_shift_frames(
         frames,
         float(sigma_px),
         float(shift_max_px),
-        *next_frames(frames, sigma_px, tolerance_px, budget),
+        *next_frames(
+            frames,
+            sigma_px,
+            tolerance_px,
+            budget,
+            None if earlier is None else (earlier.frames, earlier.sigma_px),
+        ),
     )
 
 
@@ -129,7 +142,8 @@ class ShiftFrameRecord(BatchRecord):
         return self.batches[-1].sigma_px
 
     def advice(self) -> str | None:
-        """What would meet the tolerance when the budget was spent (None otherwise).
+        """What would meet the tolerance when the step stopped short of it (None
+        otherwise).
 
         Examples
         --------
@@ -138,7 +152,7 @@ class ShiftFrameRecord(BatchRecord):
         the shift map at +-0.040 px after 8 pinhole frames: take about 15 (set max_frames \
 to 15 in the health-check procedure), or expose the lamp longer
         """
-        if self.outcome != "budget spent":
+        if self.outcome not in ("budget spent", "out of reach"):
             return None
         if self.photon_limited() is False:
             return (

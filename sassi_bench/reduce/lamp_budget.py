@@ -20,16 +20,19 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from sassi_bench.reduce.batch_record import BatchRecord
+from sassi_bench.reduce.batch_record import PHOTON_SHARE, BatchRecord
 
 __all__ = [
     "DEFAULT_MAX_FRAMES",
     "LampBatch",
     "LampFrameRecord",
     "decide_lamp_frames",
+    "fell_with_photons",
     "frames_needed",
+    "frames_to_meet",
     "lamp_frame_settings",
     "next_frames",
+    "photon_floor",
 ]
 
 #: Pinhole frames per lamp the lamp step may take when the procedure names no budget.
@@ -69,7 +72,7 @@ class LampBatch:
     next_frames
         Frames per lamp to have next; None when the step stops.
     outcome
-        ``"more frames"``, ``"tolerance met"`` or ``"budget spent"``.
+        ``"more frames"``, ``"tolerance met"``, ``"budget spent"`` or ``"out of reach"``.
     """
 
     frames: int
@@ -88,7 +91,11 @@ class LampBatch:
 
 
 def decide_lamp_frames(
-    frames: int, sigma_nm: Mapping[float, float], tolerance_nm: float, budget: int
+    frames: int,
+    sigma_nm: Mapping[float, float],
+    tolerance_nm: float,
+    budget: int,
+    earlier: LampBatch | None = None,
 ) -> LampBatch:
     """Stop, or the frames per lamp to have next, from the uncertainty reached so far.
 
@@ -102,6 +109,9 @@ def decide_lamp_frames(
         The 1-sigma every laser should reach.
     budget
         The most pinhole frames per lamp the step may take.
+    earlier
+        The previous batch, whose 1-sigma of the laser now worst tells photons from a
+        floor (:func:`next_frames`).
 
     Returns
     -------
@@ -115,19 +125,37 @@ def decide_lamp_frames(
     6
     >>> decide_lamp_frames(16, {670.0: 0.6}, 0.5, 16).outcome
     'budget spent'
+    >>> first = decide_lamp_frames(4, {520.0: 0.05, 670.0: 0.533}, 0.5, 16)
+    >>> decide_lamp_frames(5, {520.0: 0.045, 670.0: 0.531}, 0.5, 16, first).outcome
+    'out of reach'
     """
     sigma = {float(k): float(v) for k, v in sigma_nm.items()}
-    worst = max(sigma.values(), default=0.0)
-    return LampBatch(frames, sigma, *next_frames(frames, worst, tolerance_nm, budget))
+    label = max(sigma, key=sigma.__getitem__, default=None)
+    worst = sigma[label] if label is not None else 0.0
+    before = None
+    if earlier is not None and label in earlier.sigma_nm:
+        before = (earlier.frames, earlier.sigma_nm[label])
+    return LampBatch(frames, sigma, *next_frames(frames, worst, tolerance_nm, budget, before))
 
 
-def next_frames(frames: int, sigma: float, tolerance: float, budget: int) -> tuple[int | None, str]:
+def next_frames(
+    frames: int,
+    sigma: float,
+    tolerance: float,
+    budget: int,
+    earlier: tuple[int, float] | None = None,
+) -> tuple[int | None, str]:
     """The stopping rule of a step that measures until confident: the frames to have next
     (None: stop) and why, from the worst 1-sigma reached with ``frames`` frames.
 
-    A photon-limited 1-sigma falls as one over the square root of the frames: the next
-    batch aims at the frames that would meet the tolerance (at least one more), within
-    the budget.
+    A photon-limited 1-sigma falls as one over the square root of the frames: after one
+    batch the next aims at the frames that would meet the tolerance (at least one more),
+    within the budget. After two, the 1-sigma is read as photons plus a floor that frames
+    do not change (``sigma**2 = a / frames + floor**2``, :func:`photon_floor`): a 1-sigma
+    that fell by less than :data:`~sassi_bench.reduce.batch_record.PHOTON_SHARE` of what
+    photons give, with a floor at the tolerance or above, stops the step (``"out of
+    reach"``: more frames would not meet it), and otherwise the next batch aims at what
+    photons and floor together need.
 
     Parameters
     ----------
@@ -139,12 +167,14 @@ def next_frames(frames: int, sigma: float, tolerance: float, budget: int) -> tup
         The 1-sigma to reach, in ``sigma``'s unit.
     budget
         The most frames the step may take.
+    earlier
+        The previous batch's frames and worst 1-sigma (None for the first batch).
 
     Returns
     -------
     tuple
         ``(next frames or None, outcome)``, the outcome ``"more frames"``,
-        ``"tolerance met"`` or ``"budget spent"``.
+        ``"tolerance met"``, ``"budget spent"`` or ``"out of reach"``.
 
     Examples
     --------
@@ -152,6 +182,10 @@ def next_frames(frames: int, sigma: float, tolerance: float, budget: int) -> tup
     (6, 'more frames')
     >>> next_frames(8, 0.08, 0.05, 8)
     (None, 'budget spent')
+    >>> next_frames(5, 0.531, 0.5, 16, earlier=(4, 0.533))  # lines that blend
+    (None, 'out of reach')
+    >>> next_frames(8, 0.55, 0.5, 16, earlier=(4, 0.62))  # photons alone would say 10
+    (16, 'more frames')
     """
     if frames < 1 or budget < 1:
         raise ValueError(f"frames ({frames}) and budget ({budget}) must be positive")
@@ -159,8 +193,43 @@ def next_frames(frames: int, sigma: float, tolerance: float, budget: int) -> tup
         return None, "tolerance met"
     if frames >= budget:
         return None, "budget spent"
-    wanted = frames_needed(frames, sigma, tolerance)
+    wanted = frames_to_meet((frames, sigma), tolerance, earlier)
+    if wanted is None:
+        if not fell_with_photons(earlier, (frames, sigma)):
+            return None, "out of reach"
+        wanted = budget  # a floor the fit puts high, yet the 1-sigma fell as photons do
     return min(budget, max(wanted, frames + 1)), "more frames"
+
+
+def photon_floor(earlier: tuple[int, float], later: tuple[int, float]) -> tuple[float, float]:
+    """Split two batches' 1-sigmas into photons and a floor: ``sigma**2 = a / frames +
+    floor**2``, returning ``(sqrt(a), floor)`` (the 1-sigma of one frame's photons, and
+    what no number of frames takes away), neither below zero.
+
+    Examples
+    --------
+    >>> [round(x, 3) for x in photon_floor((4, 0.6), (16, 0.3))]  # photons alone
+    [1.2, 0.0]
+    >>> [round(x, 3) for x in photon_floor((4, 0.533), (5, 0.531))]
+    [0.206, 0.523]
+    """
+    (n1, s1), (n2, s2) = earlier, later
+    a = max((s1**2 - s2**2) / (1.0 / n1 - 1.0 / n2), 0.0)
+    return math.sqrt(a), math.sqrt(max(s2**2 - a / n2, 0.0))
+
+
+def fell_with_photons(earlier: tuple[int, float], later: tuple[int, float]) -> bool:
+    """Whether a 1-sigma fell from ``earlier`` to ``later`` (frames, 1-sigma) by at least
+    :data:`~sassi_bench.reduce.batch_record.PHOTON_SHARE` of what photons alone give.
+
+    Examples
+    --------
+    >>> fell_with_photons((4, 0.6), (16, 0.32)), fell_with_photons((4, 0.533), (5, 0.531))
+    (True, False)
+    """
+    (n1, s1), (n2, s2) = earlier, later
+    photons = s1 * math.sqrt(n1 / n2)
+    return s1 - s2 >= PHOTON_SHARE * (s1 - photons)
 
 
 def frames_needed(frames: int, sigma: float, tolerance: float) -> int:
@@ -173,6 +242,28 @@ def frames_needed(frames: int, sigma: float, tolerance: float) -> int:
     24
     """
     return math.ceil(frames * (sigma / tolerance) ** 2 - 1e-9)
+
+
+def frames_to_meet(
+    later: tuple[int, float], tolerance: float, earlier: tuple[int, float] | None = None
+) -> int | None:
+    """The frames at which a 1-sigma meets the tolerance: photon-limited from one batch
+    (:func:`frames_needed`), photons and floor from two (:func:`photon_floor`); None when
+    the floor alone is at the tolerance or above.
+
+    Examples
+    --------
+    >>> frames_to_meet((16, 0.6), 0.5), frames_to_meet((8, 0.55), 0.5, (4, 0.62))
+    (24, 23)
+    >>> frames_to_meet((5, 0.531), 0.5, (4, 0.533)) is None
+    True
+    """
+    if earlier is None or earlier[0] >= later[0]:
+        return frames_needed(later[0], later[1], tolerance)
+    photons, floor = photon_floor(earlier, later)
+    if floor >= tolerance:
+        return None
+    return math.ceil(photons**2 / (tolerance**2 - floor**2) - 1e-9)
 
 
 @dataclass(frozen=True)
@@ -206,27 +297,46 @@ class LampFrameRecord(BatchRecord):
         return {k: v for k, v in last.items() if v > self.tolerance_nm}
 
     def advice(self) -> str | None:
-        """What would meet the tolerance when the budget was spent (None otherwise).
+        """What would meet the tolerance when the step stopped short of it (None
+        otherwise).
 
         Examples
         --------
+        >>> first = LampBatch(4, {670.0: 0.533}, 5, "more frames")
+        >>> last = LampBatch(5, {670.0: 0.531}, None, "out of reach")
+        >>> print(LampFrameRecord((first, last), 0.5, 16, {"lamp:Ne": 0.4}, 10.0).advice())
+        laser 670 nm at +-0.53 nm after 5 lamp frames: more frames will not do (its 1-sigma \
+went from 0.53 to 0.53 nm where photons alone give 0.48): the lamp lines near it blend at \
+this dispersion or are missing; use a lamp with isolated lines there, or a prism with more \
+spread there
         >>> last = LampBatch(16, {670.0: 0.6}, None, "budget spent")
         >>> print(LampFrameRecord((last,), 0.5, 16, {"lamp:Ne": 0.4}, 10.0).advice())
         laser 670 nm at +-0.60 nm after 16 lamp frames: take about 24 lamp frames per lamp \
 (set lamps.max_frames to 24 and capture the lamp frames under a new --session)
         """
-        if self.outcome != "budget spent":
+        if self.outcome not in ("budget spent", "out of reach"):
             return None
-        worst = max(self.short_of.values())
-        needed = frames_needed(self.frames, worst, self.tolerance_nm)
+        label = max(self.short_of, key=self.short_of.__getitem__)
+        later = (self.frames, self.short_of[label])
+        earlier = None
+        if len(self.batches) > 1 and label in self.batches[-2].sigma_nm:
+            earlier = (self.batches[-2].frames, self.batches[-2].sigma_nm[label])
+        needed = frames_to_meet(later, self.tolerance_nm, earlier)
         lasers = ", ".join(f"laser {k:g} nm at +-{v:.2f} nm" for k, v in self.short_of.items())
         said = f"{lasers} after {self.frames} lamp frames: "
         capped = [k for k, t in self.exposures_s.items() if t >= 0.999 * self.max_exposure_s]
-        if needed > HOPELESS_FACTOR * self.budget:
+        if needed is None or needed > HOPELESS_FACTOR * self.budget:
+            why = f"about {needed} per lamp" if needed is not None else ""
+            if earlier is not None and not fell_with_photons(earlier, later):
+                photons = earlier[1] * (earlier[0] / later[0]) ** 0.5
+                why = (
+                    f"its 1-sigma went from {earlier[1]:.2f} to {later[1]:.2f} nm where "
+                    f"photons alone give {photons:.2f}"
+                )
             return said + (
-                f"more frames will not do (about {needed} per lamp): the lamp lines near it "
-                "blend at this dispersion or are missing; use a lamp with isolated lines "
-                "there, or a prism with more spread there"
+                f"more frames will not do ({why}): the lamp lines near it blend at this "
+                "dispersion or are missing; use a lamp with isolated lines there, or a "
+                "prism with more spread there"
             )
         fix = (
             f"take about {needed} lamp frames per lamp (set lamps.max_frames to {needed} "

@@ -148,7 +148,7 @@ class ResponseBatch:
     next_frames
         Pinhole frames to have next; None when the step stops.
     outcome
-        ``"more frames"``, ``"tolerance met"`` or ``"budget spent"``.
+        ``"more frames"``, ``"tolerance met"``, ``"budget spent"`` or ``"out of reach"``.
     """
 
     frames: int
@@ -187,7 +187,11 @@ def shortfall(de00_sigma: float, sigma: float, settings: ResponseSettings) -> fl
 
 
 def decide_response_frames(
-    frames: int, sigma: float, de00_sigma: float, settings: ResponseSettings
+    frames: int,
+    sigma: float,
+    de00_sigma: float,
+    settings: ResponseSettings,
+    earlier: ResponseBatch | None = None,
 ) -> ResponseBatch:
     """Stop, or the pinhole frames to have next, from the response's stated 1-sigma so far.
 
@@ -201,6 +205,9 @@ def decide_response_frames(
         The colour 1-sigma it causes (:func:`response_de00_sigma`).
     settings
         The budget and the tolerances (:func:`response_frame_settings`).
+    earlier
+        The previous batch, which tells photons from a floor
+        (:func:`~sassi_bench.reduce.lamp_budget.next_frames`).
 
     Returns
     -------
@@ -215,8 +222,14 @@ def decide_response_frames(
     40
     """
     ratio = shortfall(de00_sigma, sigma, settings)
+    before = None
+    if earlier is not None:
+        before = (earlier.frames, shortfall(earlier.de00_sigma, earlier.sigma, settings))
     return ResponseBatch(
-        frames, float(sigma), float(de00_sigma), *next_frames(frames, ratio, 1.0, settings.budget)
+        frames,
+        float(sigma),
+        float(de00_sigma),
+        *next_frames(frames, ratio, 1.0, settings.budget, before),
     )
 
 
@@ -252,7 +265,8 @@ class ResponseFrameRecord(BatchRecord):
         return self.batches[-1].de00_sigma
 
     def advice(self) -> str | None:
-        """What would meet the tolerance when the budget was spent (None otherwise).
+        """What would meet the tolerance when the step stopped short of it (None
+        otherwise).
 
         Examples
         --------
@@ -262,15 +276,23 @@ class ResponseFrameRecord(BatchRecord):
 about 116 (set response.max_frames to 116 and run the response under a new --session), \
 or light the diffuser brighter
         """
-        if self.outcome != "budget spent":
+        if self.outcome not in ("budget spent", "out of reach"):
             return None
+        said = (
+            f"response's colour 1-sigma {self.de00_sigma:.3f} CIEDE2000 after {self.frames} "
+            "pinhole frames of the white: "
+        )
+        if self.outcome == "out of reach":
+            return said + (
+                "more frames will not do (its 1-sigma hardly fell with them): the white's "
+                "frames scatter more than their photons; let the lamp and the camera warm "
+                "up, or hold the lamp's supply steady"
+            )
         ratio = shortfall(self.de00_sigma, self.sigma, self.settings)
         needed = frames_needed(self.frames, ratio, 1.0)
-        return (
-            f"response's colour 1-sigma {self.de00_sigma:.3f} CIEDE2000 after {self.frames} "
-            f"pinhole frames of the white: take about {needed} (set response.max_frames to "
-            f"{needed} and run the response under a new --session), or light the diffuser "
-            "brighter"
+        return said + (
+            f"take about {needed} (set response.max_frames to {needed} and run the response "
+            "under a new --session), or light the diffuser brighter"
         )
 
     def note(self) -> str:

@@ -609,7 +609,8 @@ def capture_lamp_frames(
         run_plan(rig, session.plan, session, progress=progress, steps=steps)
         if measure is None:
             return None
-        batch = decide_lamp_frames(frames, measure(session, frames), tolerance, budget)
+        earlier = batches[-1] if batches else None
+        batch = decide_lamp_frames(frames, measure(session, frames), tolerance, budget, earlier)
         batches.append(batch)
         if batch.next_frames is None:
             break
@@ -704,7 +705,9 @@ def capture_blur_frames(
         sigma = measurement.fit(session, frames).width_sigma_px
         if sigma is None:  # the fit states no uncertainty: nothing to decide from
             return session, None
-        batch = decide_blur_frames(frames, sigma, tolerance, budget)
+        batch = decide_blur_frames(
+            frames, sigma, tolerance, budget, batches[-1] if batches else None
+        )
         batches.append(batch)
         if batch.next_frames is None:
             break

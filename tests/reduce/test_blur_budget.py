@@ -47,3 +47,14 @@ def test_the_note_names_the_batches_and_the_outcome():
     note = BlurFrameRecord(batches, 0.05, 8).note()
     assert "3 pinhole frames per laser (2, then 3)" in note
     assert note.endswith("tolerance met")
+
+
+def test_a_sigma_that_does_not_fall_stops_the_step_with_the_model_named():
+    # 0.08 px at 2 frames and 0.078 at 6: a floor of about 0.077 px, above the 0.05 px
+    # tolerance, so the budget's 8 frames are not spent on it.
+    first = decide_blur_frames(2, 0.08, 0.05, 8)
+    assert first.next_frames == 6
+    second = decide_blur_frames(6, 0.078, 0.05, 8, first)
+    assert (second.outcome, second.next_frames) == ("out of reach", None)
+    record = BlurFrameRecord((first, second), 0.05, 8)
+    assert "more frames will not do" in record.advice() and "blur.field_degree" in record.note()

@@ -24,7 +24,8 @@ def run_rule(sigma_of, first: int, budget: int, tolerance: float) -> list[LampBa
     """The decisions the lamp step makes when each batch measures ``sigma_of(frames)``."""
     frames, batches = first, []
     while True:
-        batch = decide_lamp_frames(frames, sigma_of(frames), tolerance, budget)
+        earlier = batches[-1] if batches else None
+        batch = decide_lamp_frames(frames, sigma_of(frames), tolerance, budget, earlier)
         batches.append(batch)
         if batch.next_frames is None:
             return batches
@@ -70,6 +71,45 @@ def test_it_stops_at_the_budget_and_says_what_would_meet_the_tolerance():
     assert as_json["outcome"] == "budget spent" and as_json["frames_per_lamp"] == 16
     assert [b["frames"] for b in as_json["batches"]] == [4, 16]
     assert as_json["advice"] == advice
+
+
+def floored(sigma_at_one: float, floor: float, wobble: float = 0.0):
+    """A laser's 1-sigma of photons and a floor frames do not lower (blended lines), each
+    batch's statement off by up to ``wobble`` of itself (as a fitted 1-sigma scatters)."""
+
+    def sigma_of(frames: int) -> dict[float, float]:
+        scatter = 1.0 + wobble * math.sin(2.7 * frames)
+        return {670.0: scatter * math.hypot(sigma_at_one / math.sqrt(frames), floor), 520.0: 0.05}
+
+    return sigma_of
+
+
+def test_a_floor_at_the_tolerance_stops_after_two_batches_not_at_the_budget():
+    # The noisy N-BK7 bench's 670 nm laser: 0.53 nm at 4 frames, hardly less at 5, as its
+    # Ne lines blend; the budget's 16 frames would have left it at 0.52.
+    batches = run_rule(floored(0.4, 0.52), first=4, budget=16, tolerance=0.5)
+    assert [b.frames for b in batches] == [4, 5]
+    assert batches[-1].outcome == "out of reach"
+    advice = LampFrameRecord(tuple(batches), 0.5, 16, {"lamp:Ne": 0.2}, 10.0).advice()
+    assert "more frames will not do" in advice and "where photons alone give" in advice
+    assert "a lamp with isolated lines there" in advice and "max_frames" not in advice
+
+
+@pytest.mark.parametrize("wobble", [0.0, 0.02, 0.04])
+def test_a_photon_limited_laser_is_never_stopped_short_by_a_scattered_sigma(wobble):
+    # Each batch's 1-sigma off by up to 4 % of itself, as a fitted one scatters: the
+    # photons still meet the tolerance and nothing reads as a floor.
+    for at_one in (1.2, 1.6, 2.2):
+        batches = run_rule(floored(at_one, 0.0, wobble), first=4, budget=64, tolerance=0.5)
+        assert batches[-1].outcome == "tolerance met", (at_one, batches)
+
+
+def test_a_partial_floor_asks_for_what_photons_and_floor_need_together():
+    # 0.62 nm at 4 frames, 0.55 at 8: photons alone would ask for 10 frames; photons and
+    # the 0.47 nm floor they leave need 23, so the step takes its budget at once.
+    first = decide_lamp_frames(4, {670.0: 0.62}, 0.5, 16)
+    second = decide_lamp_frames(8, {670.0: 0.55}, 0.5, 16, first)
+    assert (second.outcome, second.next_frames) == ("more frames", 16)
 
 
 def test_a_lamp_at_its_longest_exposure_is_told_to_expose_longer():

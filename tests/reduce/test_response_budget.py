@@ -83,6 +83,16 @@ def test_a_spent_budget_says_how_many_frames_would_do():
     assert taken["tolerance_relative"] is None and taken["batches"][0]["de00_sigma"] == 0.12
 
 
+def test_a_colour_sigma_that_does_not_fall_stops_short_of_the_budget():
+    settings = ResponseSettings(20, 80, 0.05)
+    first = decide_response_frames(20, 0.009, 0.07, settings)
+    assert first.next_frames == 40  # 20 * (0.07 / 0.05)**2 = 39.2
+    second = decide_response_frames(40, 0.0088, 0.068, settings, first)
+    assert (second.outcome, second.next_frames) == ("out of reach", None)
+    advice = ResponseFrameRecord((first, second), settings, 25).advice()
+    assert "more frames will not do" in advice and "response.max_frames" not in advice
+
+
 def test_every_prefix_of_the_refining_plan_is_a_thinned_scan():
     plan = refining_scan_plan(scan_plan((400, 640), "halogen", 0.1, (100, 5)), 25, 80)
     assert plan.steps[0].tags["role"] == "closed" and len(plan.steps) == 81
