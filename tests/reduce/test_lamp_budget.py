@@ -85,8 +85,8 @@ def floored(sigma_at_one: float, floor: float, wobble: float = 0.0):
 
 
 def test_a_floor_at_the_tolerance_stops_after_two_batches_not_at_the_budget():
-    # The noisy N-BK7 bench's 670 nm laser: 0.53 nm at 4 frames, hardly less at 5, as its
-    # Ne lines blend; the budget's 16 frames would have left it at 0.52.
+    # As `sim-singlet`'s 670 nm laser: 0.53 nm at 4 frames, hardly less at 5, as its Ne
+    # lines blend; the budget's 16 frames left it at 0.52 (measured, before this rule).
     batches = run_rule(floored(0.4, 0.52), first=4, budget=16, tolerance=0.5)
     assert [b.frames for b in batches] == [4, 5]
     assert batches[-1].outcome == "out of reach"
