@@ -306,9 +306,9 @@ class LampFrameRecord(BatchRecord):
         >>> last = LampBatch(5, {670.0: 0.531}, None, "out of reach")
         >>> print(LampFrameRecord((first, last), 0.5, 16, {"lamp:Ne": 0.4}, 10.0).advice())
         laser 670 nm at +-0.53 nm after 5 lamp frames: more frames will not do (its 1-sigma \
-went from 0.53 to 0.53 nm where photons alone give 0.48): the lamp lines near it blend at \
-this dispersion or are missing; use a lamp with isolated lines there, or a prism with more \
-spread there
+went from 0.533 to 0.531 nm where photons alone give 0.477): the lamp lines near it blend \
+at this dispersion or are missing; use a lamp with isolated lines there, or a prism with \
+more spread there
         >>> last = LampBatch(16, {670.0: 0.6}, None, "budget spent")
         >>> print(LampFrameRecord((last,), 0.5, 16, {"lamp:Ne": 0.4}, 10.0).advice())
         laser 670 nm at +-0.60 nm after 16 lamp frames: take about 24 lamp frames per lamp \
@@ -330,8 +330,8 @@ spread there
             if earlier is not None and not fell_with_photons(earlier, later):
                 photons = earlier[1] * (earlier[0] / later[0]) ** 0.5
                 why = (
-                    f"its 1-sigma went from {earlier[1]:.2f} to {later[1]:.2f} nm where "
-                    f"photons alone give {photons:.2f}"
+                    f"its 1-sigma went from {earlier[1]:.3f} to {later[1]:.3f} nm where "
+                    f"photons alone give {photons:.3f}"
                 )
             return said + (
                 f"more frames will not do ({why}): the lamp lines near it blend at this "
