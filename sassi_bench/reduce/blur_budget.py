@@ -12,7 +12,7 @@ what was measured, so a resumed session replays the same decisions on the stored
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -87,7 +87,7 @@ def decide_blur_frames(
     sigma_px: float,
     tolerance_px: float,
     budget: int,
-    earlier: BlurBatch | None = None,
+    earlier: Sequence[BlurBatch] = (),
 ) -> BlurBatch:
     """Stop, or the pinhole frames per laser to have next, from the stated 1-sigma so far.
 
@@ -102,7 +102,7 @@ def decide_blur_frames(
     budget
         The most pinhole frames per laser the step may take.
     earlier
-        The previous batch, which tells photons from a floor
+        The earlier batches, which tell photons from a floor
         (:func:`~sassi_bench.reduce.lamp_budget.next_frames`).
 
     Returns
@@ -118,7 +118,7 @@ def decide_blur_frames(
     >>> decide_blur_frames(8, 0.08, 0.05, 8).outcome
     'budget spent'
     """
-    before = None if earlier is None else (earlier.frames, earlier.sigma_px)
+    before = [(b.frames, b.sigma_px) for b in earlier]
     return BlurBatch(
         frames, float(sigma_px), *next_frames(frames, sigma_px, tolerance_px, budget, before)
     )

@@ -12,7 +12,7 @@ is a pure function of the frames measured, so a resumed check replays it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -92,10 +92,10 @@ def decide_shift_frames(
     shift_max_px: float,
     tolerance_px: float,
     budget: int,
-    earlier: ShiftBatch | None = None,
+    earlier: Sequence[ShiftBatch] = (),
 ) -> ShiftBatch:
     """Stop, or the pinhole frames to have next, from the shift map's stated 1-sigma (and
-    the previous batch's, ``earlier``, which tells photons from a floor:
+    the earlier batches', ``earlier``, which tell photons from a floor:
     :func:`~sassi_bench.reduce.lamp_budget.next_frames`).
 
     Examples
@@ -114,7 +114,7 @@ def decide_shift_frames(
             sigma_px,
             tolerance_px,
             budget,
-            None if earlier is None else (earlier.frames, earlier.sigma_px),
+            [(b.frames, b.sigma_px) for b in earlier],
         ),
     )
 

@@ -15,8 +15,9 @@ resumed session replays the same decisions on the same frames and captures none 
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +34,7 @@ __all__ = [
     "lamp_frame_settings",
     "next_frames",
     "photon_floor",
+    "stalled",
 ]
 
 #: Pinhole frames per lamp the lamp step may take when the procedure names no budget.
@@ -95,7 +97,7 @@ def decide_lamp_frames(
     sigma_nm: Mapping[float, float],
     tolerance_nm: float,
     budget: int,
-    earlier: LampBatch | None = None,
+    earlier: Sequence[LampBatch] = (),
 ) -> LampBatch:
     """Stop, or the frames per lamp to have next, from the uncertainty reached so far.
 
@@ -110,7 +112,7 @@ def decide_lamp_frames(
     budget
         The most pinhole frames per lamp the step may take.
     earlier
-        The previous batch, whose 1-sigma of the laser now worst tells photons from a
+        The earlier batches, whose 1-sigmas of the laser now worst tell photons from a
         floor (:func:`next_frames`).
 
     Returns
@@ -126,15 +128,16 @@ def decide_lamp_frames(
     >>> decide_lamp_frames(16, {670.0: 0.6}, 0.5, 16).outcome
     'budget spent'
     >>> first = decide_lamp_frames(4, {520.0: 0.05, 670.0: 0.533}, 0.5, 16)
-    >>> decide_lamp_frames(5, {520.0: 0.045, 670.0: 0.531}, 0.5, 16, first).outcome
+    >>> second = decide_lamp_frames(5, {520.0: 0.045, 670.0: 0.531}, 0.5, 16, [first])
+    >>> second.next_frames
+    6
+    >>> decide_lamp_frames(6, {670.0: 0.529}, 0.5, 16, [first, second]).outcome
     'out of reach'
     """
     sigma = {float(k): float(v) for k, v in sigma_nm.items()}
     label = max(sigma, key=sigma.__getitem__, default=None)
     worst = sigma[label] if label is not None else 0.0
-    before = None
-    if earlier is not None and label in earlier.sigma_nm:
-        before = (earlier.frames, earlier.sigma_nm[label])
+    before = [(b.frames, b.sigma_nm[label]) for b in earlier if label in b.sigma_nm]
     return LampBatch(frames, sigma, *next_frames(frames, worst, tolerance_nm, budget, before))
 
 
@@ -143,19 +146,20 @@ def next_frames(
     sigma: float,
     tolerance: float,
     budget: int,
-    earlier: tuple[int, float] | None = None,
+    earlier: Sequence[tuple[int, float]] = (),
 ) -> tuple[int | None, str]:
     """The stopping rule of a step that measures until confident: the frames to have next
     (None: stop) and why, from the worst 1-sigma reached with ``frames`` frames.
 
-    A photon-limited 1-sigma falls as one over the square root of the frames: after one
-    batch the next aims at the frames that would meet the tolerance (at least one more),
-    within the budget. After two, the 1-sigma is read as photons plus a floor that frames
-    do not change (``sigma**2 = a / frames + floor**2``, :func:`photon_floor`): a 1-sigma
-    that fell by less than :data:`~sassi_bench.reduce.batch_record.PHOTON_SHARE` of what
-    photons give, with a floor at the tolerance or above, stops the step (``"out of
-    reach"``: more frames would not meet it), and otherwise the next batch aims at what
-    photons and floor together need.
+    A photon-limited 1-sigma falls as one over the square root of the frames: the next
+    batch aims at the frames that would meet the tolerance (at least one more), within
+    the budget. From the second batch on the last two are read as photons plus a floor
+    that frames do not change (``sigma**2 = a / frames + floor**2``,
+    :func:`photon_floor`), and the next batch aims at what both need. A fitted 1-sigma
+    scatters from batch to batch, so one pair of batches does not stop the step: when
+    the last two pairs each put the floor at the tolerance or above and neither fell by
+    :data:`~sassi_bench.reduce.batch_record.PHOTON_SHARE` of what photons give, the step
+    stops (``"out of reach"``: more frames would not meet it).
 
     Parameters
     ----------
@@ -168,7 +172,7 @@ def next_frames(
     budget
         The most frames the step may take.
     earlier
-        The previous batch's frames and worst 1-sigma (None for the first batch).
+        The earlier batches' frames and 1-sigma of the same quantity, oldest first.
 
     Returns
     -------
@@ -182,9 +186,9 @@ def next_frames(
     (6, 'more frames')
     >>> next_frames(8, 0.08, 0.05, 8)
     (None, 'budget spent')
-    >>> next_frames(5, 0.531, 0.5, 16, earlier=(4, 0.533))  # lines that blend
+    >>> next_frames(6, 0.529, 0.5, 16, earlier=[(4, 0.533), (5, 0.531)])  # lines that blend
     (None, 'out of reach')
-    >>> next_frames(8, 0.55, 0.5, 16, earlier=(4, 0.62))  # photons alone would say 10
+    >>> next_frames(8, 0.55, 0.5, 16, earlier=[(4, 0.62)])  # photons alone would say 10
     (16, 'more frames')
     """
     if frames < 1 or budget < 1:
@@ -193,12 +197,30 @@ def next_frames(
         return None, "tolerance met"
     if frames >= budget:
         return None, "budget spent"
-    wanted = frames_to_meet((frames, sigma), tolerance, earlier)
+    points = [*[(int(n), float(s)) for n, s in earlier if n < frames][-2:], (frames, sigma)]
+    wanted = frames_to_meet(points[-1], tolerance, points[-2] if len(points) > 1 else None)
     if wanted is None:
-        if not fell_with_photons(earlier, (frames, sigma)):
+        if len(points) == 3 and stalled(points, tolerance):
             return None, "out of reach"
-        wanted = budget  # a floor the fit puts high, yet the 1-sigma fell as photons do
+        wanted = frames_needed(frames, sigma, tolerance)
     return min(budget, max(wanted, frames + 1)), "more frames"
+
+
+def stalled(points: Sequence[tuple[int, float]], tolerance: float) -> bool:
+    """Whether every consecutive pair of ``points`` (frames, 1-sigma) puts the floor at
+    the tolerance or above and fell by less than photons give.
+
+    Examples
+    --------
+    >>> stalled([(4, 0.533), (5, 0.531), (6, 0.529)], 0.5)
+    True
+    >>> stalled([(2, 0.0552), (3, 0.0549), (4, 0.0512)], 0.05)  # a scattered 1-sigma
+    False
+    """
+    return all(
+        photon_floor(a, b)[1] >= tolerance and not fell_with_photons(a, b)
+        for a, b in itertools.pairwise(points)
+    )
 
 
 def photon_floor(earlier: tuple[int, float], later: tuple[int, float]) -> tuple[float, float]:

@@ -21,7 +21,7 @@ replays the same decisions on its stored frames.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -191,7 +191,7 @@ def decide_response_frames(
     sigma: float,
     de00_sigma: float,
     settings: ResponseSettings,
-    earlier: ResponseBatch | None = None,
+    earlier: Sequence[ResponseBatch] = (),
 ) -> ResponseBatch:
     """Stop, or the pinhole frames to have next, from the response's stated 1-sigma so far.
 
@@ -206,7 +206,7 @@ def decide_response_frames(
     settings
         The budget and the tolerances (:func:`response_frame_settings`).
     earlier
-        The previous batch, which tells photons from a floor
+        The earlier batches, which tell photons from a floor
         (:func:`~sassi_bench.reduce.lamp_budget.next_frames`).
 
     Returns
@@ -222,9 +222,7 @@ def decide_response_frames(
     40
     """
     ratio = shortfall(de00_sigma, sigma, settings)
-    before = None
-    if earlier is not None:
-        before = (earlier.frames, shortfall(earlier.de00_sigma, earlier.sigma, settings))
+    before = [(b.frames, shortfall(b.de00_sigma, b.sigma, settings)) for b in earlier]
     return ResponseBatch(
         frames,
         float(sigma),

@@ -199,8 +199,7 @@ def run_health_check(
             checked_utc=stamp.isoformat(timespec="seconds"), capture_s=capture_s,
         )  # fmt: skip
         batch = decide_shift_frames(
-            frames, check.field.sigma_px, check.field.max_px, tolerance, budget,
-            batches[-1] if batches else None,
+            frames, check.field.sigma_px, check.field.max_px, tolerance, budget, batches
         )  # fmt: skip
         batches.append(batch)
         if batch.next_frames is None:

@@ -293,9 +293,7 @@ def run_response(
         scan = capture_scan(rig, session, bundle, keep_raw=True, progress=progress, frames=frames)
         white = white_mean(scan, bundle)
         de00 = response_de00_sigma(white, chart)
-        batch = decide_response_frames(
-            frames, response_sigma(white), de00, settings, batches[-1] if batches else None
-        )
+        batch = decide_response_frames(frames, response_sigma(white), de00, settings, batches)
         batches.append(batch)
         if batch.next_frames is None:
             break

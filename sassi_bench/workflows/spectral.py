@@ -609,8 +609,7 @@ def capture_lamp_frames(
         run_plan(rig, session.plan, session, progress=progress, steps=steps)
         if measure is None:
             return None
-        earlier = batches[-1] if batches else None
-        batch = decide_lamp_frames(frames, measure(session, frames), tolerance, budget, earlier)
+        batch = decide_lamp_frames(frames, measure(session, frames), tolerance, budget, batches)
         batches.append(batch)
         if batch.next_frames is None:
             break
@@ -705,9 +704,7 @@ def capture_blur_frames(
         sigma = measurement.fit(session, frames).width_sigma_px
         if sigma is None:  # the fit states no uncertainty: nothing to decide from
             return session, None
-        batch = decide_blur_frames(
-            frames, sigma, tolerance, budget, batches[-1] if batches else None
-        )
+        batch = decide_blur_frames(frames, sigma, tolerance, budget, batches)
         batches.append(batch)
         if batch.next_frames is None:
             break

@@ -50,11 +50,13 @@ def test_the_note_names_the_batches_and_the_outcome():
 
 
 def test_a_sigma_that_does_not_fall_stops_the_step_with_the_model_named():
-    # 0.08 px at 2 frames and 0.078 at 6: a floor of about 0.077 px, above the 0.05 px
-    # tolerance, so the budget's 8 frames are not spent on it.
+    # 0.08 px at 2 frames, 0.079 at 5 and 0.078 at 6: a floor of about 0.077 px twice,
+    # above the 0.05 px tolerance, so the budget's 8 frames are not spent on it.
     first = decide_blur_frames(2, 0.08, 0.05, 8)
     assert first.next_frames == 6
-    second = decide_blur_frames(6, 0.078, 0.05, 8, first)
-    assert (second.outcome, second.next_frames) == ("out of reach", None)
-    record = BlurFrameRecord((first, second), 0.05, 8)
+    second = decide_blur_frames(5, 0.079, 0.05, 8, [first])
+    assert second.outcome == "more frames"  # one pair is not enough to stop
+    third = decide_blur_frames(6, 0.078, 0.05, 8, [first, second])
+    assert (third.outcome, third.next_frames) == ("out of reach", None)
+    record = BlurFrameRecord((first, second, third), 0.05, 8)
     assert "more frames will not do" in record.advice() and "blur.field_degree" in record.note()

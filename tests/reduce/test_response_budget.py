@@ -87,9 +87,11 @@ def test_a_colour_sigma_that_does_not_fall_stops_short_of_the_budget():
     settings = ResponseSettings(20, 80, 0.05)
     first = decide_response_frames(20, 0.009, 0.07, settings)
     assert first.next_frames == 40  # 20 * (0.07 / 0.05)**2 = 39.2
-    second = decide_response_frames(40, 0.0088, 0.068, settings, first)
-    assert (second.outcome, second.next_frames) == ("out of reach", None)
-    advice = ResponseFrameRecord((first, second), settings, 25).advice()
+    second = decide_response_frames(40, 0.0088, 0.068, settings, [first])
+    assert second.outcome == "more frames"
+    third = decide_response_frames(second.next_frames, 0.0087, 0.067, settings, [first, second])
+    assert (third.outcome, third.next_frames) == ("out of reach", None)
+    advice = ResponseFrameRecord((first, second, third), settings, 25).advice()
     assert "more frames will not do" in advice and "response.max_frames" not in advice
 
 
