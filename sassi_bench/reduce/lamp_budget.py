@@ -4,13 +4,14 @@ The lamp frames anchor every laser's wavelength; how well depends on photons (fa
 a noisy camera) and on the rig's dispersion (lines that blend). The lamp step therefore
 measures in batches: after each, the anchored fit states every laser's 1-sigma from the
 frames taken so far, and :func:`decide_lamp_frames` says whether to stop (every laser
-within ``tolerances.laser_wavelength_sigma_nm``, or ``lamps.max_frames`` spent) or how
-many frames per lamp to have next. A photon-limited uncertainty falls as one over the
-square root of the frames, so the next batch aims at the frames that would meet the
-tolerance, within the budget. The rule is a pure function of what was measured, so a
-resumed session replays the same decisions on the same frames and captures none twice.
-:func:`next_frames` is that rule alone, shared with the blur step
-(:mod:`~sassi_bench.reduce.blur_budget`).
+within ``tolerances.laser_wavelength_sigma_nm``, ``lamps.max_frames`` spent, or a floor
+that frames do not lower keeping the tolerance out of reach) or how many frames per lamp
+to have next. A photon-limited uncertainty falls as one over the square root of the
+frames, and lines that blend add a floor, so the next batch aims at the frames photons
+and floor need, within the budget. The rule is a pure function of what was measured, so
+a resumed session replays the same decisions on the same frames and captures none twice.
+:func:`next_frames` is that rule alone, shared with the blur, response and health-check
+steps.
 """
 
 from __future__ import annotations
