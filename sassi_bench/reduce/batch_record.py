@@ -9,14 +9,29 @@ for all of them (the frames taken, the outcome, the batches in a line, whether t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
-__all__ = ["PHOTON_SHARE", "BatchRecord"]
+__all__ = ["PHOTON_SHARE", "BatchRecord", "fell_with_photons"]
 
 #: A batch whose 1-sigma fell by less than this share of what photons alone would give
 #: is limited by something frames do not change (the model's form, the lines).
 PHOTON_SHARE = 0.5
+
+
+def fell_with_photons(earlier: tuple[int, float], later: tuple[int, float]) -> bool:
+    """Whether a 1-sigma fell from ``earlier`` to ``later`` (frames, 1-sigma) by at least
+    :data:`PHOTON_SHARE` of what photons alone give.
+
+    Examples
+    --------
+    >>> fell_with_photons((4, 0.6), (16, 0.32)), fell_with_photons((4, 0.533), (5, 0.531))
+    (True, False)
+    """
+    (n1, s1), (n2, s2) = earlier, later
+    photons = s1 * math.sqrt(n1 / n2)
+    return s1 - s2 >= PHOTON_SHARE * (s1 - photons)
 
 
 class BatchRecord:
@@ -70,10 +85,10 @@ class BatchRecord:
         if len(self.batches) < 2:
             return None
         first, last = self.batches[0], self.batches[-1]
-        first_sigma = getattr(first, self.sigma_attribute)
-        last_sigma = getattr(last, self.sigma_attribute)
-        photons = first_sigma * (first.frames / last.frames) ** 0.5
-        return first_sigma - last_sigma >= PHOTON_SHARE * (first_sigma - photons)
+        return fell_with_photons(
+            (first.frames, getattr(first, self.sigma_attribute)),
+            (last.frames, getattr(last, self.sigma_attribute)),
+        )
 
     def advice(self) -> str | None:
         """What would meet the tolerance when the budget was spent (None otherwise)."""

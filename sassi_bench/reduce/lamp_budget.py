@@ -22,14 +22,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from sassi_bench.reduce.batch_record import PHOTON_SHARE, BatchRecord
+from sassi_bench.reduce.batch_record import BatchRecord, fell_with_photons
 
 __all__ = [
     "DEFAULT_MAX_FRAMES",
     "LampBatch",
     "LampFrameRecord",
     "decide_lamp_frames",
-    "fell_with_photons",
     "frames_needed",
     "frames_to_meet",
     "lamp_frame_settings",
@@ -138,8 +137,13 @@ def decide_lamp_frames(
     sigma = {float(k): float(v) for k, v in sigma_nm.items()}
     label = max(sigma, key=sigma.__getitem__, default=None)
     worst = sigma[label] if label is not None else 0.0
-    before = [(b.frames, b.sigma_nm[label]) for b in earlier if label in b.sigma_nm]
+    before = _history(earlier, label)
     return LampBatch(frames, sigma, *next_frames(frames, worst, tolerance_nm, budget, before))
+
+
+def _history(batches: Sequence[LampBatch], label: float | None) -> list[tuple[int, float]]:
+    """(frames, 1-sigma) of one laser over the batches that measured it."""
+    return [(b.frames, b.sigma_nm[label]) for b in batches if label in b.sigma_nm]
 
 
 def next_frames(
@@ -241,20 +245,6 @@ def photon_floor(earlier: tuple[int, float], later: tuple[int, float]) -> tuple[
     return math.sqrt(a), math.sqrt(max(s2**2 - a / n2, 0.0))
 
 
-def fell_with_photons(earlier: tuple[int, float], later: tuple[int, float]) -> bool:
-    """Whether a 1-sigma fell from ``earlier`` to ``later`` (frames, 1-sigma) by at least
-    :data:`~sassi_bench.reduce.batch_record.PHOTON_SHARE` of what photons alone give.
-
-    Examples
-    --------
-    >>> fell_with_photons((4, 0.6), (16, 0.32)), fell_with_photons((4, 0.533), (5, 0.531))
-    (True, False)
-    """
-    (n1, s1), (n2, s2) = earlier, later
-    photons = s1 * math.sqrt(n1 / n2)
-    return s1 - s2 >= PHOTON_SHARE * (s1 - photons)
-
-
 def frames_needed(frames: int, sigma: float, tolerance: float) -> int:
     """The frames at which a photon-limited 1-sigma, ``sigma`` after ``frames``, meets the
     tolerance.
@@ -341,15 +331,17 @@ more spread there
             return None
         label = max(self.short_of, key=self.short_of.__getitem__)
         later = (self.frames, self.short_of[label])
-        earlier = None
-        if len(self.batches) > 1 and label in self.batches[-2].sigma_nm:
-            earlier = (self.batches[-2].frames, self.batches[-2].sigma_nm[label])
+        history = _history(self.batches[:-1], label)
+        earlier = history[-1] if history else None
         needed = frames_to_meet(later, self.tolerance_nm, earlier)
         lasers = ", ".join(f"laser {k:g} nm at +-{v:.2f} nm" for k, v in self.short_of.items())
         said = f"{lasers} after {self.frames} lamp frames: "
         capped = [k for k, t in self.exposures_s.items() if t >= 0.999 * self.max_exposure_s]
         if needed is None or needed > HOPELESS_FACTOR * self.budget:
-            why = f"about {needed} per lamp" if needed is not None else ""
+            if needed is not None:
+                why = f"about {needed} per lamp"
+            else:  # a floor at the tolerance (frames_to_meet gives None only with earlier)
+                why = f"a floor of +-{photon_floor(earlier, later)[1]:.3f} nm"
             if earlier is not None and not fell_with_photons(earlier, later):
                 photons = earlier[1] * (earlier[0] / later[0]) ** 0.5
                 why = (
