@@ -7,7 +7,9 @@ pixel's square aperture, weighted by the traced throughput (vignetting).
 
 * **sparse** (pinholes, lamp and laser grids, masks): each (open pixel, sample) is a
   Gaussian of its own covariance, integrated over the camera pixels
-  (:mod:`~sassi_bench.rig.sim._gauss_splat`): the bench's truth.
+  (:mod:`~sassi_bench.rig.sim._gauss_splat`): the bench's truth. A pixel's neighbouring
+  samples that land within a fraction of their spot's width are drawn as one spot of the
+  same moments (:mod:`~sassi_bench.rig.sim._spot_merge`).
 * **dense** (grey levels, line sweeps, scenes): the SLM image warped through the traced
   map as on a parametric bench, then blurred at each wavelength by one kernel, the
   spot's covariance at the field's median, and weighted by the median throughput: the
@@ -26,6 +28,7 @@ from numpy.typing import NDArray
 from sassi_bench.optics.design.relay import DesignRelay
 from sassi_bench.optics.sources import SpectralSamples
 from sassi_bench.rig.sim._gauss_splat import splat_gaussians
+from sassi_bench.rig.sim._spot_merge import merge_neighbouring_spots
 from sassi_bench.rig.sim.render import SpectralRenderer
 from sassi_bench.rig.sim.scenes import Scene
 
@@ -144,5 +147,5 @@ class DesignRenderer(SpectralRenderer):
         spectra *= throughput
         cxx += self.aperture_variance
         cyy += self.aperture_variance
-        splat_gaussians(x, y, cxx, cyy, cxy, spectra, total)
+        splat_gaussians(*merge_neighbouring_spots(x, y, cxx, cyy, cxy, spectra), total)
         return total
