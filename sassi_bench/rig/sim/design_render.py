@@ -36,6 +36,9 @@ __all__ = ["DesignRenderer"]
 
 # Field points (columns x rows of the SLM) the dense renderer's median spot is taken over.
 _MEDIAN_GRID = (9, 5)
+#: How far (a share of the run's first minor variance) the median spot covariance of a
+#: run of samples may stray for the run to be blurred by one kernel.
+BLUR_RUN_TOLERANCE = 0.05
 
 
 @lru_cache(maxsize=4096)
@@ -100,19 +103,34 @@ class DesignRenderer(SpectralRenderer):
         cov = self.relay.optics_covariance_grid(u, v, wavelengths_nm)
         return tuple(np.median(c, axis=0) for c in cov)
 
-    def _dense_kernels(
-        self, wavelengths_nm: NDArray[np.float64]
-    ) -> list[tuple[int, NDArray[np.float32] | None]]:
+    def _dense_blurs(
+        self, wavelengths_nm: NDArray[np.float64], gain: NDArray[np.float64]
+    ) -> list[tuple[list[int], int, NDArray[np.float32] | None]]:
+        """Runs of neighbouring lit samples whose median spots agree within
+        :data:`BLUR_RUN_TOLERANCE` of their minor variance, each blurred once by the 2-D
+        kernel of its gain-weighted mean covariance (the blur is linear, so a run's
+        warped images are summed first)."""
         cxx, cyy, cxy = self._median_covariance(wavelengths_nm)
         # what the optics and the camera pixel add to the warp's tent of one SLM pitch
         extra = self.aperture_variance + 1.0 / 12.0 - self.relay.scale**2 / 6.0
-        out: list[tuple[int, NDArray[np.float32] | None]] = []
-        for a, b, c in zip(cxx + extra, cyy + extra, cxy, strict=True):
+        cov = np.stack([cxx + extra, cyy + extra, cxy], axis=1)
+        runs: list[list[int]] = []
+        for k in np.flatnonzero(gain > 0):
+            if runs:
+                start = cov[runs[-1][0]]
+                tolerance = BLUR_RUN_TOLERANCE * max(min(start[0], start[1]), 0.05**2)
+                if runs[-1][-1] == k - 1 and np.abs(cov[k] - start).max() <= tolerance:
+                    runs[-1].append(int(k))
+                    continue
+            runs.append([int(k)])
+        out: list[tuple[list[int], int, NDArray[np.float32] | None]] = []
+        for run in runs:
+            a, b, c = np.average(cov[run], axis=0, weights=gain[run])
             if max(a, b) < 0.05**2:
-                out.append((0, None))
+                out.append((run, 0, None))
                 continue
             kernel = _gaussian_kernel_2d(round(float(a), 4), round(float(b), 4), round(float(c), 4))
-            out.append((kernel.shape[0] // 2, kernel))
+            out.append((run, kernel.shape[0] // 2, kernel))
         return out
 
     def electrons_per_photon(self, samples: SpectralSamples) -> NDArray[np.float64]:

@@ -235,14 +235,18 @@ class SpectralRenderer:
             self._tables[key] = table
         return table
 
-    def _dense_kernels(
-        self, wavelengths_nm: NDArray[np.float64]
-    ) -> list[tuple[int, NDArray[np.float32] | None]]:
-        """Per sample: the rows the dense renderer's blur reaches, and its kernel (a
-        separable 1-D kernel, or None where the warp's tent is blur enough)."""
+    def _dense_blurs(
+        self, wavelengths_nm: NDArray[np.float64], gain: NDArray[np.float64]
+    ) -> list[tuple[list[int], int, NDArray[np.float32] | None]]:
+        """The dense renderer's blurs: runs of lit samples (``gain > 0``) blurred together,
+        each with the rows its blur reaches and its kernel (a separable 1-D kernel, or
+        None where the warp's tent is blur enough). Here every lit sample is a run of its
+        own."""
         extra = self._tent_blur(self.spot_sigma(wavelengths_nm))
         return [
-            (int(np.ceil(4.0 * s)), _blur_kernel(float(s)) if s > 0.05 else None) for s in extra
+            ([k], int(np.ceil(4.0 * s)), _blur_kernel(float(s)) if s > 0.05 else None)
+            for k, s in enumerate(extra)
+            if gain[k] > 0
         ]
 
     def electrons_per_photon(self, samples: SpectralSamples) -> NDArray[np.float64]:
@@ -384,8 +388,8 @@ class SpectralRenderer:
         rows, cols = scene.slm_window(transmission.shape)
         rate = np.zeros(self.camera_shape, dtype=np.float32)
         gain = self.electrons_per_photon(samples)
-        kernels = self._dense_kernels(samples.wavelengths_nm)
-        lit = [k for k in range(gain.size) if gain[k] > 0]
+        blurs = self._dense_blurs(samples.wavelengths_nm, gain)
+        lit = [k for members, _, _ in blurs for k in members]
         if not lit:
             return rate
         maps = {k: self._inverse_maps(samples.wavelengths_nm[k]) for k in lit}
@@ -394,7 +398,7 @@ class SpectralRenderer:
         reach = [r for r in reach if r[1] > r[0]]
         if not reach:
             return rate
-        taps = max(kernels[k][0] for k in lit) + 1
+        taps = max(reach for _, reach, _ in blurs) + 1
         first = max(0, min(r[0] for r in reach) - taps)
         stop = min(self.camera_shape[0], max(r[1] for r in reach) + taps)
         transmission = np.ascontiguousarray(transmission, dtype=np.float32)
@@ -411,34 +415,40 @@ class SpectralRenderer:
         source = np.empty_like(transmission)
         band = np.empty((stop - first, self.camera_shape[1]), np.float32)
         blurred = np.empty_like(band)
+        summed = np.empty_like(band) if any(len(run) > 1 for run, _, _ in blurs) else None
         lit_rows = rate[first:stop]
-        for k in lit:
-            lam = samples.wavelengths_nm[k]
-            if labelled:
-                label_image(transmission, labels, np.ascontiguousarray(per_label[:, k]), source)
-            else:
-                source = transmission * scene.reflectance_image(lam)[rows, cols]
-            map_u, map_v, area = self._dense_maps(lam, first, stop, keep)
-            cv2.remap(
-                source,
-                map_u,
-                map_v,
-                dst=band,
-                interpolation=cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_CONSTANT,
-                borderValue=0.0,
-            )
-            cv2.multiply(band, area, dst=band, scale=float(gain[k]))
-            kernel = kernels[k][1]
+        for members, _, kernel in blurs:
+            for n, k in enumerate(members):
+                lam = samples.wavelengths_nm[k]
+                if labelled:
+                    label_image(transmission, labels, np.ascontiguousarray(per_label[:, k]), source)
+                else:
+                    source = transmission * scene.reflectance_image(lam)[rows, cols]
+                map_u, map_v, area = self._dense_maps(lam, first, stop, keep)
+                cv2.remap(
+                    source,
+                    map_u,
+                    map_v,
+                    dst=band,
+                    interpolation=cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT,
+                    borderValue=0.0,
+                )
+                cv2.multiply(band, area, dst=band, scale=float(gain[k]))
+                if len(members) > 1 and n == 0:
+                    np.copyto(summed, band)
+                elif len(members) > 1:
+                    np.add(summed, band, out=summed)
+            image = band if len(members) == 1 else summed
             if kernel is None:
-                np.add(lit_rows, band, out=lit_rows)
+                np.add(lit_rows, image, out=lit_rows)
                 continue
             if kernel.ndim == 1:
                 cv2.sepFilter2D(
-                    band, -1, kernel, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT
+                    image, -1, kernel, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT
                 )
             else:  # a correlated spot: its 2-D kernel (point-symmetric, so no flip)
-                cv2.filter2D(band, -1, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT)
+                cv2.filter2D(image, -1, kernel, dst=blurred, borderType=cv2.BORDER_CONSTANT)
             np.add(lit_rows, blurred, out=lit_rows)
         return rate
 
