@@ -91,6 +91,21 @@ class GridSpline:
         basis = (bu[:, :, None] * bv[:, None, :]).reshape(u.size, -1)
         return basis, u - uc, v - vc
 
+    def _field_sparse(self, u: NDArray, v: NDArray) -> tuple[csr_array, NDArray, NDArray]:
+        """:meth:`_field` as a sparse matrix built from the two axes' non-zero weights (a
+        cubic B-spline has 4 per point on each axis), without forming the dense basis."""
+        uc = np.clip(u, self.nodes[0][0], self.nodes[0][-1])
+        vc = np.clip(v, self.nodes[1][0], self.nodes[1][-1])
+        bu = BSpline.design_matrix(uc, self._knots[0], 3)
+        bv = BSpline.design_matrix(vc, self._knots[1], 3)
+        nv = bv.shape[1]
+        weights = bu.data.reshape(-1, 4, 1) * bv.data.reshape(-1, 1, 4)
+        columns = bu.indices.reshape(-1, 4, 1) * nv + bv.indices.reshape(-1, 1, 4)
+        rows = np.arange(0, 16 * u.size + 1, 16)
+        shape = (u.size, bu.shape[1] * nv)
+        basis = csr_array((weights.reshape(-1), columns.reshape(-1), rows), shape=shape)
+        return basis, u - uc, v - vc
+
     def _wavelength(self, lam: NDArray) -> NDArray:
         nodes = self.nodes[2]
         return _basis(np.clip(lam, nodes[0], nodes[-1]), self._knots[2])
@@ -123,9 +138,9 @@ class GridSpline:
         v = np.asarray(v, dtype=np.float64).ravel()
         lam = np.asarray(wavelengths_nm, dtype=np.float64).ravel()
         q = self._select(names)
-        basis, eu, ev = self._field(u, v)
+        basis, eu, ev = self._field_sparse(u, v)
         # 16 non-zero field weights per point: a sparse product
-        out = (csr_array(basis) @ self._by_wavelength(lam, q)).reshape(u.size, lam.size, len(q))
+        out = (basis @ self._by_wavelength(lam, q)).reshape(u.size, lam.size, len(q))
         if np.any(eu) or np.any(ev):
             bl = self._wavelength(lam)  # (K, nodes)
             su, sv = (bl @ s[:, q] for s in self._slopes)  # (K, q)
