@@ -36,8 +36,8 @@ __all__ = ["DesignRenderer"]
 
 # Field points (columns x rows of the SLM) the dense renderer's median spot is taken over.
 _MEDIAN_GRID = (9, 5)
-#: How far (a share of the run's first minor variance) the median spot covariance of a
-#: run of samples may stray for the run to be blurred by one kernel.
+#: How far (a share of the smaller of cxx and cyy of the run's first sample) the median
+#: spot covariance of a run of samples may stray for the run to be blurred by one kernel.
 BLUR_RUN_TOLERANCE = 0.05
 
 
@@ -106,8 +106,8 @@ class DesignRenderer(SpectralRenderer):
     def _dense_blurs(
         self, wavelengths_nm: NDArray[np.float64], gain: NDArray[np.float64]
     ) -> list[tuple[list[int], int, NDArray[np.float32] | None]]:
-        """Runs of neighbouring lit samples whose median spots agree within
-        :data:`BLUR_RUN_TOLERANCE` of their minor variance, each blurred once by the 2-D
+        """Runs of neighbouring lit samples whose median spots agree with the run's first
+        within :data:`BLUR_RUN_TOLERANCE` of its smaller variance, each blurred once by the 2-D
         kernel of its gain-weighted mean covariance (the blur is linear, so a run's
         warped images are summed first)."""
         cxx, cyy, cxy = self._median_covariance(wavelengths_nm)
