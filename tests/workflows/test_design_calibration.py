@@ -82,12 +82,13 @@ def test_the_field_blur_follows_the_spot_between_the_lasers(calibrated):
     assert model.kind == "field_covariance"
     along, across = _worst_blur_error(t, model, rig.slm.shape, (450.0, 670.0, 23))
     print(f"blur over the field, 450-670 nm: along {along:.3f} px, across {across:.3f} px")
-    # measured: along 0.025 px, across 0.032 px with the lamp lines' spots (the series in
-    # 1/λ²); along 0.079 px, across 0.035 px from the lasers alone (in λ), 6 pinhole frames per
-    # laser (0.043 / 0.038 px on another draw of the noise, 3 frames; the widest round spot
-    # misses by 0.96 px). Held to the issue's target, 0.1 px: the field model's own floor
-    # is about 0.05 px. With the blur pinholes 20 SLM px short of the edges it was
-    # 0.27 / 0.12 px: the fit extrapolated the pinholes' noise to the edges.
+    # measured: along 0.037 px, across 0.020 px with the lamp lines' spots (the series
+    # in 1/λ²; 0.025 / 0.032 px on another draw of the noise); along 0.079 px, across
+    # 0.035 px from the lasers alone (in λ), 6 pinhole frames per laser (0.043 / 0.038 px
+    # on another draw of the noise, 3 frames; the widest round spot misses by 0.96 px).
+    # Held to the issue's target, 0.1 px: the field model's own floor is about 0.05 px.
+    # With the blur pinholes 20 SLM px short of the edges it was 0.27 / 0.12 px: the fit
+    # extrapolated the pinholes' noise to the edges.
     assert along < 0.1
     assert across < 0.06
 
@@ -269,9 +270,9 @@ def test_the_lamp_lines_measure_the_field_blur_below_the_lasers(calibrated):
     model = result.blur.model
     along, across = _worst_blur_error(t, model, rig.slm.shape, (400.0, 450.0, 11))
     print(f"blur over the field, 400-450 nm: along {along:.3f} px, across {across:.3f} px")
-    # measured: along 0.048 px, across 0.076 px here (lamp pitch [160, 24]); 0.039 /
-    # 0.099 px with the derived pitch [155, 27], worst within 400-420 nm, below the
-    # 404.7 nm line; from the lasers alone 1.05 / 0.57 px
+    # measured: along 0.076 px, across 0.059 px here (lamp pitch [160, 24]); 0.039 /
+    # 0.051 px over 400-700 nm with the derived pitch (the accuracy table); from the
+    # lasers alone 1.05 / 0.57 px
     assert along < 0.1
     assert across < 0.12
 
@@ -285,7 +286,7 @@ def test_the_field_blur_does_not_bend_past_the_last_laser(calibrated):
     assert model.band_nm == (404.6565, pytest.approx(670.0, abs=0.01))
     along, across = _worst_blur_error(t, model, rig.slm.shape, (670.0, 700.0, 7))
     print(f"blur over the field, 670-700 nm: along {along:.3f} px, across {across:.3f} px")
-    # measured: along 0.025 px, across 0.025 px (the series in λ, degree 4, free past
+    # measured: along 0.022 px, across 0.027 px (the series in λ, degree 4, free past
     # 670 nm: 0.19 / 0.11 px on the shipped lamp pitch, see
     # docs/notes/2026-11-30-singlet-snapshot-spectra.md)
     assert along < 0.05
