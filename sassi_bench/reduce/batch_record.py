@@ -13,11 +13,22 @@ import math
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
-__all__ = ["PHOTON_SHARE", "BatchRecord", "fell_with_photons"]
+__all__ = ["PHOTON_SHARE", "BatchRecord", "fell_with_photons", "photon_sigma"]
 
 #: A batch whose 1-sigma fell by less than this share of what photons alone would give
 #: is limited by something frames do not change (the model's form, the lines).
 PHOTON_SHARE = 0.5
+
+
+def photon_sigma(earlier: tuple[int, float], frames: int) -> float:
+    """What photons alone make of a 1-sigma ``earlier`` (frames, 1-sigma) with ``frames``.
+
+    Examples
+    --------
+    >>> photon_sigma((4, 0.6), 16)
+    0.3
+    """
+    return earlier[1] * math.sqrt(earlier[0] / frames)
 
 
 def fell_with_photons(earlier: tuple[int, float], later: tuple[int, float]) -> bool:
@@ -29,9 +40,8 @@ def fell_with_photons(earlier: tuple[int, float], later: tuple[int, float]) -> b
     >>> fell_with_photons((4, 0.6), (16, 0.32)), fell_with_photons((4, 0.533), (5, 0.531))
     (True, False)
     """
-    (n1, s1), (n2, s2) = earlier, later
-    photons = s1 * math.sqrt(n1 / n2)
-    return s1 - s2 >= PHOTON_SHARE * (s1 - photons)
+    first, last = earlier[1], later[1]
+    return first - last >= PHOTON_SHARE * (first - photon_sigma(earlier, later[0]))
 
 
 class BatchRecord:

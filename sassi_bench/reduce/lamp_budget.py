@@ -22,7 +22,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from sassi_bench.reduce.batch_record import BatchRecord, fell_with_photons
+from sassi_bench.reduce.batch_record import BatchRecord, fell_with_photons, photon_sigma
 
 __all__ = [
     "DEFAULT_MAX_FRAMES",
@@ -343,10 +343,9 @@ more spread there
             else:  # a floor at the tolerance (frames_to_meet gives None only with earlier)
                 why = f"a floor of +-{photon_floor(earlier, later)[1]:.3f} nm"
             if earlier is not None and not fell_with_photons(earlier, later):
-                photons = earlier[1] * (earlier[0] / later[0]) ** 0.5
                 why = (
                     f"its 1-sigma went from {earlier[1]:.3f} to {later[1]:.3f} nm where "
-                    f"photons alone give {photons:.3f}"
+                    f"photons alone give {photon_sigma(earlier, later[0]):.3f}"
                 )
             return said + (
                 f"more frames will not do ({why}): the lamp lines near it blend at this "

@@ -83,17 +83,9 @@ class GridSpline:
         self._slopes = (du, dv)  # (wavelength nodes, quantity)
         self._contracted: OrderedDict[tuple[bytes, tuple[int, ...]], NDArray] = OrderedDict()
 
-    def _field(self, u: NDArray, v: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        uc = np.clip(u, self.nodes[0][0], self.nodes[0][-1])
-        vc = np.clip(v, self.nodes[1][0], self.nodes[1][-1])
-        bu = _basis(uc, self._knots[0])
-        bv = _basis(vc, self._knots[1])
-        basis = (bu[:, :, None] * bv[:, None, :]).reshape(u.size, -1)
-        return basis, u - uc, v - vc
-
-    def _field_sparse(self, u: NDArray, v: NDArray) -> tuple[csr_array, NDArray, NDArray]:
-        """:meth:`_field` as a sparse matrix built from the two axes' non-zero weights (a
-        cubic B-spline has 4 per point on each axis), without forming the dense basis."""
+    def _field(self, u: NDArray, v: NDArray) -> tuple[csr_array, NDArray, NDArray]:
+        """The points' field basis, sparse (a cubic B-spline has 4 non-zero weights per
+        point on each axis, so 16 per point), and their distances beyond the nodes."""
         uc = np.clip(u, self.nodes[0][0], self.nodes[0][-1])
         vc = np.clip(v, self.nodes[1][0], self.nodes[1][-1])
         bu = BSpline.design_matrix(uc, self._knots[0], 3)
@@ -138,7 +130,7 @@ class GridSpline:
         v = np.asarray(v, dtype=np.float64).ravel()
         lam = np.asarray(wavelengths_nm, dtype=np.float64).ravel()
         q = self._select(names)
-        basis, eu, ev = self._field_sparse(u, v)
+        basis, eu, ev = self._field(u, v)
         # 16 non-zero field weights per point: a sparse product
         out = (basis @ self._by_wavelength(lam, q)).reshape(u.size, lam.size, len(q))
         if np.any(eu) or np.any(ev):

@@ -398,7 +398,7 @@ class SpectralRenderer:
         reach = [r for r in reach if r[1] > r[0]]
         if not reach:
             return rate
-        taps = max(reach for _, reach, _ in blurs) + 1
+        taps = max(blur_rows for _, blur_rows, _ in blurs) + 1
         first = max(0, min(r[0] for r in reach) - taps)
         stop = min(self.camera_shape[0], max(r[1] for r in reach) + taps)
         transmission = np.ascontiguousarray(transmission, dtype=np.float32)
