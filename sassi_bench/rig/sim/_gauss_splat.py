@@ -10,17 +10,22 @@ distribution of x given that y falls in the row: a Gaussian centred at
 ``(cxy / cyy)**2 Var[y | row]`` (y in a row is a truncated normal), again a CDF difference.
 That keeps the spot's cross moment exact; the row's x profile is Gaussian where it is
 really a mixture, which changes the second moments by far less than 1 %.
-Spots are cut at 4 sigma.
+Spots are cut at 4 sigma: a spot takes the rows that meet its 4 sigma window. A spot
+taller than it is wide is drawn column by column instead (as rows of the transposed
+frame, added at the end): a row costs about the same whatever its length, so the
+shorter axis sets the work.
 
 A row's x profile (a pixel-integrated 1-D Gaussian of width ``sx`` at sub-pixel phase
 ``f``) is read from a table of such profiles (:class:`ProfileTable`) at widths in
-geometric steps of 2 % and phases every 1/32 px, blended bilinearly in (variance, phase)
-rather than computed as CDF differences column by column: four contiguous float32 rows
-blended is a few vector multiply-adds per column where the CDF was a scalar table
-look-up, about 4x faster over a pinhole frame. The blend keeps a profile's sum, mean and
-variance exact (all three are linear in phase and in variance), so only its higher
-moments move: by less than 1e-3 of the spot's peak (tests/rig/sim/test_gauss_splat.py
-holds it against the CDF path). Rows wider or narrower than the table take the CDF path.
+geometric steps of 2 % and phases every 1/32 px, blended from three of the four
+neighbouring (variance, phase) profiles (barycentric in the half of the cell that holds
+the point) rather than computed as CDF differences column by column: three contiguous
+float32 rows blended is a few vector multiply-adds per column where the CDF was a scalar
+table look-up. The blend keeps a profile's sum, mean and variance exact (all three are
+linear in phase and in variance), so only its higher moments move: by less than 1e-3 of
+the spot's peak (tests/rig/sim/test_gauss_splat.py holds it against the CDF path). Rows
+wider or narrower than the table take the CDF path. The fourth profile of a bilinear
+blend would add a quarter to the table reads, which bound the loop.
 
 The frame is cut into horizontal bands, one task each, and each band visits its spots in
 order, so the frame is the same bit for bit whatever the number of threads. The spots are
@@ -28,7 +33,7 @@ binned by band first (a spot covers a few bands of a pinhole frame), and each sp
 first table node is guessed from the widths' geometric step: visiting every spot in every
 band and walking the table up from its narrowest width cost about a quarter of a pinhole
 frame's splat. The loop is compiled with fused multiply-adds allowed
-(``fastmath={"contract"}``), which the four-profile blend is bound by; a frame moves by
+(``fastmath={"contract"}``), which the blend is bound by; a frame moves by
 about 1e-7 of its peak.
 """
 
@@ -187,39 +192,40 @@ def _row_by_cdf(row, mx, sx, a, rx, width):  # pragma: no cover - compiled
 def _row_by_table(
     row, mx, sx, n, a, width, taps, sigmas, reach, centre, phases
 ):  # pragma: no cover - compiled
-    """Add ``a`` times the profile N(mx, sx**2) to ``row``, blended from the table's four
-    neighbouring (width, phase) profiles, widths n and n + 1."""
+    """Add ``a`` times the profile N(mx, sx**2) to ``row``, blended from three of the
+    table's four neighbouring (width, phase) profiles, widths n and n + 1."""
     s0, s1 = sigmas[n], sigmas[n + 1]
     wv = (sx * sx - s0 * s0) / (s1 * s1 - s0 * s0)  # linear in variance
     cx = round(mx)
     f = (mx - cx + 0.5) * phases
     m = min(int(f), phases - 1)
     wf = f - m
-    a00 = np.float32(a * (1.0 - wv) * (1.0 - wf))
-    a01 = np.float32(a * (1.0 - wv) * wf)
-    a10 = np.float32(a * wv * (1.0 - wf))
-    a11 = np.float32(a * wv * wf)
+    # barycentric in the half of the (variance, phase) cell that holds the point:
+    # corner (n, m) below the diagonal, (n + 1, m + 1) above it, with (n + 1, m) and
+    # (n, m + 1); chosen without a branch, which the random halves would mispredict
+    k = int(wv + wf > 1.0)
+    a_near = np.float32(a * abs(1.0 - wv - wf))
+    a_wider = np.float32(a * (k * (1.0 - wf) + (1 - k) * wv))
+    a_later = np.float32(a * (k * (1.0 - wv) + (1 - k) * wf))
     r = reach[n + 1]
     left = cx - r
     whole = (2 * r + 8) // 8 * 8
     if left >= 0 and left + whole <= width:
         # whole vectors, every slice indexed from 0: numba emits SIMD multiply-adds
         start = centre - r
-        t00 = taps[n, m, start : start + whole]
-        t01 = taps[n, m + 1, start : start + whole]
-        t10 = taps[n + 1, m, start : start + whole]
-        t11 = taps[n + 1, m + 1, start : start + whole]
+        t_near = taps[n + k, m + k, start : start + whole]
+        t_wider = taps[n + 1, m, start : start + whole]
+        t_later = taps[n, m + 1, start : start + whole]
         window = row[left : left + whole]
         for j in range(whole):
-            window[j] += a00 * t00[j] + a01 * t01[j] + a10 * t10[j] + a11 * t11[j]
+            window[j] += a_near * t_near[j] + a_wider * t_wider[j] + a_later * t_later[j]
     else:  # the frame's edge cuts the spot
         for j in range(max(-r, -cx), min(r, width - 1 - cx) + 1):
-            k = centre + j
+            i = centre + j
             row[cx + j] += (
-                a00 * taps[n, m, k]
-                + a01 * taps[n, m + 1, k]
-                + a10 * taps[n + 1, m, k]
-                + a11 * taps[n + 1, m + 1, k]
+                a_near * taps[n + k, m + k, i]
+                + a_wider * taps[n + 1, m, i]
+                + a_later * taps[n, m + 1, i]
             )
 
 
@@ -235,10 +241,10 @@ def _bands_of_spots(y, cyy, weights, height):  # pragma: no cover - compiled
     bottom = np.empty(n, np.int64)
     counts = np.zeros(BANDS + 1, np.int64)
     for s in range(n):
-        ry = math.ceil(_TRUNCATE * math.sqrt(vf[s])) + 1
-        cy = round(yf[s])
-        top[s] = max(cy - ry, 0)
-        bottom[s] = min(cy + ry, height - 1)
+        # the rows that meet the 4 sigma cut (row i spans i - 1/2 .. i + 1/2)
+        ry = _TRUNCATE * math.sqrt(vf[s])
+        top[s] = max(math.ceil(yf[s] - ry - 0.5), 0)
+        bottom[s] = min(math.floor(yf[s] + ry + 0.5), height - 1)
         if wf[s] == 0.0 or top[s] > bottom[s]:
             continue
         for band in range(top[s] // rows_per_band, bottom[s] // rows_per_band + 1):
@@ -363,4 +369,13 @@ def splat_gaussians(
     else:
         taps = np.zeros((1, 2, 8), np.float32)
         sigmas, reach, centre, phases = np.array([1.0, 1.02]), np.zeros(1, np.int64), 0, 1
-    _splat(*arrays, out, taps, sigmas, reach, centre, phases)
+    x, y, cxx, cyy, cxy, weights = arrays
+    wide = cxx >= cyy
+    _splat(*(a[wide] for a in arrays), out, taps, sigmas, reach, centre, phases)
+    tall = ~wide
+    if tall.any():
+        # fewer columns than rows: drawn column by column, as rows of the transposed frame
+        turned = np.zeros(out.shape[::-1], np.float32)
+        swapped = (y, x, cyy, cxx, cxy, weights)
+        _splat(*(a[tall] for a in swapped), turned, taps, sigmas, reach, centre, phases)
+        out += turned.T
