@@ -9,7 +9,7 @@ Evaluation goes through the B-spline design matrices: the field part (4 x 4 non-
 weights per point) and the wavelength part are separate. For a (points x wavelengths)
 block the coefficients are first contracted with the wavelengths' basis, once per set
 of wavelengths and kept (a renderer asks for the same spectral samples frame after
-frame), and then each point costs one sparse product of its 16 field weights with them.
+frame), and then each point costs the sum of 16 weighted rows of them.
 Outside the grid's nodes a quantity continues linearly (with its mean slope over the
 field), so maps stay monotone where an inverse search strays off the field.
 """
@@ -22,7 +22,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import BSpline, make_interp_spline
-from scipy.sparse import csr_array
+
+from sassi_bench.optics.design._field_sum import weighted_rows
 
 __all__ = ["GridSpline"]
 
@@ -83,9 +84,10 @@ class GridSpline:
         self._slopes = (du, dv)  # (wavelength nodes, quantity)
         self._contracted: OrderedDict[tuple[bytes, tuple[int, ...]], NDArray] = OrderedDict()
 
-    def _field(self, u: NDArray, v: NDArray) -> tuple[csr_array, NDArray, NDArray]:
-        """The points' field basis, sparse (a cubic B-spline has 4 non-zero weights per
-        point on each axis, so 16 per point), and their distances beyond the nodes."""
+    def _field(self, u: NDArray, v: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """The points' field basis as its non-zero weights and their columns, (P, 16)
+        each (a cubic B-spline has 4 non-zero weights per point on each axis), and the
+        points' distances beyond the nodes."""
         uc = np.clip(u, self.nodes[0][0], self.nodes[0][-1])
         vc = np.clip(v, self.nodes[1][0], self.nodes[1][-1])
         bu = BSpline.design_matrix(uc, self._knots[0], 3)
@@ -93,10 +95,14 @@ class GridSpline:
         nv = bv.shape[1]
         weights = bu.data.reshape(-1, 4, 1) * bv.data.reshape(-1, 1, 4)
         columns = bu.indices.reshape(-1, 4, 1) * nv + bv.indices.reshape(-1, 1, 4)
-        rows = np.arange(0, 16 * u.size + 1, 16)
-        shape = (u.size, bu.shape[1] * nv)
-        basis = csr_array((weights.reshape(-1), columns.reshape(-1), rows), shape=shape)
-        return basis, u - uc, v - vc
+        return weights.reshape(-1, 16), columns.reshape(-1, 16), u - uc, v - vc
+
+    @staticmethod
+    def _combine(weights: NDArray, columns: NDArray, coefficients: NDArray) -> NDArray:
+        """Each point's 16 weighted coefficient rows, summed: (P, C)."""
+        out = np.zeros((weights.shape[0], coefficients.shape[1]))
+        weighted_rows(weights, columns, np.ascontiguousarray(coefficients), out)
+        return out
 
     def _wavelength(self, lam: NDArray) -> NDArray:
         nodes = self.nodes[2]
@@ -130,9 +136,9 @@ class GridSpline:
         v = np.asarray(v, dtype=np.float64).ravel()
         lam = np.asarray(wavelengths_nm, dtype=np.float64).ravel()
         q = self._select(names)
-        basis, eu, ev = self._field(u, v)
-        # 16 non-zero field weights per point: a sparse product
-        out = (basis @ self._by_wavelength(lam, q)).reshape(u.size, lam.size, len(q))
+        weights, columns, eu, ev = self._field(u, v)
+        out = self._combine(weights, columns, self._by_wavelength(lam, q))
+        out = out.reshape(u.size, lam.size, len(q))
         if np.any(eu) or np.any(ev):
             bl = self._wavelength(lam)  # (K, nodes)
             su, sv = (bl @ s[:, q] for s in self._slopes)  # (K, q)
@@ -152,12 +158,12 @@ class GridSpline:
         out = np.empty((u.size, len(q)))
         unique, where = np.unique(lam, return_inverse=True)
         bl = self._wavelength(unique)
-        basis, eu, ev = self._field(u, v)
+        weights, columns, eu, ev = self._field(u, v)
         continued = np.any(eu) or np.any(ev)
         for k in range(unique.size):  # one field product per distinct wavelength
             idx = np.flatnonzero(where == k)
             coef = np.einsum("fnq,n->fq", self._coefficients[:, :, q], bl[k])
-            out[idx] = basis[idx] @ coef
+            out[idx] = self._combine(weights[idx], columns[idx], coef)
             if continued:
                 su, sv = (bl[k] @ s[:, q] for s in self._slopes)
                 out[idx] += eu[idx, None] * su[None] + ev[idx, None] * sv[None]
