@@ -10,10 +10,7 @@ distribution of x given that y falls in the row: a Gaussian centred at
 ``(cxy / cyy)**2 Var[y | row]`` (y in a row is a truncated normal), again a CDF difference.
 That keeps the spot's cross moment exact; the row's x profile is Gaussian where it is
 really a mixture, which changes the second moments by far less than 1 %.
-Spots are cut at 4 sigma: a spot takes the rows that meet its 4 sigma window. A spot
-taller than it is wide is drawn column by column instead (as rows of the transposed
-frame, added at the end): a row costs about the same whatever its length, so the
-shorter axis sets the work.
+Spots are cut at 4 sigma: a spot takes the rows that meet its 4 sigma window.
 
 A row's x profile (a pixel-integrated 1-D Gaussian of width ``sx`` at sub-pixel phase
 ``f``) is read from a table of such profiles (:class:`ProfileTable`) at widths in
@@ -160,16 +157,16 @@ def _pdf(t):  # pragma: no cover - compiled
 
 
 @njit(inline="always")
-def _sigma_node(sx, n, sigmas):  # pragma: no cover - compiled
-    """The table's node n with sigmas[n] <= sx < sigmas[n + 1], searched from ``n``
+def _variance_node(vx, n, variances):  # pragma: no cover - compiled
+    """The table's node n with variances[n] <= vx < variances[n + 1], searched from ``n``
     (rows of one spot differ by a few nodes at most); -1 outside the table."""
-    last = sigmas.size - 1
-    if sx < sigmas[0] or sx >= sigmas[last]:
+    last = variances.size - 1
+    if vx < variances[0] or vx >= variances[last]:
         return -1
     n = min(max(n, 0), last - 1)  # from a row outside the table: any start
-    while sigmas[n] > sx:
+    while variances[n] > vx:
         n -= 1
-    while sigmas[n + 1] <= sx:
+    while variances[n + 1] <= vx:
         n += 1
     return n
 
@@ -190,12 +187,11 @@ def _row_by_cdf(row, mx, sx, a, rx, width):  # pragma: no cover - compiled
 
 @njit(inline="always", error_model="numpy")
 def _row_by_table(
-    row, mx, sx, n, a, width, taps, sigmas, reach, centre, phases
+    row, mx, vx, n, a, width, taps, variances, inverse_steps, reach, centre, phases
 ):  # pragma: no cover - compiled
-    """Add ``a`` times the profile N(mx, sx**2) to ``row``, blended from three of the
+    """Add ``a`` times the profile N(mx, vx) to ``row``, blended from three of the
     table's four neighbouring (width, phase) profiles, widths n and n + 1."""
-    s0, s1 = sigmas[n], sigmas[n + 1]
-    wv = (sx * sx - s0 * s0) / (s1 * s1 - s0 * s0)  # linear in variance
+    wv = (vx - variances[n]) * inverse_steps[n]  # linear in variance
     cx = round(mx)
     f = (mx - cx + 0.5) * phases
     m = min(int(f), phases - 1)
@@ -271,6 +267,11 @@ def _splat(
     rows_per_band = (height + BANDS - 1) // BANDS
     tabulated = taps.shape[0] > 1
     inv_log_step = 1.0 / math.log(sigmas[1] / sigmas[0])
+    # the nodes as variances, and the inverse of each step to the next: a row's width is
+    # searched and blended in variance (no square root or division per row)
+    variances = sigmas * sigmas
+    inverse_steps = np.zeros_like(variances)
+    inverse_steps[:-1] = 1.0 / (variances[1:] - variances[:-1])
     spots, starts, tops, bottoms = _bands_of_spots(y, cyy, weights, height)
     xf, yf, cxxf, cyyf, cxyf, wf = (
         x.ravel(),
@@ -296,9 +297,8 @@ def _splat(
             rx = math.ceil(_TRUNCATE * math.sqrt(vx + beta * beta / 12.0)) + 1
             node = -1
             if tabulated:  # a first guess from the widths' geometric step
-                sx0 = math.sqrt(vx)
-                guess = int(math.log(max(sx0, sigmas[0]) / sigmas[0]) * inv_log_step)
-                node = _sigma_node(sx0, guess, sigmas)
+                guess = int(0.5 * math.log(max(vx, variances[0]) / variances[0]) * inv_log_step)
+                node = _variance_node(vx, guess, variances)
             inv_sy = 1.0 / sy
             lo = (top - 0.5 - yf[s]) * inv_sy
             c_lo, d_lo = _cdf(lo), _pdf(lo)
@@ -313,26 +313,27 @@ def _splat(
                     shift = (d_lo - d_hi) * inv_share
                     spread = 1.0 + (lo * d_lo - hi * d_hi) * inv_share - shift * shift
                     mx = xf[s] + beta * sy * shift
-                    sx = math.sqrt(vx + beta * beta * vy * max(spread, 0.0))
+                    v_row = vx + beta * beta * vy * max(spread, 0.0)
                     a = w * share
                     if tabulated:
-                        node = _sigma_node(sx, node, sigmas)
+                        node = _variance_node(v_row, node, variances)
                     if node >= 0:
                         _row_by_table(
                             out[i],
                             mx,
-                            sx,
+                            v_row,
                             node,
                             a,
                             width,
                             taps,
-                            sigmas,
+                            variances,
+                            inverse_steps,
                             reach,
                             centre,
                             phases,
                         )
                     else:
-                        _row_by_cdf(out[i], mx, sx, a, rx, width)
+                        _row_by_cdf(out[i], mx, math.sqrt(v_row), a, rx, width)
                 lo, c_lo, d_lo = hi, c_hi, d_hi
 
 
@@ -369,13 +370,4 @@ def splat_gaussians(
     else:
         taps = np.zeros((1, 2, 8), np.float32)
         sigmas, reach, centre, phases = np.array([1.0, 1.02]), np.zeros(1, np.int64), 0, 1
-    x, y, cxx, cyy, cxy, weights = arrays
-    wide = cxx >= cyy
-    _splat(*(a[wide] for a in arrays), out, taps, sigmas, reach, centre, phases)
-    tall = ~wide
-    if tall.any():
-        # fewer columns than rows: drawn column by column, as rows of the transposed frame
-        turned = np.zeros(out.shape[::-1], np.float32)
-        swapped = (y, x, cyy, cxx, cxy, weights)
-        _splat(*(a[tall] for a in swapped), turned, taps, sigmas, reach, centre, phases)
-        out += turned.T
+    _splat(*arrays, out, taps, sigmas, reach, centre, phases)

@@ -96,9 +96,9 @@ def test_spots_crossing_bands_land_once():
 
 
 def test_each_spot_lands_with_its_own_moments():
-    # Wide spots are drawn row by row, tall ones column by column: either way a spot
-    # inside the frame deposits its energy at its centre with its covariance plus the
-    # camera pixel's box (1/12 px**2 on each axis), less what the 4 sigma cut removes.
+    # A spot inside the frame, wide or tall, deposits its energy at its centre with its
+    # covariance plus the camera pixel's box (1/12 px**2 on each axis), less what the
+    # 4 sigma cut removes.
     # Sigmas from 0.7 px: a narrower spot's binned moments alias (Sheppard's corrections
     # hold to exp(-2 pi**2 sigma**2), 6e-5 at 0.7 px).
     rng = np.random.default_rng(7)
