@@ -17,7 +17,9 @@ of one captured frame (show the pattern, render, add the sensor's noise) of each
 Each kind is exposed as the procedures' auto-exposure would: its brightest pixel at 60 %
 of the full well (the noise's cost depends on the electron counts). CPU time is the
 comparable figure on a shared machine (wall time waits for cores).
-Each row is the median of ``--frames`` frames after one warm-up (compilation) frame.
+Each row is the median of ``--frames`` frames after one warm-up (compilation) frame
+(the first sparse frame: a third as many, at least 3); rigs timed together take turns
+frame by frame.
 A whole scan's time is measured, not multiplied out from one frame, by
 ``benchmarks/bench_chain.py`` (its "Macbeth scan and validation" stage).
 
