@@ -10,19 +10,17 @@ distribution of x given that y falls in the row: a Gaussian centred at
 ``(cxy / cyy)**2 Var[y | row]`` (y in a row is a truncated normal), again a CDF difference.
 That keeps the spot's cross moment exact; the row's x profile is Gaussian where it is
 really a mixture, which changes the second moments by far less than 1 %.
-Spots are cut at 4 sigma: a spot takes the rows that meet its 4 sigma window.
+Spots are cut at 4 sigma.
 
 A row's x profile (a pixel-integrated 1-D Gaussian of width ``sx`` at sub-pixel phase
 ``f``) is read from a table of such profiles (:class:`ProfileTable`) at widths in
-geometric steps of 2 % and phases every 1/32 px, blended from three of the four
-neighbouring (variance, phase) profiles (barycentric in the half of the cell that holds
-the point) rather than computed as CDF differences column by column: three contiguous
-float32 rows blended is a few vector multiply-adds per column where the CDF was a scalar
-table look-up. The blend keeps a profile's sum, mean and variance exact (all three are
-linear in phase and in variance), so only its higher moments move: by less than 1e-3 of
-the spot's peak (tests/rig/sim/test_gauss_splat.py holds it against the CDF path). Rows
-wider or narrower than the table take the CDF path. The fourth profile of a bilinear
-blend would add a quarter to the table reads, which bound the loop.
+geometric steps of 2 % and phases every 1/32 px, blended bilinearly in (variance, phase)
+rather than computed as CDF differences column by column: four contiguous float32 rows
+blended is a few vector multiply-adds per column where the CDF was a scalar table
+look-up, about 4x faster over a pinhole frame. The blend keeps a profile's sum, mean and
+variance exact (all three are linear in phase and in variance), so only its higher
+moments move: by less than 1e-3 of the spot's peak (tests/rig/sim/test_gauss_splat.py
+holds it against the CDF path). Rows wider or narrower than the table take the CDF path.
 
 The frame is cut into horizontal bands, one task each, and each band visits its spots in
 order, so the frame is the same bit for bit whatever the number of threads. The spots are
@@ -30,7 +28,7 @@ binned by band first (a spot covers a few bands of a pinhole frame), and each sp
 first table node is guessed from the widths' geometric step: visiting every spot in every
 band and walking the table up from its narrowest width cost about a quarter of a pinhole
 frame's splat. The loop is compiled with fused multiply-adds allowed
-(``fastmath={"contract"}``), which the blend is bound by; a frame moves by
+(``fastmath={"contract"}``), which the four-profile blend is bound by; a frame moves by
 about 1e-7 of its peak.
 """
 
@@ -157,16 +155,16 @@ def _pdf(t):  # pragma: no cover - compiled
 
 
 @njit(inline="always")
-def _variance_node(vx, n, variances):  # pragma: no cover - compiled
-    """The table's node n with variances[n] <= vx < variances[n + 1], searched from ``n``
+def _sigma_node(sx, n, sigmas):  # pragma: no cover - compiled
+    """The table's node n with sigmas[n] <= sx < sigmas[n + 1], searched from ``n``
     (rows of one spot differ by a few nodes at most); -1 outside the table."""
-    last = variances.size - 1
-    if vx < variances[0] or vx >= variances[last]:
+    last = sigmas.size - 1
+    if sx < sigmas[0] or sx >= sigmas[last]:
         return -1
     n = min(max(n, 0), last - 1)  # from a row outside the table: any start
-    while variances[n] > vx:
+    while sigmas[n] > sx:
         n -= 1
-    while variances[n + 1] <= vx:
+    while sigmas[n + 1] <= sx:
         n += 1
     return n
 
@@ -187,41 +185,41 @@ def _row_by_cdf(row, mx, sx, a, rx, width):  # pragma: no cover - compiled
 
 @njit(inline="always", error_model="numpy")
 def _row_by_table(
-    row, mx, vx, n, a, width, taps, variances, inverse_steps, reach, centre, phases
+    row, mx, sx, n, a, width, taps, sigmas, reach, centre, phases
 ):  # pragma: no cover - compiled
-    """Add ``a`` times the profile N(mx, vx) to ``row``, blended from three of the
-    table's four neighbouring (width, phase) profiles, widths n and n + 1."""
-    wv = (vx - variances[n]) * inverse_steps[n]  # linear in variance
+    """Add ``a`` times the profile N(mx, sx**2) to ``row``, blended from the table's four
+    neighbouring (width, phase) profiles, widths n and n + 1."""
+    s0, s1 = sigmas[n], sigmas[n + 1]
+    wv = (sx * sx - s0 * s0) / (s1 * s1 - s0 * s0)  # linear in variance
     cx = round(mx)
     f = (mx - cx + 0.5) * phases
     m = min(int(f), phases - 1)
     wf = f - m
-    # barycentric in the half of the (variance, phase) cell that holds the point:
-    # corner (n, m) below the diagonal, (n + 1, m + 1) above it, with (n + 1, m) and
-    # (n, m + 1); chosen without a branch, which the random halves would mispredict
-    k = int(wv + wf > 1.0)
-    a_near = np.float32(a * abs(1.0 - wv - wf))
-    a_wider = np.float32(a * (k * (1.0 - wf) + (1 - k) * wv))
-    a_later = np.float32(a * (k * (1.0 - wv) + (1 - k) * wf))
+    a00 = np.float32(a * (1.0 - wv) * (1.0 - wf))
+    a01 = np.float32(a * (1.0 - wv) * wf)
+    a10 = np.float32(a * wv * (1.0 - wf))
+    a11 = np.float32(a * wv * wf)
     r = reach[n + 1]
     left = cx - r
     whole = (2 * r + 8) // 8 * 8
     if left >= 0 and left + whole <= width:
         # whole vectors, every slice indexed from 0: numba emits SIMD multiply-adds
         start = centre - r
-        t_near = taps[n + k, m + k, start : start + whole]
-        t_wider = taps[n + 1, m, start : start + whole]
-        t_later = taps[n, m + 1, start : start + whole]
+        t00 = taps[n, m, start : start + whole]
+        t01 = taps[n, m + 1, start : start + whole]
+        t10 = taps[n + 1, m, start : start + whole]
+        t11 = taps[n + 1, m + 1, start : start + whole]
         window = row[left : left + whole]
         for j in range(whole):
-            window[j] += a_near * t_near[j] + a_wider * t_wider[j] + a_later * t_later[j]
+            window[j] += a00 * t00[j] + a01 * t01[j] + a10 * t10[j] + a11 * t11[j]
     else:  # the frame's edge cuts the spot
         for j in range(max(-r, -cx), min(r, width - 1 - cx) + 1):
-            i = centre + j
+            k = centre + j
             row[cx + j] += (
-                a_near * taps[n + k, m + k, i]
-                + a_wider * taps[n + 1, m, i]
-                + a_later * taps[n, m + 1, i]
+                a00 * taps[n, m, k]
+                + a01 * taps[n, m + 1, k]
+                + a10 * taps[n + 1, m, k]
+                + a11 * taps[n + 1, m + 1, k]
             )
 
 
@@ -237,10 +235,10 @@ def _bands_of_spots(y, cyy, weights, height):  # pragma: no cover - compiled
     bottom = np.empty(n, np.int64)
     counts = np.zeros(BANDS + 1, np.int64)
     for s in range(n):
-        # the rows that meet the 4 sigma cut (row i spans i - 1/2 .. i + 1/2)
-        ry = _TRUNCATE * math.sqrt(vf[s])
-        top[s] = max(math.ceil(yf[s] - ry - 0.5), 0)
-        bottom[s] = min(math.floor(yf[s] + ry + 0.5), height - 1)
+        ry = math.ceil(_TRUNCATE * math.sqrt(vf[s])) + 1
+        cy = round(yf[s])
+        top[s] = max(cy - ry, 0)
+        bottom[s] = min(cy + ry, height - 1)
         if wf[s] == 0.0 or top[s] > bottom[s]:
             continue
         for band in range(top[s] // rows_per_band, bottom[s] // rows_per_band + 1):
@@ -267,11 +265,6 @@ def _splat(
     rows_per_band = (height + BANDS - 1) // BANDS
     tabulated = taps.shape[0] > 1
     inv_log_step = 1.0 / math.log(sigmas[1] / sigmas[0])
-    # the nodes as variances, and the inverse of each step to the next: a row's width is
-    # searched and blended in variance (no square root or division per row)
-    variances = sigmas * sigmas
-    inverse_steps = np.zeros_like(variances)
-    inverse_steps[:-1] = 1.0 / (variances[1:] - variances[:-1])
     spots, starts, tops, bottoms = _bands_of_spots(y, cyy, weights, height)
     xf, yf, cxxf, cyyf, cxyf, wf = (
         x.ravel(),
@@ -297,8 +290,9 @@ def _splat(
             rx = math.ceil(_TRUNCATE * math.sqrt(vx + beta * beta / 12.0)) + 1
             node = -1
             if tabulated:  # a first guess from the widths' geometric step
-                guess = int(0.5 * math.log(max(vx, variances[0]) / variances[0]) * inv_log_step)
-                node = _variance_node(vx, guess, variances)
+                sx0 = math.sqrt(vx)
+                guess = int(math.log(max(sx0, sigmas[0]) / sigmas[0]) * inv_log_step)
+                node = _sigma_node(sx0, guess, sigmas)
             inv_sy = 1.0 / sy
             lo = (top - 0.5 - yf[s]) * inv_sy
             c_lo, d_lo = _cdf(lo), _pdf(lo)
@@ -313,27 +307,26 @@ def _splat(
                     shift = (d_lo - d_hi) * inv_share
                     spread = 1.0 + (lo * d_lo - hi * d_hi) * inv_share - shift * shift
                     mx = xf[s] + beta * sy * shift
-                    v_row = vx + beta * beta * vy * max(spread, 0.0)
+                    sx = math.sqrt(vx + beta * beta * vy * max(spread, 0.0))
                     a = w * share
                     if tabulated:
-                        node = _variance_node(v_row, node, variances)
+                        node = _sigma_node(sx, node, sigmas)
                     if node >= 0:
                         _row_by_table(
                             out[i],
                             mx,
-                            v_row,
+                            sx,
                             node,
                             a,
                             width,
                             taps,
-                            variances,
-                            inverse_steps,
+                            sigmas,
                             reach,
                             centre,
                             phases,
                         )
                     else:
-                        _row_by_cdf(out[i], mx, math.sqrt(v_row), a, rx, width)
+                        _row_by_cdf(out[i], mx, sx, a, rx, width)
                 lo, c_lo, d_lo = hi, c_hi, d_hi
 
 

@@ -39,8 +39,8 @@ def test_the_table_matches_the_cdf_path():
     splat_gaussians(*spots, fast)
     splat_gaussians(*spots, exact, tabulated=False)
     peak = float(exact.max())
-    # measured 2.4e-4 of the peak, from the narrowest spots (sigma < 0.9 px); 3.5e-5 and
-    # 5.6e-5 on a pinhole frame of the singlet and the achromat
+    # measured 2.4e-4 of the peak, from the narrowest spots (sigma < 0.9 px); 2.8e-5 on a
+    # pinhole frame of either design rig
     assert np.abs(fast - exact).max() < 5e-4 * peak
     # each spot alone: its energy, centroid and covariance as the CDF path gives them
     checked = 0
@@ -111,7 +111,7 @@ def test_each_spot_lands_with_its_own_moments():
             frame = np.zeros((60, 60), np.float32)
             splat_gaussians(*spot, frame, tabulated=tabulated)
             got = _moments(frame)
-            assert abs(got[0] / 2.0 - 1) < 1e-4  # the cut removes 6e-5
+            assert abs(got[0] / 2.0 - 1) < 1e-4  # the cut removes at most 6e-5
             np.testing.assert_allclose(got[1:3], [x, y], atol=1e-3)
             # a 4 sigma cut narrows a normal's variance by 0.11 %
             want = np.array([sx**2 + 1 / 12, sy**2 + 1 / 12, rho * sx * sy])
