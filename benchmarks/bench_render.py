@@ -138,10 +138,11 @@ def frame_kinds(rig, frames: int) -> list[FrameKind]:
         pinholes(i)
 
     pinhole_grid = pinhole_pattern(shape, (100, 5))
+    full = render_pattern({"kind": "full"}, shape)
     led = lit("colorchecker", "led", pinhole_grid)
     return [
         ("sensor noise only", lambda: None, noise, frames),
-        ("dense Gray code (laser)", lit("colorchecker", laser, np.ones(shape, bool)), gray, frames),
+        ("dense Gray code (laser)", lit("colorchecker", laser, full), gray, frames),
         ("sparse pinholes (LED)", led, pinholes, frames),
         ("first sparse frame (+ background)", led, first, max(3, frames // 3)),
         ("response frame (halogen)", lit("white", "halogen", pinhole_grid), pinholes, frames),
