@@ -25,9 +25,9 @@ from typing import Any
 
 # The virtual bench's compiled kernels run OpenMP parallel loops between Python
 # threads' work (the sensor noise) and OpenCV's. OpenMP threads that spin after each
-# loop hold the cores that work needs: waiting passively (set before the runtime
-# starts; a value the user set wins) takes a fifth to a third off the CPU time of a
-# rendered frame and shortens its wall time (benchmarks/bench_render.py).
+# loop hold the cores that work needs, so they wait passively (set before the runtime
+# starts; a value the user set wins). The measurement is in
+# docs/notes/2026-11-29-design-render-speed.md (fourth pass).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 __all__ = ["__version__", "open_rig"]

@@ -3,8 +3,8 @@
 A point's value on the field is 16 weighted rows of the wavelength-contracted
 coefficients (a cubic B-spline's 4 x 4 non-zero weights). As a sparse matrix product
 (``scipy.sparse``) each multiply-add is a scalar step of a generic loop; here each of the
-16 rows is one contiguous vector multiply-add: about 0.6 of the time for a pinhole
-frame's 160 points x 166 wavelengths x 6 quantities.
+16 rows is one contiguous vector multiply-add, which is faster on the renderer's blocks
+(docs/notes/2026-11-29-design-render-speed.md, fourth pass).
 
 No on-disk cache: numba's cache pickles into the package folder.
 """
