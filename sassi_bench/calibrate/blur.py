@@ -455,7 +455,7 @@ def fit_field_covariance(
 
     everything = np.ones(lam.size, dtype=bool)
     fitted = model(solve(everything))
-    width_sigma = _stated_width_sigma(fitted, design, kept, targets, lines, slm_shape)
+    width_sigma = _stated_width_sigma(fitted, design, kept, targets, lam, slm_shape)
     measured_across = np.sqrt(np.maximum(spots.cyy, 1e-6))
     error = None
     if lines.size >= 4:
@@ -510,18 +510,34 @@ def _stated_width_sigma(
     design: NDArray[np.float64],
     kept: NDArray[np.bool_],
     targets: NDArray[np.float64],
-    lines: NDArray[np.float64],
+    wavelength_nm: NDArray[np.float64],
     slm_shape: tuple[int, int],
 ) -> float | None:
-    """The worst 1-sigma (camera px) of the widths a camera would measure, as the fit's
-    residual scatter propagates through its least squares (``s² aᵀ(AᵀA)⁻¹a`` per
-    component) to every field point and wavelength: where spots are sparse, or the fit
-    extrapolates, the figure grows. None when the fit has no degrees of freedom left."""
+    """The worst 1-sigma (camera px) of the widths a camera would measure, as each line's
+    residual scatter propagates through the fit's least squares to every field point and
+    wavelength: where spots are sparse, or the fit extrapolates, the figure grows.
+
+    Each spot's moments scatter as its own line's do (a dim lamp line's several times a
+    laser's), so the variance of a prediction ``g·t`` (``g`` the row of the pseudo-inverse
+    that makes it from the spots' moments ``t``) is ``Σ g_i² s²_line(i)``, not the pooled
+    ``s² Σ g_i²`` that would let the bright lines' spots speak for the dim ones'. None
+    when the fit has no degrees of freedom left.
+    """
     rows, terms = design.shape
     if rows <= terms:
         return None
-    residual = targets - design @ np.linalg.lstsq(design, targets, rcond=None)[0]
-    noise = (residual**2).sum(axis=0) / (rows - terms)  # (3,) px**4
+    left, singular, vt = np.linalg.svd(design, full_matrices=False)
+    keep = singular > singular[0] * 1e-10  # rank-safe
+    left, singular, vt = left[:, keep], singular[keep], vt[keep]
+    residual = targets - left @ (left.T @ targets)
+    # each line's variance from its residuals, each residual's expected square being
+    # (1 - its leverage) of the variance: the fit takes up part of the scatter
+    lines, line_of = np.unique(wavelength_nm, return_inverse=True)
+    room = np.bincount(line_of, 1.0 - (left**2).sum(axis=1), minlength=lines.size)[:, None]
+    squares = np.stack(
+        [np.bincount(line_of, residual[:, k] ** 2, minlength=lines.size) for k in range(3)], 1
+    )
+    noise = (squares / np.maximum(room, 1e-9))[line_of]  # (N, 3) px**4
     h, w = slm_shape
     nu, nv, nl = _STATED_GRID
     u, v, lam = np.meshgrid(
@@ -529,11 +545,9 @@ def _stated_width_sigma(
     )
     u, v, lam = u.ravel(), v.ravel(), lam.ravel()
     points = _design(u, v, lam, slm_shape, fitted.field_degree, kept, fitted.wavelength_terms)
-    # aᵀ(AᵀA)⁻¹a through the pseudo-inverse: A's SVD, rank-safe
-    _, singular, vt = np.linalg.svd(design, full_matrices=False)
-    keep = singular > singular[0] * 1e-10
-    leverage = ((points @ vt[keep].T / singular[keep]) ** 2).sum(axis=1)
+    gains = (points @ vt.T / singular) @ left.T  # the pseudo-inverse's rows, (points, N)
+    variance = gains**2 @ noise  # (points, 3)
     cxx, cyy, _ = fitted.covariance(u, v, lam)
-    along = np.sqrt(noise[0] * leverage) / (2 * np.sqrt(cxx + CAMERA_PIXEL_VARIANCE_PX2))
-    across = np.sqrt(noise[1] * leverage) / (2 * np.sqrt(cyy + CAMERA_PIXEL_VARIANCE_PX2))
+    along = np.sqrt(variance[:, 0]) / (2 * np.sqrt(cxx + CAMERA_PIXEL_VARIANCE_PX2))
+    across = np.sqrt(variance[:, 1]) / (2 * np.sqrt(cyy + CAMERA_PIXEL_VARIANCE_PX2))
     return float(max(along.max(), across.max()))

@@ -105,9 +105,10 @@ def test_with_blue_lines_the_field_blur_holds_over_the_band_without_bending_past
     assert max(max(w) for w in worst.values()) < 0.1
 
 
-def _noisy_spots(rng, noise_px2, reach_edges, shape=(200, 320)):
+def _noisy_spots(rng, noise_px2, reach_edges, shape=(200, 320), first_line_noise=1.0):
     """Smooth spot moments over the field and lines with Gaussian noise, on a 40 px grid
-    inside the field or spread to its edges."""
+    inside the field or spread to its edges; the first line's noise ``first_line_noise``
+    times the others'."""
     h, w = shape
     if reach_edges:
         v, u = np.meshgrid(np.linspace(0, h - 1, 5), np.linspace(0, w - 1, 8), indexing="ij")
@@ -118,18 +119,23 @@ def _noisy_spots(rng, noise_px2, reach_edges, shape=(200, 320)):
     cxx = 4.0 + 0.01 * u + 3 * (((550 / lam) ** 2 - 1) / 0.4) ** 2  # defocus: quadratic in 1/λ²
     cyy = 3.0 + 0.01 * v
     cxy = 0.003 * (u - 160)
-    noise = rng.normal(0.0, noise_px2, (3, u.size))
+    noise = rng.normal(0.0, noise_px2, (3, u.size)) * np.where(
+        lam == lam.min(), first_line_noise, 1
+    )
     return SpotMoments(u, v, lam, cxx + noise[0], cyy + noise[1], cxy + noise[2])
 
 
-@pytest.mark.parametrize("reach_edges", [False, True])
-def test_the_stated_width_uncertainty_is_the_scatter_of_the_fit(reach_edges):
+@pytest.mark.parametrize(("reach_edges", "first_line_noise"), [(False, 1), (True, 1), (True, 4)])
+def test_the_stated_width_uncertainty_is_the_scatter_of_the_fit(reach_edges, first_line_noise):
     # The stated 1-sigma is the worst over the field and band; over 40 noise draws the
-    # widths' scatter at the worst point of the grid it is stated on should match it.
+    # widths' scatter at the worst point of the grid it is stated on should match it,
+    # also when one line's spots scatter more than the others' (a dim lamp line beside
+    # the lasers): a scatter pooled over the lines states 0.047 px there.
     rng = np.random.default_rng(3)
     stated, widths = [], []
     for _ in range(40):
-        fit = fit_field_covariance(_noisy_spots(rng, 0.1, reach_edges), (200, 320), 0.07)
+        spots = _noisy_spots(rng, 0.1, reach_edges, first_line_noise=first_line_noise)
+        fit = fit_field_covariance(spots, (200, 320), 0.07)
         stated.append(fit.width_sigma_px)
         u, v, lam = np.meshgrid(
             np.linspace(0, 319, 9), np.linspace(0, 199, 5), np.linspace(450, 670, 12)
@@ -137,7 +143,9 @@ def test_the_stated_width_uncertainty_is_the_scatter_of_the_fit(reach_edges):
         spot = fit.model.spot(u.ravel(), v.ravel(), lam.ravel())
         widths.append(np.r_[np.sqrt(spot.along**2 + 1 / 12), np.sqrt(spot.across**2 + 1 / 12)])
     scatter = np.std(widths, axis=0).max()
-    # measured: inside 0.077 stated / 0.088 scattered; to the edges 0.025 / 0.031
+    print(f"stated {np.median(stated):.4f} px, scattered {scatter:.4f} px")
+    # measured: inside 0.076 stated / 0.088 scattered; to the edges 0.024 / 0.031; to
+    # the edges, the first line 4 times noisier, 0.097 / 0.113
     assert np.median(stated) == pytest.approx(scatter, rel=0.25)
 
 
