@@ -393,9 +393,9 @@ BLUR_LINE_CLEAR_NM = 15.0
 #: ... and at least this far (nm) outside the lasers' band (the lasers measure inside it).
 BLUR_LINE_MARGIN_NM = 5.0
 #: The lamp field frames: the lamp pinhole grid at this many offsets, evenly over one pitch
-#: on both axes, so the lines' spots reach across the field, each taken as many times as
-#: the lamp step's first batch of pinhole frames (``lamps.frames``): a dim blue line's spot
-#: widths are photon-limited (``docs/notes/2026-11-30-design-rig-blue-blur-and-scan-pitch.md``).
+#: on both axes, so the lines' spots reach across the field, each taken in batches until
+#: the field blur's stated widths meet their tolerance: a dim blue line's spot widths are
+#: photon-limited (``docs/notes/2026-11-30-design-rig-blue-blur-and-scan-pitch.md``).
 LAMP_FIELD_OFFSETS = 4
 
 
@@ -423,27 +423,31 @@ def blur_lamp_lines(lines: LineList, lasers_nm: Sequence[float], desc: RigDescri
     return lam[strong & clear & outside & on_grid]
 
 
-def lamp_field_pinholes(pattern: Mapping[str, Any]) -> list[dict[str, Any]]:
+def lamp_field_pinholes(
+    pattern: Mapping[str, Any], slm_shape: tuple[int, int] | None = None
+) -> list[dict[str, Any]]:
     """The lamp field frames' patterns: the lamp pinhole grid at :data:`LAMP_FIELD_OFFSETS`
-    offsets spread evenly over one pitch on both axes.
+    offsets over one pitch on both axes, the first at the SLM's top-left corner and,
+    given the SLM's shape, the last putting pinholes on its right and bottom edges, so
+    the lamp lines' spots reach the whole field (the others spread evenly between).
 
     Examples
     --------
     >>> [p["offset"] for p in lamp_field_pinholes({"kind": "pinholes", "pitch": [155, 27]})]
     [[0, 0], [39, 7], [78, 14], [116, 20]]
+    >>> pattern = {"kind": "pinholes", "pitch": [155, 27]}
+    >>> [p["offset"] for p in lamp_field_pinholes(pattern, (200, 320))]  # 319 = 9 + 2 * 155
+    [[0, 0], [52, 9], [103, 18], [9, 10]]
     """
     pitch = [int(p) for p in pattern["pitch"]]
-    return [
-        {
-            "kind": "pinholes",
-            "pitch": pitch,
-            "offset": [
-                round(j * pitch[0] / LAMP_FIELD_OFFSETS),
-                round(j * pitch[1] / LAMP_FIELD_OFFSETS),
-            ],
-        }
-        for j in range(LAMP_FIELD_OFFSETS)
-    ]
+    count = LAMP_FIELD_OFFSETS
+    if slm_shape is None:
+        offsets = [[round(j * p / count) for p in pitch] for j in range(count)]
+    else:
+        height, width = slm_shape
+        offsets = [[round(j * p / (count - 1)) for p in pitch] for j in range(count - 1)]
+        offsets.append([(width - 1) % pitch[0], (height - 1) % pitch[1]])
+    return [{"kind": "pinholes", "pitch": pitch, "offset": offset} for offset in offsets]
 
 
 def lamp_plan(
@@ -451,6 +455,7 @@ def lamp_plan(
     exposures: Mapping[str, float],
     frames: int | None = None,
     field_lamps: Sequence[str] = (),
+    slm_shape: tuple[int, int] | None = None,
 ) -> Plan:
     """Pinhole frames under each wavelength lamp, with as many closed-SLM frames.
 
@@ -469,8 +474,10 @@ def lamp_plan(
     field_lamps
         Lamps (light names) whose lines measure a field blur past the lasers' band
         (:func:`blur_lamp_lines`): they also get ``role: lamp-field`` frames, the pinhole
-        grid at every offset of :func:`lamp_field_pinholes`, ``lamps.frames`` times each
-        (tagged ``offset`` and ``frame`` 0, 1, ..., so the first batch takes them).
+        grid at every offset of :func:`lamp_field_pinholes`, ``frames`` times each (tagged
+        ``offset`` and ``frame`` 0, 1, ...; the lamp field step takes them in batches).
+    slm_shape
+        SLM (height, width): the lamp field frames reach its right and bottom edges.
 
     Returns
     -------
@@ -498,8 +505,8 @@ def lamp_plan(
                 tags = {"lamp": light, "role": role, "frame": frame}
                 steps.append(_frame(light, exposure, shown, tags))
         if light in field_lamps:
-            for offset, shown in enumerate(lamp_field_pinholes(pattern)):
-                for frame in range(min(first, frames)):
+            for offset, shown in enumerate(lamp_field_pinholes(pattern, slm_shape)):
+                for frame in range(frames):
                     tags = {"lamp": light, "role": "lamp-field", "frame": frame, "offset": offset}
                     steps.append(_frame(light, exposure, shown, tags))
     parameters = {

@@ -53,13 +53,15 @@ def test_field_lamps_get_pinhole_frames_at_offsets_over_one_pitch():
     plan = lamp_plan(procedure, exposures, field_lamps=["lamp:HgAr"])
     field = plan.select(role="lamp-field")
     assert len(plan) == len(plain) + len(field)
-    # each offset as many times as the first batch's pinhole frames, which takes them all
+    # each offset as many times as the lamp's pinhole frames planned
     assert len(field) == LAMP_FIELD_OFFSETS * 3
     assert {plan.steps[i].tags["lamp"] for i in field} == {"lamp:HgAr"}
     assert max(plan.steps[i].tags["frame"] for i in field) == 2
-    # a budget under the first batch caps them
+    # a budget under the first batch caps them; one over it plans them to the budget
     small = lamp_plan(procedure, exposures, frames=2, field_lamps=["lamp:HgAr"])
     assert len(small.select(role="lamp-field")) == LAMP_FIELD_OFFSETS * 2
+    budget = lamp_plan(procedure, exposures, frames=8, field_lamps=["lamp:HgAr"])
+    assert len(budget.select(role="lamp-field")) == LAMP_FIELD_OFFSETS * 8
     columns = set()
     for i in field:
         columns |= set(open_pixels(plan.steps[i].pattern, (200, 320))[1].ravel().tolist())
