@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from sassi_bench.reduce.batch_record import BatchRecord
 from sassi_bench.reduce.lamp_budget import frames_needed, next_frames
@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_MAX_FRAMES",
     "BlurBatch",
     "BlurFrameRecord",
+    "LampFieldFrameRecord",
     "blur_frame_settings",
     "decide_blur_frames",
 ]
@@ -141,6 +142,13 @@ class BlurFrameRecord(BatchRecord):
     tolerance_px: float
     budget: int
 
+    #: The step's name, what its frames count (and their key in JSON) and the setting of
+    #: its budget.
+    step: ClassVar[str] = "blur frames"
+    frames_of: ClassVar[str] = "pinhole frames per laser"
+    json_frames: ClassVar[str] = "frames_per_laser"
+    budget_setting: ClassVar[str] = "blur.max_frames"
+
     @property
     def sigma_px(self) -> float:
         """The stated worst 1-sigma at the end (camera px)."""
@@ -159,10 +167,8 @@ class BlurFrameRecord(BatchRecord):
         """
         if self.outcome not in ("budget spent", "out of reach"):
             return None
-        said = (
-            f"field blur widths at +-{self.sigma_px:.3f} px after {self.frames} pinhole "
-            "frames per laser: "
-        )
+        said = f"field blur widths at +-{self.sigma_px:.3f} px after {self.frames} "
+        said += f"{self.frames_of}: "
         if self.photon_limited() is False:
             return said + (
                 "more frames will not do (the uncertainty hardly fell with them): the field "
@@ -171,8 +177,8 @@ class BlurFrameRecord(BatchRecord):
             )
         needed = frames_needed(self.frames, self.sigma_px, self.tolerance_px)
         return said + (
-            f"take about {needed} (set blur.max_frames to {needed} and capture under a new "
-            "--session)"
+            f"take about {needed} (set {self.budget_setting} to {needed} and capture under "
+            "a new --session)"
         )
 
     def note(self) -> str:
@@ -187,15 +193,15 @@ class BlurFrameRecord(BatchRecord):
 +-0.045 px (1-sigma, worst over the field; tolerance 0.05 px): tolerance met
         """
         return self.with_advice(
-            f"blur frames: {self.frames} pinhole frames per laser ({self.taken()}): the "
-            f"field blur's widths at +-{self.sigma_px:.3f} px (1-sigma, worst over the "
-            f"field; tolerance {self.tolerance_px:g} px): {self.outcome}"
+            f"{self.step}: {self.frames} {self.frames_of} ({self.taken()}): the field "
+            f"blur's widths at +-{self.sigma_px:.3f} px (1-sigma, worst over the field; "
+            f"tolerance {self.tolerance_px:g} px): {self.outcome}"
         )
 
     def to_json(self) -> dict[str, Any]:
         """The record as JSON values, for the bundle's quality section."""
         return {
-            "frames_per_laser": self.frames,
+            self.json_frames: self.frames,
             "budget": self.budget,
             "tolerance_px": self.tolerance_px,
             "outcome": self.outcome,
@@ -203,3 +209,25 @@ class BlurFrameRecord(BatchRecord):
             "batches": [b.to_json() for b in self.batches],
             "advice": self.advice(),
         }
+
+
+@dataclass(frozen=True)
+class LampFieldFrameRecord(BlurFrameRecord):
+    """What the lamp field step took and why: the field blur's lamp lines past the
+    lasers' band (its frames per offset of the lamp pinhole grid, in batches until the
+    field blur's stated widths meet ``tolerances.blur_width_sigma_px``, within the lamp
+    budget ``lamps.max_frames``).
+
+    Examples
+    --------
+    >>> first = BlurBatch(4, 0.078, 10, "more frames")
+    >>> last = BlurBatch(10, 0.049, None, "tolerance met")
+    >>> print(LampFieldFrameRecord((first, last), 0.05, 16).note())
+    lamp field frames: 10 lamp frames per offset (4, then 10): the field blur's widths at \
++-0.049 px (1-sigma, worst over the field; tolerance 0.05 px): tolerance met
+    """
+
+    step: ClassVar[str] = "lamp field frames"
+    frames_of: ClassVar[str] = "lamp frames per offset"
+    json_frames: ClassVar[str] = "frames_per_offset"
+    budget_setting: ClassVar[str] = "lamps.max_frames"

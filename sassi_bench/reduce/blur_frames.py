@@ -18,6 +18,7 @@ import numpy as np
 from sassi_bench.acquire.session import Session
 from sassi_bench.calibrate.blur import BlurFit
 from sassi_bench.calibrate.dispersion import LaserMap, fit_dispersion
+from sassi_bench.reduce.lamps import lamp_field_spots
 from sassi_bench.reduce.sweep_stream import PinholeSignal
 from sassi_bench.reduce.sweeps import blur_form, blur_from_pinholes, pinhole_signal
 from sassi_bench.rig.config import RigDescription
@@ -146,12 +147,27 @@ class BlurMeasurement:
         self.saturation = 2**desc.spectral_camera.bit_depth - 1
         shape = {"field_degree": field_degree, "order": order}
         self.start = fit_dispersion(maps, desc.prism.glass, self.slm_shape, **shape)
+        self.lasers_nm = [m.wavelength_nm for m in maps]
 
-    def fit(self, blur: Session | None, frames: int) -> BlurFit:
-        """The blur from the sweep's frames and ``blur``'s up to ``frames`` per laser."""
+    def fit(
+        self,
+        blur: Session | None,
+        frames: int | None,
+        lamps: Session | None = None,
+        lamp_frames: int | None = None,
+    ) -> BlurFit:
+        """The blur from the sweep's frames and ``blur``'s up to ``frames`` per laser
+        (None: all it holds), with the lamp lines' spots of ``lamps``' first
+        ``lamp_frames`` field frames per offset
+        (:func:`~sassi_bench.reduce.lamps.lamp_field_spots`) when a lamp session is given.
+        """
         signals = pinhole_signals(self.sweep, self.saturation, self.pinholes, blur, frames)
+        spots = None
+        if lamps is not None:
+            model = self.start.model
+            spots = lamp_field_spots(lamps, self.desc, model, self.lasers_nm, lamp_frames)
         return blur_from_pinholes(
             self.sweep, self.procedure, self.start, self.slm_shape, self.saturation, signals,
             self.desc.slm.fill_factor, form=blur_form(self.procedure, self.desc),
-            laser_fwhm_nm=self.desc.light.laser_fwhm_nm,
+            laser_fwhm_nm=self.desc.light.laser_fwhm_nm, lamp_spots=spots,
         )  # fmt: skip

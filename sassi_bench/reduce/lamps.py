@@ -113,9 +113,10 @@ def lamp_frame_steps(plan: Plan, frames: int | None = None, **tags: Any) -> list
     return [i for i in chosen if int(plan.steps[i].tags.get("frame", 0)) < frames]
 
 
-def captured_lamp_frames(session: Session) -> int:
+def captured_lamp_frames(session: Session, role: str | None = None) -> int:
     """How many frames of every lamp the session holds: the largest ``n`` whose first
-    ``n`` closed and pinhole frames of every lamp are all stored.
+    ``n`` closed and pinhole frames of every lamp are all stored (``role="lamp-field"``:
+    whose first ``n`` field frames at every offset are).
 
     Examples
     --------
@@ -125,8 +126,10 @@ def captured_lamp_frames(session: Session) -> int:
         # 6
     """
     plan, done = session.plan, session.completed
-    planned = 1 + max((int(step.tags.get("frame", 0)) for step in plan.steps), default=-1)
-    missing = [int(plan.steps[i].tags.get("frame", 0)) for i in range(len(plan)) if i not in done]
+    roles = ("lamp-blank", "lamp-pinholes") if role is None else (role,)
+    chosen = [i for i, step in enumerate(plan.steps) if step.tags.get("role") in roles]
+    planned = 1 + max((int(plan.steps[i].tags.get("frame", 0)) for i in chosen), default=-1)
+    missing = [int(plan.steps[i].tags.get("frame", 0)) for i in chosen if i not in done]
     return min(missing, default=planned)
 
 
@@ -243,9 +246,11 @@ def lamp_field_spots(
     desc: RigDescription,
     model: DispersionModel,
     lasers_nm: Sequence[float],
+    frames: int | None = None,
 ) -> SpotMoments | None:
     """The field blur's spots at the lamp lines past the lasers' band, from the lamp
-    session's field frames (``role: lamp-field``, the pinhole grid at several offsets).
+    session's field frames (``role: lamp-field``, the pinhole grid at several offsets),
+    the first ``frames`` at every offset (None: as many as the session holds).
 
     Each offset's frames, less the lamp's closed-SLM frames, give every pinhole's spot of
     every line of :func:`~sassi_bench.acquire.spectral_plans.blur_lamp_lines`, placed by
@@ -258,7 +263,7 @@ def lamp_field_spots(
     -------
     SpotMoments or None
         None when the session has no field frames (planned without them, or a rig whose
-        blur is round).
+        blur is round) or none taken.
 
     Examples
     --------
@@ -270,7 +275,9 @@ def lamp_field_spots(
     """
     plan = session.plan
     field = plan.select(role="lamp-field")
-    if not field or not all(i in session.completed for i in field):
+    if frames is None:
+        frames = captured_lamp_frames(session, role="lamp-field")
+    if not field or frames < 1:
         return None
     tables = {lines.light: lines for lines in desc.lamp_lines().values()}
     slm_shape = (desc.slm.height, desc.slm.width)
@@ -284,10 +291,10 @@ def lamp_field_spots(
         closed = blank.astype(np.float64).mean(axis=0)
         offsets = sorted({int(plan.steps[i].tags["offset"]) for i in field})
         for offset in offsets:
-            steps = plan.select(role="lamp-field", lamp=light, offset=offset)
-            frames = session.read_frames(steps)
-            signal = frames.astype(np.float64).mean(axis=0) - closed
-            saturated = (frames >= clip_level(frames, saturation)).any(axis=0)
+            steps = lamp_frame_steps(plan, frames, role="lamp-field", lamp=light, offset=offset)
+            stack = session.read_frames(steps)
+            signal = stack.astype(np.float64).mean(axis=0) - closed
+            saturated = (stack >= clip_level(stack, saturation)).any(axis=0)
             rows, cols = open_pixels(plan.steps[steps[0]].pattern, slm_shape)
             u, v = cols.ravel().astype(np.float64), rows.ravel().astype(np.float64)
             for line in chosen:

@@ -34,7 +34,7 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
-from sassi_bench.reduce.blur_budget import BlurFrameRecord
+from sassi_bench.reduce.blur_budget import BlurFrameRecord, LampFieldFrameRecord
 from sassi_bench.reduce.blur_frames import pinhole_signals
 from sassi_bench.reduce.bundle_checks import (
     bundle_check_notes,
@@ -81,7 +81,8 @@ class SpectralSweeps:
     sweep's decode (None: the analysis reads them from the sessions), what the lamp step
     took and why, and its measurement (reused by the analysis with the same procedure);
     the blur step's added pinhole frames (None: the sweep's were enough, or the blur
-    form states no uncertainty) and what it took and why."""
+    form states no uncertainty) and what it took and why; and what the lamp field step
+    took and why (a field blur with lamp lines past the lasers' band)."""
 
     grey: Session | None
     sweep: Session
@@ -92,6 +93,7 @@ class SpectralSweeps:
     lamp_measurement: LampMeasurement | None = None
     blur: Session | None = None
     blur_record: BlurFrameRecord | None = None
+    lamp_field_record: LampFieldFrameRecord | None = None
 
     @property
     def sessions(self) -> list[Session]:
@@ -118,6 +120,7 @@ class SpectralCalibration:
     #: On a design rig, the measured maps against the described design.
     design_comparison: DesignComparison | None = None
     blur_record: BlurFrameRecord | None = None
+    lamp_field_record: LampFieldFrameRecord | None = None
 
     @property
     def passed(self) -> bool:
@@ -454,6 +457,7 @@ def analyse_spectral_sweeps(
         return _compared_with_design(SpectralCalibration(
             proc, desc, decoded, dispersion, blur, response, checks, sweeps.sessions,
             anchoring=anchoring, blur_record=sweeps.blur_record,
+            lamp_field_record=sweeps.lamp_field_record,
         ))  # fmt: skip
     lines = check_laser_lines(
         maps,
@@ -553,7 +557,8 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
         # ['laser 450 nm: measured 450.00 +- 0.01 nm against the HgAr, Ne lamp lines ...']
     """
     design = getattr(result, "design_comparison", None)
-    frames = [result.blur_record.note()] if result.blur_record is not None else []
+    records = (result.blur_record, getattr(result, "lamp_field_record", None))
+    frames = [record.note() for record in records if record is not None]
     prism = getattr(result.rig_description, "prism", None)
     glass = str(getattr(prism, "glass", "as described"))
     return (

@@ -114,6 +114,8 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
         section["design_comparison"] = result.design_comparison.to_json()
     if result.blur_record is not None:
         section["blur_frames"] = result.blur_record.to_json()
+    if getattr(result, "lamp_field_record", None) is not None:
+        section["lamp_field_frames"] = result.lamp_field_record.to_json()
     return section
 
 

@@ -5,8 +5,11 @@ runs them, the notebooks one at a time): ``open`` checks the procedure against t
 and opens the sessions of an earlier run; ``exposures`` finds each laser's exposure;
 ``grey`` measures the SLM's grey-level response (structured sweeps); ``sweep`` records
 the sweep plan of :mod:`~sassi_bench.acquire.spectral_plans`, decoded as its frames are
-stored; ``lamps`` records the lamp frames on a rig with wavelength lamps, in batches
-until every laser is measured within its tolerance or the budget is spent; ``analyse``
+stored; ``blur`` adds pinhole frames until a field blur's stated widths meet their
+tolerance; ``lamps`` records the lamp frames on a rig with wavelength lamps, in batches
+until every laser is measured within its tolerance or the budget is spent, and
+``lamp_field`` the lamp field frames of a field blur's lines past the lasers' band, in
+batches until its widths meet their tolerance there too; ``analyse``
 fits the dispersion and blur and grades them (:mod:`~sassi_bench.reduce.spectral`);
 ``figures`` renders the plots and ``publish`` publishes the bundle
 (:mod:`~sassi_bench.reduce.spectral_bundle`). Named sessions resume where they stopped;
@@ -43,6 +46,7 @@ from sassi_bench.errors import ConfigError, DeviceError, step_error
 from sassi_bench.paths import data_root
 from sassi_bench.reduce.blur_budget import (
     BlurFrameRecord,
+    LampFieldFrameRecord,
     blur_frame_settings,
     decide_blur_frames,
 )
@@ -68,6 +72,7 @@ __all__ = [
     "STEPS",
     "SpectralRun",
     "capture_blur_frames",
+    "capture_lamp_field_frames",
     "capture_lamp_frames",
     "capture_spectral_sweeps",
     "open_lamp_session",
@@ -188,10 +193,12 @@ class SpectralRun:
         The analysed calibration (its ``figures`` and ``bundle_path`` once made).
     lamp_record, lamp_measurement
         What the lamp step took and why, and what it measured with.
-    blur, blur_record
+    blur, blur_record, blur_measurement
         The blur step's session of added pinhole frames (None when the sweep's were
-        enough) and what the step took and why (None for a blur form stating no
-        uncertainty).
+        enough), what the step took and why (None for a blur form stating no
+        uncertainty), and what it measured with (a field blur only).
+    lamp_field_record
+        What the lamp field step took and why (None without lamp field frames).
     """
 
     rig: Rig
@@ -213,6 +220,8 @@ class SpectralRun:
     lamp_measurement: LampMeasurement | None = None
     blur: Session | None = None
     blur_record: BlurFrameRecord | None = None
+    blur_measurement: BlurMeasurement | None = None
+    lamp_field_record: LampFieldFrameRecord | None = None
 
     @property
     def saturation(self) -> int:
@@ -238,6 +247,7 @@ class SpectralRun:
         return SpectralSweeps(
             self.grey, self.sweep, self.lamps, self.response, self.decoded,
             self.lamp_record, self.lamp_measurement, self.blur, self.blur_record,
+            self.lamp_field_record,
         )  # fmt: skip
 
 
@@ -318,6 +328,7 @@ def capture_blur(run: SpectralRun) -> None:
         run.rig, run.sweep, run.procedure, measurement, f"{run.base}-blur",
         data=run.data, progress=run.progress,
     )  # fmt: skip
+    run.blur_measurement = measurement
 
 
 def capture_lamps(run: SpectralRun) -> None:
@@ -330,6 +341,22 @@ def capture_lamps(run: SpectralRun) -> None:
     run.lamp_measurement = lamp_measurement(run.sweeps(), run.procedure, run.rig.description)
     run.lamp_record = capture_lamp_frames(
         run.rig, run.lamps, run.procedure, run.lamp_measurement.sigma_nm, progress=run.progress
+    )
+
+
+def capture_lamp_field(run: SpectralRun) -> None:
+    """The lamp field frames of a field blur's lines past the lasers' band, taken in
+    batches until the field blur's stated widths meet the tolerance over the whole band
+    or the lamp budget is spent (:func:`capture_lamp_field_frames`)."""
+    measurement = run.blur_measurement
+    if run.lamps is None or measurement is None:
+        return
+
+    def sigma_px(lamps: Session, frames: int) -> float | None:
+        return measurement.fit(run.blur, None, lamps, frames).width_sigma_px
+
+    run.lamp_field_record = capture_lamp_field_frames(
+        run.rig, run.lamps, run.procedure, sigma_px, progress=run.progress
     )
 
 
@@ -359,12 +386,13 @@ STEPS = {
     "sweep": capture_sweep,
     "blur": capture_blur,
     "lamps": capture_lamps,
+    "lamp_field": capture_lamp_field,
     "analyse": analyse,
     "figures": figures,
     "publish": publish,
 }
 #: The steps that capture (and decode as they capture).
-CAPTURE_STEPS = ("open", "exposures", "grey", "sweep", "blur", "lamps")
+CAPTURE_STEPS = ("open", "exposures", "grey", "sweep", "blur", "lamps", "lamp_field")
 
 
 @drives_rig("spectral calibration")
@@ -549,7 +577,8 @@ def open_lamp_session(
             for lines in desc.lamp_lines().values()
             if blur_lamp_lines(lines, lasers, desc).size
         ]
-    plan = lamp_plan(procedure, exposures, frames=budget, field_lamps=field_lamps)
+    slm_shape = (desc.slm.height, desc.slm.width)
+    plan = lamp_plan(procedure, exposures, budget, field_lamps, slm_shape)
     return Session.create(desc, plan, session_id=session_id, data=data)
 
 
@@ -605,7 +634,10 @@ def capture_lamp_frames(
     frames = min(first, budget)
     batches = []
     while True:
-        steps = lamp_frame_steps(session.plan, frames)
+        steps = sorted(
+            lamp_frame_steps(session.plan, frames, role="lamp-blank")
+            + lamp_frame_steps(session.plan, frames, role="lamp-pinholes")
+        )
         run_plan(rig, session.plan, session, progress=progress, steps=steps)
         if measure is None:
             return None
@@ -623,6 +655,78 @@ def capture_lamp_frames(
         {k: float(v) for k, v in exposures.items()},
         float(settings.get("max_s", 10.0)),
     )
+
+
+def capture_lamp_field_frames(
+    rig: Rig,
+    session: Session,
+    procedure: Mapping[str, Any],
+    measure: Callable[[Session, int], float | None],
+    *,
+    progress: bool = True,
+) -> LampFieldFrameRecord | None:
+    """Capture (or resume) the lamp field frames until the field blur's stated width
+    1-sigma meets the tolerance.
+
+    A field blur measured past the lasers' band leans there on one or two lamp lines,
+    dim beside the lasers, whose spot widths are photon-limited. Every offset's first
+    ``lamps.frames`` frames are taken; then, after each batch, ``measure`` states the
+    field blur's worst 1-sigma with the lamp spots so far, and
+    :func:`~sassi_bench.reduce.blur_budget.decide_blur_frames` says whether to stop
+    (``tolerances.blur_width_sigma_px`` met, or the lamp budget ``lamps.max_frames``
+    spent) or how many frames per offset to have next. The decisions depend on the
+    stored frames alone, so a resumed session replays them and captures only the
+    missing ones.
+
+    Parameters
+    ----------
+    rig
+        Device handles.
+    session
+        The lamp session (:func:`open_lamp_session`).
+    procedure
+        The spectral-calibration procedure.
+    measure
+        The field blur's stated worst width 1-sigma (camera px) with the lamp spots of a
+        session's first ``n`` field frames per offset
+        (:meth:`~sassi_bench.reduce.blur_frames.BlurMeasurement.fit`); None: unstated.
+    progress
+        Show a progress bar.
+
+    Returns
+    -------
+    LampFieldFrameRecord or None
+        What was taken and why; None when the session has no field frames or the fit
+        states no uncertainty.
+
+    Examples
+    --------
+    Not run here (it drives a bench and stores its frames)::
+
+        record = capture_lamp_field_frames(rig, lamps, proc, sigma_px)
+        record.outcome, record.frames
+        # ('tolerance met', 10)
+    """
+    plan = session.plan
+    field = plan.select(role="lamp-field")
+    if not field:
+        return None
+    first, budget, _ = lamp_frame_settings(procedure)
+    tolerance = blur_frame_settings(procedure)[2]
+    budget = min(budget, 1 + max(int(plan.steps[i].tags["frame"]) for i in field))
+    frames, batches = min(first, budget), []
+    while True:
+        steps = lamp_frame_steps(plan, frames, role="lamp-field")
+        run_plan(rig, plan, session, progress=progress, steps=steps)
+        sigma = measure(session, frames)
+        if sigma is None:  # the fit states no uncertainty: nothing to decide from
+            return None
+        batch = decide_blur_frames(frames, sigma, tolerance, budget, batches)
+        batches.append(batch)
+        if batch.next_frames is None:
+            break
+        frames = batch.next_frames
+    return LampFieldFrameRecord(tuple(batches), tolerance, budget)
 
 
 def capture_blur_frames(
