@@ -392,10 +392,11 @@ BLUR_LINE_NEIGHBOUR_SHARE = 0.25
 BLUR_LINE_CLEAR_NM = 15.0
 #: ... and at least this far (nm) outside the lasers' band (the lasers measure inside it).
 BLUR_LINE_MARGIN_NM = 5.0
-#: The lamp field frames: the lamp pinhole grid at this many offsets, evenly over one pitch
-#: on both axes, so the lines' spots reach across the field, each taken in batches until
-#: the field blur's stated widths meet their tolerance: a dim blue line's spot widths are
-#: photon-limited (``docs/notes/2026-11-30-design-rig-blue-blur-and-scan-pitch.md``).
+#: The lamp field frames: the lamp pinhole grid at this many offsets over one pitch on
+#: both axes (:func:`lamp_field_pinholes`), so the lines' spots reach the whole field, each
+#: taken in batches until the field blur's stated widths meet their tolerance: a dim blue
+#: line's spot widths are photon-limited
+#: (``docs/notes/2026-11-30-design-rig-blue-blur-and-scan-pitch.md``).
 LAMP_FIELD_OFFSETS = 4
 
 

@@ -69,3 +69,11 @@ def test_field_lamps_get_pinhole_frames_at_offsets_over_one_pitch():
     # within a quarter pitch of its right edge
     assert min(columns) == 0 and max(columns) >= 319 - 155 // 4
     assert len(columns) == 2 * LAMP_FIELD_OFFSETS + 1  # 3, 2, 2, 2 columns per offset
+    # given the SLM's shape, the last offset puts pinholes on its right and bottom edges
+    edges = lamp_plan(procedure, exposures, field_lamps=["lamp:HgAr"], slm_shape=(200, 320))
+    rows, columns = set(), set()
+    for i in edges.select(role="lamp-field"):
+        r, c = open_pixels(edges.steps[i].pattern, (200, 320))
+        rows |= set(r.ravel().tolist())
+        columns |= set(c.ravel().tolist())
+    assert {0, 319} <= columns and {0, 199} <= rows
