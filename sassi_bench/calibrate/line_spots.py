@@ -124,9 +124,10 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     left = cols - 0.5  # each column's left edge
 
     def residual(sigma, shift) -> NDArray[np.float64]:
-        """(N,) residuals at per-spot or common widths and shifts."""
-        shifts = np.broadcast_to(shift, x.shape)[:, None]
-        return _profile_residual(profile, left, centres + shifts, np.broadcast_to(sigma, x.shape))
+        """(..., N) residuals at widths and shifts broadcast to (..., N)."""
+        shape = np.broadcast_shapes(np.shape(sigma), np.shape(shift), x.shape)
+        sigma, shift = np.broadcast_to(sigma, shape), np.broadcast_to(shift, shape)
+        return _profile_residual(profile, left, centres + shift[..., None], sigma)
 
     # The lines' columns come from the dispersion model, which can be a few tenths of a
     # pixel off at the band's ends (docs/notes/2026-11-30-singlet-snapshot-spectra.md);
@@ -134,11 +135,16 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
     # fitted too: the width at no shift, then the shift and the width in turn. The shift
     # is the residual's local minimum nearest none: a neighbour less than a pixel away
     # (Hg 434.7 nm beside 435.8 nm) makes a second one, the two lines' roles swapped.
+    chunk = max(1, _GRID_CHUNK_ELEMENTS // max(1, profile.size * centres.shape[1]))
     shift = np.zeros(x.size)
-    sigma, ok = _grid_minimum(_SIGMA_GRID, lambda s: residual(s, shift))
+    sigma, ok = _grid_minimum(_SIGMA_GRID, lambda s: residual(s, shift), chunk=chunk)
     for _ in range(2):
-        shift, shift_ok = _grid_minimum(_SHIFT_GRID, lambda d, s=sigma: residual(s, d), nearest=0.0)
-        nudge, ok = _grid_minimum(_SIGMA_NUDGE, lambda c, s=sigma, d=shift: residual(s + c, d))
+        shift, shift_ok = _grid_minimum(
+            _SHIFT_GRID, lambda d, s=sigma: residual(s, d), nearest=0.0, chunk=chunk
+        )
+        nudge, ok = _grid_minimum(
+            _SIGMA_NUDGE, lambda c, s=sigma, d=shift: residual(s + c, d), chunk=chunk
+        )
         sigma = sigma + nudge
     out = np.full(x.size, np.nan)
     keep = ok & shift_ok & inside
@@ -147,26 +153,33 @@ def _profile_sigma(image, x, y, others, widths) -> NDArray[np.float64]:
 
 
 def _profile_residual(profile, left, centres, sigma) -> NDArray[np.float64]:
-    """Squared residual (N,) of each profile (N, P) against pixel-integrated Gaussians of
-    width ``sigma`` (N,) at ``centres`` (N, K; NaN: none), amplitudes fitted (linear)."""
-    s = sigma[:, None, None]
-    share = ndtr((left[:, :, None] + 1.0 - centres[:, None, :]) / s) - ndtr(
-        (left[:, :, None] - centres[:, None, :]) / s
-    )  # (N, P, K)
-    share = np.nan_to_num(share)
-    normal = np.einsum("npk,npj->nkj", share, share) + 1e-12 * np.eye(centres.shape[1])
-    rhs = np.einsum("npk,np->nk", share, profile)
+    """Squared residual (..., N) of each profile (N, P) against pixel-integrated Gaussians
+    of width ``sigma`` (..., N) at ``centres`` (..., N, K; NaN: none), amplitudes fitted
+    (linear); the leading axes are trial values, evaluated together."""
+    s = sigma[..., None, None]
+    edges = left[:, :, None] - centres[..., None, :]  # (..., N, P, K)
+    share = np.nan_to_num(ndtr((edges + 1.0) / s) - ndtr(edges / s))
+    normal = np.einsum("...npk,...npj->...nkj", share, share) + 1e-12 * np.eye(centres.shape[-1])
+    rhs = np.einsum("...npk,np->...nk", share, profile)
     amplitude = np.linalg.solve(normal, rhs[..., None])[..., 0]
-    return ((np.einsum("npk,nk->np", share, amplitude) - profile) ** 2).sum(axis=1)
+    return ((np.einsum("...npk,...nk->...np", share, amplitude) - profile) ** 2).sum(axis=-1)
+
+
+#: Trial values of a grid search evaluated together, as elements of their (trials, spots,
+#: samples, lines) arrays: one call per trial spent its time in numpy's per-call overhead.
+_GRID_CHUNK_ELEMENTS = 500_000
 
 
 def _grid_minimum(
-    grid, residual, nearest: float | None = None
+    grid, residual, nearest: float | None = None, chunk: int = 1
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Each spot's minimum of ``residual(value) -> (N,)`` over ``grid`` (the local minimum
-    nearest ``nearest`` if given, else the lowest), refined by a parabola through the
-    three nearest values; False where it is at the grid's edge."""
-    table = np.stack([residual(value) for value in grid], axis=1)  # (N, G)
+    """Each spot's minimum of ``residual(values (G, 1)) -> (G, N)`` over ``grid``, ``chunk``
+    values a call (the local minimum nearest ``nearest`` if given, else the lowest),
+    refined by a parabola through the three nearest values; False where it is at the
+    grid's edge."""
+    table = np.concatenate(
+        [residual(grid[i : i + chunk, None]) for i in range(0, grid.size, chunk)]
+    ).T  # (N, G)
     n = table.shape[0]
     best = np.argmin(table, axis=1)
     if nearest is not None:

@@ -92,3 +92,20 @@ def test_a_neighbour_under_a_pixel_away_does_not_take_the_line_s_place():
     # measured: all valid, worst 0.027 px
     assert found.valid.all()
     assert np.abs(along).max() < 0.05
+
+
+def test_the_grid_search_gives_the_same_minima_however_many_trials_a_call_takes():
+    from sassi_bench.calibrate.line_spots import _grid_minimum
+
+    grid = np.arange(0.0, 2.0, 0.01)
+    centres = np.array([0.33, 1.2, 1.995, 0.004])  # the last two at the grid's edges
+
+    def residual(values):  # (G, 1) -> (G, N)
+        return (values - centres) ** 2
+
+    one, one_ok = _grid_minimum(grid, residual, chunk=1)
+    many, many_ok = _grid_minimum(grid, residual, chunk=37)
+    np.testing.assert_array_equal(one, many)
+    np.testing.assert_array_equal(one_ok, many_ok)
+    np.testing.assert_allclose(one[:2], centres[:2], atol=1e-9)
+    assert one_ok.tolist() == [True, True, False, False]
