@@ -10,26 +10,32 @@ distribution of x given that y falls in the row: a Gaussian centred at
 ``(cxy / cyy)**2 Var[y | row]`` (y in a row is a truncated normal), again a CDF difference.
 That keeps the spot's cross moment exact; the row's x profile is Gaussian where it is
 really a mixture, which changes the second moments by far less than 1 %.
-Spots are cut at 4 sigma.
+Spots are cut at 4 sigma: a spot takes the rows that meet its 4 sigma window. A spot
+taller than it is wide is drawn column by column instead (as rows of the transposed
+frame, added at the end): a row costs about the same whatever its length, so the
+shorter axis sets the work.
 
 A row's x profile (a pixel-integrated 1-D Gaussian of width ``sx`` at sub-pixel phase
 ``f``) is read from a table of such profiles (:class:`ProfileTable`) at widths in
-geometric steps of 2 % and phases every 1/32 px, blended bilinearly in (variance, phase)
-rather than computed as CDF differences column by column: four contiguous float32 rows
-blended is a few vector multiply-adds per column where the CDF was a scalar table
-look-up, about 4x faster over a pinhole frame. The blend keeps a profile's sum, mean and
-variance exact (all three are linear in phase and in variance), so only its higher
-moments move: by less than 1e-3 of the spot's peak (tests/rig/sim/test_gauss_splat.py
-holds it against the CDF path). Rows wider or narrower than the table take the CDF path.
+geometric steps of 2 % and phases every 1/32 px, blended from three of the four
+neighbouring (variance, phase) profiles (barycentric in the half of the cell that holds
+the point) rather than computed as CDF differences column by column: three contiguous
+float32 rows blended is a few vector multiply-adds per column where the CDF was a scalar
+table look-up. The blend keeps a profile's sum, mean and variance exact (all three are
+linear in phase and in variance), so only its higher moments move: by less than 1e-3 of
+the spot's peak (tests/rig/sim/test_gauss_splat.py holds it against the CDF path). Rows
+wider or narrower than the table take the CDF path.
 
-The frame is cut into horizontal bands, one task each, and each band visits its spots in
-order, so the frame is the same bit for bit whatever the number of threads. The spots are
-binned by band first (a spot covers a few bands of a pinhole frame), and each spot's
-first table node is guessed from the widths' geometric step: visiting every spot in every
-band and walking the table up from its narrowest width cost about a quarter of a pinhole
-frame's splat. The loop is compiled with fused multiply-adds allowed
-(``fastmath={"contract"}``), which the four-profile blend is bound by; a frame moves by
-about 1e-7 of its peak.
+The frame is cut into horizontal bands, one task each (the transposed frame's bands are
+tasks of the same parallel loop), and each band visits its spots in order, so the frame
+is the same bit for bit whatever the number of threads. The spots are binned by band
+first (a spot covers a few bands of a pinhole frame), and each spot's first table node
+is guessed from the widths' geometric step. A spot's rows in a band are drawn in two
+passes: first every row's share and conditional centre and variance (a chain of CDF
+look-ups), then every row's profile, so the table reads of one row need not wait for the
+next row's look-ups. The loop is compiled with fused multiply-adds allowed
+(``fastmath={"contract"}``), which the blend is bound by; a frame moves by about 1e-7 of
+its peak.
 """
 
 from __future__ import annotations
@@ -46,10 +52,12 @@ from scipy.special import ndtr
 __all__ = ["BANDS", "PAD", "ProfileTable", "profile_table", "splat_gaussians"]
 
 #: Horizontal bands of the frame, one task each.
-BANDS = 32
+BANDS = 16
 #: Zeros before the widest profile's first tap in the table.
 PAD = 8
 _TRUNCATE = 4.0
+#: Rows of the frame a task adds the transposed frame's columns to.
+_TILE = 16
 _SQRT1_2 = 1.0 / math.sqrt(2.0)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
@@ -144,27 +152,31 @@ def _cdf(t):  # pragma: no cover - compiled
     return _CDF_TABLE[i] + f * (_CDF_TABLE[i + 1] - _CDF_TABLE[i])
 
 
+# The two tables side by side, for rows that need both at the same point.
+_CDF_AND_PDF = np.ascontiguousarray(np.stack([_CDF_TABLE, _PDF_TABLE], axis=1))
+
+
 @njit(inline="always")
-def _pdf(t):  # pragma: no cover - compiled
-    s = (t + _CDF_REACH) / _CDF_STEP
-    if s <= 0.0 or s >= _PDF_TABLE.size - 1:
-        return 0.0
+def _cdf_and_pdf(t):  # pragma: no cover - compiled
+    """The normal CDF and density at ``t`` (their values at +-8.5 beyond), one look-up."""
+    s = min(max((t + _CDF_REACH) / _CDF_STEP, 0.0), _CDF_AND_PDF.shape[0] - 1.000001)
     i = int(s)
     f = s - i
-    return _PDF_TABLE[i] + f * (_PDF_TABLE[i + 1] - _PDF_TABLE[i])
+    c, d = _CDF_AND_PDF[i, 0], _CDF_AND_PDF[i, 1]
+    return c + f * (_CDF_AND_PDF[i + 1, 0] - c), d + f * (_CDF_AND_PDF[i + 1, 1] - d)
 
 
 @njit(inline="always")
-def _sigma_node(sx, n, sigmas):  # pragma: no cover - compiled
-    """The table's node n with sigmas[n] <= sx < sigmas[n + 1], searched from ``n``
+def _variance_node(v, n, variances):  # pragma: no cover - compiled
+    """The table's node n with variances[n] <= v < variances[n + 1], searched from ``n``
     (rows of one spot differ by a few nodes at most); -1 outside the table."""
-    last = sigmas.size - 1
-    if sx < sigmas[0] or sx >= sigmas[last]:
+    last = variances.size - 1
+    if v < variances[0] or v >= variances[last]:
         return -1
     n = min(max(n, 0), last - 1)  # from a row outside the table: any start
-    while sigmas[n] > sx:
+    while variances[n] > v:
         n -= 1
-    while sigmas[n + 1] <= sx:
+    while variances[n + 1] <= v:
         n += 1
     return n
 
@@ -185,61 +197,64 @@ def _row_by_cdf(row, mx, sx, a, rx, width):  # pragma: no cover - compiled
 
 @njit(inline="always", error_model="numpy")
 def _row_by_table(
-    row, mx, sx, n, a, width, taps, sigmas, reach, centre, phases
+    frame, i, width, mx, v, n, a, taps, size, row, variances, inv_steps, reach, centre, phases
 ):  # pragma: no cover - compiled
-    """Add ``a`` times the profile N(mx, sx**2) to ``row``, blended from the table's four
-    neighbouring (width, phase) profiles, widths n and n + 1."""
-    s0, s1 = sigmas[n], sigmas[n + 1]
-    wv = (sx * sx - s0 * s0) / (s1 * s1 - s0 * s0)  # linear in variance
+    """Add ``a`` times the profile N(mx, v) to row ``i`` of the flat frame, blended from
+    three of the table's four neighbouring (variance, phase) profiles, variances n and
+    n + 1 (``taps`` is the table, flat: ``size`` entries a width, ``row`` a profile)."""
+    wv = (v - variances[n]) * inv_steps[n]  # linear in variance
     cx = round(mx)
     f = (mx - cx + 0.5) * phases
     m = min(int(f), phases - 1)
     wf = f - m
-    a00 = np.float32(a * (1.0 - wv) * (1.0 - wf))
-    a01 = np.float32(a * (1.0 - wv) * wf)
-    a10 = np.float32(a * wv * (1.0 - wf))
-    a11 = np.float32(a * wv * wf)
+    # barycentric in the half of the (variance, phase) cell that holds the point:
+    # corner (n, m) below the diagonal, (n + 1, m + 1) above it, with (n + 1, m) and
+    # (n, m + 1); chosen without a branch, which the random halves would mispredict
+    k = int(wv + wf > 1.0)
+    a_near = np.float32(a * abs(1.0 - wv - wf))
+    a_wider = np.float32(a * (k * (1.0 - wf) + (1 - k) * wv))
+    a_later = np.float32(a * (k * (1.0 - wv) + (1 - k) * wf))
     r = reach[n + 1]
     left = cx - r
     whole = (2 * r + 8) // 8 * 8
+    start = centre - r
+    near = (n + k) * size + (m + k) * row + start
+    wider = (n + 1) * size + m * row + start
+    later = n * size + (m + 1) * row + start
     if left >= 0 and left + whole <= width:
-        # whole vectors, every slice indexed from 0: numba emits SIMD multiply-adds
-        start = centre - r
-        t00 = taps[n, m, start : start + whole]
-        t01 = taps[n, m + 1, start : start + whole]
-        t10 = taps[n + 1, m, start : start + whole]
-        t11 = taps[n + 1, m + 1, start : start + whole]
-        window = row[left : left + whole]
+        # whole vectors, every slice of a flat array indexed from 0: numba emits SIMD
+        # multiply-adds, and a flat slice is cheaper to take than one of a 3-D table
+        t_near = taps[near : near + whole]
+        t_wider = taps[wider : wider + whole]
+        t_later = taps[later : later + whole]
+        window = frame[i * width + left : i * width + left + whole]
         for j in range(whole):
-            window[j] += a00 * t00[j] + a01 * t01[j] + a10 * t10[j] + a11 * t11[j]
+            window[j] += a_near * t_near[j] + a_wider * t_wider[j] + a_later * t_later[j]
     else:  # the frame's edge cuts the spot
         for j in range(max(-r, -cx), min(r, width - 1 - cx) + 1):
-            k = centre + j
-            row[cx + j] += (
-                a00 * taps[n, m, k]
-                + a01 * taps[n, m + 1, k]
-                + a10 * taps[n + 1, m, k]
-                + a11 * taps[n + 1, m + 1, k]
+            frame[i * width + cx + j] += (
+                a_near * taps[near + r + j]
+                + a_wider * taps[wider + r + j]
+                + a_later * taps[later + r + j]
             )
 
 
 @njit(error_model="numpy", cache=False)
-def _bands_of_spots(y, cyy, weights, height):  # pragma: no cover - compiled
+def _bands_of_spots(y, cyy, weights, height, drawn):  # pragma: no cover - compiled
     """Each band's spots, in (pixel, sample) order: ``spots[starts[b] : starts[b + 1]]``
-    are the flat indices of the spots with rows in band b; ``top`` and ``bottom`` are
-    each spot's rows (the 4 sigma cut, in the frame)."""
+    are the indices of the spots with rows in band b, of those ``drawn``; ``top`` and
+    ``bottom`` are each spot's rows (those that meet its 4 sigma window, in the frame)."""
     n = y.size
-    yf, vf, wf = y.ravel(), cyy.ravel(), weights.ravel()
     rows_per_band = (height + BANDS - 1) // BANDS
     top = np.empty(n, np.int64)
     bottom = np.empty(n, np.int64)
     counts = np.zeros(BANDS + 1, np.int64)
     for s in range(n):
-        ry = math.ceil(_TRUNCATE * math.sqrt(vf[s])) + 1
-        cy = round(yf[s])
-        top[s] = max(cy - ry, 0)
-        bottom[s] = min(cy + ry, height - 1)
-        if wf[s] == 0.0 or top[s] > bottom[s]:
+        # row i spans i - 1/2 .. i + 1/2
+        ry = _TRUNCATE * math.sqrt(cyy[s])
+        top[s] = max(math.ceil(y[s] - ry - 0.5), 0)
+        bottom[s] = min(math.floor(y[s] + ry + 0.5), height - 1)
+        if not drawn[s] or weights[s] == 0.0 or top[s] > bottom[s]:
             continue
         for band in range(top[s] // rows_per_band, bottom[s] // rows_per_band + 1):
             counts[band + 1] += 1
@@ -247,7 +262,7 @@ def _bands_of_spots(y, cyy, weights, height):  # pragma: no cover - compiled
     filled = starts[:-1].copy()
     spots = np.empty(starts[-1], np.int64)
     for s in range(n):
-        if wf[s] == 0.0 or top[s] > bottom[s]:
+        if not drawn[s] or weights[s] == 0.0 or top[s] > bottom[s]:
             continue
         for band in range(top[s] // rows_per_band, bottom[s] // rows_per_band + 1):
             spots[filled[band]] = s
@@ -255,79 +270,122 @@ def _bands_of_spots(y, cyy, weights, height):  # pragma: no cover - compiled
     return spots, starts, top, bottom
 
 
-@njit(parallel=True, error_model="numpy", cache=False, fastmath={"contract"})
-def _splat(
-    x, y, cxx, cyy, cxy, weights, out, taps, sigmas, reach, centre, phases
+@njit(inline="always", error_model="numpy")
+def _draw_band(
+    band, spots, frame, bands, taps, variances, inv_steps, reach, centre, phases
 ):  # pragma: no cover - compiled
-    """Add Gaussian spots (P, K) into ``out``; a table of no widths takes the CDF path
-    for every row."""
-    height, width = out.shape
+    """Draw band ``band`` of ``frame``: the rows there of the spots (x, y, cxx, cyy, cxy,
+    weight: the rows of ``spots``) that ``bands`` (:func:`_bands_of_spots`) puts in it."""
+    x, y, cxx, cyy, cxy, weights = spots[0], spots[1], spots[2], spots[3], spots[4], spots[5]
+    members, starts, tops, bottoms = bands
+    height, width = frame.shape
+    flat = frame.reshape(-1)
+    tabulated = variances.size > 2
+    inv_log_step = 1.0 / math.log(variances[1] / variances[0])
     rows_per_band = (height + BANDS - 1) // BANDS
-    tabulated = taps.shape[0] > 1
-    inv_log_step = 1.0 / math.log(sigmas[1] / sigmas[0])
-    spots, starts, tops, bottoms = _bands_of_spots(y, cyy, weights, height)
-    xf, yf, cxxf, cyyf, cxyf, wf = (
-        x.ravel(),
-        y.ravel(),
-        cxx.ravel(),
-        cyy.ravel(),
-        cxy.ravel(),
-        weights.ravel(),
-    )
-    for band in prange(BANDS):
-        first = band * rows_per_band
-        last = min(height, first + rows_per_band) - 1
-        for q in range(starts[band], starts[band + 1]):
-            s = spots[q]
-            w = wf[s]
-            vy = cyyf[s]
-            sy = math.sqrt(vy)
-            top = max(tops[s], first)
-            bottom = min(bottoms[s], last)
-            beta = cxyf[s] / vy
-            vx = max(cxxf[s] - cxyf[s] * beta, 1e-6)
-            # reach: the widest a row's x spread can be (vx plus a row's share of y)
-            rx = math.ceil(_TRUNCATE * math.sqrt(vx + beta * beta / 12.0)) + 1
-            node = -1
-            if tabulated:  # a first guess from the widths' geometric step
-                sx0 = math.sqrt(vx)
-                guess = int(math.log(max(sx0, sigmas[0]) / sigmas[0]) * inv_log_step)
-                node = _sigma_node(sx0, guess, sigmas)
-            inv_sy = 1.0 / sy
-            lo = (top - 0.5 - yf[s]) * inv_sy
-            c_lo, d_lo = _cdf(lo), _pdf(lo)
-            for i in range(top, bottom + 1):
-                hi = lo + inv_sy
-                c_hi, d_hi = _cdf(hi), _pdf(hi)
-                share = c_hi - c_lo
-                if share > 1e-12:
-                    # y within the row: a truncated normal, whose mean and variance
-                    # carry into x through the correlation
-                    inv_share = 1.0 / share
-                    shift = (d_lo - d_hi) * inv_share
-                    spread = 1.0 + (lo * d_lo - hi * d_hi) * inv_share - shift * shift
-                    mx = xf[s] + beta * sy * shift
-                    sx = math.sqrt(vx + beta * beta * vy * max(spread, 0.0))
-                    a = w * share
-                    if tabulated:
-                        node = _sigma_node(sx, node, sigmas)
-                    if node >= 0:
-                        _row_by_table(
-                            out[i],
-                            mx,
-                            sx,
-                            node,
-                            a,
-                            width,
-                            taps,
-                            sigmas,
-                            reach,
-                            centre,
-                            phases,
-                        )
-                    else:
-                        _row_by_cdf(out[i], mx, sx, a, rx, width)
-                lo, c_lo, d_lo = hi, c_hi, d_hi
+    first = band * rows_per_band
+    last = min(height, first + rows_per_band) - 1
+    rows = max(last - first + 1, 0)
+    size = taps.size // variances.size  # the flat table's entries a width
+    row = size // (phases + 1)  # and a profile
+    # each spot's rows in two passes: their shares and conditional moments, then their
+    # profiles (the table reads then wait on no chain of CDF look-ups)
+    mx_row = np.empty(rows)
+    v_row = np.empty(rows)
+    a_row = np.zeros(rows)
+    node_row = np.empty(rows, np.int64)
+    for q in range(starts[band], starts[band + 1]):
+        s = members[q]
+        vy = cyy[s]
+        sy = math.sqrt(vy)
+        top = max(tops[s], first)
+        bottom = min(bottoms[s], last)
+        beta = cxy[s] / vy
+        vx = max(cxx[s] - cxy[s] * beta, 1e-6)
+        # reach: the widest a row's x spread can be (vx plus a row's share of y)
+        rx = math.ceil(_TRUNCATE * math.sqrt(vx + beta * beta / 12.0)) + 1
+        node = -1
+        if tabulated:  # a first guess from the widths' geometric step
+            guess = int(math.log(max(vx, variances[0]) / variances[0]) * inv_log_step)
+            node = _variance_node(vx, guess, variances)
+        # a row's variance is vx plus at most beta**2 / 12 (y within a row varies by at
+        # most a uniform's 1/12): where that stays below the next node, so do the rows
+        search = tabulated and not (
+            node >= 0 and vx + beta * beta / 12.0 + 1e-6 < variances[node + 1]
+        )
+        inv_sy = 1.0 / sy
+        lo = (top - 0.5 - y[s]) * inv_sy
+        c_lo, d_lo = _cdf_and_pdf(lo)
+        for i in range(top, bottom + 1):
+            hi = lo + inv_sy
+            c_hi, d_hi = _cdf_and_pdf(hi)
+            share = c_hi - c_lo
+            r = i - first
+            a_row[r] = 0.0
+            if share > 1e-12:
+                # y within the row: a truncated normal, whose mean and variance carry
+                # into x through the correlation
+                inv_share = 1.0 / share
+                shift = (d_lo - d_hi) * inv_share
+                spread = 1.0 + (lo * d_lo - hi * d_hi) * inv_share - shift * shift
+                mx_row[r] = x[s] + beta * sy * shift
+                v_row[r] = vx + beta * beta * vy * max(spread, 0.0)
+                a_row[r] = weights[s] * share
+                if search:
+                    node = _variance_node(v_row[r], node, variances)
+                node_row[r] = node
+            lo, c_lo, d_lo = hi, c_hi, d_hi
+        for i in range(top, bottom + 1):
+            r = i - first
+            if a_row[r] == 0.0:
+                continue
+            if node_row[r] >= 0:
+                _row_by_table(
+                    flat,
+                    i,
+                    width,
+                    mx_row[r],
+                    v_row[r],
+                    node_row[r],
+                    a_row[r],
+                    taps,
+                    size,
+                    row,
+                    variances,
+                    inv_steps,
+                    reach,
+                    centre,
+                    phases,
+                )
+            else:
+                _row_by_cdf(frame[i], mx_row[r], math.sqrt(v_row[r]), a_row[r], rx, width)
+
+
+@njit(parallel=True, error_model="numpy", cache=False, fastmath={"contract"})
+def _splat(spots, swapped, tall, out, taps, variances, reach, centre, phases):  # pragma: no cover
+    """Add the spots (6, N: x, y, cxx, cyy, cxy, weight) into ``out``: those not ``tall``
+    row by row, the ``tall`` ones (``swapped``: the same with x and y swapped) column by
+    column, as rows of the transposed frame, every band of both frames one task of one
+    parallel loop; the transposed frame is added in tiles."""
+    inv_steps = np.zeros_like(variances)
+    inv_steps[:-1] = 1.0 / (variances[1:] - variances[:-1])
+    height, width = out.shape
+    turned = np.zeros((width, height), np.float32)
+    by_rows = _bands_of_spots(spots[1], spots[3], spots[5], height, ~tall)
+    by_columns = _bands_of_spots(swapped[1], swapped[3], swapped[5], width, tall)
+    for task in prange(2 * BANDS):
+        # one call site, so the band's loop is compiled (inlined) once
+        by_column = task >= BANDS
+        band = np.int64(task) - BANDS if by_column else np.int64(task)
+        drawn = swapped if by_column else spots
+        frame = turned if by_column else out
+        bands = by_columns if by_column else by_rows
+        _draw_band(band, drawn, frame, bands, taps, variances, inv_steps, reach, centre, phases)
+    tiles = (height + _TILE - 1) // _TILE
+    for tile in prange(tiles):
+        for i in range(tile * _TILE, min(height, (tile + 1) * _TILE)):
+            for j in range(width):
+                out[i, j] += turned[j, i]
 
 
 def splat_gaussians(
@@ -342,7 +400,8 @@ def splat_gaussians(
     tabulated: bool = True,
 ) -> None:
     """Add Gaussian spots (P, K) at centres ``x, y`` with covariances ``cxx, cyy, cxy``
-    (camera px, px**2) and energies ``weights`` into ``out`` (H, W, float32), in place.
+    (camera px, px**2) and energies ``weights`` into ``out`` (H, W, float32, C-ordered),
+    in place.
 
     ``tabulated=False`` computes every row's x profile as CDF differences (the reference
     the table is held against; several times slower).
@@ -355,12 +414,22 @@ def splat_gaussians(
     >>> round(float(out.sum()), 3)
     1.0
     """
-    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (x, y, cxx, cyy, cxy, weights)]
+    if not (out.dtype == np.float32 and out.flags.c_contiguous):
+        raise ValueError("splat_gaussians: out must be a C-ordered float32 frame")
+    spots = np.stack(
+        [np.asarray(a, dtype=np.float64).ravel() for a in (x, y, cxx, cyy, cxy, weights)]
+    )
     if tabulated:
         table = profile_table()
-        taps, sigmas, reach = table.taps, table.sigmas, table.reach
+        taps, sigmas, reach = table.taps.reshape(-1), table.sigmas, table.reach
         centre, phases = table.centre, table.phases
-    else:
-        taps = np.zeros((1, 2, 8), np.float32)
-        sigmas, reach, centre, phases = np.array([1.0, 1.02]), np.zeros(1, np.int64), 0, 1
-    _splat(*arrays, out, taps, sigmas, reach, centre, phases)
+    else:  # two widths, no profiles: every row takes the CDF path
+        taps = np.zeros(2 * 2 * 8, np.float32)
+        taps.setflags(write=False)  # typed as the table is: one compilation serves both
+        sigmas, reach, centre, phases = np.array([1.0, 1.02]), np.zeros(2, np.int64), 0, 1
+    # a spot taller than it is wide is drawn column by column, as rows of the transposed
+    # frame: a row costs about the same whatever its length, so the shorter axis sets
+    # the work
+    tall = spots[3] > spots[2]
+    swapped = spots[[1, 0, 3, 2, 4, 5]]
+    _splat(spots, swapped, tall, out, taps, sigmas**2, reach, centre, phases)
