@@ -197,11 +197,26 @@ def _row_by_cdf(row, mx, sx, a, rx, width):  # pragma: no cover - compiled
 
 @njit(inline="always", error_model="numpy")
 def _row_by_table(
-    frame, i, width, mx, v, n, a, taps, size, row, variances, inv_steps, reach, centre, phases
+    frame,
+    i,
+    width,
+    mx,
+    v,
+    n,
+    a,
+    taps,
+    per_width,
+    per_profile,
+    variances,
+    inv_steps,
+    reach,
+    centre,
+    phases,
 ):  # pragma: no cover - compiled
     """Add ``a`` times the profile N(mx, v) to row ``i`` of the flat frame, blended from
     three of the table's four neighbouring (variance, phase) profiles, variances n and
-    n + 1 (``taps`` is the table, flat: ``size`` entries a width, ``row`` a profile)."""
+    n + 1 (``taps``: the table, flat, ``per_width`` entries a width and ``per_profile`` a
+    profile)."""
     wv = (v - variances[n]) * inv_steps[n]  # linear in variance
     cx = round(mx)
     f = (mx - cx + 0.5) * phases
@@ -218,9 +233,9 @@ def _row_by_table(
     left = cx - r
     whole = (2 * r + 8) // 8 * 8
     start = centre - r
-    near = (n + k) * size + (m + k) * row + start
-    wider = (n + 1) * size + m * row + start
-    later = n * size + (m + 1) * row + start
+    near = (n + k) * per_width + (m + k) * per_profile + start
+    wider = (n + 1) * per_width + m * per_profile + start
+    later = n * per_width + (m + 1) * per_profile + start
     if left >= 0 and left + whole <= width:
         # whole vectors, every slice of a flat array indexed from 0: numba emits SIMD
         # multiply-adds, and a flat slice is cheaper to take than one of a 3-D table
@@ -286,8 +301,8 @@ def _draw_band(
     first = band * rows_per_band
     last = min(height, first + rows_per_band) - 1
     rows = max(last - first + 1, 0)
-    size = taps.size // variances.size  # the flat table's entries a width
-    row = size // (phases + 1)  # and a profile
+    per_width = taps.size // variances.size  # the flat table's entries a width
+    per_profile = per_width // (phases + 1)  # and a profile
     # each spot's rows in two passes: their shares and conditional moments, then their
     # profiles (the table reads then wait on no chain of CDF look-ups)
     mx_row = np.empty(rows)
@@ -349,8 +364,8 @@ def _draw_band(
                     node_row[r],
                     a_row[r],
                     taps,
-                    size,
-                    row,
+                    per_width,
+                    per_profile,
                     variances,
                     inv_steps,
                     reach,
