@@ -196,27 +196,12 @@ def _row_by_cdf(row, mx, sx, a, rx, width):  # pragma: no cover - compiled
 
 
 @njit(inline="always", error_model="numpy")
-def _row_by_table(
-    frame,
-    i,
-    width,
-    mx,
-    v,
-    n,
-    a,
-    taps,
-    per_width,
-    per_profile,
-    variances,
-    inv_steps,
-    reach,
-    centre,
-    phases,
-):  # pragma: no cover - compiled
+def _row_by_table(frame, i, width, mx, v, n, a, table):  # pragma: no cover - compiled
     """Add ``a`` times the profile N(mx, v) to row ``i`` of the flat frame, blended from
     three of the table's four neighbouring (variance, phase) profiles, variances n and
-    n + 1 (``taps``: the table, flat, ``per_width`` entries a width and ``per_profile`` a
-    profile)."""
+    n + 1. ``table`` is (taps, flat; its entries a width; a profile; the variances; their
+    inverse steps; the reaches; the centre tap; the phases)."""
+    taps, per_width, per_profile, variances, inv_steps, reach, centre, phases = table
     wv = (v - variances[n]) * inv_steps[n]  # linear in variance
     cx = round(mx)
     f = (mx - cx + 0.5) * phases
@@ -303,6 +288,7 @@ def _draw_band(
     rows = max(last - first + 1, 0)
     per_width = taps.size // variances.size  # the flat table's entries a width
     per_profile = per_width // (phases + 1)  # and a profile
+    table = (taps, per_width, per_profile, variances, inv_steps, reach, centre, phases)
     # each spot's rows in two passes: their shares and conditional moments, then their
     # profiles (the table reads then wait on no chain of CDF look-ups)
     mx_row = np.empty(rows)
@@ -355,23 +341,7 @@ def _draw_band(
             if a_row[r] == 0.0:
                 continue
             if node_row[r] >= 0:
-                _row_by_table(
-                    flat,
-                    i,
-                    width,
-                    mx_row[r],
-                    v_row[r],
-                    node_row[r],
-                    a_row[r],
-                    taps,
-                    per_width,
-                    per_profile,
-                    variances,
-                    inv_steps,
-                    reach,
-                    centre,
-                    phases,
-                )
+                _row_by_table(flat, i, width, mx_row[r], v_row[r], node_row[r], a_row[r], table)
             else:
                 _row_by_cdf(frame[i], mx_row[r], math.sqrt(v_row[r]), a_row[r], rx, width)
 
