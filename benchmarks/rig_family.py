@@ -14,8 +14,10 @@ frames and stated 1-sigma (``response``). It ends with the line
 
 Run: ``python benchmarks/rig_family.py --small`` (24 small rigs, 3-6 minutes each on two
 busy cores); ``--only 3 9`` runs some rigs; ``--out family.jsonl`` keeps the results,
-and a second run skips the rigs already in it; ``--table family.jsonl`` prints the table
-(``--update-docs`` also writes it to ``docs/_data/rig_family.json`` for the docs).
+and a second run skips the rigs already in it; each rig's frames are removed once it is
+scored (``--keep-data`` keeps them); ``--table family.jsonl`` prints the table
+(``--update-docs`` also writes it to ``docs/_data/rig_family.json`` for the docs, with
+``--small``, or ``rig_family_full.json``).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import argparse
 import ast
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -197,9 +200,10 @@ DOC_COLUMNS = (
 )
 
 
-def write_docs_table(records: list[dict]) -> Path:
-    """The per-rig table into ``docs/_data/rig_family.json`` (one row per rig, the family's
-    line last), which ``python benchmarks/figures.py`` puts into ``docs/rig_family.md``."""
+def write_docs_table(records: list[dict], small: bool) -> Path:
+    """The per-rig table into ``docs/_data/rig_family.json`` (small rigs) or
+    ``rig_family_full.json`` (one row per rig, the family's line last), which
+    ``python benchmarks/figures.py`` puts into ``docs/rig_family.md``."""
     from figures import update_columns
 
     def f(r: dict, key: str, fmt: str) -> str:
@@ -226,8 +230,9 @@ def write_docs_table(records: list[dict]) -> Path:
         for name in DOC_COLUMNS
     ]
     return update_columns(
-        "rig_family",
-        "The default chain on the family's small rigs, scored against the virtual bench's "
+        "rig_family" if small else "rig_family_full",
+        f"The default chain on the family's {'small' if small else 'full-size'} rigs, "
+        "scored against the virtual bench's "
         "truth (targets 0.1 px, 0.3 nm, dE00 0.5, 45 dB)",
         rows,
         columns,
@@ -240,7 +245,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=45)
     parser.add_argument("--count", type=int, default=24)
-    parser.add_argument("--small", action="store_true", help="small SLMs (the fast subset)")
+    parser.add_argument(
+        "--small",
+        action="store_true",
+        help="small SLMs (the fast subset); with --table, which docs table to write",
+    )
+    parser.add_argument("--keep-data", action="store_true", help="keep each rig's captured frames")
     parser.add_argument("--only", type=int, nargs="+", help="indices of the rigs to run")
     parser.add_argument("--out", help="JSON lines of the results (resumable)")
     parser.add_argument("--table", help="print the table of a results file and stop")
@@ -258,7 +268,7 @@ def main() -> int:
         records = [json.loads(x) for x in Path(args.table).read_text().splitlines() if x]
         print_table(records)
         if args.update_docs:
-            path = write_docs_table(records)
+            path = write_docs_table(records, small=args.small)
             print(f"wrote {path}; `python benchmarks/figures.py` rewrites docs/rig_family.md")
         return 0
     from sassi_bench.rig.sim.family import family_rigs
@@ -292,6 +302,8 @@ def main() -> int:
                       "error": run.stderr[-300:], "within_targets": False}
             )  # fmt: skip
             records.append(record)
+            if not args.keep_data:  # a full-size rig's frames fill gigabytes
+                shutil.rmtree(data, ignore_errors=True)
             if out is not None:
                 with out.open("a") as f:
                     f.write(json.dumps(record, default=str) + "\n")
