@@ -269,3 +269,47 @@ def line_uncertainty_notes(fit: DispersionFit) -> list[str]:
         "To pin them: wavelength lamps on the diffuser, a spectrometer's reading of each "
         "line, or a laser nearer the band's open end"
     ]
+
+
+def off_label_notes(
+    checks: list[QualityCheck], anchoring: LampAnchoring | None, glass: str
+) -> list[str]:
+    """A note when the lamps measure lasers off their stated lines by more than the rig
+    allows (failed ``laser_label_<nm>`` checks), naming both causes a person can check.
+
+    The map follows the described glass's dispersion, and the fit moves the lasers to
+    absorb a glass that is not the bench's: the lines furthest from the band's middle
+    move most, one way at each end. With lasers stated to their test sheets' accuracy
+    this is how a wrong glass shows; with diode labels (a few nm) it cannot
+    (docs/notes/2026-11-30-wrong-glass-spread.md).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> fit = SimpleNamespace(labels_nm=[450.0, 670.0], wavelengths_nm=[450.0, 674.2])
+    >>> failed = [QualityCheck.at_most("laser_label_670nm", 4.2, 0.49, "nm")]
+    >>> anchoring = SimpleNamespace(measured=fit)
+    >>> print(off_label_notes(failed, anchoring, "N-SF11")[0])  # doctest: +ELLIPSIS
+    laser 670 nm: the lamps measure it +4.20 nm from its stated line, ... (N-SF11)...
+    """
+    failed = {c.name for c in checks if not c.passed and c.name.startswith("laser_label_")}
+    if not failed or anchoring is None:
+        return []
+    fit = anchoring.measured or anchoring.fit
+    off = [
+        (float(label), float(measured) - float(label))
+        for label, measured in zip(fit.labels_nm, fit.wavelengths_nm, strict=True)
+        if f"laser_label_{float(label):g}nm" in failed
+    ]
+    lines = ", ".join(f"{label:g}" for label, _ in off)
+    shifts = ", ".join(f"{shift:+.2f}" for _, shift in off)
+    which, whose = ("it", "its") if len(off) == 1 else ("them", "their")
+    return [
+        f"laser {lines} nm: the lamps measure {which} {shifts} nm from {whose} stated line, "
+        "more than the rig's laser_tolerance_nm allows. Either a line is not "
+        "where the rig states it, or the map's curve across the band does not follow the "
+        f"bench: the prism's glass may not be the one described ({glass}), and the fit "
+        "moves the lasers to absorb it (those furthest from the band's middle most). Fix: "
+        "check prism.glass against the prism's datasheet or melt sheet and each laser's "
+        "line against its test sheet (or a spectrometer), then calibrate again"
+    ]

@@ -40,6 +40,7 @@ from sassi_bench.reduce.bundle_checks import (
     bundle_check_notes,
     line_uncertainty_notes,
     measured_bundle_checks,
+    off_label_notes,
 )
 from sassi_bench.reduce.design_comparison import DesignComparison, comparison_of_models
 from sassi_bench.reduce.lamp_budget import LampFrameRecord
@@ -564,6 +565,7 @@ def spectral_notes(result: SpectralCalibration) -> list[str]:
     return (
         laser_line_notes(result)
         + bundle_check_notes(result.checks, result.dispersion, result.anchoring, glass)
+        + off_label_notes(result.checks, result.anchoring, glass)
         + line_uncertainty_notes(result.dispersion)
         + blur_notes(result.blur)
         + blur_band_notes(result.blur, result.dispersion.bins.edges_nm)
