@@ -142,7 +142,7 @@ class _Operators:
         n = model.n_bins
         out: dict[str, list] = {"project": [], "eigenvalues": [], "expand": [], "gains": []}
         # One BLAS thread: the matrices are small, and BLAS's spinning threads contend with
-        # any other load (see ``ScanAssembly``'s own limit in ``spectra/scan.py``).
+        # any other load (``docs/notes/2026-12-01-measured-in-code-comments.md``).
         with threadpool_limits(limits=1, user_api="blas"):
             for spill, rows in zip(model.spill, penalty, strict=True):  # a few dozen points
                 gram = spill.T @ spill
