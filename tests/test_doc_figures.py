@@ -2,14 +2,18 @@
 
 Every marked table in the README and the user pages equals what ``benchmarks/figures.py``
 renders from ``docs/_data/``, every data file says when, where and how it was measured,
-and no dB or dE00 figure is quoted in those files that no data file holds.
+and no dB or dE00 figure is quoted in those files that no data file holds. Package
+docstrings and comments quote no measured figure at all: no dB or dE00, no timing of a run
+and no before -> after (those belong to ``docs/notes/`` and the benchmarks).
 """
 
 from __future__ import annotations
 
 import importlib.util
+import io
 import json
 import re
+import tokenize
 from pathlib import Path
 
 import pytest
@@ -158,3 +162,84 @@ def test_no_package_module_quotes_an_accuracy_figure():
     }
     assert quoting == {}
     assert quoted_figures("spectra at 42.1 dB, mean dE00 0.06") == ["42.1", "0.06"]
+
+
+_SPAN = r"\d+(?:\.\d+)?(?:\s*-\s*\d+(?:\.\d+)?)?"  # 12, 0.4, 50-110
+#: A sub-second timing ("took 95 ms", "2.3 ns each"); the word before it, to tell a setting.
+_SUBSECOND = re.compile(rf"(?:([^\s(]+)\s+)?(?<![\w.])({_SPAN}\s*(?:ns|µs|us|ms))\b")
+#: Words after which a sub-second figure is a setting or a bound, not a measurement
+#: ("a 10 ms pulse", "a timeout of at most 20 ms", "the paper's < 2 ms step").
+_SETTING = {"a", "an", "every", "each", "wait", "waits", "timeout", "period", "interval",
+            "pulse", "exposure", "default", "most", "least", "within", "under", "below",
+            "<", ">", "<=", ">=", "="}  # fmt: skip
+#: Seconds of a run: after a verb or comparison of one, or before what the time was of.
+_SECONDS = re.compile(
+    rf"\b(?:took|takes|take|costs?|about|against|instead\s+of|in|->|→)\s+{_SPAN}\s*s\b"
+    rf"|(?<![\w.]){_SPAN}\s*s\s+(?:of\s+(?:CPU|wall)|a\s+frame|per\s+frame|with\s+(?:one|two)\b"
+    r"|on\s+a\b|instead\b|against\b)"
+)
+#: A before -> after between numbers ("2.9 -> 1.4 ms", "25 s -> 6"), or a measured speed-up.
+_CHANGE = re.compile(
+    r"(?<![\w.])\d+(?:\.\d+)?\s*(?:[a-zA-Zµ%]{1,3}\s*)?(?:->|→)\s*\d"
+    r"|(?<![\w.])\d+(?:\.\d+)?\s*x\s+(?:faster|slower|less|more)\b"
+)
+
+
+def prose(source: str) -> str:
+    """The comments and the triple-quoted strings (docstrings) of Python ``source``."""
+    parts = []
+    for token in tokenize.generate_tokens(io.StringIO(source).readline):
+        if token.type == tokenize.COMMENT or (
+            token.type == tokenize.STRING and re.match(r"[rRbBuU]*(\'\'\'|\"\"\")", token.string)
+        ):
+            parts.append(token.string)
+    return "\n".join(parts)
+
+
+def quoted_timings(text: str) -> list[str]:
+    """The measured timings and before -> after figures of ``text``."""
+    found = [m[2] for m in _SUBSECOND.finditer(text) if (m[1] or "").lower() not in _SETTING]
+    found += [m[0] for m in _SECONDS.finditer(text)]
+    found += [m[0] for m in _CHANGE.finditer(text)]
+    return [" ".join(f.split()) for f in found]
+
+
+def test_no_package_module_quotes_a_timing_or_a_before_and_after():
+    # A constant's or a design's justification is one sentence and a pointer to the note
+    # or the benchmark that measured it (docs/notes/2026-12-01-measured-in-code-comments.md).
+    quoting = {
+        str(path.relative_to(ROOT)): found
+        for path in sorted((ROOT / "sassi_bench").rglob("*.py"))
+        if (found := quoted_timings(prose(path.read_text(encoding="utf-8"))))
+    }
+    assert quoting == {}
+
+
+def test_the_timing_check_fails_on_a_planted_figure_and_passes_settings(tmp_path):
+    module = tmp_path / "planted.py"
+    module.write_text(
+        '''"""A module.
+
+        As numpy the pass took 95 ms of CPU; compiled it takes 9 ms (2.9 -> 1.4 ms, same masks),
+        5x faster, and the operators took 0.65 s with two threads, 0.15 s with one.
+
+        Parameters
+        ----------
+        pulse_wait_s
+            How long the trigger counts pulses (a real SLM pulses with its refresh: 0.5 s
+            counts about 30); a 10 ms pulse, a timeout of at most 20 ms, the paper's < 2 ms
+            step. Exposure (s) per line, 1 + 2 s per row, float32 (8 MB), a 60 Hz SLM.
+        """
+
+
+        def f(exposure_s: float = 0.5) -> float:  # 12 ms on a prototype frame
+            return exposure_s * 1000.0  # in ms: a unit, not a figure
+        '''
+    )
+    found = quoted_timings(prose(module.read_text()))
+    assert found == ["95 ms", "9 ms", "1.4 ms", "12 ms", "took 0.65 s", "0.15 s with one",
+                     "2.9 -> 1", "5x faster"]  # fmt: skip
+    # The code itself (a default, a type hint's arrow) is not prose; a unit alone is no figure.
+    assert "-> float" not in prose(module.read_text())
+    assert "* 1000.0" not in prose(module.read_text())
+    assert not quoted_timings("exposure = 0.5  # s")

@@ -2,8 +2,8 @@
 
 A stage of the chain frees gigabytes of arrays when it ends (a prototype scan's cube and
 column sums, the decoders' frames), but the C allocator keeps much of what worker threads
-freed in their own arenas, so the process's resident memory stays high into the next stage:
-about 0.4 GB more before each of the prototype chain's later stages. On glibc,
+freed in their own arenas, so the process's resident memory stays high into the next stage
+(measured: ``docs/notes/2026-12-01-measured-in-code-comments.md``). On glibc,
 ``malloc_trim`` returns that free memory; elsewhere this does nothing.
 """
 

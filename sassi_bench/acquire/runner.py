@@ -123,9 +123,9 @@ class _FrameWriter:
             raise error
 
 
-#: The least share of its raw bytes a stored frame takes (Blosc zstd after a byte shuffle,
-#: measured per session: 0.55-0.69 of `sim`'s spectral frames, 0.37 of its 12-bit guide
-#: frames, 0.48 of the prototype's spectral frames). A run whose frames would not fit on
+#: The least share of its raw bytes a stored frame takes (Blosc zstd after a byte shuffle;
+#: a margin under every share measured on the virtual rigs' frames:
+#: ``docs/notes/2026-12-01-measured-in-code-comments.md``). A run whose frames would not fit on
 #: the disk even at this share is refused before it starts; one that fits at it and still
 #: fills the disk stops at the frame that did not fit.
 LEAST_STORED_SHARE = 0.25

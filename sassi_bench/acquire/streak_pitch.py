@@ -41,9 +41,8 @@ __all__ = [
 #: The streak's footprint in a scan's reading pass: camera px beyond each end of the band,
 #: and blur sigmas at each end. The reading pass marks this reach
 #: (:data:`~sassi_bench.spectra.scan.FOOTPRINT_REACH` is these two), so the pitch checked
-#: here is the pitch the scan's background needs: with 3 sigmas and 3 px the check passed
-#: pitches whose footprints, as the scan marks them, overlapped (``sim``: 86 SLM px here
-#: against 97 for the scan's own footprint).
+#: here is the pitch the scan's background needs, not a narrower one whose footprints, as
+#: the scan marks them, overlap (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 FOOTPRINT_MARGIN_PX = 6.0
 FOOTPRINT_SIGMAS = 4.0
 

@@ -1,10 +1,10 @@
 """Compiled loop of the field fits (numba): a 2-D Legendre polynomial at many points.
 
 Why compiled: a laser map is evaluated at every decoded pixel (two million at the
-prototype's scale) to grade its fit. Through the design matrix that is a 340 MB array;
-through the two Legendre Vandermonde rows and a matrix product it still took 280 ms of
-CPU (numpy's product of an (N, 6) by a (6, 6) matrix is slow for tall, thin operands);
-point by point, with the three-term recurrence, it takes about 30 ms.
+prototype's scale) to grade its fit. Through the design matrix that is a 340 MB array,
+and numpy's product of an (N, 6) by a (6, 6) matrix is slow for tall, thin operands;
+point by point, with the three-term recurrence, it takes a fraction of the CPU
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 """
 
 from __future__ import annotations

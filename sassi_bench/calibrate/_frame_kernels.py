@@ -5,8 +5,8 @@ Why compiled: a prototype frame is 4.2 million pixels. The Gray and phase decode
 a handful of whole-frame numpy passes per frame (dark subtraction, contrast, running
 minima, the saturation test), each a temporary of 16 MB, and then held an axis's frames
 as float32 stacks; fused, each frame is read once, pixel by pixel, with no temporary
-(as numpy the Gray pair of one bit took 95 ms of CPU on a prototype frame; compiled it
-takes 9 ms). The outlier screen needs, per valid pixel, whether the median of its 5 x 5
+(a tenth of the CPU: ``docs/notes/2026-12-01-measured-in-code-comments.md``). The outlier
+screen needs, per valid pixel, whether the median of its 5 x 5
 window lies within ``max_jump`` of it: where more than half the window lies within
 half that distance, the median does too and no sort is needed (nearly every pixel of a
 smooth map); only the others are sorted (:func:`window_outliers`).

@@ -204,8 +204,9 @@ class _Spectral:
 
 
 #: The PSF sigma is a cubic in ``t = (λ − 550) / 150``, fitted with the lines (started at
-#: the measured blur): a measured blur extrapolated to 400 or 700 nm can be a quarter of a
-#: pixel off, and spots of the wrong width pull blended lines apart or together.
+#: the measured blur): a measured blur extrapolated to the band's ends can be well off
+#: (``docs/notes/2026-12-01-measured-in-code-comments.md``), and spots of the wrong width
+#: pull blended lines apart or together.
 _BLUR_TERMS = 4
 #: How far (px) the fitted PSF's terms may stray from the measured blur's (a weak prior).
 _BLUR_PRIOR = 1.0
@@ -434,8 +435,7 @@ class _Problem:
         residual]`` over its samples, from which the locals are eliminated pinhole by
         pinhole (a 2 x 2 Schur complement) before the field basis is put back in: an
         evaluation costs ``samples x (N + blur + lines + 3)²`` rather than
-        ``samples x (N x terms + blur + lines)²`` (at the prototype's 860 pinholes and
-        56 neon lines, 0.4 GFLOP against 1.3 and a Jacobian of 84 MB never formed).
+        ``samples x (N x terms + blur + lines)²``, and the Jacobian is never formed.
         """
         g = state.globals_
         coeffs = self.coeffs(g)
@@ -594,9 +594,8 @@ def _solve(problem: _Problem, state: _State, max_iterations: int) -> tuple[_Stat
     The damping starts small and goes to nothing while steps succeed: the amplitudes'
     sum prior (1e12 on their diagonal) makes any Marquardt damping of a few 1e-5 a brake
     on the weak lines, under which steps shrink until they pass for settled short of the
-    minimum (the prototype's lamps stopped 0.005 nm and 0.1 in cost away from it after 31
-    steps; undamped Gauss-Newton reaches it in 9). A step that raises the cost is retried
-    with ten times the damping."""
+    minimum (``docs/notes/2026-12-01-measured-in-code-comments.md``). A step that raises
+    the cost is retried with ten times the damping."""
     damping = 1e-9
     iterations = 0
     for iterations in range(1, max_iterations + 1):  # noqa: B007 - reported

@@ -14,9 +14,8 @@ session: :func:`sweep_reference` takes what every axis of a sweep shares (the da
 blank and full frames) and an :class:`AxisDecoder` takes an axis's Gray pairs and phase
 frames in any order, folding each Gray pair into the decode at once and keeping the
 phase frames raw (their frame gains need all of them) until :meth:`AxisDecoder.finish`.
-At the prototype's scale (4.2 million pixels, 8 Gray bits and 8 phase frames an axis)
-an axis holds about 200 MB while it is decoded, where the stacks of float32 frames and
-their float64 copies held over 1 GB.
+An axis so holds one Gray frame, its phase frames and the decode while it is decoded,
+never the stacks of its frames as floats.
 
 Coordinates follow the workbench convention: pixel centres at integers, arrays indexed
 ``[row, col]``; SLM pixel ``p`` spans ``p - 0.5 .. p + 0.5``.

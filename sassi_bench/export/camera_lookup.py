@@ -8,9 +8,9 @@ differences of the bundle's map) on a coarse grid of camera nodes, starting from
 inverse of an affine fit per band; :meth:`CameraLookup.band` interpolates the nodes
 bilinearly to every camera pixel. The inverse is smooth (relay distortion and field-
 dependent dispersion bend it by a few pixels over the whole field), so interpolation
-error falls with the square of the node step: on the calibrated ``sim`` bundle 0.0016
-SLM px at the default 8 px (0.0004 at 4 px, 0.006 at 16 px), against 0.02-0.04 px of
-calibration error. The full-resolution tables are produced one band at a time, so they
+error falls with the square of the node step, and at the default 8 px it is far under the
+calibration's own error (``docs/notes/2026-12-01-measured-in-code-comments.md``). The
+full-resolution tables are produced one band at a time, so they
 never all exist in memory at once.
 
 Where several SLM pixels fall into one camera pixel (relay magnification below 1), the

@@ -33,8 +33,8 @@ from numba import njit
 __all__ = ["band_lu", "band_lu_solve", "band_solve", "skyline_cholesky", "skyline_solve"]
 
 _JIT = {"cache": False, "nogil": True, "error_model": "numpy"}
-#: The skyline's inner products may be reassociated (vectorised, 2x faster on a dense
-#: mask's columns): their last bits then follow the machine's vector width.
+#: The skyline's inner products may be reassociated (so they are vectorised): their last
+#: bits then follow the machine's vector width.
 _SUMS = dict(_JIT, fastmath={"reassoc", "contract"})
 #: An unsigned index: numba skips the negative-index wraparound on it.
 _U = np.uint64
@@ -127,8 +127,7 @@ def skyline_cholesky(envelope, start, values, first, stop):  # pragma: no cover 
     right-hand side.
 
     Inner loops index with unsigned offsets (:data:`_U`): numba checks a signed index for
-    a negative value at every access, which stops the loops from being vectorised (2x
-    slower on a dense mask's columns).
+    a negative value at every access, which stops the loops from being vectorised.
     """
     for i in range(first, stop):
         ei = envelope[i]

@@ -5,9 +5,9 @@ A spot blurred by a Gaussian and integrated over camera pixels is a sum of norma
 blurred and integrated over a box of columns: :func:`box_overlap`) and, for one SLM
 pixel's image integrated by a camera pixel, of the same ramps at four offsets
 (:func:`pixel_spot`). The compiled loops evaluate the CDF from a table of cubic pieces
-(:data:`NORMAL_CDF_TABLE`, :func:`tabulated_cdf`): the row unmixing evaluates 1.6
-million of them per prototype frame, at 2.3 ns each against 19 ns for ``math.erfc``
-(and 4.8 ns for the same cubic in the Hermite basis). Any location-scale profile with a
+(:data:`NORMAL_CDF_TABLE`, :func:`tabulated_cdf`): the row unmixing evaluates millions
+of them per prototype frame, and a table lookup costs a fraction of ``math.erfc``
+(``docs/notes/2026-12-01-measured-in-code-comments.md``). Any location-scale profile with a
 CDF and a density can be tabulated the same way (:func:`cdf_table`).
 """
 

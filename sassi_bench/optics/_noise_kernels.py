@@ -27,25 +27,23 @@ one pass, in row-major order, from the band's own random stream.
     Loader 2000), not with PD's published 7-digit polynomial and 2-term Stirling
     series, so the acceptance is exact to double precision.
 
-  Why PD rather than tables for large means (as this module first did: tabulated counts
-  of multiples of 256 plus a fine table of the remainder, and numpy's PTRS above 32768):
-  a calibration frame's means vary from pixel to pixel, so the remainder picked a table
-  at random in 7 MB of tables, and two cache misses a pixel made a draw cost 50-110 ns
-  (35-60 ns with PTRS); PD costs about 15 ns whatever the means, 21-23 ns a pixel with
-  the read noise and the ADC (single thread, 2048 x 2048 frames of means uniform in
-  256-3000 or 3000-30000 e-), and the whole frame of a sparse LED calibration frame
-  2-3x less CPU (``benchmarks/bench_render.py``).
+  Why PD rather than tables for large means (tabulated counts of multiples of 256 plus
+  a fine table of the remainder): a calibration frame's means vary from pixel to pixel,
+  so the remainder would pick a table at random among megabytes of them, and the cache
+  misses cost more than PD's few operations, whatever the means
+  (``benchmarks/bench_render.py``; the figures:
+  ``docs/notes/2026-12-01-measured-in-code-comments.md``).
 * **Normal**: the 256-layer ziggurat of Marsaglia & Tsang (2000) with numpy's layer
   constants and numpy's use of the 64 bits.
 
 The tables are module constants, frozen into the compiled code: passed as arguments to
-the inlined draw functions they cost an array reference count per call (about 18 ns a
-pixel, more than the draw itself).
+the inlined draw functions they cost an array reference count per call, more than the
+draw itself.
 
 Why not numpy: numpy's ``Generator.poisson`` evaluates ``loggam`` and broadcasts per
-pixel: about 190 ms of CPU for a 2048 x 2048 frame of means of 46 e- (this loop: 50 ms),
-and with its ``standard_normal`` and the digitisation in temporaries about 160 ms for an
-auto-exposed calibration frame.
+pixel, and its ``standard_normal`` and the digitisation go through whole-frame
+temporaries: several times this loop's CPU
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 No on-disk cache: numba's cache pickles into the package folder (see
 :mod:`sassi_bench.spectra._kernels`); the first frame of a process compiles (a few s).

@@ -3,9 +3,10 @@
 :meth:`~sassi_bench.optics.relay.SpectralRelay.forward` traces a ray in about 80 flops
 (the SLM pixel's collimated direction, two refractions by Snell's law, the camera lens
 and its distortion). As numpy the trace of the sparse renderer's (open pixel, wavelength
-sample) pairs took about 60 ms of CPU for 4320 pixels x 166 samples (84 ns a ray: a
-dozen temporaries of the broadcast shape, 3 x 3 matrix products on rows of 3); compiled,
-the pixel's direction is made once for all its wavelengths and a ray costs about 10 ns.
+sample) pairs needs a dozen temporaries of the broadcast shape and 3 x 3 matrix products
+on rows of 3; compiled, the pixel's direction is made once for all its wavelengths and a
+ray costs a few of its operations
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 The same arithmetic, in the same order, is one inlined function (:func:`_trace_ray`)
 whichever loop calls it, so the outer-product and the element-wise traces agree bit
 for bit.

@@ -19,14 +19,15 @@
   glass hides at low dispersion: the lasers, free within their diodes' tolerance, and
   the dense lines elsewhere bend the map to the described glass's curve, and the line
   left over at the band's end sits a few hundredths of its FWHM off, yet many of its
-  own sigmas (on the noisy N-BK7 bench described with F2, HgAr 404.7 nm: -0.14 nm at
-  +-0.012 nm, 11 sigma; with N-BK7 every line is within 0.3 sigma). So the largest
+  own sigmas, where the right glass leaves every line within one
+  (``docs/notes/2026-12-01-measured-in-code-comments.md``). So the largest
   ``|residual| / sigma`` is checked (``tolerances.lamp_line_max_sigmas``), and a failure
   names the glass first: it is the one stated value that bends the map's curve.
   A line's 1-sigma includes how far the column model's form misses the described arm
   (:func:`~sassi_bench.reduce.lamps.described_form_misfit_nm`, in quadrature): where
-  the form cannot follow the optics (the achromat arm: 0.085 nm RMS), a line sits off
-  the map by that much whatever the glass, and the check would fail a right bundle.
+  the form cannot follow the optics (the achromat arm:
+  ``docs/notes/2026-11-29-achromat-wavelength-map.md``), a line sits off the map by that
+  much whatever the glass, and the check would fail a right bundle.
 """
 
 from __future__ import annotations

@@ -53,7 +53,8 @@ POSITION_SCALE_PX = 0.05
 #: What a calibration measures spot widths to (camera px): a width difference's weight.
 WIDTH_SCALE_PX = 0.1
 #: A bench matches its design when the positions differ by at most this RMS (camera px) ...
-#: (sim-achromat calibrated as built to its design: 0.05 px, its widths 0.03 px)
+#: (a margin over what a bench built to its design gives:
+#: ``docs/notes/2026-12-01-measured-in-code-comments.md``)
 MATCH_POSITION_RMS_PX = 0.2
 #: ... and the spot widths by at most this RMS (camera px).
 MATCH_WIDTH_RMS_PX = 0.1
@@ -64,7 +65,7 @@ EXPLAINED_TO_NAME = 0.7
 ABOUT_AS_WELL = 0.02
 #: Field nodes (columns, rows) and wavelengths the design is compared at (the latter
 #: spread over the band the calibration measured the spot at: its blur is extrapolated
-#: outside its lasers, by 0.3 px at 400 nm on sim-achromat).
+#: outside its lasers, and off there: ``docs/notes/2026-12-01-measured-in-code-comments.md``).
 COMPARISON_NODES = (7, 5)
 COMPARISON_WAVELENGTHS = 5
 

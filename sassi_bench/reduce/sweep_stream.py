@@ -7,10 +7,10 @@ laser only what the decoding needs: the dark, blank and full frames' means, one 
 frame waiting for its inverse, the phase frames of the axis being decoded (raw), the
 decoded axis before it, and the pinhole frames' sum. Each axis is decoded
 (:class:`~sassi_bench.calibrate.structured_light.AxisDecoder`) as soon as its last frame
-is in, and a laser's correspondences as soon as both axes are, so at the prototype's
-scale the stream holds about 300 MB, where the stacks of an axis's frames as floats
-held over a gigabyte. The result is the same whether the frames came from the capture
-or from the session afterwards: the same code sees the same frames in the same order.
+is in, and a laser's correspondences as soon as both axes are, so the stream never holds
+the stacks of an axis's frames as floats. The result is the same whether the frames came
+from the capture or from the session afterwards: the same code sees the same frames in the
+same order.
 """
 
 from __future__ import annotations

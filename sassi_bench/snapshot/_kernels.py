@@ -12,11 +12,12 @@ of a mask being built:
   it spans, not pixel by pixel;
 * ``mask`` ``(H, W)`` bool.
 
-Sample placement (:func:`place_samples`, the paper's < 2 ms step) finds each label's row
-runs in one pass (:func:`label_runs`) and searches a superpixel's own runs, reading its
-pixels from a one-bit-per-pixel copy of ``blocked`` 64 at a time (:func:`blocked_bits`);
-fills skip eight blocked bytes at a time (:func:`skip_bytes`). At 698 x 931 with the
-prototype's spacing this halves the placement's CPU time (2.9 -> 1.4 ms, same masks).
+Sample placement (:func:`place_samples`, one of the paper's per-frame steps) finds each
+label's row runs in one pass (:func:`label_runs`) and searches a superpixel's own runs,
+reading its pixels from a one-bit-per-pixel copy of ``blocked`` 64 at a time
+(:func:`blocked_bits`); fills skip eight blocked bytes at a time (:func:`skip_bytes`). This
+takes less CPU than a pixel-by-pixel search, with the same masks
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 No on-disk cache: numba's cache pickles into the package folder (see
 :mod:`sassi_bench.spectra._kernels`).
@@ -142,8 +143,8 @@ def run_starts(flat, w):  # pragma: no cover
 
     The comparison of neighbours compiles to vector instructions; the flags are then read
     eight at a time and the set ones of a word found by bit arithmetic (the lowest set
-    byte of ``x`` is ``(x & -x) * 0x0001020304050607 >> 56``), without a branch per pixel:
-    2x faster than a byte loop or ``np.flatnonzero`` at 698 x 931.
+    byte of ``x`` is ``(x & -x) * 0x0001020304050607 >> 56``), without a branch per pixel,
+    which a byte loop or ``np.flatnonzero`` takes.
     """
     n = flat.size
     flags = np.empty(n, np.uint8)
@@ -462,8 +463,8 @@ def assign_to_samples(
 
     Each window row is done as whole vectors (float32): the squared distances of its
     pixels, channel by channel, then one compare-and-select pass, with no branch per
-    pixel. 5x faster than testing the spatial distance of every pixel first (2.4 against
-    13 ms at 698 x 931 with 657 samples), with the same labels there."""
+    pixel: cheaper than testing the spatial distance of every pixel first, with the same
+    labels (``docs/notes/2026-12-01-measured-in-code-comments.md``)."""
     nc, h, w = planes.shape
     centre = np.zeros(nc, np.float32)
     dc = np.empty(2 * radius + 1, np.float32)

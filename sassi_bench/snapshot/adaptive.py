@@ -11,9 +11,8 @@
    measured with them. By default the pixels the samples represent worst (the 5 % whose
    features differ most from those of the best sample within one region side) are tried
    first, worst first, then the rest row by row: thin structures that no superpixel
-   isolates (PCB tracks) get pixels. On 13 tracks 2 px wide across a 400 x 640 SLM
-   (spacing 41 columns by 20 rows), 60 superpixels: this order put pixels on 12 tracks,
-   row order on 3, a random mask of the same size on 8 (a uniform one on 1).
+   isolates (PCB tracks) get pixels, more of them than row order or a random mask of the
+   same size reach (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 Steps 1, 2 and 4 are one compiled pass (:mod:`sassi_bench.snapshot._kernels`); step 3 is
 :func:`segment_around_samples`, public because video mode re-segments frame ``t``'s guide
@@ -55,8 +54,8 @@ __all__ = [
 REACH_SIDES = 2
 #: The reach of the regions the residual-first fill (step 4) judges coverage by: SLIC's
 #: ``S``. A pixel is badly represented when no sample of its colour is near; with 2S one
-#: track's samples stand for the next track's pixels, and on the 13 PCB tracks of step 4
-#: the fill put pixels on 10 instead of 12.
+#: track's samples stand for the next track's pixels, and the fill reaches fewer tracks
+#: (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 FILL_REACH_SIDES = 1
 #: Gaussian sigma (SLM px) of the smoothing the guide image gets before a plan is drawn
 #: from it and before a snapshot's regions are drawn around the plan's samples: enough to

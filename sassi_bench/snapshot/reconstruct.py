@@ -183,14 +183,14 @@ def measure_samples(
     exposure_s
         The frame's exposure (``frame.meta.exposure_s``); spectra are per second.
     deblur
-        The within-streak unmixing; built from the bundle when None (about 0.1 s: pass one
-        to reconstruct many frames).
+        The within-streak unmixing; built from the bundle when None (pass one to
+        reconstruct many frames, and it is built once).
     full_scale
         The camera's full-scale reading (the deblur's reference signal level).
     background_block
         Camera (rows, columns) of the blocks whose medians outside the footprints give the
-        background (:func:`~sassi_bench.spectra.offset.estimate_background`; about 20 ms
-        on a 2048 x 2048 frame). Larger blocks follow the closed pixels' leakage, which
+        background (:func:`~sassi_bench.spectra.offset.estimate_background`). Larger
+        blocks follow the closed pixels' leakage, which
         carries the scene's vertical structure, less closely.
     background_passes
         Refinements of the background from the residual of the unmixed streaks
@@ -366,7 +366,7 @@ def guide_intensity(guide_slm: ArrayLike) -> NDArray[np.float32]:
     array = np.asarray(guide_slm, dtype=np.float32)
     if array.ndim != 3:
         return array
-    # Channel by channel: numpy's reduction over a short last axis is 4x slower, and the
+    # Channel by channel: numpy's reduction over a short last axis is slower, and the
     # sum is the same (left to right, float32).
     total = array[..., 0].copy()
     for channel in range(1, array.shape[2]):

@@ -18,9 +18,9 @@ regions' centres). :meth:`VideoPipeline.process` then, for frame ``t``:
   the second thread).
 
 The two threads run compiled code that releases the GIL (numba, OpenCV), so two cores work
-at once; the streak model moves to the first thread so that the two take about as long (at
-698 x 931 and a 5-row pitch, 38 and 28 ms of CPU on a quiet machine). Each step's seconds
-are kept, for the benchmark and the live mode's progress line.
+at once; the streak model moves to the first thread so that the two take about as long
+(``benchmarks/bench_snapshot.py``). Each step's seconds are kept, for the benchmark and
+the live mode's progress line.
 """
 
 from __future__ import annotations

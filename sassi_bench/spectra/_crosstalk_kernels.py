@@ -22,9 +22,8 @@ the residual on the blocks the streaks reach (:func:`residual_block_medians`). E
 touches the camera pixels of the streak windows a fixed number of times: the cost follows
 the open pixels' streaks, not the frame.
 
-The scipy version this replaces (a sparse design matrix, its normal equations and their
-SuperLU factors) took 0.07-0.15 s a frame at 698 x 931 for factorising alone, and its
-design 0.02-0.05 s: here the whole model takes 10-16 ms.
+A sparse design matrix, its normal equations and their SuperLU factors would cost many
+times more, for factorising alone (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 """
 
 from __future__ import annotations
@@ -184,8 +183,7 @@ def factor_columns(
     is pinned: a one on its diagonal and nothing else. Returns the factor's values.
 
     Inner loops index with unsigned offsets (:func:`_U`): numba checks a signed index for
-    a negative value at every access, which stops the loops from being vectorised (2x
-    slower here)."""
+    a negative value at every access, which stops the loops from being vectorised."""
     width = col_start.size - 1
     total = 0
     for c in range(width):
@@ -228,8 +226,8 @@ def factor_columns(
     return factor
 
 
-#: Camera columns read together (measured: 16 copies a 721-row frame 3x faster than 32,
-#: whose column-major writes collide in the cache).
+#: Camera columns read together: more columns' column-major writes collide in the cache
+#: (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 STRIP = 16
 
 

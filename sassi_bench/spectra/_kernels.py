@@ -7,9 +7,8 @@ the cost is whole-array passes and temporaries over (pixels x bins x neighbours)
 and Python calls per row of the banded systems; per camera pixel, the reading pass needs
 a cumulative sum, a footprint test, two accumulators and a saturation count, which numpy
 does in as many passes over the frame. Fused loops do each once and release the GIL, so
-the scan's frame threads run in parallel. At the sim-prototype scale (4320 open pixels x
-80 bins per frame, one thread) the cell bounds, sums and row unmixing of a frame took 157
-ms as numpy and take 15 ms compiled; the streak geometry took 13 ms and takes 2 ms.
+the scan's frame threads run in parallel, for a fraction of numpy's CPU
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 Compiled on first use in a process (a few seconds). numba's on-disk cache is not used:
 it pickles into the package folder, and nothing this project persists is pickled. Every
@@ -344,9 +343,9 @@ def unmix_rows(sums, y, lo, hi, sigma, index, reach, table, out):  # pragma: no 
     edge is evaluated once for both. Diagonally dominant systems (the usual case: a pixel
     keeps more of its light in its cell than its neighbours put there) are eliminated
     without pivoting, which is stable for them, all bins at once: solving one system at a
-    time is bound by the latency of each row's division and update (1500 systems of 216
-    rows, bandwidth 1, took 18 ms one by one; interleaved, all of a frame take 3 ms). Any
-    other system is solved alone with partial pivoting.
+    time is bound by the latency of each row's division and update, which interleaving
+    hides (``docs/notes/2026-12-01-measured-in-code-comments.md``). Any other system is
+    solved alone with partial pivoting.
     """
     groups, stack = index.shape
     bins = sums.shape[1]
@@ -504,8 +503,7 @@ def cell_sums_variance(
 ):  # pragma: no cover - compiled
     """A frame's cells in one pass: their sums as float32 (:func:`cell_sums`, the same
     loop, rounded) and the noise model's variance of those float32 sums
-    (:func:`cell_variance`): the scan's reading pass, which took them in two passes and
-    the variance in numpy."""
+    (:func:`cell_variance`): the scan's reading pass, in one pass over the frame."""
     height = cumulative.shape[0] - 1
     width = cumulative.shape[1]
     pixels, bins = lo.shape

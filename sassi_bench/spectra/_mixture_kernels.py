@@ -6,7 +6,7 @@ cell within reach is a sum over the source bins whose light reaches the bin's co
 (moments of the pixel's first-pass spectrum under the spill, then Gaussian integrals at
 three quadrature nodes), followed by one banded solve; as numpy that is Python calls per
 system and (pixels x bins x sources) temporaries. Compiled on first use in a process
-(about 3 s; no on-disk cache, as for :mod:`sassi_bench.spectra._kernels`).
+(a few seconds; no on-disk cache, as for :mod:`sassi_bench.spectra._kernels`).
 
 How it is kept cheap (the amplitudes equal, to rounding, those of the straightforward
 loops it replaced, one (pixel, bin) and one system at a time; the timings behind each
@@ -74,9 +74,9 @@ def mixture_nodes(
 
     Staged over the bins of a pixel (the sources of all its bins, then each step of the
     recurrence for all, then the nodes) so that the bins' chains of dependent divisions
-    and roots overlap (one (pixel, bin) at a time: 3.2 against 2.6 ms a frame of 560
-    pixels x 36 bins on `sim`); written as one function, since calls passing the arrays
-    cost more than the sums themselves.
+    and roots overlap, which one (pixel, bin) at a time does not
+    (``docs/notes/2026-12-01-measured-in-code-comments.md``); written as one function,
+    since calls passing the arrays cost more than the sums themselves.
     """
     count = bins.size
     sources = 1
@@ -182,7 +182,7 @@ def _jacobi_nodes(a0, a1, b1sq, n1, n2, m2, nodes):  # pragma: no cover - compil
     det = d0 * (d1 * d2 - b2sq) - b1sq * d2
     r = min(max(0.5 * det / (scale * scale * scale), -1.0), 1.0)
     # cos(phi + 2 pi q / 3), phi = acos(r) / 3, from cos(phi) and sin(phi) >= 0: one
-    # cosine where three took a fifth of the nodes' time.
+    # cosine, not three (a large share of the nodes' time).
     cosine = math.cos(math.acos(r) / 3.0)
     sine = math.sqrt(max(1.0 - cosine * cosine, 0.0))
     inverse_b1 = 1.0 / b1

@@ -2,11 +2,11 @@
 :mod:`sassi_bench.spectra._kernels`).
 
 The block medians of a frame's free pixels are one pass that gathers each block's free
-pixels into a small buffer and takes their median, instead of a NaN-padded float64 copy of
-the frame, a transposed tile array and ``np.nanmedian`` over it (0.12 of the 0.43 s the
-estimate took on a 729 x 2048 window); the blocks without enough free pixels are filled from
-the known blocks along their row and column in one pass each, where ``griddata``'s Delaunay
-triangulation of the block grid took from 0.15 to several seconds.
+pixels into a small buffer and takes their median, with no NaN-padded float64 copy of the
+frame, no transposed tile array and no ``np.nanmedian`` over it; the blocks without enough
+free pixels are filled from the known blocks along their row and column in one pass each,
+not by a Delaunay triangulation of the block grid (``griddata``), which takes far longer
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 """
 
 from __future__ import annotations

@@ -87,9 +87,9 @@ _MEAN_SHIFT = MEAN_WEIGHTS[0]
 
 #: The forward model's relative accuracy, added to a mean's noise when its weight is
 #: judged (:class:`MeanDeblur`'s ``model_error="floor"``, the default, and the fallback
-#: for a bundle whose blur states no error of its own). It was set when the blur curve,
-#: extrapolated to the guard bins, was 0.1-0.3 px narrower than the light's on the sim
-#: rig, about 1 % of the signal at the band's end.
+#: for a bundle whose blur states no error of its own): about what a blur curve
+#: extrapolated to the guard bins misses of the signal at the band's end
+#: (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 MODEL_ERROR = 0.01
 
 #: Passes of a mean's weight choice when it allows for the blur's stated error
@@ -142,7 +142,7 @@ class _Operators:
         n = model.n_bins
         out: dict[str, list] = {"project": [], "eigenvalues": [], "expand": [], "gains": []}
         # One BLAS thread: the matrices are small, and BLAS's spinning threads contend with
-        # any other load (0.15 s with one thread, 0.65 s with two on a busy machine).
+        # any other load (``docs/notes/2026-12-01-measured-in-code-comments.md``).
         with threadpool_limits(limits=1, user_api="blas"):
             for spill, rows in zip(model.spill, penalty, strict=True):  # a few dozen points
                 gram = spill.T @ spill
@@ -436,9 +436,9 @@ def _discrepancy_root(candidates, discrepancy: NDArray[np.float64]) -> float:
     ``discrepancy`` (K,) is the pooled ``residual - expected`` at each candidate strength;
     it grows with the strength, so it changes sign once. The root is interpolated in log
     strength between the two candidates that bracket it: on a grid a factor 1.26 apart
-    two neighbours can score alike, and another sample of pixels then picks the other (on
-    the N-BK7 rig's ColorChecker scan 3.17 and 4.0 were 1 % apart, around a root at 3.5
-    in both samples). Without a sign change, the candidate nearest to zero.
+    two neighbours can score alike, and another sample of pixels then picks the other
+    (``docs/notes/2026-12-01-measured-in-code-comments.md``). Without a sign change, the
+    candidate nearest to zero.
 
     Examples
     --------

@@ -95,8 +95,8 @@ def extract_spectra(
 RING_BLOCKS = 2
 #: A background carried from the previous frame is no guide when the pure-background blocks
 #: around the streaks moved by more than this share of the level (the median over them):
-#: a light switched. On the sim rig's natural scene moving 2 px a frame they move 0.3 % in
-#: the median (90th percentile 1 %); the background stepped up 5 % moves them 4.7 %.
+#: a light switched: above what a moving scene moves them, below what a light stepped up
+#: by a few per cent does (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 JUMP = 0.01
 
 

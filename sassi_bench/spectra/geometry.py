@@ -119,7 +119,7 @@ def streak_geometry(
     # The dispersion model is a polynomial per pixel in a spectral coordinate shared by all
     # pixels, so it is evaluated as the pixels' coefficients (one small product) and a
     # compiled loop that writes every bin once (broadcast numpy evaluation and stacking
-    # took 5 ms of the 6 for a prototype frame).
+    # took most of the geometry's time).
     cx, cy = model.field_coefficients(cols, rows)
     bins = bundle.wavelengths.size
     x_left = np.empty((rows.size, bins + 2 * guard))

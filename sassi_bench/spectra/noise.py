@@ -12,14 +12,15 @@ sums' noise correlates (:meth:`CountsNoise.neighbour_covariance`).
 
 The camera's gain, read noise and dark level come from the rig's *description* (its
 ``spectral_camera`` section: full well, bit depth, dark offset, read noise), never from a
-virtual bench's hidden state. Against a 40-draw Monte Carlo of the sim rig's frames the variance
-agrees to within 5 % in every bin.
+virtual bench's hidden state. It agrees with a Monte Carlo of the pixels
+(``tests/spectra/test_noise.py``) and of the sim rig's frames
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 The variance of every cell is one compiled loop (``_kernels.cell_variance``), and the
 scan's reading pass takes a frame's cell sums and their variance in one
-(:meth:`CountsNoise.cell_sums`): the numpy form made six (N, B') temporaries and took half
-the reading pass; on a prototype ColorChecker frame the pass went from 40.6 to 18.8 ms of
-CPU (one thread), with the same values to the bit (``tests/spectra/test_noise.py``).
+(:meth:`CountsNoise.cell_sums`), with no (N, B') temporaries, and the same values to the
+bit as the numpy form (``tests/spectra/test_noise.py``; the time it saves:
+``docs/notes/2026-12-01-measured-in-code-comments.md``).
 """
 
 from __future__ import annotations

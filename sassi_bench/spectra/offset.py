@@ -129,13 +129,11 @@ def estimate_background(
     linearly to the frame's edges.
 
     Under a dense snapshot most free pixels lie in thin bands between the streaks' rows;
-    a block with 5 % free pixels (6 of 8 x 16) still gives a median there, where the
-    former 20 % threshold left those blocks to interpolation across the streaks. On the
-    sim rig (ColorChecker, halogen, pinholes at the bundle's spacing: 18 % of the window
-    free) the median error under the streaks against the frame with the SLM closed went
-    from 90 to 52 ADU on a leakage of 1100 ADU, in 11 ms instead of 0.4 s. Leakage changes
-    across the streaks (the scene's edges) are not seen by any estimate from the free
-    pixels alone: the 95th percentile error stays near 900 ADU there.
+    a block with 5 % free pixels (6 of 8 x 16) still gives a median there, where a higher
+    threshold leaves those blocks to interpolation across the streaks and the error under
+    the streaks grows (``docs/notes/2026-12-01-measured-in-code-comments.md``). Leakage
+    changes across the streaks (the scene's edges) are not seen by any estimate from the
+    free pixels alone.
 
     Parameters
     ----------
@@ -196,8 +194,8 @@ def _spline_surface(cy, cx, values, h: int, w: int) -> NDArray[np.float64]:
     """The interpolating cubic spline through ``values`` at ``(cy, cx)``, on every pixel.
 
     Evaluated as ``rows @ coefficients @ columns.T`` with the splines' sparse design
-    matrices (four nonzeros a row): a few ms at 729 x 2048 where ``RectBivariateSpline``'s
-    own grid evaluation took 0.23 s.
+    matrices (four nonzeros a row), cheaper than ``RectBivariateSpline``'s own grid
+    evaluation (``docs/notes/2026-12-01-measured-in-code-comments.md``).
     """
     kx, ky = min(3, cy.size - 1), min(3, cx.size - 1)
     spline = RectBivariateSpline(cy, cx, values, kx=kx, ky=ky)

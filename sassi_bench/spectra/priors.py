@@ -8,8 +8,8 @@ decide.
 * :class:`SmoothnessPrior` penalises the curvature of ``x`` itself on the band and one
   guard bin beyond each end, and puts only a ridge of ``guard_weight`` on the guard bins
   further out: light beyond the band can stop (on the virtual bench it ends at 720 nm)
-  without the prior pulling the band's last bins along. A curvature penalty across that
-  cut-off was worth 4-12 % of the response at the red end.
+  without the prior pulling the band's last bins along, as a curvature penalty across
+  that cut-off does (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 * :class:`RelativeSmoothnessPrior` penalises the curvature of ``x / m``, ``m`` a mean
   spectrum (the scan's own): what every pixel shares (the lamp's and the LED's shape, the
   camera's efficiency, the cut-off beyond the band) costs nothing, only each pixel's

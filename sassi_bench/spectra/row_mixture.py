@@ -10,18 +10,18 @@ blur is widest (about 12 nm and sigma 2.6-3.8 px a camera column at the red end 
 ``sim``) the blur changes by 10 % from one column to the next, and the light of a column
 is a mixture of Gaussians 2-6 px wide. With pinholes stacked 5.4 camera rows apart, a
 cell keeps only part of its pixel's light, so the mixture's tails decide how much of a
-neighbour's light falls in it: on a synthetic stacked red-end column the single-blur
-model was off by 6 % of the peak (RMS over 650-700 nm).
+neighbour's light falls in it, and a single blur per bin misses it
+(``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 Here the profile of pixel ``n``'s light in bin ``b``'s columns is the mixture
 ``sum_k C[b, k] x[n, k] G(y[n, k], sigma_k)`` with ``x`` the pixel's first-pass column
 sums (the separable unmixing's, a blurred stand-in for its spectrum), integrated over each
 cell with a three-node Gauss quadrature in sigma (exact for the mixture's moments up to the
-fifth) about the weighted mean centre. On the synthetic column of
-``tests/spectra/test_row_mixture.py`` (1-px bins, blur 1.1 -> 3.9 px) the error falls from
-7.0 % to 0.84 % of the peak, and to 0.05 % with the true spectra as the estimate; two nodes
-left 0.2 % there, and exact Gaussians at every source take four times as many Gaussian
-integrals (a dozen sources against three nodes). Only bins where the sources' blurs move
+fifth) about the weighted mean centre: three nodes follow the mixture where two do not,
+and exact Gaussians at every source would take four times as many Gaussian integrals (a
+dozen sources against three nodes); the errors of each on a synthetic column
+(``tests/spectra/test_row_mixture.py``) are in
+``docs/notes/2026-12-01-measured-in-code-comments.md``. Only bins where the sources' blurs move
 more than :data:`MIXING_FLOOR` of a pixel's light across a cell edge are solved again
 (:meth:`RowMixture.mixed_bins`).
 

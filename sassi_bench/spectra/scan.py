@@ -90,10 +90,9 @@ ROI_MARGIN_ROWS = 100
 #: reaches beyond the band's end bins: blur sigmas and camera px
 #: (:func:`~sassi_bench.spectra.offset.footprint_rectangles`); the plan-time pitch check
 #: reserves the same (:mod:`~sassi_bench.acquire.streak_pitch`). Under the blue end of a
-#: streak the background is 10-25 times the pinhole's own light on ``sim``, so samples
-#: still holding 1e-3 of another streak's red end bias those bins by several per cent:
-#: with 3 sigmas and 3 px a halogen white's column sums at 403-405 nm were 3.5 % under
-#: the forward model's (noise-free frames, the response's plan), with 4 and 6 within 0.05 %.
+#: streak the background is many times the pinhole's own light, so samples still holding
+#: 1e-3 of another streak's red end bias those bins by several per cent; this reach keeps
+#: them out (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 FOOTPRINT_REACH = (FOOTPRINT_SIGMAS, FOOTPRINT_MARGIN_PX)
 
 
@@ -501,9 +500,8 @@ class ScanAssembly:
         closed = self._closed()
         frames = sorted(self.frames, key=lambda frame: frame.index)
         # One BLAS thread: the matrices are small (80 x 80 at the prototype scale), and
-        # BLAS's spinning threads contend with ours or with any other load (deblurring one
-        # frame took 445 ms with two BLAS threads on a busy machine, 12 ms with one;
-        # building the deblur operators took 0.65 s with two, 0.15 s with one).
+        # BLAS's spinning threads contend with ours or with any other load, many times
+        # slower on a busy machine (``docs/notes/2026-12-01-measured-in-code-comments.md``).
         with threadpool_limits(limits=1, user_api="blas"):
             background, check = self._background(closed)
             signals = run_in_order(self._spectra, frames, "scan spectra", progress, workers)

@@ -12,8 +12,8 @@ tables do), each built once from the bundle's forward model and called on every 
   times the assembly's CPU.
 * ``"separable"`` (:class:`SeparableUnmixing`): each bin with its own blur alone
   (:func:`~sassi_bench.spectra.cells.unmix_rows`), for scans whose radiometry at the red
-  end matters less than their time: the guide registration's rendering to RGB (about 7 s
-  of 22 at the prototype's size).
+  end matters less than their time: the guide registration's rendering to RGB (a third
+  of its time, measured: ``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 Pixels of *different* SLM columns overlapping (dense snapshot masks) are another
 problem, fitted on the frame itself (:class:`~sassi_bench.spectra.crosstalk.StreakModel`).

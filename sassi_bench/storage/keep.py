@@ -2,8 +2,8 @@
 
 A chain keeps every frame while it runs, so an interrupted run resumes where it stopped.
 Once its bundle is published, the frames only serve an audit, and they are most of the
-run's disk (about 4 GB at the prototype's scale, 500 of the 900 frames from the Macbeth
-scan). ``keep`` says what stays:
+run's disk (at the prototype's scale, 500 of the 900 frames are the Macbeth scan's).
+``keep`` says what stays:
 
 * ``all``: every frame;
 * ``audit``: the frames the spectral models are fitted from (the grey levels and the

@@ -9,8 +9,8 @@ Scores are summed over blocks of rows (and SSIM band by band), reading the recon
 from their factored forms (:class:`~sassi_bench.snapshot.Rank1Cube`,
 :class:`~sassi_bench.snapshot.LowRankCube`) a block at a time, so no dense reconstruction and
 no float64 copy of a cube is made: at the prototype's scale (1080 x 1920 x 68 bins, 564 MB a
-float32 cube) scoring four snapshots held ten cubes' worth as floats (about 9 GB for the
-command); now it holds the scan and a block. The figures are those of
+float32 cube) scoring holds the scan and a block, not a cube's worth per reconstruction.
+The figures are those of
 :mod:`sassi_bench.snapshot.metrics` on the whole cube (the same float64 sums, added in
 another order).
 """

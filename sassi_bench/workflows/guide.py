@@ -149,7 +149,7 @@ def scan_reference(
         session, {"scene": scene, "light": light, "pitch": list(pitch), "stride": list(stride)}
     )
     # Rendered to RGB for features only: the mixed row unmixing's red-end radiometry is not
-    # worth its CPU here (about 7 s of 22 at the prototype's size).
+    # worth its CPU here (see ``spectra/unmixing.py``).
     scan = capture_scan(rig, session, bundle, unmixing="separable", progress=progress)
     return slm_reference(scan, session, bundle, procedure, rig.description, stride)
 

@@ -7,9 +7,9 @@ must match. Chunks are compressed with :data:`FRAME_CODEC` and fsync'd, with eve
 up to the store, as soon as they are written.
 
 Every read is checked against what the event log recorded when the frame was stored:
-its shape and the checksum of its pixels (:func:`frame_checksum`, a 64-bit xxh3 that costs
-about 0.4 ms on a prototype frame of 8 MB, against 13 ms for its SHA-256; frames logged
-before the checksum existed are checked against their SHA-256). Zarr reads a chunk file
+its shape and the checksum of its pixels (:func:`frame_checksum`, a 64-bit xxh3, many
+times cheaper than the frame's SHA-256; frames logged before the checksum existed are
+checked against their SHA-256). Zarr reads a chunk file
 that is gone as its fill value and gives no sign of it: the checksum catches that, a
 truncated or edited chunk, and a chunk that no longer decodes (:class:`FrameProblem`
 says which).
@@ -66,13 +66,11 @@ __all__ = [
 
 FRAMES_DIR = "frames.zarr"
 #: The compressor of every frame chunk: zstd after a byte shuffle, which puts the 16-bit
-#: pixels' high bytes (nearly constant) together. On simulated prototype frames it keeps
-#: 0.48 of the bytes against 0.60 for plain zstd, and encodes in half the CPU time; it
-#: beats bit-shuffle (0.51) on these noisy frames. Lossless coding cannot go much
-#: further: the frames' shot and read noise alone is 0.41 of the raw bytes; JPEG-LS keeps
-#: 0.45 at three times the encoding and fifteen times the decoding CPU
-#: (``benchmarks/bench_codecs.py``). Each array records its codec, so frames written with
-#: an earlier one still read.
+#: pixels' high bytes (nearly constant) together: smaller and cheaper to encode than plain
+#: zstd or a bit shuffle on noisy frames, and near what their noise leaves to a lossless
+#: codec (``benchmarks/bench_codecs.py``; the figures:
+#: ``docs/notes/2026-12-01-measured-in-code-comments.md``). Each array records its codec,
+#: so frames written with an earlier one still read.
 FRAME_CODEC = BloscCodec(cname="zstd", clevel=3, shuffle=BloscShuffle.shuffle)
 #: The shape of a frame of each canonical camera: grey spectral, RGB guide.
 _FRAME_SHAPES = {"spectral": ("H", "W"), "guide": ("H", "W", 3)}
@@ -114,8 +112,9 @@ def frame_checksum(data: NDArray[Any]) -> str:
 
     Not a cryptographic hash (the event's SHA-256 is the frame's identity): a fast one,
     so that checking each frame as it is read costs little beside decoding it (xxh3 hashes
-    about 20 GB/s, SHA-256 0.6 GB/s, CRC-32 0.9 GB/s here, on 8 MB frames); 64 bits leave
-    a damaged frame one chance in 2**64 to pass.
+    many times faster than SHA-256 or CRC-32:
+    ``docs/notes/2026-12-01-measured-in-code-comments.md``); 64 bits leave a damaged frame
+    one chance in 2**64 to pass.
 
     Examples
     --------

@@ -1,6 +1,6 @@
 """Traced grids kept on disk, keyed by what they were traced from.
 
-Tracing a design's grid takes 10-25 s (17 x 11 field nodes x 36 wavelengths x 65 rays);
+Tracing a design's grid takes seconds (17 x 11 field nodes x 36 wavelengths x 65 rays);
 its result is about 400 kB. The key is the SHA-256 of the design (comments left out),
 the grid's nodes, the ray tracer's version and this module's format, so any change traces
 again and nothing stale is read. Files are ``.npz`` without pickles, written under a

@@ -3,7 +3,8 @@
 Each quantity is interpolated by a not-a-knot cubic spline along every axis of the grid
 (SLM column, SLM row, wavelength), its tensor coefficients solved once, axis by axis. On
 the shipped designs a 17 x 11 field grid at 10 nm steps reproduces held-out traced
-positions to 0.005 px and spot widths to 0.006 px (docs/notes/2026-11-29-optical_design.md).
+positions and spot widths far under a calibration's error
+(``docs/notes/2026-11-29-optical_design.md``).
 
 Evaluation goes through the B-spline design matrices: the field part (4 x 4 non-zero
 weights per point) and the wavelength part are separate. For a (points x wavelengths)

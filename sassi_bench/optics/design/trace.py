@@ -67,7 +67,7 @@ class GridSpec:
         Field nodes across the SLM (evenly spaced, reaching ``margin`` of the SLM's size
         beyond each edge).
     rings
-        Pupil quadrature rings (``16 rings**2 / 4`` rays: 4 -> 64).
+        Pupil quadrature rings (``16 rings**2 / 4`` rays: 64 for 4 rings).
 
     Examples
     --------

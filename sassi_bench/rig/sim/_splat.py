@@ -18,12 +18,10 @@ inside its band, visiting the (pixel, sample) pairs in order. Every frame pixel 
 receives its terms in the same order whatever the number of threads, and the frame is
 the same bit for bit on every machine.
 
-Measured (sim-prototype, 4320 open pixels x 166 samples of the LED, about 265 M
-multiply-adds, one thread): 118 ms with the profiles read at a stride of 64 table
-entries per tap and summed in float64; 87 ms with contiguous, pre-normalised float32 taps
-padded to whole vectors; 57 ms with samples deposited in pairs (in groups of four: 62
-ms). As numpy the same splat needed batched matrix products into per-pixel patches and
-a ``bincount`` into a fresh full frame per block of pixels (0.53 s).
+The taps are contiguous, pre-normalised float32, padded to whole vectors, and samples
+are deposited in pairs: each of these cut the splat's CPU, and as numpy the same splat
+needs batched matrix products into per-pixel patches and a ``bincount`` into a fresh full
+frame per block of pixels (``docs/notes/2026-12-01-measured-in-code-comments.md``).
 
 Compiled on first use in a process (a few seconds); numba's on-disk cache is not used
 (it pickles into the package folder).

@@ -2,9 +2,9 @@
 
 :func:`upsample_maps` interpolates the coarse inverse map and area ratio (nodes every
 ``step`` camera px) bilinearly onto the camera rows a frame's light reaches: within a
-grid cell they are linear along a row, so they are stepped. It replaces three dense
-matrix products per map (67 ms a map at the prototype's 2048 x 2048, for the whole
-frame) with about 3 ms for the rows reached. :func:`label_image` makes a label scene's
+grid cell they are linear along a row, so they are stepped: only the rows reached, and
+no dense matrix products over the whole frame
+(``docs/notes/2026-12-01-measured-in-code-comments.md``). :func:`label_image` makes a label scene's
 SLM image at one wavelength (transmission times the label's reflectance) in one pass.
 
 Rows are split over threads by ``prange``; every output pixel is computed by one thread
@@ -30,7 +30,7 @@ def label_image(transmission, labels, values, out):  # pragma: no cover - compil
         line, shown, label = out[i], transmission[i], labels[i]
         for j in range(cols):
             # An unsigned label: numba then adds no test for a negative index, and the
-            # gather vectorises (5x faster).
+            # gather vectorises.
             line[j] = shown[j] * values[np.uint64(label[j])]
 
 
