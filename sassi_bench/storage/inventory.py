@@ -38,7 +38,7 @@ __all__ = [
     "session_users",
 ]
 
-#: Plans that measure a scene for its own sake (ground-truth scans, snapshots), as
+#: Plans that measure a scene for its own sake (reference scans, snapshots), as
 #: opposed to calibration captures; a plan name is matched up to its first ``-f``.
 MEASUREMENT_PLANS = ("pinhole-scan", "snapshot-preview", "snapshot-f")
 

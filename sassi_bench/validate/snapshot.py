@@ -56,7 +56,7 @@ __all__ = [
 
 
 class ScanReference(NamedTuple):
-    """The ground truth a snapshot is scored against: a scan cube on the SLM grid."""
+    """The reference a snapshot is scored against: a scan cube on the SLM grid."""
 
     cube: NDArray[np.float32]
     """(H, W, bins) radiance."""
