@@ -39,6 +39,7 @@ from sassi_bench.bundle.integrity import (
 from sassi_bench.bundle.jsonio import freeze, load_json_strict
 from sassi_bench.bundle.layout import resolve_bundle_dir, version_number
 from sassi_bench.bundle.models import CalibrationModels
+from sassi_bench.bundle.quality import format_tolerance
 from sassi_bench.bundle.schema import SCHEMA_NAME, validate_manifest
 from sassi_bench.errors import SassiBenchError, step_error
 
@@ -143,7 +144,7 @@ def _check_manifest_rules(step: str, path: Path, manifest: Mapping[str, Any]) ->
                 step,
                 path,
                 f"quality check {check['name']!r} says passed={check['passed']} but "
-                f"{value:g} {comparison} {tolerance:g} is {holds}",
+                f"{value:g} {comparison} {format_tolerance(tolerance)} is {holds}",
             )
     all_passed = all(check["passed"] for check in checks)
     if manifest["passed"] != all_passed:

@@ -15,7 +15,7 @@ from sassi_bench.bundle.errors import BundleError
 from sassi_bench.bundle.jsonio import to_jsonable
 from sassi_bench.errors import step_error
 
-__all__ = ["QualityCheck", "normalize_quality", "unit_suffix"]
+__all__ = ["QualityCheck", "format_tolerance", "normalize_quality", "unit_suffix"]
 
 
 def unit_suffix(unit: str) -> str:
@@ -27,6 +27,18 @@ def unit_suffix(unit: str) -> str:
     ('0.2 px', '0.97')
     """
     return "" if unit in ("1", "") else f" {unit}"
+
+
+def format_tolerance(tolerance: float) -> str:
+    """A tolerance at the precision it is set: three significant digits (one derived from a
+    measurement, 5.06134, is 5.06; one set as 0.5 stays 0.5), no exponent below 1e6.
+
+    Examples
+    --------
+    >>> [format_tolerance(t) for t in (5.06134, 0.5, 0.015, 30, 1000)]
+    ['5.06', '0.5', '0.015', '30', '1000']
+    """
+    return f"{float(f'{tolerance:.3g}'):g}"
 
 
 @dataclass(frozen=True)
@@ -95,7 +107,7 @@ class QualityCheck:
         unit = unit_suffix(self.unit)
         return (
             f"{self.name} = {self.value:.4g}{unit} "
-            f"(tolerance {self.comparison} {self.tolerance:.4g}{unit})"
+            f"(tolerance {self.comparison} {format_tolerance(self.tolerance)}{unit})"
         )
 
 
@@ -141,7 +153,7 @@ def _check(item: Any, index: int) -> QualityCheck:
     if check.passed != holds:
         raise _bad(
             f"{where}.passed is {check.passed}, but {check.value:g} {check.comparison} "
-            f"{check.tolerance:g} is {holds}"
+            f"{format_tolerance(check.tolerance)} is {holds}"
         )
     return check
 

@@ -5,7 +5,8 @@ Each module (``rig``, ``align``, ``calibrate``, ``check``, ``scan``, ``bundle``,
 only argument handling and printing; the work is done by the library (``workflows`` for
 procedures that drive a rig, ``validate`` for scoring, ``bundle``, ``export``, ``storage``,
 ``batch``).
-Options every group shares live in :mod:`sassi_bench.commands.options`. Handlers import the
+Options every group shares live in :mod:`sassi_bench.commands.options`, the ``next:`` lines
+a long command ends with in :mod:`sassi_bench.commands.next_steps`. Handlers import the
 library inside their functions, so building the parser (``--help``, ``--version``, argument
 errors) loads no more than argparse.
 

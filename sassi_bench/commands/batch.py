@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
 
+from sassi_bench.commands.next_steps import open_line, print_next
 from sassi_bench.commands.options import (
     add_bundle_options,
     add_rig_option,
     bundle_from_args,
 )
 from sassi_bench.errors import ProcedureError, step_error
+
+if TYPE_CHECKING:
+    from sassi_bench.batch.run import BatchResult
 
 #: The local dashboard's default address (as :data:`sassi_bench.batch.engine.DASHBOARD_ADDRESS`,
 #: repeated so that building the parser imports no more than argparse).
@@ -76,7 +82,23 @@ def _batch(args: argparse.Namespace) -> int:
         print("each failed session's error says what went wrong; no session was changed. Fix the")
         print("cause (or leave those sessions out with --sessions), then run the same command")
         print("again: finished outputs are skipped")
-    return 1 if batch.failed else 0
+        return 1
+    _print_next(batch, out)
+    return 0
+
+
+#: What each batch writes per session, as its summary names it.
+OUTPUTS = {
+    "assemble": "the cubes, one <session>.nc",
+    "validate": "the scores, one <session>.macbeth.json",
+}
+
+
+def _print_next(batch: BatchResult, out: Path) -> None:
+    """Where a finished batch's results are: its summary page to open, and every session's
+    output in ``out``."""
+    print_next([(open_line(batch.summary_html), "every session's status, time and output")])
+    print(f"  {OUTPUTS[batch.kind]} per session, in {out}")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -247,7 +247,7 @@ def describe(bundle: CalibrationBundle) -> str:
     """
     import numpy as np
 
-    from sassi_bench.bundle.quality import unit_suffix
+    from sassi_bench.bundle.quality import format_tolerance, unit_suffix
 
     m = bundle.manifest
     models = bundle.models
@@ -306,7 +306,7 @@ def describe(bundle: CalibrationBundle) -> str:
         comparison, unit = c.get("comparison", "<="), unit_suffix(c["unit"])
         lines.append(
             f"    {'PASS' if c['passed'] else 'FAIL'}  {c['name']}: {c['value']:.4g}{unit} "
-            f"(tolerance {comparison} {c['tolerance']:.4g}{unit})"
+            f"(tolerance {comparison} {format_tolerance(c['tolerance'])}{unit})"
         )
     return "\n".join(lines)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sassi_bench.commands.next_steps import command, open_line, print_next
 from sassi_bench.commands.options import (
     add_bundle_options,
     add_data_option,
@@ -73,25 +74,52 @@ def _print_next(args: argparse.Namespace, bundle_path: Path | None, report: Path
     """The commands a lab runs after a calibration: a health check right away (the
     baseline later checks are compared with), a snapshot with the new bundle, and the
     report to read."""
-    import shlex
-
-    from sassi_bench.commands.options import program
-
-    where = f" --data {shlex.quote(args.data)}" if args.data else ""
-    print("next:")
+    steps = []
     if bundle_path is not None:
-        bundle = f"--rig {shlex.quote(args.rig)} --bundle {bundle_path.name}{where}"
-        print(f"  {program()} check {bundle}")
-        print("      a health check now: the baseline later checks are compared with")
-        print(f"  {program()} snapshot take {bundle} --out snapshots")
-        print("      a snapshot with the new bundle (cubes and a quick look in snapshots/)")
-    print(f"  open {Path(report).resolve().as_uri()}")
-    print("      the Macbeth validation report, with every quality check of the bundle")
+        bundle = {"--rig": args.rig, "--bundle": bundle_path.name, "--data": args.data}
+        check = "a health check now: the baseline later checks are compared with"
+        steps.append((command("check", bundle), check))
+        snapshot = "a snapshot with the new bundle (cubes and a quick look in snapshots/)"
+        steps.append((command("snapshot take", {**bundle, "--out": "snapshots"}), snapshot))
+    report_line = "the Macbeth validation report, with every quality check of the bundle"
+    steps.append((open_line(report), report_line))
+    print_next(steps)
     if bundle_path is not None:
         figures = sorted(p.name for p in (Path(bundle_path) / "report").glob("*.png"))
         if figures:
             print(f"  the bundle's figures, in {Path(bundle_path) / 'report'}:")
             print("      " + ", ".join(figures))
+
+
+#: The stage a lab runs after each single calibration stage, on the bundle it published,
+#: and what it is for.
+STAGE_NEXT = {
+    "spectral": (
+        "calibrate response",
+        "the radiometric response from a white diffuser, on the new bundle",
+    ),
+    "response": ("calibrate guide", "the guide camera -> SLM homography, on the new bundle"),
+    "guide": ("validate macbeth", "the Macbeth validation of the new bundle (an HTML report)"),
+}
+
+
+def stage_next(args: argparse.Namespace, stage: str, bundle_path: Path) -> tuple[str, str]:
+    """The command that follows calibration ``stage`` on the bundle it published at
+    ``bundle_path``, and what it is for.
+
+    Examples
+    --------
+    >>> args = argparse.Namespace(rig="sim", data=None, simulate=False, allow_failed=False)
+    >>> stage_next(args, "spectral", Path("bundles/sim/v0004"))[0]
+    'sassi-bench calibrate response --rig sim --bundle v0004'
+    """
+    words, why = STAGE_NEXT[stage]
+    options = {"--rig": args.rig, "--bundle": bundle_path.name, "--data": args.data}
+    if words == "validate macbeth":
+        options["--out"] = "macbeth-report"
+    else:  # the next stage drives the rig, and takes a failed parent, as this one did
+        options.update({"--simulate": args.simulate, "--allow-failed": args.allow_failed})
+    return command(words, options), why
 
 
 def _print_data_use(staging: Path, bundle_path: Path | None, data: str | None) -> None:
@@ -139,6 +167,8 @@ def _spectral(args: argparse.Namespace) -> int:
     if result.bundle_path is not None:
         print(f"  bundle: {result.bundle_path}")
     print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
+    if result.bundle_path is not None:
+        print_next([stage_next(args, "spectral", result.bundle_path)])
     return 0 if result.passed else 1
 
 
@@ -159,6 +189,7 @@ def _response(args: argparse.Namespace) -> int:
         allow_failed=args.allow_failed,
     )  # fmt: skip
     print(f"bundle with radiometric response: {path}")
+    print_next([stage_next(args, "response", path)])
     return 0
 
 
@@ -197,6 +228,8 @@ def _guide(args: argparse.Namespace) -> int:
     if result.bundle_path is not None:
         print(f"  bundle: {result.bundle_path}")
     print("all tolerances passed" if result.passed else "SOME TOLERANCES FAILED")
+    if result.bundle_path is not None:
+        print_next([stage_next(args, "guide", result.bundle_path)])
     return 0 if result.passed else 1
 
 

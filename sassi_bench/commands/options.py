@@ -345,11 +345,11 @@ def print_checks(checks: Iterable[Any], name_width: int = 40) -> None:
     >>> print_checks([QualityCheck.at_most("rms", 0.02, 0.1, "px")], name_width=8)
       PASS  rms          0.0200 <= 0.1 px
     """
-    from sassi_bench.bundle.quality import unit_suffix
+    from sassi_bench.bundle.quality import format_tolerance, unit_suffix
 
     for check in checks:
         mark = "PASS" if check.passed else "FAIL"
-        limit = f"{check.comparison} {check.tolerance:g}{unit_suffix(check.unit)}"
+        limit = f"{check.comparison} {format_tolerance(check.tolerance)}{unit_suffix(check.unit)}"
         print(f"  {mark}  {check.name:{name_width}s} {check.value:10.4f} {limit}")
 
 

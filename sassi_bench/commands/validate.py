@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from sassi_bench.commands.next_steps import command, open_line, print_next
 from sassi_bench.commands.options import (
     add_bundle_options,
     add_data_option,
@@ -15,6 +17,9 @@ from sassi_bench.commands.options import (
     new_session,
     print_checks,
 )
+
+if TYPE_CHECKING:
+    from sassi_bench.bundle import CalibrationBundle
 
 __all__ = ["register"]
 
@@ -72,7 +77,9 @@ def _macbeth(args: argparse.Namespace) -> int:
     print(f"\nMacbeth validation of bundle {bundle.rig_name}/{bundle.version}")
     white = procedure["white_reference"]["source"]
     print(f"  usable band {lo:.0f}-{hi:.0f} nm; white reference: {white}")
-    return _print_verdict(result, html_path, json_path)
+    status = _print_verdict(result, html_path, json_path)
+    _print_next(args, bundle, html_path, result.passed, "check")
+    return status
 
 
 def _snapshot(args: argparse.Namespace) -> int:
@@ -127,7 +134,9 @@ def _snapshot(args: argparse.Namespace) -> int:
             f"  video frame {frame['frame']:3d}  rank-1 {frame['rank1']['psnr_affine_db']:6.2f} dB,"
             f" guided {frame['guided']['psnr_affine_db']:6.2f} dB (affine)"
         )
-    return _print_verdict(result, html_path, json_path)
+    status = _print_verdict(result, html_path, json_path)
+    _print_next(args, bundle, html_path, result.passed, "snapshot take")
+    return status
 
 
 def _print_verdict(result, html_path, json_path) -> int:
@@ -136,6 +145,38 @@ def _print_verdict(result, html_path, json_path) -> int:
     print(f"  report: {html_path}\n  data:   {json_path}")
     print("VALIDATION PASSED" if result.passed else "VALIDATION FAILED")
     return 0 if result.passed else 1
+
+
+#: What a lab runs once a validation passed, with the bundle it validated.
+AFTER_PASS = {
+    "check": "a health check now: the baseline later checks are compared with",
+    "snapshot take": "snapshots with the validated bundle (cubes and a quick look in snapshots/)",
+}
+
+
+def _print_next(
+    args: argparse.Namespace, bundle: CalibrationBundle, html_path: Path, passed: bool, after: str
+) -> None:
+    """The report to read and, when the validation passed, the command ``after`` (a key of
+    :data:`AFTER_PASS`) with the bundle validated: its version (another command's ``latest``
+    may be another bundle), or the folder ``--bundle`` named."""
+    from sassi_bench.bundle.errors import BundleError
+    from sassi_bench.bundle.layout import normalize_version
+
+    steps = [(open_line(html_path), "the validation report, with every figure and check")]
+    if passed:
+        try:
+            normalize_version(args.bundle or "latest")
+        except BundleError:
+            ref = args.bundle  # a bundle folder, named as given
+        else:
+            ref = bundle.version
+        options = {"--rig": args.rig, "--bundle": ref, "--bundle-rig": args.bundle_rig}
+        options["--data"] = args.data
+        if after == "snapshot take":
+            options.update({"--scene": args.scene, "--out": "snapshots"})
+        steps.append((command(after, options), AFTER_PASS[after]))
+    print_next(steps)
 
 
 def _report_options(parser: argparse.ArgumentParser, procedure: str) -> None:

@@ -212,7 +212,7 @@ def checks_table(checks: Iterable[Any]) -> str:
     True
     """
     from sassi_bench._shared.tables import html_table
-    from sassi_bench.bundle.quality import unit_suffix
+    from sassi_bench.bundle.quality import format_tolerance, unit_suffix
 
     rows = []
     for check in checks:
@@ -222,7 +222,7 @@ def checks_table(checks: Iterable[Any]) -> str:
             [
                 html.escape(check.name),
                 f"{check.value:.4g}{html.escape(unit_suffix(check.unit))}",
-                f"{html.escape(check.comparison)} {check.tolerance:g}",
+                f"{html.escape(check.comparison)} {format_tolerance(check.tolerance)}",
                 f'<td style="color:{colour};font-weight:bold">{mark}</td>',
             ]
         )

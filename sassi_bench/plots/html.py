@@ -160,7 +160,7 @@ def check_rows(
     >>> check_rows([check], ".3f")
     [['<td class="l">rms</td>', '0.021 px', '&lt;= 0.05 px', 'pass']]
     """
-    from sassi_bench.bundle.quality import unit_suffix
+    from sassi_bench.bundle.quality import format_tolerance, unit_suffix
 
     esc = html.escape
     rows = []
@@ -171,7 +171,7 @@ def check_rows(
             floor = floors.get(str(c["name"]))
             row.append("" if floor is None else f"{floor:{fmt}}{unit}")
         row += [
-            f"{esc(str(c.get('comparison', '<=')))} {c['tolerance']:.3g}{unit}",
+            f"{esc(str(c.get('comparison', '<=')))} {format_tolerance(c['tolerance'])}{unit}",
             "pass" if c["passed"] else '<td class="bad">FAIL</td>',
         ]
         rows.append(row)

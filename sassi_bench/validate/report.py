@@ -17,7 +17,7 @@ from __future__ import annotations
 import html
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -27,6 +27,7 @@ import numpy as np
 
 from sassi_bench._shared.tables import html_table
 from sassi_bench.bundle import CalibrationBundle
+from sassi_bench.bundle.loader import REPORT_DIR
 from sassi_bench.plots.html import (
     check_rows,
     figure_base64,
@@ -44,7 +45,14 @@ from sassi_bench.validate.band_error import (
 )
 from sassi_bench.validate.macbeth import MacbethResult
 
-__all__ = ["MAX_DRAWN", "MacbethReport", "render_report", "report_data", "write_report"]
+__all__ = [
+    "MAX_DRAWN",
+    "MacbethReport",
+    "figure_links",
+    "render_report",
+    "report_data",
+    "write_report",
+]
 
 #: Failing patches whose per-band error the report draws at most (worst first).
 MAX_DRAWN = 4
@@ -347,16 +355,36 @@ class MacbethReport:
         return json.dumps(self.document(manifest), indent=1, allow_nan=False)
 
     def write(
-        self, out: str | os.PathLike[str], manifest: Mapping[str, Any] | None = None
+        self,
+        out: str | os.PathLike[str],
+        manifest: Mapping[str, Any] | None = None,
+        figure_links: Mapping[str, str] | None = None,
     ) -> tuple[Path, Path]:
         """Write ``macbeth_report.html`` and ``macbeth_report.json`` into folder ``out``
-        (never over an earlier report: :func:`~sassi_bench.plots.html.write_report_files`)."""
+        (never over an earlier report: :func:`~sassi_bench.plots.html.write_report_files`);
+        the HTML lists ``figure_links`` (see :meth:`html`)."""
         files = {
-            "macbeth_report.html": self.html(manifest),
+            "macbeth_report.html": self.html(manifest, figure_links),
             "macbeth_report.json": self.json(manifest),
         }
         html_path, json_path = write_report_files(out, files, "Macbeth report")
         return html_path, json_path
+
+
+def figure_links(
+    names: Iterable[str], folder: str | os.PathLike[str], out: str | os.PathLike[str]
+) -> dict[str, str]:
+    """Links from a page in folder ``out`` to the figures ``names`` in ``folder`` (a
+    bundle's ``report/``), relative so that they hold wherever the data root is mounted.
+
+    Examples
+    --------
+    >>> figure_links(["map.png"], "lab/bundles/sim/v0003/report", "lab/reports/run-1")
+    {'map.png': '../../bundles/sim/v0003/report/map.png'}
+    """
+    return {
+        name: Path(os.path.relpath(Path(folder) / name, Path(out))).as_posix() for name in names
+    }
 
 
 def render_report(
@@ -389,7 +417,8 @@ def write_report(
     procedure: Mapping[str, Any],
     out: str | os.PathLike[str],
 ) -> tuple[Path, Path]:
-    """Write ``macbeth_report.html`` and ``macbeth_report.json`` into folder ``out``.
+    """Write ``macbeth_report.html`` and ``macbeth_report.json`` into folder ``out``; the
+    HTML links the bundle's own figures (the PNGs in its ``report/``).
 
     Returns
     -------
@@ -402,4 +431,6 @@ def write_report(
         write_report(result, bundle, procedure, "report/")
         # (PosixPath('report/macbeth_report.html'), PosixPath('report/macbeth_report.json'))
     """
-    return render_report(result, bundle, procedure).write(out)
+    figures = sorted(name for name in bundle.manifest.get("reports", {}) if name.endswith(".png"))
+    links = figure_links(figures, Path(bundle.path) / REPORT_DIR, out)
+    return render_report(result, bundle, procedure).write(out, figure_links=links)

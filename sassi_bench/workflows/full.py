@@ -42,7 +42,7 @@ from sassi_bench.procedure import load_procedure, with_changes
 from sassi_bench.reduce.response import response_source
 from sassi_bench.rig.rig import Rig
 from sassi_bench.storage.keep import KeptFrames, keep_frames
-from sassi_bench.validate.report import render_report
+from sassi_bench.validate.report import figure_links, render_report
 from sassi_bench.workflows.guide import run_guide_registration
 from sassi_bench.workflows.macbeth import run_macbeth
 from sassi_bench.workflows.rig_lock import drives_rig
@@ -232,10 +232,7 @@ def publish(run: FullRun) -> None:
         run.report_dir.mkdir(parents=True, exist_ok=True)
         published = run.bundle_path / "report"
         # The copy beside the run links the same figures, in the bundle's folder.
-        links = {
-            name: Path(os.path.relpath(published / name, run.report_dir)).as_posix()
-            for name in figures
-        }
+        links = figure_links(figures, published, run.report_dir)
         manifest = json.loads((run.bundle_path / "manifest.json").read_text(encoding="utf-8"))
         manifest.pop("reports", None)  # as the bundle's own copy was rendered
         copy = run.report.html(manifest, figure_links=links)

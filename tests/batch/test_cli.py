@@ -26,6 +26,7 @@ def test_batch_assemble_runs_every_session_and_says_where_the_summary_is(
     assert sorted(p.name for p in out.glob("*.nc")) == sorted(f"{s}.nc" for s in scans[2])
     assert "3 sessions" in printed and "on 2 workers: 3 done, 0 skipped, 0 failed" in printed
     assert str(out / "batch-assemble.csv") in printed
+    assert f"next:\n  open {(out / 'batch-assemble.html').as_uri()}\n" in printed
 
 
 def test_a_failed_session_is_listed_with_its_error_and_exit_status_1(
@@ -40,7 +41,7 @@ def test_a_failed_session_is_listed_with_its_error_and_exit_status_1(
     assert "dashboard: http" in printed
     assert "FAILED scan-colorchecker: LocateError: Macbeth patch detection" in printed
     assert "remove" not in printed.lower() and "delete" not in printed.lower()
-    assert "no session was changed" in printed
+    assert "no session was changed" in printed and "next:" not in printed
     with open(out / "batch-validate.csv") as stream:
         (row,) = csv.DictReader(stream)
     assert row["status"] == "failed" and row["frames"] == "20"

@@ -15,6 +15,7 @@ from sassi_bench.bundle.jsonio import thaw
 from sassi_bench.plots.macbeth import localisation_figure, spectra_figure
 from sassi_bench.procedure import load_procedure
 from sassi_bench.validate.chart import validate_scans
+from sassi_bench.validate.report import write_report
 from sassi_bench.workflows import full
 
 
@@ -100,6 +101,19 @@ def test_a_chain_bundles_report_names_its_published_version(
     assert unlinked.sub("", copy.read_text()) == unlinked.sub("", html)
     # No dimensionless value is printed with a unit "1".
     assert not re.search(r"\d 1</td>", html)
+
+
+def test_a_stand_alone_report_links_the_figures_of_the_bundle_it_validates(
+    chart_scan, validated, patch_procedure, tmp_path
+):
+    _, bundle, _, _ = chart_scan
+    figures = sorted(p.name for p in (bundle.path / "report").glob("*.png"))
+    assert figures, "the spectral stage publishes its figures"
+    page, _ = write_report(validated, bundle, patch_procedure, tmp_path / "lab" / "report")
+    links = re.findall(r'<li><a href="([^"]+)">', page.read_text())
+    assert sorted(Path(link).name for link in links) == figures
+    assert all(not Path(link).is_absolute() for link in links)
+    assert all((page.parent / link).resolve().is_file() for link in links)
 
 
 def test_figure_titles_are_whole_and_count_the_measured_patches(validated):
