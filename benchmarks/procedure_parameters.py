@@ -127,9 +127,11 @@ def table(kind: str, keys: tuple[str, ...] = (), procedures: Path = PROCEDURES) 
             "; *derived*: `null` in the file, worked out from the rig when the run is planned"
             " (the meaning says how)"
         )
-    lines = [caption + ".", "", "| key | shipped value | what it means |", "| --- | --- | --- |"]
+    # The container's class lets the site's CSS (docs/_static/tables.css) wrap long keys.
+    lines = [caption + ".", "", ":::{container} parameter-table", ""]
+    lines += ["| key | shipped value | what it means |", "| --- | --- | --- |"]
     lines += [f"| `{key}` | {value} | {meaning} |" for key, value, meaning in cells]
-    return "\n".join(lines) + "\n"
+    return "\n".join([*lines, ":::"]) + "\n"
 
 
 def blocks(text: str, procedures: Path = PROCEDURES) -> list[tuple[str, str, str]]:
