@@ -56,7 +56,8 @@ intersphinx_mapping: dict[str, tuple[str, None]] = {}
 
 html_theme = "pydata_sphinx_theme"
 html_title = "sassi_bench"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["tables.css"]
 html_theme_options = {
     "header_links_before_dropdown": 5,
     "navigation_with_keys": False,
