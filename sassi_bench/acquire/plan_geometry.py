@@ -36,6 +36,12 @@ The rules (camera px unless said; ``s(l)`` the described spot sigma of one SLM p
 - guide inliers: 30 on a 640 x 400 SLM field, in proportion to the field's area, at
   least 12 (a smaller field shows proportionally less texture; a homography has 8
   unknowns);
+- field degree of the fits (``fit.field_degree``): the lowest Legendre degree from 5 whose
+  series reproduces the described optics' streak columns and rows over the SLM field
+  within a hundredth of a pixel at every wavelength of the band, at most 9
+  (:func:`field_degree`; a wide, off-axis, rotated and distorted field needs more terms
+  than a small centred one, and a degree too low leaves the map a pixel off at the
+  corners while every laser map fits within its tolerance);
 - guide scan stride: every 4th horizontal pinhole offset on a 640 px wide SLM, in
   proportion to the width below it, at least 1 (the target filling a smaller field puts its
   texture on fewer SLM px, and the coarse lattice's resampling then moves the features the
@@ -62,11 +68,13 @@ from sassi_bench.acquire.streak_pitch import (
     pitch_room,
 )
 from sassi_bench.errors import ProcedureError, step_error
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 from sassi_bench.rig.config import RigDescription
 
 __all__ = [
     "GUIDE_STRIDE",
     "PlanGeometry",
+    "field_degree",
     "guide_stride",
     "plan_geometry",
     "planned_guide",
@@ -98,6 +106,14 @@ MIN_PHASE_PERIOD = 16
 GUIDE_INLIERS = (30, 640 * 400, 12)
 #: The guide scan's derived horizontal stride: ``GUIDE_STRIDE`` from this SLM width up.
 GUIDE_STRIDE_WIDTH = 640
+#: The fits' field degree: the lowest and highest derived, and the largest misfit (camera
+#: px) of the described optics it leaves, a tenth of the tenth of a pixel the bundle
+#: places streaks to.
+FIELD_DEGREES = (5, 9)
+FIELD_MISFIT_PX = 0.01
+#: Field points (columns, rows) and wavelengths the field degree is judged on.
+FIELD_GRID = (33, 21)
+FIELD_WAVELENGTHS = 7
 
 
 @dataclass(frozen=True)
@@ -300,6 +316,46 @@ def scan_pitch(
     return geo.scan_pitch[0], sy * math.ceil(geo.scan_pitch[1] / sy)
 
 
+def field_degree(desc: RigDescription) -> int:
+    """The Legendre degree the spectral fits need over this rig's SLM field.
+
+    The described optics (``RigDescription.nominal_relay()``) put each SLM pixel's light
+    of each wavelength at a camera column and row; the degree is the lowest from
+    ``FIELD_DEGREES[0]`` whose field series reproduces both over the field within
+    ``FIELD_MISFIT_PX`` at every wavelength, at most ``FIELD_DEGREES[1]``.
+
+    Parameters
+    ----------
+    desc
+        The rig's description.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> field_degree(load_rig_description("sim"))
+    5
+    """
+    h, w = desc.slm.height, desc.slm.width
+    v, u = np.meshgrid(
+        np.linspace(0.0, h - 1, FIELD_GRID[1]), np.linspace(0.0, w - 1, FIELD_GRID[0])
+    )
+    u, v = u.ravel(), v.ravel()
+    lam = np.linspace(BAND_NM[0], BAND_NM[1], FIELD_WAVELENGTHS)
+    x, y = desc.nominal_relay().forward(u[:, None], v[:, None], lam[None, :])
+    positions = np.concatenate([x, y], axis=1)
+    lowest, highest = FIELD_DEGREES
+    for degree in range(lowest, highest + 1):
+        design = legendre2d_design(*field_coordinates(u, v, (h, w)), degree)
+        coeffs, *_ = np.linalg.lstsq(design, positions, rcond=None)
+        if np.abs(positions - design @ coeffs).max() <= FIELD_MISFIT_PX:
+            return degree
+    return highest
+
+
 def _filled(section: Mapping[str, Any] | None, key: str, derived: Any) -> Any:
     value = (section or {}).get(key)
     return derived if value is None else value
@@ -308,8 +364,9 @@ def _filled(section: Mapping[str, Any] | None, key: str, derived: Any) -> Any:
 def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict[str, Any]:
     """The spectral procedure with every spacing it leaves out derived for this rig.
 
-    Fills ``sweep.phase_period_px``, ``sweep.gray_block_px``, ``blur.pinhole_pitch_px``
-    and ``lamps.pinhole_pitch_px`` where they are ``null`` or absent; numbers given stay.
+    Fills ``sweep.phase_period_px``, ``sweep.gray_block_px``, ``blur.pinhole_pitch_px``,
+    ``lamps.pinhole_pitch_px`` and ``fit.field_degree`` (:func:`field_degree`) where they
+    are ``null`` or absent; numbers given stay.
 
     Examples
     --------
@@ -317,9 +374,15 @@ def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict
     >>> proc = planned_spectral({"sweep": {}, "blur": {}}, load_rig_description("sim"))
     >>> proc["sweep"]["phase_period_px"], proc["blur"]["pinhole_pitch_px"]
     (16, [26, 26])
+    >>> proc["fit"]["field_degree"]
+    5
     """
     out = copy.deepcopy(dict(procedure))
     geo = plan_geometry(desc)
+    fit = out.setdefault("fit", {}) or {}
+    out["fit"] = fit
+    if fit.get("field_degree") is None:
+        fit["field_degree"] = field_degree(desc)
     sweep = out.setdefault("sweep", {})
     sweep["phase_period_px"] = int(_filled(sweep, "phase_period_px", geo.phase_period))
     sweep["gray_block_px"] = int(_filled(sweep, "gray_block_px", sweep["phase_period_px"] // 2))

@@ -330,6 +330,7 @@ _DERIVED_SETTINGS = (
     ("sweep", "gray_block_px"),
     ("blur", "pinhole_pitch_px"),
     ("lamps", "pinhole_pitch_px"),
+    ("fit", "field_degree"),
 )
 
 

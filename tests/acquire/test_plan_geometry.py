@@ -9,6 +9,8 @@ import pytest
 import yaml
 
 from sassi_bench.acquire.plan_geometry import (
+    FIELD_MISFIT_PX,
+    field_degree,
     guide_stride,
     plan_geometry,
     planned_guide,
@@ -25,8 +27,10 @@ from sassi_bench.acquire.streak_pitch import (
     scan_pitch_room,
 )
 from sassi_bench.errors import ConfigError, ProcedureError
+from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 from sassi_bench.procedure import load_procedure
 from sassi_bench.rig.config import load_rig_description, rig_description_from_dict
+from sassi_bench.rig.sim.family import family_rigs
 
 RIGS = Path(__file__).resolve().parents[1] / "rigs"
 
@@ -109,6 +113,39 @@ def test_the_spectral_procedure_gets_derived_values_and_keeps_overrides():
     assert kept["blur"]["pinhole_pitch_px"] == [40, 40]
     assert (kept["sweep"]["phase_period_px"], kept["sweep"]["gray_block_px"]) == (24, 12)
     assert given["lamps"]["pinhole_pitch_px"] is None  # the procedure passed is not changed
+
+
+def _field_misfit_px(desc, degree: int) -> float:
+    """Largest camera distance between the described optics' streak positions and their
+    field series of ``degree``, over a 25 x 15 field grid at 400, 550 and 700 nm."""
+    h, w = desc.slm.height, desc.slm.width
+    v, u = np.meshgrid(np.linspace(0, h - 1, 15), np.linspace(0, w - 1, 25))
+    u, v = u.ravel(), v.ravel()
+    x, y = desc.nominal_relay().forward(u[:, None], v[:, None], np.array([[400.0, 550.0, 700.0]]))
+    design = legendre2d_design(*field_coordinates(u, v, (h, w)), degree)
+    values = np.concatenate([x, y], axis=1)
+    coeffs, *_ = np.linalg.lstsq(design, values, rcond=None)
+    return float(np.abs(values - design @ coeffs).max())
+
+
+def test_the_fits_field_degree_follows_the_described_optics_over_the_field():
+    # A 1280 x 720 SLM imaged off-axis, rotated 1.4 deg, with barrel distortion (the
+    # family's fam05): a degree-5 series leaves its map a pixel off at the corners.
+    wide = rig_description_from_dict(family_rigs(45, 6)[5])
+    degree = field_degree(wide)
+    assert degree > 5
+    assert _field_misfit_px(wide, degree) <= FIELD_MISFIT_PX
+    assert _field_misfit_px(wide, degree - 1) > FIELD_MISFIT_PX
+    assert (
+        planned_spectral(load_procedure("spectral_calibration"), wide)["fit"]["field_degree"]
+        == degree
+    )
+    # The rigs the procedures were tuned on keep 5; a number in the procedure stays.
+    for name in ("sim", "sim-singlet", str(RIGS / "prism-sf10.yaml")):
+        assert field_degree(load_rig_description(name)) == 5, name
+    given = load_procedure("spectral_calibration")
+    given["fit"]["field_degree"] = 6
+    assert planned_spectral(given, wide)["fit"]["field_degree"] == 6
 
 
 def test_an_override_below_the_derived_lamp_pitch_names_both():
