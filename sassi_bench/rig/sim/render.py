@@ -53,6 +53,8 @@ _KEPT_MAPS = 1024
 _CACHED_SAMPLES = 8
 # The inverse map's fixed-point iteration: tolerance (camera px) and iteration limit.
 _MAP_TOL_PX = 1e-7
+#: The SLM coordinate given to camera points no ray reaches: far outside any SLM.
+_UNREACHED = -1.0e6
 _MAP_ITERATIONS = 40
 
 
@@ -306,6 +308,11 @@ class SpectralRenderer:
         grad_u = np.gradient(u, step)
         grad_v = np.gradient(v, step)
         area = np.abs(grad_u[1] * grad_v[0] - grad_u[0] * grad_v[1])
+        # Camera points no ray from the SLM side reaches (far off the SLM's image, past
+        # what the prism passes) have no inverse: they get no light.
+        traced = np.isfinite(u) & np.isfinite(v)
+        u, v = np.where(traced, u, _UNREACHED), np.where(traced, v, _UNREACHED)
+        area = np.where(np.isfinite(area), area, 0.0)
         maps = (u.astype(np.float32), v.astype(np.float32), area.astype(np.float32))
         if len(self._inverse_cache) >= _KEPT_MAPS:
             self._inverse_cache.clear()

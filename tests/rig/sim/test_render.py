@@ -293,3 +293,21 @@ def test_the_closed_slm_background_with_coarser_samples_is_within_noise(sim_rig)
     assert np.sqrt(np.mean(difference_e**2)) < 0.05 * read
     noise_e = np.sqrt(full * exposure + read**2)
     assert np.abs(difference_e / noise_e).max() < 0.1
+
+
+def test_camera_points_no_ray_reaches_get_no_light(tmp_path):
+    """The family's fam19 images a 1920 x 1080 SLM 320 camera px right of centre: the
+    camera's first 170 columns trace back past what the prism passes (no inverse) and
+    must be dark, not NaN."""
+    import yaml
+
+    from sassi_bench.rig.sim.family import family_rigs
+
+    rig_file = tmp_path / "fam19.yaml"
+    rig_file.write_text(yaml.safe_dump(family_rigs(45, 20)[19], sort_keys=False))
+    bench = truth(open_rig(str(rig_file))).bench
+    rate = bench.renderer.render_dense(
+        np.ones(bench.slm_shape, np.float32), bench.scene, bench.samples("laser:532")
+    )
+    assert np.isfinite(rate).all()
+    assert rate[:, :170].max() == 0.0 and rate.max() > 0.0
