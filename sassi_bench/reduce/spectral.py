@@ -278,8 +278,8 @@ def laser_line_checks(
     >>> lines = {405.0: LaserLine(405.0, 401.3, (516.0, 532.0, 637.0), False, 8.1),
     ...          516.0: LaserLine(516.0, 516.2, (405.0, 532.0, 637.0), False, 0.5)}
     >>> [c.describe() for c in laser_line_checks(lines, 0.5)]  # doctest: +NORMALIZE_WHITESPACE
-    ['laser_line_405nm = 3.7 nm (tolerance <= 8.115 nm)',
-     'laser_line_516nm = 0.2 nm (tolerance <= 0.7071 nm)']
+    ['laser_line_405nm = 3.7 nm (tolerance <= 8.12 nm)',
+     'laser_line_516nm = 0.2 nm (tolerance <= 0.707 nm)']
     """
     skip = set(estimated)
     return [
