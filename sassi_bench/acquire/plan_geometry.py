@@ -347,9 +347,10 @@ def field_degree(desc: RigDescription) -> int:
     lam = np.linspace(BAND_NM[0], BAND_NM[1], FIELD_WAVELENGTHS)
     x, y = desc.nominal_relay().forward(u[:, None], v[:, None], lam[None, :])
     positions = np.concatenate([x, y], axis=1)
+    u_hat, v_hat = field_coordinates(u, v, (h, w))
     lowest, highest = FIELD_DEGREES
     for degree in range(lowest, highest + 1):
-        design = legendre2d_design(*field_coordinates(u, v, (h, w)), degree)
+        design = legendre2d_design(u_hat, v_hat, degree)
         coeffs, *_ = np.linalg.lstsq(design, positions, rcond=None)
         if np.abs(positions - design @ coeffs).max() <= FIELD_MISFIT_PX:
             return degree
