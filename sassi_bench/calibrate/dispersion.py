@@ -76,6 +76,11 @@ class DispersionFit:
     position_sigma_px
         Largest 1-sigma uncertainty of the predicted column at the field centre over
         400-700 nm, propagated from the least-squares covariance.
+    position_sigma_nm
+        The same 1-sigma in nm, wavelength by wavelength (the column's 1-sigma over the
+        local dispersion there), the largest over 400-700 nm: the column is least sure
+        where the map reaches past its lines, which need not be where the dispersion is
+        lowest.
     wavelengths_nm
         Per laser label, the wavelength the fit used: the label, or the estimate for a
         line fitted with an estimated wavelength.
@@ -95,6 +100,7 @@ class DispersionFit:
     residual_px: dict[float, float]
     leave_one_out: dict[float, dict[str, float]]
     position_sigma_px: float
+    position_sigma_nm: float
     wavelengths_nm: dict[float, float] = field(default_factory=dict)
     anchored: bool = False
     line_sigma_nm: float = 0.0
@@ -365,7 +371,9 @@ def fit_dispersion(
                 "rms_nm": float(np.sqrt(np.mean(((qx - xs[i]) / dx_dlam) ** 2))),
                 "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
-    sigma = _centre_position_sigma(model, samples.sx(lam), xs, field_design, order, slm_shape)
+    sigma_px, sigma_nm = _centre_position_sigma(
+        model, samples.sx(lam), xs, field_design, order, slm_shape
+    )
 
     def refit_x(moved: NDArray[np.float64]) -> DispersionModel:
         return model_from(samples.fit_x(moved, everything, order, x_information), model.y_coeffs)
@@ -378,7 +386,8 @@ def fit_dispersion(
         bins=wavelength_bins(model),
         residual_px=residual,
         leave_one_out=leave_one_out,
-        position_sigma_px=sigma,
+        position_sigma_px=sigma_px,
+        position_sigma_nm=sigma_nm,
         wavelengths_nm={float(label): float(w) for label, w in zip(labels, lam, strict=True)},
         anchored=x_information is not None,
         line_sigma_nm=line_rms,
@@ -566,8 +575,9 @@ def _line_wavelength_sigma(model, refit, labels, lam, sigma_nm) -> tuple[float, 
     return float(np.sqrt(np.mean(moved_nm**2))), float(moved_nm.max())
 
 
-def _centre_position_sigma(model, sx, xs, field_design, order, slm_shape) -> float:
-    """Largest 1-sigma column uncertainty at the field centre over the band."""
+def _centre_position_sigma(model, sx, xs, field_design, order, slm_shape) -> tuple[float, float]:
+    """Largest 1-sigma column uncertainty at the field centre over the band: in camera px,
+    and in nm (each wavelength's over its local dispersion)."""
     design = _spectral_design(sx, field_design, order)
     coeffs = model.x_coeffs.ravel()
     resid = xs.ravel() - design @ coeffs
@@ -581,7 +591,9 @@ def _centre_position_sigma(model, sx, xs, field_design, order, slm_shape) -> flo
     s = model.spectral_x(lam)
     rows = (s[:, None] ** np.arange(order + 1)[None, :])[:, :, None] * centre[None, None, :]
     rows = rows.reshape(lam.size, -1)
-    return float(np.sqrt(np.max(np.einsum("ij,jk,ik->i", rows, cov, rows))))
+    sigma_px = np.sqrt(np.einsum("ij,jk,ik->i", rows, cov, rows))
+    slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, lam)))
+    return float(sigma_px.max()), float((sigma_px / np.maximum(slope, 1e-12)).max())
 
 
 def wavelength_bins(

@@ -5,8 +5,8 @@
   (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.position_sigma_px`, from the
   laser maps' scatter about the joint model). The bundle places streaks to a tenth of a
   pixel and wavelengths to 0.3 nm; its own 1-sigma must be well inside both
-  (``tolerances.map_sigma_px``, ``tolerances.map_sigma_nm``; in nm over the smallest
-  local dispersion of the band, the conservative reading).
+  (``tolerances.map_sigma_px``, ``tolerances.map_sigma_nm``; in nm wavelength by
+  wavelength, over the local dispersion there).
 - **The lines' own wavelengths, recorded.** What the lasers' wavelength uncertainty (a
   test sheet's accuracy as the rig states it, a lamp measurement's 1-sigma) moves the
   map by (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.line_sigma_nm`) is
@@ -107,8 +107,12 @@ def worst_lamp_line(anchoring: LampAnchoring) -> LampLineOutlier | None:
 
 
 def map_sigma_nm(fit: DispersionFit) -> float:
-    """The map's stated 1-sigma in nm: the worst column 1-sigma over the smallest local
-    dispersion of 400-700 nm at the field centre (px per nm).
+    """The map's stated 1-sigma in nm: at each wavelength of 400-700 nm the column's
+    1-sigma at the field centre over the local dispersion there (px per nm), the largest.
+
+    Taken wavelength by wavelength: the column is least sure where the map reaches past
+    its lines (often the blue end), the dispersion lowest at the red end, and the worst of
+    one over the worst of the other would state a 1-sigma the map has nowhere.
 
     Examples
     --------
@@ -117,12 +121,7 @@ def map_sigma_nm(fit: DispersionFit) -> float:
         map_sigma_nm(result.dispersion)
         # 0.0012
     """
-    model = fit.model
-    h, w = model.slm_shape
-    lam = np.linspace(400.0, 700.0, 61)
-    x, _ = model.evaluate((w - 1) / 2, (h - 1) / 2, lam)
-    slope = float(np.abs(np.gradient(np.asarray(x, dtype=np.float64).ravel(), lam)).min())
-    return fit.position_sigma_px / slope if slope > 0 else float("inf")
+    return fit.position_sigma_nm
 
 
 def measured_bundle_checks(
@@ -207,7 +206,7 @@ def bundle_check_notes(
     if "map_sigma_px" in failed or "map_sigma_nm" in failed:
         notes.append(
             f"wavelength map: it states +-{fit.position_sigma_px:.3f} px "
-            f"(+-{map_sigma_nm(fit):.3f} nm where the dispersion is lowest), more than the "
+            f"(+-{map_sigma_nm(fit):.3f} nm at worst over the band), more than the "
             "bundle is used for: the laser maps scatter about the joint dispersion model. "
             "Fix: check each laser's correspondence residual (a noisy or clipped sweep: a "
             "longer or shorter exposure), add a laser line, or lower fit.dispersion_order "
