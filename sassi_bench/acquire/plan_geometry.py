@@ -38,10 +38,16 @@ The rules (camera px unless said; ``s(l)`` the described spot sigma of one SLM p
   unknowns);
 - field degree of the fits (``fit.field_degree``): the lowest Legendre degree from 5 whose
   series reproduces the described optics' streak columns and rows over the SLM field
-  within a hundredth of a pixel at every wavelength of the band, at most 9
+  within a hundredth of a pixel at every wavelength of the band, at most 11
   (:func:`field_degree`; a wide, off-axis, rotated and distorted field needs more terms
   than a small centred one, and a degree too low leaves the map a pixel off at the
   corners while every laser map fits within its tolerance);
+- dispersion order of the fits (``fit.dispersion_order``): 2 (the column quadratic in the
+  glass index, the row in wavelength), or 3 where that form misses the described optics'
+  streaks by more than the tenth of a pixel the bundle places them to somewhere on the
+  field and the rig has the lines to fit one more power: wavelength lamps, or at least
+  six laser lines (:func:`dispersion_order`; a wide field imaged far off the camera's
+  axis bends the streaks' columns beyond a quadratic at its edges);
 - guide scan stride: every 4th horizontal pinhole offset on a 640 px wide SLM, in
   proportion to the width below it, at least 1 (the target filling a smaller field puts its
   texture on fewer SLM px, and the coarse lattice's resampling then moves the features the
@@ -69,11 +75,13 @@ from sassi_bench.acquire.streak_pitch import (
 )
 from sassi_bench.errors import ProcedureError, step_error
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
+from sassi_bench.optics.glass import get_glass
 from sassi_bench.rig.config import RigDescription
 
 __all__ = [
     "GUIDE_STRIDE",
     "PlanGeometry",
+    "dispersion_order",
     "field_degree",
     "guide_stride",
     "plan_geometry",
@@ -109,8 +117,15 @@ GUIDE_STRIDE_WIDTH = 640
 #: The fits' field degree: the lowest and highest derived, and the largest misfit (camera
 #: px) of the described optics it leaves, a tenth of the tenth of a pixel the bundle
 #: places streaks to.
-FIELD_DEGREES = (5, 9)
+FIELD_DEGREES = (5, 11)
 FIELD_MISFIT_PX = 0.01
+#: The fits' dispersion order: the paper's quadratic and the one power more derived where
+#: the described optics need it; the largest misfit (camera px) of the quadratic form, the
+#: tenth of a pixel the bundle places streaks to; the laser lines a rig without lamps
+#: needs for the higher order (a leave-one-out refit still has a line to spare).
+DISPERSION_ORDERS = (2, 3)
+ORDER_MISFIT_PX = 0.1
+ORDER_LASER_LINES = 6
 #: Field points (columns, rows) and wavelengths the field degree is judged on.
 FIELD_GRID = (33, 21)
 FIELD_WAVELENGTHS = 7
@@ -357,6 +372,54 @@ def field_degree(desc: RigDescription) -> int:
     return highest
 
 
+def dispersion_order(desc: RigDescription) -> int:
+    """The power of the spectral coordinate the fits need for this rig's streaks.
+
+    At each point of the SLM field the described optics (``RigDescription.nominal_relay()``)
+    put the streak's column and row over 400-700 nm; the column is a polynomial in the
+    glass index and the row in wavelength. The order is ``DISPERSION_ORDERS[0]`` unless
+    that form misses some point's streak by more than ``ORDER_MISFIT_PX``, and then one
+    more where the rig has the lines to fit it (wavelength lamps, or at least
+    ``ORDER_LASER_LINES`` lasers).
+
+    Parameters
+    ----------
+    desc
+        The rig's description.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> from sassi_bench.rig.config import load_rig_description
+    >>> dispersion_order(load_rig_description("sim"))
+    2
+    """
+    lowest, highest = DISPERSION_ORDERS
+    enough_lines = bool(desc.wavelength_lamps) or len(desc.lasers_nm) >= ORDER_LASER_LINES
+    if not enough_lines:
+        return lowest
+    h, w = desc.slm.height, desc.slm.width
+    v, u = np.meshgrid(
+        np.linspace(0.0, h - 1, FIELD_GRID[1]), np.linspace(0.0, w - 1, FIELD_GRID[0])
+    )
+    lam = np.linspace(BAND_NM[0], BAND_NM[1], 61)
+    x, y = desc.nominal_relay().forward(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    index = get_glass(desc.prism.glass).index(lam)
+    coordinates = ((index - index.mean()) / np.ptp(index), (lam - lam.mean()) / np.ptp(lam))
+    for order in range(lowest, highest):
+        misfit = 0.0
+        for positions, coordinate in zip((x, y), coordinates, strict=True):
+            powers = coordinate[:, None] ** np.arange(order + 1)[None, :]
+            coeffs, *_ = np.linalg.lstsq(powers, positions.T, rcond=None)
+            misfit = max(misfit, float(np.abs(positions.T - powers @ coeffs).max()))
+        if misfit <= ORDER_MISFIT_PX:
+            return order
+    return highest
+
+
 def _filled(section: Mapping[str, Any] | None, key: str, derived: Any) -> Any:
     value = (section or {}).get(key)
     return derived if value is None else value
@@ -366,8 +429,9 @@ def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict
     """The spectral procedure with every spacing it leaves out derived for this rig.
 
     Fills ``sweep.phase_period_px``, ``sweep.gray_block_px``, ``blur.pinhole_pitch_px``,
-    ``lamps.pinhole_pitch_px`` and ``fit.field_degree`` (:func:`field_degree`) where they
-    are ``null`` or absent; numbers given stay.
+    ``lamps.pinhole_pitch_px``, ``fit.field_degree`` (:func:`field_degree`) and
+    ``fit.dispersion_order`` (:func:`dispersion_order`) where they are ``null`` or absent;
+    numbers given stay.
 
     Examples
     --------
@@ -375,8 +439,8 @@ def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict
     >>> proc = planned_spectral({"sweep": {}, "blur": {}}, load_rig_description("sim"))
     >>> proc["sweep"]["phase_period_px"], proc["blur"]["pinhole_pitch_px"]
     (16, [26, 26])
-    >>> proc["fit"]["field_degree"]
-    5
+    >>> proc["fit"]["field_degree"], proc["fit"]["dispersion_order"]
+    (5, 2)
     """
     out = copy.deepcopy(dict(procedure))
     geo = plan_geometry(desc)
@@ -384,6 +448,8 @@ def planned_spectral(procedure: Mapping[str, Any], desc: RigDescription) -> dict
     out["fit"] = fit
     if fit.get("field_degree") is None:
         fit["field_degree"] = field_degree(desc)
+    if fit.get("dispersion_order") is None:
+        fit["dispersion_order"] = dispersion_order(desc)
     sweep = out.setdefault("sweep", {})
     sweep["phase_period_px"] = int(_filled(sweep, "phase_period_px", geo.phase_period))
     sweep["gray_block_px"] = int(_filled(sweep, "gray_block_px", sweep["phase_period_px"] // 2))

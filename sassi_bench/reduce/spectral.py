@@ -331,6 +331,7 @@ _DERIVED_SETTINGS = (
     ("blur", "pinhole_pitch_px"),
     ("lamps", "pinhole_pitch_px"),
     ("fit", "field_degree"),
+    ("fit", "dispersion_order"),
 )
 
 

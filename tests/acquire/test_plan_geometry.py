@@ -10,6 +10,8 @@ import yaml
 
 from sassi_bench.acquire.plan_geometry import (
     FIELD_MISFIT_PX,
+    ORDER_MISFIT_PX,
+    dispersion_order,
     field_degree,
     guide_stride,
     plan_geometry,
@@ -146,6 +148,44 @@ def test_the_fits_field_degree_follows_the_described_optics_over_the_field():
     given = load_procedure("spectral_calibration")
     given["fit"]["field_degree"] = 6
     assert planned_spectral(given, wide)["fit"]["field_degree"] == 6
+
+
+def _order_misfit_px(desc, order: int) -> float:
+    """How far the streaks' columns of the described optics are from a polynomial of
+    ``order`` in the glass index, the worst over the field (camera px)."""
+    from sassi_bench.optics.glass import get_glass
+
+    h, w = desc.slm.height, desc.slm.width
+    v, u = np.mgrid[0 : h : (h - 1) / 12, 0 : w : (w - 1) / 20].reshape(2, -1)
+    lam = np.linspace(400.0, 700.0, 41)
+    x, _ = desc.nominal_relay().forward(u[:, None], v[:, None], lam[None, :])
+    index = get_glass(desc.prism.glass).index(lam)
+    powers = ((index - index.mean()) / np.ptp(index))[:, None] ** np.arange(order + 1)
+    coeffs, *_ = np.linalg.lstsq(powers, x.T, rcond=None)
+    return float(np.abs(x.T - powers @ coeffs).max())
+
+
+def test_the_fits_dispersion_order_follows_the_described_optics():
+    # A 1920 x 1080 SLM imaged 320 camera px off the axis through an SF10 prism, with
+    # lamps (the family's fam19): a quadratic in the glass index misses its streaks'
+    # columns at the field's edge by more than the bundle places them to.
+    wide = family_rigs(45, 20)[19]
+    desc = rig_description_from_dict(wide)
+    assert _order_misfit_px(desc, 2) > ORDER_MISFIT_PX
+    assert _order_misfit_px(desc, 3) < ORDER_MISFIT_PX / 10
+    assert dispersion_order(desc) == 3
+    planned = planned_spectral(load_procedure("spectral_calibration"), desc)
+    assert planned["fit"]["dispersion_order"] == 3
+    # Without lamps its five lasers cannot spare a line for the extra power.
+    bare = rig_description_from_dict({k: v for k, v in wide.items() if k != "wavelength_lamps"})
+    assert len(bare.lasers_nm) < 6 and dispersion_order(bare) == 2
+    # The rigs the procedures were tuned on keep the quadratic, the achromat arm too (its
+    # form misfit is carried by the lamp measurement's uncertainty instead).
+    for name in ("sim", "sim-prototype", "sim-achromat", str(RIGS / "prism-sf10.yaml")):
+        assert dispersion_order(load_rig_description(name)) == 2, name
+    given = load_procedure("spectral_calibration")
+    given["fit"]["dispersion_order"] = 2
+    assert planned_spectral(given, desc)["fit"]["dispersion_order"] == 2
 
 
 def test_an_override_below_the_derived_lamp_pitch_names_both():
