@@ -2,15 +2,21 @@
 
 Build: ``pip install -e ".[docs]"`` then ``sphinx-build -W docs docs/_build/html``. Pages
 are MyST Markdown; the API reference is generated from the numpydoc docstrings; the
-notebooks of ``notebooks/`` are copied in and rendered as stored, never executed.
+notebooks of ``notebooks/`` are copied in, with the outputs of their run on the virtual
+bench (``docs/_data/notebooks/``, written by ``benchmarks/render_notebooks.py``) while
+their code is what ran; nothing is executed while building.
 """
 
 from __future__ import annotations
 
-import shutil
+import json
 from pathlib import Path
 
+from sphinx.util import logging
+
 import sassi_bench
+
+logger = logging.getLogger(__name__)
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
@@ -34,7 +40,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-n
 exclude_patterns = ["_build", "_data", "Thumbs.db", ".DS_Store", "**.ipynb_checkpoints"]
 templates_path = ["_templates"]
 
-# Notebooks: rendered as committed (outputs stripped), never run while building.
+# Notebooks: shown with the outputs of benchmarks/render_notebooks.py, never run here.
 nb_execution_mode = "off"
 myst_enable_extensions = ["colon_fence", "deflist"]
 myst_heading_anchors = 3
@@ -68,17 +74,61 @@ html_sidebars = {"index": []}
 html_show_sourcelink = False
 
 
+RENDERED = DOCS / "_data" / "notebooks"
+
+
+def _ran_this_code(ran: dict, book: dict) -> bool:
+    """Whether the executed notebook ``ran`` has the code cells of ``book``: the same
+    sources, the parameters cell's followed only by the settings the run added."""
+    ran_code = [cell for cell in ran["cells"] if cell["cell_type"] == "code"]
+    code = [cell for cell in book["cells"] if cell["cell_type"] == "code"]
+    if len(ran_code) != len(code):
+        return False
+    for executed, cell in zip(ran_code, code, strict=True):
+        source, executed_source = "".join(cell["source"]), "".join(executed["source"])
+        if "parameters" in cell["metadata"].get("tags", []):
+            if not executed_source.startswith(source):
+                return False
+        elif executed_source != source:
+            return False
+    return True
+
+
+def with_outputs(notebook: Path, rendered: Path = RENDERED) -> tuple[str, bool]:
+    """The notebook to show for ``notebook``: its text and code with the outputs of its
+    executed copy in ``rendered`` (and the settings that run added to its parameters
+    cell), when that copy ran exactly this code; else the notebook as it is. Returns the
+    notebook's JSON and whether it has the outputs.
+    """
+    book = json.loads(notebook.read_text(encoding="utf-8"))
+    copy = rendered / notebook.name
+    if not copy.is_file():
+        return json.dumps(book, indent=1, ensure_ascii=False) + "\n", False
+    ran = json.loads(copy.read_text(encoding="utf-8"))
+    if not _ran_this_code(ran, book):
+        return json.dumps(book, indent=1, ensure_ascii=False) + "\n", False
+    ran_code = [cell for cell in ran["cells"] if cell["cell_type"] == "code"]
+    code = [cell for cell in book["cells"] if cell["cell_type"] == "code"]
+    for cell, executed in zip(code, ran_code, strict=True):
+        cell["outputs"] = executed["outputs"]
+        cell["execution_count"] = executed["execution_count"]
+        if "parameters" in cell["metadata"].get("tags", []):
+            cell["source"] = executed["source"]
+    return json.dumps(book, indent=1, ensure_ascii=False) + "\n", True
+
+
 def _copy_notebooks() -> None:
-    """Copy the guided notebooks into the source tree (they live in ``notebooks/``)."""
+    """Copy the guided notebooks into the source tree (they live in ``notebooks/``), each
+    with its outputs when its executed copy ran its present code (:func:`with_outputs`)."""
     target = DOCS / "_notebooks"
     target.mkdir(exist_ok=True)
     for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        text, rendered = with_outputs(notebook)
+        if not rendered:
+            logger.info(f"{notebook.name}: shown without outputs (no executed copy of this code)")
         copy = target / notebook.name
-        if not copy.exists() or copy.read_bytes() != notebook.read_bytes():
-            shutil.copyfile(notebook, copy)
-
-
-_copy_notebooks()
+        if not copy.exists() or copy.read_text(encoding="utf-8") != text:
+            copy.write_text(text, encoding="utf-8")
 
 
 def _unlisted_pages_glob(app, docname: str, source: list[str]) -> None:
@@ -112,5 +162,6 @@ def _skip_foreign_members(app, what, name, obj, skip, options):
 
 
 def setup(app):
+    _copy_notebooks()
     app.connect("source-read", _unlisted_pages_glob)
     app.connect("autodoc-skip-member", _skip_foreign_members)

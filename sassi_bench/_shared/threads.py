@@ -14,7 +14,7 @@ def run_in_order(
     task, items: list, label: str, progress: bool, workers: int, unit: str = "frame"
 ) -> list:
     """``task(item)`` for every item (a frame, a block), ``workers`` at a time on threads,
-    the results in order, behind a progress bar.
+    the results in order, behind a progress bar (none when there are no items).
 
     Threads suffice for the work this runs: numpy, compiled loops and decompression, which
     release the GIL. At most twice ``workers`` items are in flight, so memory stays
@@ -27,7 +27,8 @@ def run_in_order(
     [1, 4, 9]
     """
     results = []
-    with tqdm(total=len(items), desc=label, unit=unit, disable=not progress) as bar:
+    # No bar for no items (a scan with no stored frames to read back): "0frame" says nothing.
+    with tqdm(total=len(items), desc=label, unit=unit, disable=not progress or not items) as bar:
         if workers == 1:
             for item in items:
                 results.append(task(item))

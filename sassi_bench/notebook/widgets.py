@@ -43,6 +43,8 @@ def static_html(widget: Any) -> str:
     >>> import ipywidgets as widgets
     >>> static_html(widgets.ToggleButtons(options=["accept", "reject"], value="reject"))
     '<div>accept <b>[reject]</b></div>'
+    >>> print(static_html(widgets.HBox([widgets.Button(description="Stop")])))
+    <div style="display:flex;flex-wrap:wrap;gap:1em"><div><button disabled>Stop</button></div></div>
     """
     import ipywidgets as widgets
 
@@ -50,12 +52,21 @@ def static_html(widget: Any) -> str:
         return f"{html.escape(text)}: " if text else ""
 
     if isinstance(widget, widgets.Box):
-        return "<div>" + "".join(static_html(child) for child in widget.children) + "</div>"
+        # A row stays a row (wrapping on a narrow page); other boxes stack their children.
+        row = isinstance(widget, widgets.HBox)
+        style = ' style="display:flex;flex-wrap:wrap;gap:1em"' if row else ""
+        return f"<div{style}>" + "".join(static_html(c) for c in widget.children) + "</div>"
     if isinstance(widget, widgets.HTML):
         return f"<div>{widget.value}</div>"
     if isinstance(widget, widgets.Image):
         data = base64.b64encode(bytes(widget.value)).decode("ascii")
-        width = f' width="{html.escape(str(widget.width))}"' if widget.width else ""
+        width = (
+            f' width="{html.escape(str(widget.width))}"'
+            if widget.width
+            else f' style="width:{html.escape(widget.layout.width)}"'
+            if widget.layout.width
+            else ""
+        )
         return f'<img src="data:image/{widget.format};base64,{data}"{width}>'
     if isinstance(widget, (widgets.ToggleButtons, widgets.Dropdown, widgets.RadioButtons)):
         marks = [
@@ -69,6 +80,8 @@ def static_html(widget: Any) -> str:
             for name, value in zip(widget._options_labels, widget._options_values, strict=True)
         ]
         return f"<div>{label(widget.description)}{' '.join(marks)}</div>"
+    if isinstance(widget, widgets.Button):
+        return f"<div><button disabled>{html.escape(widget.description)}</button></div>"
     if isinstance(widget, widgets.Checkbox):
         mark = "&#9745;" if widget.value else "&#9744;"
         return f"<div>{mark} {html.escape(widget.description)}</div>"

@@ -1,5 +1,6 @@
 """The documentation site builds from ``docs/`` with warnings as errors, every local link
-of every page resolves, and its front page renders in headless Chromium."""
+of every page resolves, the guided notebooks' pages show the outputs of their run, and
+its front page renders in headless Chromium."""
 
 from __future__ import annotations
 
@@ -20,6 +21,8 @@ pytest.importorskip("pydata_sphinx_theme", reason="the docs extra is not install
 pytest.importorskip("myst_nb", reason="the docs extra is not installed")
 
 DOCS = Path(__file__).parents[2] / "docs"
+NOTEBOOKS = DOCS.parent / "notebooks"
+RERUN = "run `python benchmarks/render_notebooks.py` after changing a notebook's code"
 
 #: Pages the site must have: the user guide, one page per procedure, the maintainers'
 #: map, a notebook and the API reference of the bundle.
@@ -68,6 +71,35 @@ class _Links(HTMLParser):
     def handle_data(self, data):
         if self._in_title:
             self.title += data
+
+
+class _Outputs(HTMLParser):
+    """The images and the text inside a notebook page's cell outputs."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[str] = []
+        self.text: list[str] = []
+        self.outputs = 0
+        self._depth = 0  # open divs inside the current cell output, 0: outside
+
+    def handle_starttag(self, tag, attrs):
+        found = dict(attrs)
+        if self._depth == 0 and tag == "div" and "cell_output" in (found.get("class") or ""):
+            self.outputs += 1
+            self._depth = 1
+        elif self._depth and tag == "div":
+            self._depth += 1
+        if self._depth and tag == "img":
+            self.images.append(found.get("src") or "")
+
+    def handle_endtag(self, tag):
+        if self._depth and tag == "div":
+            self._depth -= 1
+
+    def handle_data(self, data):
+        if self._depth and data.strip():
+            self.text.append(data)
 
 
 def _local(link: str) -> str | None:
@@ -124,6 +156,28 @@ def test_the_pages_quote_the_data_files(site):
     accuracy = (html / "accuracy.html").read_text()
     assert "lamp-anchored: all five at their true lines" in accuracy
     assert "benchmarks/accuracy_table.py</span>" in accuracy  # the command, as code
+
+
+def test_every_notebook_page_shows_the_outputs_of_its_run(site):
+    """Each guided notebook's page shows what its run printed and, where the notebook shows
+    figures, the figures (``benchmarks/render_notebooks.py``; the build executes nothing)."""
+    html, _ = site
+    for notebook in sorted(NOTEBOOKS.glob("*.ipynb")):
+        page = html / "_notebooks" / f"{notebook.stem}.html"
+        parser = _Outputs()
+        parser.feed(page.read_text())
+        assert parser.outputs, f"{page.name} shows no outputs: {RERUN}"
+        assert len("".join(parser.text)) > 100, page.name
+        if "show(" in notebook.read_text():
+            assert parser.images, f"{page.name} shows no figure: {RERUN}"
+            for src in parser.images:  # files the build copied, or widgets' own data
+                assert src.startswith("data:image/") or (page.parent / src).is_file(), src
+    # Printed results and the decision widgets' static copies, not their Python repr.
+    quickstart = (html / "_notebooks" / "00_quickstart.html").read_text()
+    assert "published sim/v0001" in quickstart and "wavelength bins" in quickstart
+    assert "<b>[accept]</b>" in quickstart and "stopped after" in quickstart
+    assert "spectral-sweep: 100%" in quickstart  # a progress bar, as it ended
+    assert "/tmp/" not in quickstart
 
 
 def test_the_front_page_renders_in_chromium(site, tmp_path):
