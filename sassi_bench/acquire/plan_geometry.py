@@ -331,6 +331,20 @@ def scan_pitch(
     return geo.scan_pitch[0], sy * math.ceil(geo.scan_pitch[1] / sy)
 
 
+def _described_streaks(
+    desc: RigDescription, wavelengths_nm: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The described optics' camera column and row (points, wavelengths) of every point of
+    the ``FIELD_GRID`` over the SLM, with the points' SLM ``u`` and ``v``."""
+    h, w = desc.slm.height, desc.slm.width
+    v, u = np.meshgrid(
+        np.linspace(0.0, h - 1, FIELD_GRID[1]), np.linspace(0.0, w - 1, FIELD_GRID[0])
+    )
+    u, v = u.ravel(), v.ravel()
+    x, y = desc.nominal_relay().forward(u[:, None], v[:, None], wavelengths_nm[None, :])
+    return u, v, x, y
+
+
 def field_degree(desc: RigDescription) -> int:
     """The Legendre degree the spectral fits need over this rig's SLM field.
 
@@ -354,15 +368,10 @@ def field_degree(desc: RigDescription) -> int:
     >>> field_degree(load_rig_description("sim"))
     5
     """
-    h, w = desc.slm.height, desc.slm.width
-    v, u = np.meshgrid(
-        np.linspace(0.0, h - 1, FIELD_GRID[1]), np.linspace(0.0, w - 1, FIELD_GRID[0])
-    )
-    u, v = u.ravel(), v.ravel()
     lam = np.linspace(BAND_NM[0], BAND_NM[1], FIELD_WAVELENGTHS)
-    x, y = desc.nominal_relay().forward(u[:, None], v[:, None], lam[None, :])
+    u, v, x, y = _described_streaks(desc, lam)
     positions = np.concatenate([x, y], axis=1)
-    u_hat, v_hat = field_coordinates(u, v, (h, w))
+    u_hat, v_hat = field_coordinates(u, v, (desc.slm.height, desc.slm.width))
     lowest, highest = FIELD_DEGREES
     for degree in range(lowest, highest + 1):
         design = legendre2d_design(u_hat, v_hat, degree)
@@ -401,12 +410,8 @@ def dispersion_order(desc: RigDescription) -> int:
     enough_lines = bool(desc.wavelength_lamps) or len(desc.lasers_nm) >= ORDER_LASER_LINES
     if not enough_lines:
         return lowest
-    h, w = desc.slm.height, desc.slm.width
-    v, u = np.meshgrid(
-        np.linspace(0.0, h - 1, FIELD_GRID[1]), np.linspace(0.0, w - 1, FIELD_GRID[0])
-    )
     lam = np.linspace(BAND_NM[0], BAND_NM[1], 61)
-    x, y = desc.nominal_relay().forward(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+    _, _, x, y = _described_streaks(desc, lam)
     index = get_glass(desc.prism.glass).index(lam)
     coordinates = ((index - index.mean()) / np.ptp(index), (lam - lam.mean()) / np.ptp(lam))
     for order in range(lowest, highest):
