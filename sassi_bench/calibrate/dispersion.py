@@ -75,7 +75,10 @@ class DispersionFit:
         others put the line's streak where it was measured).
     position_sigma_px
         Largest 1-sigma uncertainty of the predicted column at the field centre over
-        400-700 nm, propagated from the least-squares covariance.
+        400-700 nm, propagated from the least-squares covariance with the laser maps'
+        grid samples taken as independent: a lower bound, since each map's error is one
+        smooth surface over the field
+        (``docs/notes/2026-12-01-full-size-fam18-fam19.md``).
     position_sigma_nm
         The same 1-sigma in nm, wavelength by wavelength (the column's 1-sigma over the
         local dispersion there), the largest over 400-700 nm: the column is least sure
