@@ -9,11 +9,10 @@ each notebook's wall time and the settings it ran with). ``docs/conf.py`` shows 
 notebook's executed copy while its code cells are the notebook's own, else the bare
 notebook.
 
-The run injects its settings after the cell tagged ``parameters`` (the lines are kept, so
+The run injects one setting after the cell tagged ``parameters`` (the line is kept, so
 the page shows what ran): the data root ``calib_data`` relative to the kernel's working
-folder (the temporary root, so the printed paths read ``calib_data/...``), and the
-:data:`SMALLER` settings of notebooks that would take long with their own defaults. Every
-other parameter is the notebook's default. For a static page:
+folder (the temporary root, so the printed paths read ``calib_data/...``). Every other
+parameter is the notebook's default. For a static page:
 
 - progress bars are tqdm's text bars (the widget bars of JupyterLab need a live kernel),
   their carriage-return updates collapsed to the final line;
@@ -50,11 +49,11 @@ ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = ROOT / "notebooks"
 OUT = ROOT / "docs" / "_data" / "notebooks"
 
-#: Settings that replace a notebook's defaults because the defaults take long.
-SMALLER: dict[str, dict[str, object]] = {}
-
 #: The data root the notebooks use, relative to the kernel's working folder.
 DATA = "calib_data"
+
+#: The settings added after every notebook's parameters cell.
+INJECTED: dict[str, object] = {"data": DATA}
 
 #: Embedded images (in widgets' static HTML) are scaled to at most this width, px.
 MAX_IMAGE_PX = 640
@@ -80,11 +79,6 @@ from ipywidgets.widgets.widget import _instances as _widgets
 from sassi_bench.notebook.widgets import static_html as _static_html
 print(_json.dumps({{m: _static_html(_widgets[m]) for m in {ids!r} if m in _widgets}}))
 """
-
-
-def injected(name: str) -> dict[str, object]:
-    """The settings added after a notebook's parameters cell."""
-    return {"data": DATA, **SMALLER.get(Path(name).stem, {})}
 
 
 def _inject(book: nbformat.NotebookNode, settings: dict[str, object]) -> None:
@@ -195,7 +189,7 @@ def render(name: str, root: Path) -> tuple[nbformat.NotebookNode, float]:
     import nbclient
 
     book = nbformat.read(NOTEBOOKS / name, as_version=4)
-    _inject(book, injected(name))
+    _inject(book, INJECTED)
     env = {**os.environ, "MPLBACKEND": "Agg"}
     env.pop("SASSI_BENCH_DATA", None)
     client = nbclient.NotebookClient(
@@ -247,7 +241,7 @@ def main() -> None:
                 record["notebooks"][name] = {
                     "date": datetime.date.today().isoformat(),
                     "seconds": round(seconds, 1),
-                    "settings": {k: repr(v) for k, v in injected(name).items()},
+                    "settings": {k: repr(v) for k, v in INJECTED.items()},
                 }
     finally:
         if not args.keep:
