@@ -385,11 +385,12 @@ def dispersion_order(desc: RigDescription) -> int:
     """The power of the spectral coordinate the fits need for this rig's streaks.
 
     At each point of the SLM field the described optics (``RigDescription.nominal_relay()``)
-    put the streak's column and row over 400-700 nm; the column is a polynomial in the
-    glass index and the row in wavelength. The order is ``DISPERSION_ORDERS[0]`` unless
-    that form misses some point's streak by more than ``ORDER_MISFIT_PX``, and then one
-    more where the rig has the lines to fit it (wavelength lamps, or at least
-    ``ORDER_LASER_LINES`` lasers).
+    put the streak's column over 400-700 nm, a polynomial in the glass index. The order is
+    ``DISPERSION_ORDERS[0]`` unless that form misses some point's column by more than
+    ``ORDER_MISFIT_PX``, and then one more where the rig has the lines to fit it
+    (wavelength lamps, or at least ``ORDER_LASER_LINES`` lasers). The column alone
+    decides: it is what the wavelength map is read from, and one more power fitted
+    through lasers that stop short of the band's ends only extrapolates further.
 
     Parameters
     ----------
@@ -411,16 +412,13 @@ def dispersion_order(desc: RigDescription) -> int:
     if not enough_lines:
         return lowest
     lam = np.linspace(BAND_NM[0], BAND_NM[1], 61)
-    _, _, x, y = _described_streaks(desc, lam)
+    _, _, x, _ = _described_streaks(desc, lam)
     index = get_glass(desc.prism.glass).index(lam)
-    coordinates = ((index - index.mean()) / np.ptp(index), (lam - lam.mean()) / np.ptp(lam))
+    coordinate = (index - index.mean()) / np.ptp(index)
     for order in range(lowest, highest):
-        misfit = 0.0
-        for positions, coordinate in zip((x, y), coordinates, strict=True):
-            powers = coordinate[:, None] ** np.arange(order + 1)[None, :]
-            coeffs, *_ = np.linalg.lstsq(powers, positions.T, rcond=None)
-            misfit = max(misfit, float(np.abs(positions.T - powers @ coeffs).max()))
-        if misfit <= ORDER_MISFIT_PX:
+        powers = coordinate[:, None] ** np.arange(order + 1)[None, :]
+        coeffs, *_ = np.linalg.lstsq(powers, x.T, rcond=None)
+        if float(np.abs(x.T - powers @ coeffs).max()) <= ORDER_MISFIT_PX:
             return order
     return highest
 

@@ -186,6 +186,13 @@ def test_the_fits_dispersion_order_follows_the_described_optics():
     given = load_procedure("spectral_calibration")
     given["fit"]["dispersion_order"] = 2
     assert planned_spectral(given, desc)["fit"]["dispersion_order"] == 2
+    # Six lasers from 473 to 633 nm on an N-SF11 bench (the family's fam00): its rows
+    # miss a quadratic in wavelength by more than a tenth of a pixel, its columns fit a
+    # quadratic in the index; a cubic through those lines would reach past them to 400
+    # and 700 nm, so the quadratic stays.
+    six = rig_description_from_dict(family_rigs(45, 20)[0])
+    assert len(six.lasers_nm) >= 6 and _order_misfit_px(six, 2) < ORDER_MISFIT_PX
+    assert dispersion_order(six) == 2
 
 
 def test_an_override_below_the_derived_lamp_pitch_names_both():
