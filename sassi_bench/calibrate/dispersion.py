@@ -75,15 +75,19 @@ class DispersionFit:
         others put the line's streak where it was measured).
     position_sigma_px
         Largest 1-sigma uncertainty of the predicted column at the field centre over
-        400-700 nm, propagated from the least-squares covariance with the laser maps'
-        grid samples taken as independent: a lower bound, since each map's error is one
-        smooth surface over the field
-        (``docs/notes/2026-12-01-full-size-fam18-fam19.md``).
+        400-700 nm. Each laser map's error is taken as one smooth surface over the field
+        (about as many independent numbers as the field has terms), its size the larger
+        of the lines' scatter about the joint model and the map's own correspondence
+        scatter, and carried through the fit (the lamp lines' normal equations included
+        when anchored) to the centre column.
     position_sigma_nm
         The same 1-sigma in nm, wavelength by wavelength (the column's 1-sigma over the
         local dispersion there), the largest over 400-700 nm: the column is least sure
         where the map reaches past its lines, which need not be where the dispersion is
         lowest.
+    position_sigma_rms_nm
+        That 1-sigma in nm, RMS over 400-700 nm (the statistic the map's wavelength
+        accuracy is graded by).
     wavelengths_nm
         Per laser label, the wavelength the fit used: the label, or the estimate for a
         line fitted with an estimated wavelength.
@@ -104,6 +108,7 @@ class DispersionFit:
     leave_one_out: dict[float, dict[str, float]]
     position_sigma_px: float
     position_sigma_nm: float
+    position_sigma_rms_nm: float
     wavelengths_nm: dict[float, float] = field(default_factory=dict)
     anchored: bool = False
     line_sigma_nm: float = 0.0
@@ -168,14 +173,6 @@ def _grid(slm_shape: tuple[int, int], points: tuple[int, int]) -> tuple[NDArray,
     return u.ravel(), v.ravel()
 
 
-def _spectral_design(s: NDArray[np.float64], field_design: NDArray[np.float64], order: int):
-    """Rows (laser, grid point) x columns (power k, field term t), k-major like the bundle."""
-    powers = s[:, None] ** np.arange(order + 1)[None, :]  # (L, K)
-    return np.einsum("lk,gt->lgkt", powers, field_design).reshape(
-        s.size * field_design.shape[0], -1
-    )
-
-
 @dataclass(frozen=True)
 class _FieldSamples:
     """Every laser's measured map sampled on a grid of SLM field points."""
@@ -206,8 +203,8 @@ class _FieldSamples:
         """Column coefficients (order + 1, terms) fitted to the lasers ``rows``.
 
         The design is the Kronecker product of the spectral powers and the field terms,
-        so its least-squares solution is ``pinv(powers) @ x @ pinv(field).T``: the same
-        as :func:`_spectral_design` with ``lstsq``, without building it. ``information``
+        so its least-squares solution is ``pinv(powers) @ x @ pinv(field).T``, without
+        building it. ``information``
         (an :class:`~sassi_bench.calibrate.anchored.XInformation`) adds the lamp lines'
         normal equations; the system is then solved whole.
         """
@@ -326,7 +323,7 @@ def fit_dispersion(
     used = {float(k): float(v) for k, v in (wavelengths_nm or {}).items()}
     lam = np.array([used.get(float(label), float(label)) for label in labels])
     samples = _field_samples(maps, g, slm_shape, field_degree, grid)
-    u, v, field_design, xs, ys = samples.u, samples.v, samples.field_design, samples.xs, samples.ys
+    u, v, xs, ys = samples.u, samples.v, samples.xs, samples.ys
     sy = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
 
     def fit(keep: NDArray[np.bool_]):
@@ -374,9 +371,7 @@ def fit_dispersion(
                 "rms_nm": float(np.sqrt(np.mean(((qx - xs[i]) / dx_dlam) ** 2))),
                 "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
-    sigma_px, sigma_nm = _centre_position_sigma(
-        model, samples.sx(lam), xs, field_design, order, slm_shape
-    )
+    sigma_px, sigma_nm = _centre_position_sigma(samples, model, lam, maps, order, x_information)
 
     def refit_x(moved: NDArray[np.float64]) -> DispersionModel:
         return model_from(samples.fit_x(moved, everything, order, x_information), model.y_coeffs)
@@ -389,8 +384,9 @@ def fit_dispersion(
         bins=wavelength_bins(model),
         residual_px=residual,
         leave_one_out=leave_one_out,
-        position_sigma_px=sigma_px,
-        position_sigma_nm=sigma_nm,
+        position_sigma_px=float(sigma_px.max()),
+        position_sigma_nm=float(sigma_nm.max()),
+        position_sigma_rms_nm=float(np.sqrt(np.mean(sigma_nm**2))),
         wavelengths_nm={float(label): float(w) for label, w in zip(labels, lam, strict=True)},
         anchored=x_information is not None,
         line_sigma_nm=line_rms,
@@ -578,25 +574,56 @@ def _line_wavelength_sigma(model, refit, labels, lam, sigma_nm) -> tuple[float, 
     return float(np.sqrt(np.mean(moved_nm**2))), float(moved_nm.max())
 
 
-def _centre_position_sigma(model, sx, xs, field_design, order, slm_shape) -> tuple[float, float]:
-    """Largest 1-sigma column uncertainty at the field centre over the band: in camera px,
-    and in nm (each wavelength's over its local dispersion)."""
-    design = _spectral_design(sx, field_design, order)
-    coeffs = model.x_coeffs.ravel()
-    resid = xs.ravel() - design @ coeffs
-    dof = max(design.shape[0] - design.shape[1], 1)
-    cov = np.linalg.pinv(design.T @ design) * float(resid @ resid) / dof
-    h, w = slm_shape
+def _centre_position_sigma(
+    samples: _FieldSamples,
+    model: DispersionModel,
+    lam: NDArray[np.float64],
+    maps: Sequence[LaserMap],
+    order: int,
+    information=None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The column's 1-sigma at the field centre at each of 31 wavelengths over the band:
+    in camera px, and in nm (over the local dispersion there).
+
+    Each laser map's error is one smooth surface over the field, not independent grid
+    samples: a map carries about as many independent numbers as the field has terms
+    (``T``), however densely it is sampled. So the per-point variance of a map's error is
+    taken as the larger of the lines' scatter about the joint model at each field point
+    (``L - K`` degrees of freedom each; it includes where the model's form misses the
+    optics) and the map's own correspondence scatter (its fit's RMS over its inliers,
+    times its terms); and the error surfaces are given the field design's covariance
+    scaled to that variance (``G / T`` times the hat matrix). The centre column is a
+    linear function of the maps (through the lamp lines' normal equations too, when the
+    fit is anchored), so its variance is each map's sensitivity through that covariance,
+    summed over the maps.
+    """
+    field_design = samples.field_design
+    points, terms = field_design.shape
+    powers = samples.sx(lam)[:, None] ** np.arange(order + 1)[None, :]  # (L, K)
+    gram = field_design.T @ field_design
+    normal = np.kron(powers.T @ powers, gram)
+    if information is not None:
+        normal = normal + information.matrix
+    h, w = model.slm_shape
     centre = legendre2d_design(
-        *field_coordinates((w - 1) / 2, (h - 1) / 2, slm_shape), model.field_degree
-    )
-    lam = np.linspace(*BAND_NM, 31)
-    s = model.spectral_x(lam)
-    rows = (s[:, None] ** np.arange(order + 1)[None, :])[:, :, None] * centre[None, None, :]
-    rows = rows.reshape(lam.size, -1)
-    sigma_px = np.sqrt(np.einsum("ij,jk,ik->i", rows, cov, rows))
-    slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, lam)))
-    return float(sigma_px.max()), float((sigma_px / np.maximum(slope, 1e-12)).max())
+        *field_coordinates((w - 1) / 2, (h - 1) / 2, model.slm_shape), model.field_degree
+    ).ravel()
+    band = np.linspace(*BAND_NM, 31)
+    band_powers = model.spectral_x(band)[:, None] ** np.arange(order + 1)[None, :]
+    rows = np.einsum("nk,t->nkt", band_powers, centre).reshape(band.size, -1)
+    through = np.linalg.solve(normal, rows.T).T.reshape(band.size, order + 1, terms)
+    # Sensitivity of the centre column at each band wavelength to laser l's map,
+    # expressed in field terms: d x_c / d xs[l] = A[l] @ field_design.T.
+    sensitivity = np.einsum("lk,nkt->lnt", powers, through)
+    squared = np.einsum("lnt,ts,lns->ln", sensitivity, gram, sensitivity)
+    predicted = powers @ model.x_coeffs.reshape(order + 1, terms) @ field_design.T
+    spare = lam.size - (order + 1)
+    scatter = float(np.sum((samples.xs - predicted) ** 2)) / (points * spare) if spare > 0 else 0.0
+    own = np.array([m.x.rms**2 * m.x.coeffs.size / max(m.x.n_inliers, 1) for m in maps])
+    variance = np.maximum(own, scatter)[:, None] * (points / terms) * squared
+    sigma_px = np.sqrt(variance.sum(axis=0))
+    slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, band)))
+    return sigma_px, sigma_px / np.maximum(slope, 1e-12)
 
 
 def wavelength_bins(

@@ -2,8 +2,10 @@
 
 - **The map's stated uncertainty.** The dispersion fit states the 1-sigma of the column it
   predicts at the field centre, the worst over 400-700 nm
-  (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.position_sigma_px`, from the
-  laser maps' scatter about the joint model). The bundle places streaks to a tenth of a
+  (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.position_sigma_px`: each
+  laser map's error one smooth surface over the field, as large as the lines' scatter
+  about the joint model or the map's own correspondence scatter, carried through the
+  fit). The bundle places streaks to a tenth of a
   pixel and wavelengths to 0.3 nm; its own 1-sigma must be well inside both
   (``tolerances.map_sigma_px``, ``tolerances.map_sigma_nm``; in nm wavelength by
   wavelength, over the local dispersion there).

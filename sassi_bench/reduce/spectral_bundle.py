@@ -80,6 +80,7 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
             "dispersion_residual_px": {f"{k:g}": v for k, v in disp.residual_px.items()},
             "position_sigma_px": disp.position_sigma_px,
             "position_sigma_nm": disp.position_sigma_nm,
+            "position_sigma_rms_nm": disp.position_sigma_rms_nm,
             "line_sigma_nm": disp.line_sigma_nm,
             "line_sigma_max_nm": disp.line_sigma_max_nm,
             "blur_measured_sigma_px": dict(
