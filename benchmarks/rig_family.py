@@ -93,6 +93,10 @@ def score(rig, result) -> dict:
         "corr_px": corr,
         "wl_nm": float(np.sqrt(np.mean(error**2))),
         "wl_max_nm": float(np.abs(error).max()),
+        "stated_nm": float(cal.dispersion.position_sigma_nm),
+        "stated_rms_nm": float(cal.dispersion.position_sigma_rms_nm),
+        "stated_px": float(cal.dispersion.position_sigma_px),
+        **_row_error_px(t, cal.dispersion.model),
         "de00": float(result.stages["macbeth"].summary()["mean_de00"]),
     }
     bundle = load(result.bundle_path)
@@ -103,6 +107,17 @@ def score(rig, result) -> dict:
     scores, _ = _chart_scan_scores(rig, bundle, result.stages["staging"], chart)
     out["scan_db"] = float(scores.split(" dB")[0])
     return out
+
+
+def _row_error_px(bench, model) -> dict:
+    """How far the model's streak rows are from the truth over the band and the field."""
+    h, w = model.slm_shape
+    u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
+    lam = np.linspace(400.0, 700.0, 61)[None, :]
+    _, ym = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam)
+    _, yt = bench.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam)
+    error = np.asarray(ym - yt)
+    return {"row_px": float(np.sqrt(np.mean(error**2))), "row_max_px": float(np.abs(error).max())}
 
 
 def run_one(rig_file: Path, data: Path) -> dict:
