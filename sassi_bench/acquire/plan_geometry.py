@@ -43,7 +43,7 @@ The rules (camera px unless said; ``s(l)`` the described spot sigma of one SLM p
   than a small centred one, and a degree too low leaves the map a pixel off at the
   corners while every laser map fits within its tolerance);
 - dispersion order of the fits (``fit.dispersion_order``): 2 (the column quadratic in the
-  glass index, the row in wavelength), or 3 where that form misses the described optics'
+  glass index, the row in wavelength), or 3 where the column misses the described optics'
   streaks by more than the tenth of a pixel the bundle places them to somewhere on the
   field and the rig has the lines to fit one more power: wavelength lamps, or at least
   six laser lines (:func:`dispersion_order`; a wide field imaged far off the camera's
