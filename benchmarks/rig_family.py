@@ -96,6 +96,7 @@ def score(rig, result) -> dict:
         "stated_nm": float(cal.dispersion.position_sigma_nm),
         "stated_rms_nm": float(cal.dispersion.position_sigma_rms_nm),
         "stated_px": float(cal.dispersion.position_sigma_px),
+        "line_sigma_nm": float(cal.dispersion.line_sigma_nm),
         **_row_error_px(t, cal.dispersion.model),
         "de00": float(result.stages["macbeth"].summary()["mean_de00"]),
     }
@@ -168,15 +169,15 @@ def print_table(records: list[dict]) -> None:
         return fmt.format(r[key]) if r.get(key) is not None else "-"
 
     print(
-        "| rig | outcome | checks | corr px | wavelength nm RMS (max) | dE00 | scan dB | "
-        "time s | cause |"
+        "| rig | outcome | checks | corr px | wavelength nm RMS (max) | stated nm RMS (worst) | "
+        "rows px RMS (max) | dE00 | scan dB | time s | cause |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in records:
         wl = f"{r['wl_nm']:.3f} ({r['wl_max_nm']:.3f})" if "wl_nm" in r else "-"
         print(
             f"| {r['rig']} | {r['outcome']} | {checks_verdict(r)} | {f(r, 'corr_px', '{:.3f}')} | "
-            f"{wl} | "
+            f"{wl} | {_stated(r)} | {_rows(r)} | "
             f"{f(r, 'de00', '{:.2f}')} | {f(r, 'scan_db', '{:.1f}')} | {r['time_s']} | "
             f"{_cause(r)} |"
         )
@@ -202,12 +203,26 @@ def _response_frames(r: dict) -> str:
     return str(response["frames"]) if isinstance(response, dict) else "-"
 
 
+def _stated(r: dict) -> str:
+    """The map's stated 1-sigma, RMS over the band (worst), nm (older records keep none)."""
+    if r.get("stated_rms_nm") is None:
+        return "-"
+    return f"{r['stated_rms_nm']:.3f} ({r['stated_nm']:.3f})"
+
+
+def _rows(r: dict) -> str:
+    """The model's streak rows against the truth, RMS (max) px (older records keep none)."""
+    return f"{r['row_px']:.3f} ({r['row_max_px']:.2f})" if r.get("row_px") is not None else "-"
+
+
 #: The docs table's columns: a figure of each rig's record.
 DOC_COLUMNS = (
     "outcome",
     "checks",
     "corr px",
     "wavelength nm RMS (max)",
+    "stated nm RMS (worst)",
+    "rows px RMS (max)",
     "dE00",
     "scan dB",
     "response frames",
@@ -232,6 +247,8 @@ def write_docs_table(records: list[dict], small: bool) -> Path:
             "checks": checks_verdict(r),
             "corr px": f(r, "corr_px", "{:.3f}"),
             "wavelength nm RMS (max)": wl,
+            "stated nm RMS (worst)": _stated(r),
+            "rows px RMS (max)": _rows(r),
             "dE00": f(r, "de00", "{:.2f}"),
             "scan dB": f(r, "scan_db", "{:.1f}"),
             "response frames": _response_frames(r),
