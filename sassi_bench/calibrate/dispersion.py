@@ -85,9 +85,9 @@ class DispersionFit:
         local dispersion there), the largest over 400-700 nm: the column is least sure
         where the map reaches past its lines, which need not be where the dispersion is
         lowest.
-    position_sigma_rms_nm
-        That 1-sigma in nm, RMS over 400-700 nm (the statistic the map's wavelength
-        accuracy is graded by).
+    position_sigma_rms_nm, position_sigma_rms_px
+        That 1-sigma in nm and in camera px, RMS over 400-700 nm (the statistic the
+        map's wavelength accuracy is graded by).
     wavelengths_nm
         Per laser label, the wavelength the fit used: the label, or the estimate for a
         line fitted with an estimated wavelength.
@@ -109,6 +109,7 @@ class DispersionFit:
     position_sigma_px: float
     position_sigma_nm: float
     position_sigma_rms_nm: float
+    position_sigma_rms_px: float
     wavelengths_nm: dict[float, float] = field(default_factory=dict)
     anchored: bool = False
     line_sigma_nm: float = 0.0
@@ -387,6 +388,7 @@ def fit_dispersion(
         position_sigma_px=float(sigma_px.max()),
         position_sigma_nm=float(sigma_nm.max()),
         position_sigma_rms_nm=float(np.sqrt(np.mean(sigma_nm**2))),
+        position_sigma_rms_px=float(np.sqrt(np.mean(sigma_px**2))),
         wavelengths_nm={float(label): float(w) for label, w in zip(labels, lam, strict=True)},
         anchored=x_information is not None,
         line_sigma_nm=line_rms,

@@ -7,10 +7,11 @@
   about the joint model or the map's own correspondence scatter, carried through the
   fit). A bundle places streaks to a tenth of a pixel and is graded on its wavelengths'
   RMS over the band against 0.3 nm; a map whose own 1-sigma exceeds either is expected to
-  miss it (``tolerances.map_sigma_px`` on the worst column 1-sigma over the band,
+  miss it (``tolerances.map_sigma_px`` on the column 1-sigma's RMS over the band,
   ``tolerances.map_sigma_nm`` on the RMS over the band of each wavelength's 1-sigma
-  over its local dispersion). A tolerance below the target fails right bundles whose
-  lasers stop short of the band's ends, where the 1-sigma is largest. For a
+  over its local dispersion). A tolerance on the worst over the band fails right
+  bundles whose lasers stop short of the band's ends, where the 1-sigma is largest
+  (at the blue end, where the dispersion is steepest, in px most of all). For a
   lamp-anchored map it counts the laser maps' errors as the anchored fit carries them,
   not the lamp streaks' own noise.
 - **The lines' own wavelengths, recorded.** What the lasers' wavelength uncertainty (a
@@ -59,8 +60,8 @@ __all__ = [
     "worst_lamp_line",
 ]
 
-#: The map's worst column 1-sigma (camera px) when the procedure names none: the 0.1 px a
-#: bundle places streaks to.
+#: The map's column 1-sigma (camera px, RMS over the band) when the procedure names none:
+#: the 0.1 px a bundle places streaks to.
 MAP_SIGMA_PX = 0.1
 #: The map's 1-sigma (nm, RMS over the band) when the procedure names none: the 0.3 nm its
 #: wavelengths are graded to.
@@ -162,7 +163,7 @@ def measured_bundle_checks(
     checks = [
         QualityCheck.at_most(
             "map_sigma_px",
-            fit.position_sigma_px,
+            fit.position_sigma_rms_px,
             float(tolerances.get("map_sigma_px", MAP_SIGMA_PX)),
             "px",
         ),
@@ -213,8 +214,9 @@ def bundle_check_notes(
     notes = []
     if "map_sigma_px" in failed or "map_sigma_nm" in failed:
         notes.append(
-            f"wavelength map: it states +-{fit.position_sigma_px:.3f} px at worst over the "
-            f"band (+-{map_sigma_nm(fit):.3f} nm RMS), more than the bundle is used for: "
+            f"wavelength map: it states +-{fit.position_sigma_rms_px:.3f} px "
+            f"(+-{map_sigma_nm(fit):.3f} nm) RMS over the band, more than the bundle is "
+            "used for: "
             "the laser maps scatter about the joint dispersion model, or their own "
             "correspondences scatter, and the lines stop short of the band's ends. "
             "Fix: check each laser's correspondence residual (a noisy or clipped sweep: a "

@@ -81,6 +81,7 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
             "position_sigma_px": disp.position_sigma_px,
             "position_sigma_nm": disp.position_sigma_nm,
             "position_sigma_rms_nm": disp.position_sigma_rms_nm,
+            "position_sigma_rms_px": disp.position_sigma_rms_px,
             "line_sigma_nm": disp.line_sigma_nm,
             "line_sigma_max_nm": disp.line_sigma_max_nm,
             "blur_measured_sigma_px": dict(
