@@ -96,6 +96,7 @@ def score(rig, result) -> dict:
         "stated_nm": float(cal.dispersion.position_sigma_nm),
         "stated_rms_nm": float(cal.dispersion.position_sigma_rms_nm),
         "stated_px": float(cal.dispersion.position_sigma_px),
+        "stated_rms_px": float(cal.dispersion.position_sigma_rms_px),
         "line_sigma_nm": float(cal.dispersion.line_sigma_nm),
         **_row_error_px(t, cal.dispersion.model),
         "de00": float(result.stages["macbeth"].summary()["mean_de00"]),
