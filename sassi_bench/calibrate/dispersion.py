@@ -205,9 +205,9 @@ class _FieldSamples:
 
         The design is the Kronecker product of the spectral powers and the field terms,
         so its least-squares solution is ``pinv(powers) @ x @ pinv(field).T``, without
-        building it. ``information``
-        (an :class:`~sassi_bench.calibrate.anchored.XInformation`) adds the lamp lines'
-        normal equations; the system is then solved whole.
+        building it. ``information`` (an
+        :class:`~sassi_bench.calibrate.anchored.XInformation`) adds the lamp lines' normal
+        equations; the system is then solved whole.
         """
         powers = self.sx(wavelength_nm[rows])[:, None] ** np.arange(order + 1)[None, :]
         if information is None:
@@ -592,8 +592,8 @@ def _centre_position_sigma(
     (``T``), however densely it is sampled. So the per-point variance of a map's error is
     taken as the larger of the lines' scatter about the joint model at each field point
     (``L - K`` degrees of freedom each; it includes where the model's form misses the
-    optics) and the map's own correspondence scatter (its fit's RMS over its inliers,
-    times its terms); and the error surfaces are given the field design's covariance
+    optics) and the map's own correspondence scatter (its fit's RMS squared times its
+    terms over its inliers); and the error surfaces are given the field design's covariance
     scaled to that variance (``G / T`` times the hat matrix). The centre column is a
     linear function of the maps (through the lamp lines' normal equations too, when the
     fit is anchored), so its variance is each map's sensitivity through that covariance,
