@@ -17,7 +17,7 @@
 - **The lines' own wavelengths, recorded.** What the lasers' wavelength uncertainty (a
   test sheet's accuracy as the rig states it, a lamp measurement's 1-sigma) moves the
   map by (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.line_sigma_nm`) is
-  recorded and noted above ``MAP_SIGMA_NM`` (:func:`line_uncertainty_notes`), not
+  recorded and noted above ``LINE_SIGMA_NOTE_NM`` (:func:`line_uncertainty_notes`), not
   graded: a map whose lines are off by their accuracy and one whose lines happen to be
   right state the same, so a tolerance on it fails right bundles as often as wrong ones.
 - **Lamp lines against their own uncertainty.** Every lamp line bright enough to tell has a
@@ -50,6 +50,7 @@ from sassi_bench.reduce.lamps import LampAnchoring
 
 __all__ = [
     "LAMP_LINE_MAX_SIGMAS",
+    "LINE_SIGMA_NOTE_NM",
     "MAP_SIGMA_NM",
     "MAP_SIGMA_PX",
     "LampLineOutlier",
@@ -66,6 +67,9 @@ MAP_SIGMA_PX = 0.1
 #: The map's 1-sigma (nm, RMS over the band) when the procedure names none: the 0.3 nm its
 #: wavelengths are graded to.
 MAP_SIGMA_NM = 0.3
+#: What the laser lines' own wavelength uncertainty may carry into the map (nm RMS over
+#: the band) before a note says how to pin them: half the 0.3 nm the map is graded to.
+LINE_SIGMA_NOTE_NM = 0.15
 #: How many of its own sigmas a lamp line may sit off the map when the procedure names none.
 LAMP_LINE_MAX_SIGMAS = 5.0
 
@@ -258,7 +262,7 @@ def _lamp_fit_clause(anchoring: LampAnchoring) -> str:
 
 def line_uncertainty_notes(fit: DispersionFit) -> list[str]:
     """A note when the laser lines' own wavelength uncertainty carries more than
-    :data:`MAP_SIGMA_NM` RMS into the map over 400-700 nm (recorded in the bundle as
+    :data:`LINE_SIGMA_NOTE_NM` RMS into the map over 400-700 nm (recorded in the bundle as
     ``line_sigma_nm``, not graded: no check can tell a map whose lines are off by their
     stated accuracy from one whose lines happen to be right).
 
@@ -271,13 +275,13 @@ def line_uncertainty_notes(fit: DispersionFit) -> list[str]:
     >>> line_uncertainty_notes(SimpleNamespace(line_sigma_nm=0.02, line_sigma_max_nm=0.05))
     []
     """
-    if fit.line_sigma_nm <= MAP_SIGMA_NM:
+    if fit.line_sigma_nm <= LINE_SIGMA_NOTE_NM:
         return []
     return [
         f"wavelength map: the laser lines' own wavelengths carry +-{fit.line_sigma_nm:.2f} nm "
         f"RMS into it over 400-700 nm (+-{fit.line_sigma_max_nm:.2f} nm at worst, where it "
         "reaches past its lines), as the rig states them (laser_tolerance_nm) or the lamps "
-        f"measure them: more than the {MAP_SIGMA_NM:g} nm the map's own 1-sigma is held to. "
+        f"measure them: more than half the {MAP_SIGMA_NM:g} nm the map is graded to. "
         "To pin them: wavelength lamps on the diffuser, a spectrometer's reading of each "
         "line, or a laser nearer the band's open end"
     ]
