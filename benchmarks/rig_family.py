@@ -89,6 +89,7 @@ def score(rig, result) -> dict:
         x, y = t.slm_to_camera(d.slm_u, d.slm_v, t.laser_centre_nm(d.wavelength_nm))
         corr = max(corr, float(np.sqrt(np.mean((x - d.camera_x) ** 2 + (y - d.camera_y) ** 2))))
     error = t.wavelength_map_error_nm(cal.dispersion.model)
+    rows = t.row_error_px(cal.dispersion.model)
     out = {
         "corr_px": corr,
         "wl_nm": float(np.sqrt(np.mean(error**2))),
@@ -98,7 +99,8 @@ def score(rig, result) -> dict:
         "stated_px": float(cal.dispersion.position_sigma_px),
         "stated_rms_px": float(cal.dispersion.position_sigma_rms_px),
         "line_sigma_nm": float(cal.dispersion.line_sigma_nm),
-        **_row_error_px(t, cal.dispersion.model),
+        "row_px": float(np.sqrt(np.mean(rows**2))),
+        "row_max_px": float(np.abs(rows).max()),
         "de00": float(result.stages["macbeth"].summary()["mean_de00"]),
     }
     bundle = load(result.bundle_path)
@@ -109,17 +111,6 @@ def score(rig, result) -> dict:
     scores, _ = _chart_scan_scores(rig, bundle, result.stages["staging"], chart)
     out["scan_db"] = float(scores.split(" dB")[0])
     return out
-
-
-def _row_error_px(bench, model) -> dict:
-    """How far the model's streak rows are from the truth over the band and the field."""
-    h, w = model.slm_shape
-    u, v = np.meshgrid(np.linspace(0, w - 1, 17), np.linspace(0, h - 1, 11))
-    lam = np.linspace(400.0, 700.0, 61)[None, :]
-    _, ym = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam)
-    _, yt = bench.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam)
-    error = np.asarray(ym - yt)
-    return {"row_px": float(np.sqrt(np.mean(error**2))), "row_max_px": float(np.abs(error).max())}
 
 
 def run_one(rig_file: Path, data: Path) -> dict:

@@ -220,8 +220,7 @@ def bundle_check_notes(
         notes.append(
             f"wavelength map: it states +-{fit.position_sigma_rms_px:.3f} px "
             f"(+-{map_sigma_nm(fit):.3f} nm) RMS over the band, more than the bundle is "
-            "used for: "
-            "the laser maps scatter about the joint dispersion model, or their own "
+            "used for: the laser maps scatter about the joint dispersion model, or their own "
             "correspondences scatter, and the lines stop short of the band's ends. "
             "Fix: check each laser's correspondence residual (a noisy or clipped sweep: a "
             "longer or shorter exposure), add a laser line towards the band's ends or "

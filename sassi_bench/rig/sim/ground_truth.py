@@ -166,6 +166,18 @@ class BenchTruth:
         """The spectral camera's QE."""
         return self._bench.sensor.quantum_efficiency(wavelength_nm)
 
+    def _streaks_on_grid(self, model, field_points: tuple[int, int]):
+        """A model's and the true streaks (x, y) on a grid of ``field_points`` (columns,
+        rows) over the SLM at 61 wavelengths from 400 to 700 nm, and those wavelengths."""
+        h, w = self._bench.slm_shape
+        u, v = np.meshgrid(
+            np.linspace(0, w - 1, field_points[0]), np.linspace(0, h - 1, field_points[1])
+        )
+        lam = np.linspace(400.0, 700.0, 61)
+        modelled = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        true = self.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        return modelled, true, lam
+
     def wavelength_map_error_nm(self, model, field_points: tuple[int, int] = (17, 11)) -> NDArray:
         """Wavelength error (nm) of a dispersion model's streak columns against the truth.
 
@@ -174,14 +186,14 @@ class BenchTruth:
         SLM at 61 wavelengths from 400 to 700 nm; column errors become wavelength errors
         through the true local dispersion. Returns (points, 61).
         """
-        h, w = self._bench.slm_shape
-        u, v = np.meshgrid(
-            np.linspace(0, w - 1, field_points[0]), np.linspace(0, h - 1, field_points[1])
-        )
-        lam = np.linspace(400.0, 700.0, 61)
-        xm, _ = model.evaluate(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
-        xt, _ = self.slm_to_camera(u.ravel()[:, None], v.ravel()[:, None], lam[None, :])
+        (xm, _), (xt, _), lam = self._streaks_on_grid(model, field_points)
         return (xm - xt) / np.gradient(xt, lam, axis=1)
+
+    def row_error_px(self, model, field_points: tuple[int, int] = (17, 11)) -> NDArray:
+        """Error (camera px) of a dispersion model's streak rows against the truth, on the
+        grid and wavelengths of :meth:`wavelength_map_error_nm`. Returns (points, 61)."""
+        (_, ym), (_, yt), _ = self._streaks_on_grid(model, field_points)
+        return np.asarray(ym - yt)
 
     def relative_response(self, bin_edges_nm: ArrayLike, light: str = "halogen") -> NDArray:
         """What a radiometric response taken under ``light`` should be, per bin.
