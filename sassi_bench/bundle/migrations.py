@@ -143,3 +143,10 @@ def _major_minor(version: str) -> tuple[int, int]:
 
 #: The registry the loader uses. Register migrations here when the schema's minor is bumped.
 REGISTRY = MigrationRegistry(SCHEMA_VERSION)
+
+
+@REGISTRY.register("1.0", "1.1")
+def _row_in_wavelength(manifest: dict[str, Any]) -> dict[str, Any]:
+    """1.1 added ``models.dispersion.y_index_coeffs`` (the row in the glass index); a 1.0
+    bundle has none, so its rows stay the quadratic in wavelength of ``y_coeffs``."""
+    return manifest

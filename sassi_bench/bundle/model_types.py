@@ -64,7 +64,13 @@ class DispersionModel:
     field_degree
         Total degree ``D`` of the 2D Legendre field basis.
     x_coeffs, y_coeffs
-        ``(K, n_terms)`` coefficient arrays (``K = 3`` for the quadratic fit).
+        ``(K, n_terms)`` coefficient arrays (``K = 3`` for the quadratic fit): the column in
+        ``s_x``, the row in ``s_y`` (the paper's form).
+    y_index_coeffs
+        The row's ``(K, n_terms)`` coefficients in ``s_x`` instead (schema 1.1), or None.
+        When given, rows are evaluated from them; ``y_coeffs`` stays in the bundle for
+        readers of schema 1.0. A prism's rows follow its index, which a polynomial in
+        wavelength cannot follow into the blue.
 
     Examples
     --------
@@ -90,6 +96,7 @@ class DispersionModel:
     field_degree: int
     x_coeffs: NDArray[np.float64]
     y_coeffs: NDArray[np.float64]
+    y_index_coeffs: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         where = "models.dispersion"
@@ -104,7 +111,8 @@ class DispersionModel:
         degree = integer(self.field_degree, f"{where}.field_degree", 0, MAX_FIELD_DEGREE)
         n_terms = len(legendre2d_terms(degree))
         coeffs = {}
-        for key in ("x_coeffs", "y_coeffs"):
+        keys = ["x_coeffs", "y_coeffs"] + ["y_index_coeffs"] * (self.y_index_coeffs is not None)
+        for key in keys:
             coeffs[key] = frozen_array(
                 getattr(self, key),
                 f"{where}.{key}",
@@ -142,6 +150,22 @@ class DispersionModel:
             self.lambda_scale_nm
         )
 
+    @property
+    def row_in_index(self) -> bool:
+        """Whether rows are a polynomial in ``s_x`` (``y_index_coeffs``) rather than ``s_y``."""
+        return self.y_index_coeffs is not None
+
+    @property
+    def row_coeffs(self) -> NDArray[np.float64]:
+        """The row's coefficients in :meth:`row_coordinate`: ``y_index_coeffs`` if given."""
+        return self.y_coeffs if self.y_index_coeffs is None else self.y_index_coeffs
+
+    def row_coordinate(self, wavelength_nm: ArrayLike) -> NDArray[np.float64]:
+        """The spectral coordinate the row is a polynomial in: ``s_x`` or ``s_y``."""
+        if self.row_in_index:
+            return self.spectral_x(wavelength_nm)
+        return self.spectral_y(wavelength_nm)
+
     def evaluate(
         self, u: ArrayLike, v: ArrayLike, wavelength_nm: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -153,13 +177,14 @@ class DispersionModel:
         """
         cx, cy = self.field_coefficients(u, v)
         return horner(self.spectral_x(wavelength_nm), cx), horner(
-            self.spectral_y(wavelength_nm), cy
+            self.row_coordinate(wavelength_nm), cy
         )
 
     def field_coefficients(
         self, u: ArrayLike, v: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The polynomials of SLM pixel ``(u, v)``: ``x = sum_k cx[k] s_x**k``, likewise y.
+        """The polynomials of SLM pixel ``(u, v)``: ``x = sum_k cx[k] s_x**k`` and
+        ``y = sum_k cy[k] s**k`` in the :meth:`row_coordinate` ``s``.
 
         Returns
         -------
@@ -181,11 +206,15 @@ class DispersionModel:
         # One 2-D product: a stacked matmul over (N, 1, terms) would do N tiny products.
         terms = design.reshape(-1, design.shape[-1])
         cx = (terms @ self.x_coeffs.T).reshape(*design.shape[:-1], self.x_coeffs.shape[0])
-        cy = (terms @ self.y_coeffs.T).reshape(*design.shape[:-1], self.y_coeffs.shape[0])
+        row = self.row_coeffs
+        cy = (terms @ row.T).reshape(*design.shape[:-1], row.shape[0])
         return np.moveaxis(cx, -1, 0), np.moveaxis(cy, -1, 0)
 
     def to_manifest(
-        self, x_name: str = "dispersion_x_coeffs", y_name: str = "dispersion_y_coeffs"
+        self,
+        x_name: str = "dispersion_x_coeffs",
+        y_name: str = "dispersion_y_coeffs",
+        y_index_name: str = "dispersion_y_index_coeffs",
     ) -> tuple[dict[str, Any], dict[str, NDArray[np.float64]]]:
         """The ``models.dispersion`` entry and the arrays it names."""
         entry = {
@@ -202,7 +231,11 @@ class DispersionModel:
             "lambda_scale_nm": self.lambda_scale_nm,
             "y_coeffs": y_name,
         }
-        return entry, {x_name: self.x_coeffs, y_name: self.y_coeffs}
+        arrays = {x_name: self.x_coeffs, y_name: self.y_coeffs}
+        if self.y_index_coeffs is not None:
+            entry["y_index_coeffs"] = y_index_name
+            arrays[y_index_name] = self.y_index_coeffs
+        return entry, arrays
 
     @classmethod
     def from_manifest(cls, entry: Any, arrays: Mapping[str, Any]) -> DispersionModel:
@@ -227,6 +260,11 @@ class DispersionModel:
             field_degree=entry["field_degree"],
             x_coeffs=array_ref(entry, "x_coeffs", arrays, where),
             y_coeffs=array_ref(entry, "y_coeffs", arrays, where),
+            y_index_coeffs=(
+                array_ref(entry, "y_index_coeffs", arrays, where)
+                if "y_index_coeffs" in entry
+                else None
+            ),
         )
 
 

@@ -13,7 +13,8 @@ nm; pixel centres at integer coordinates.
 Dispersion (``models.dispersion``)
     ``{"glass", "sellmeier_b": [B1, B2, B3], "sellmeier_c": [C1, C2, C3] (µm²), "n_ref",
     "n_scale", "field_basis": "legendre2d", "field_degree": D, "slm_shape": [H, W],
-    "x_coeffs": <array>, "lambda_ref_nm", "lambda_scale_nm", "y_coeffs": <array>}``.
+    "x_coeffs": <array>, "lambda_ref_nm", "lambda_scale_nm", "y_coeffs": <array>,
+    "y_index_coeffs": <array> (optional, schema 1.1)}``.
 
     * refractive index ``n(λ) = sqrt(1 + Σ_i B_i λ² / (λ² − C_i))``, ``λ`` in µm;
     * spectral variables ``s_x = (n(λ) − n_ref) / n_scale`` and
@@ -24,7 +25,10 @@ Dispersion (``models.dispersion``)
       (:func:`~sassi_bench.maths.legendre.legendre2d_terms`);
     * arrays ``x_coeffs`` and ``y_coeffs`` of shape ``(K, n_terms)`` (``K = 3`` for the
       quadratic fit): ``x(u, v, λ) = Σ_k Σ_t x_coeffs[k, t] basis_t(û, v̂) s_x^k`` and
-      ``y(u, v, λ) = Σ_k Σ_t y_coeffs[k, t] basis_t(û, v̂) s_y^k``.
+      ``y(u, v, λ) = Σ_k Σ_t y_coeffs[k, t] basis_t(û, v̂) s_y^k`` (the paper's row);
+    * when ``y_index_coeffs`` (same shape) is given, the row is a polynomial in the index
+      instead, ``y(u, v, λ) = Σ_k Σ_t y_index_coeffs[k, t] basis_t(û, v̂) s_x^k``, and
+      ``y_coeffs`` is kept for readers of schema 1.0 (which ignore the new key).
 
 Wavelength bins (``models.wavelength_bins``)
     Names of three arrays: ``bin_centres_nm`` ``(B,)``, ``bin_edges_nm`` ``(B + 1,)`` (strictly

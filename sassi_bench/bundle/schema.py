@@ -32,7 +32,7 @@ __all__ = [
 ]
 
 SCHEMA_NAME = "sassi-bench/calibration-bundle"
-SCHEMA_VERSION = "1.0.0"
+SCHEMA_VERSION = "1.1.0"
 
 _SEMVER = re.compile(r"^(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)$")
 _MAX_REPORTED = 5

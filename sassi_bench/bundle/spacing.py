@@ -161,7 +161,7 @@ def _field_polynomials(model: DispersionModel) -> tuple[NDArray[np.float64], NDA
     pv = legendre.legvander(v_hat, degree)  # (H, D + 1)
     terms = legendre2d_terms(degree)
     out = []
-    for coeffs in (model.x_coeffs, model.y_coeffs):
+    for coeffs in (model.x_coeffs, model.row_coeffs):
         fields = np.empty((coeffs.shape[0], h, w))
         for k, row in enumerate(coeffs):
             grid = np.zeros((degree + 1, degree + 1))  # [j, i]: P_j(v̂) P_i(û)
@@ -174,8 +174,8 @@ def _field_polynomials(model: DispersionModel) -> tuple[NDArray[np.float64], NDA
 
 def _row_range(cy, s_ends) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lowest and highest camera row of every pixel's streak between the band's ends: the
-    row is a polynomial in ``s_y``; for a quadratic its extremes are at the ends or at the
-    vertex, otherwise it is sampled finely."""
+    row is a polynomial in its spectral coordinate; for a quadratic its extremes are at the
+    ends or at the vertex, otherwise it is sampled finely."""
     s0, s1 = float(min(s_ends)), float(max(s_ends))
     if cy.shape[0] <= 3:
         points = [horner(s0, cy), horner(s1, cy)]
@@ -301,7 +301,7 @@ def mask_spacing(
             )
         )
     # Vertical extent of a footprint: the rows its bin centres span, plus the blur.
-    y_low, y_high = _row_range(cy, model.spectral_y(centres[[0, -1]]))
+    y_low, y_high = _row_range(cy, model.row_coordinate(centres[[0, -1]]))
     rows_k = blur_sigmas if row_sigmas is None else row_sigmas
     if not (np.isfinite(rows_k) and rows_k >= 0):
         raise BundleError(step_error(step, f"row_sigmas is {row_sigmas}", "pass a number >= 0"))

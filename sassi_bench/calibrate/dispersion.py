@@ -1,12 +1,16 @@
 """Dispersion fit: where every SLM pixel's light of every wavelength lands.
 
 Input: per-laser smooth maps ``(u, v) -> (x, y)`` (:class:`LaserMap`). Output: the
-bundle's dispersion model, in which camera column ``x`` is a quadratic in the prism
-glass's refractive index ``n(λ)`` and camera row ``y`` a quadratic in ``λ``, with every
-coefficient a smooth (Legendre) function of the SLM field:
+bundle's dispersion model, in which camera column ``x`` and row ``y`` are quadratics in
+the prism glass's refractive index ``n(λ)``, with every coefficient a smooth (Legendre)
+function of the SLM field:
 
     x(u, v, λ) = Σ_k Σ_t a_kt P_t(û, v̂) s_x(λ)^k,   s_x = (n(λ) − n_ref) / n_scale
-    y(u, v, λ) = Σ_k Σ_t b_kt P_t(û, v̂) s_y(λ)^k,   s_y = (λ − 550 nm) / 150 nm
+    y(u, v, λ) = Σ_k Σ_t c_kt P_t(û, v̂) s_x(λ)^k
+
+The paper's row, a quadratic in ``s_y = (λ − 550 nm) / 150 nm`` (coefficients ``b_kt``),
+is fitted too and kept in the bundle for readers of its older schema; a prism's rows
+follow its index, which a polynomial in wavelength cannot follow into the blue.
 
 The honest accuracy figure is the leave-one-laser-out error: refit without one laser
 and predict where that laser's light lands. The same refit also says which wavelength
@@ -327,12 +331,21 @@ def fit_dispersion(
     u, v, xs, ys = samples.u, samples.v, samples.xs, samples.ys
     sy = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
 
+    sx = samples.sx(lam)
+
     def fit(keep: NDArray[np.bool_]):
         ax = samples.fit_x(lam, keep, order, x_information)
-        # The rows' design is the Kronecker product of the powers of sy and the field
-        # terms: its least squares is pinv(powers) @ ys @ pinv(field).T (as for x).
-        powers = sy[keep][:, None] ** np.arange(order + 1)[None, :]
-        ay = np.linalg.pinv(powers) @ ys[keep] @ samples.field_pinv.T
+        # The rows' design is the Kronecker product of the powers of the spectral
+        # coordinate and the field terms: its least squares is
+        # pinv(powers) @ ys @ pinv(field).T (as for x). The rows are fitted in the index
+        # (what the bundle evaluates) and in wavelength (the paper's form, kept for
+        # readers of the older schema).
+        ay = [
+            np.linalg.pinv(s[keep][:, None] ** np.arange(order + 1)[None, :])
+            @ ys[keep]
+            @ samples.field_pinv.T
+            for s in (sy, sx)
+        ]
         return ax, ay
 
     def model_from(ax, ay) -> DispersionModel:
@@ -347,7 +360,8 @@ def fit_dispersion(
             slm_shape=tuple(slm_shape),
             field_degree=field_degree,
             x_coeffs=ax,
-            y_coeffs=ay,
+            y_coeffs=ay[0],
+            y_index_coeffs=ay[1],
         )
 
     everything = np.ones(lam.size, dtype=bool)
@@ -375,7 +389,10 @@ def fit_dispersion(
     sigma_px, sigma_nm = _centre_position_sigma(samples, model, lam, maps, order, x_information)
 
     def refit_x(moved: NDArray[np.float64]) -> DispersionModel:
-        return model_from(samples.fit_x(moved, everything, order, x_information), model.y_coeffs)
+        return model_from(
+            samples.fit_x(moved, everything, order, x_information),
+            (model.y_coeffs, model.y_index_coeffs),
+        )
 
     line_rms, line_max = _line_wavelength_sigma(
         model, refit_x, labels, lam, wavelength_sigma_nm or {}

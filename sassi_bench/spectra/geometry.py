@@ -128,7 +128,7 @@ def streak_geometry(
         np.ascontiguousarray(cx.T),
         np.ascontiguousarray(cy.T),
         np.ascontiguousarray(model.spectral_x(bundle.bin_edges), dtype=np.float64),
-        np.ascontiguousarray(model.spectral_y(bundle.wavelengths), dtype=np.float64),
+        np.ascontiguousarray(model.row_coordinate(bundle.wavelengths), dtype=np.float64),
         int(guard),
         x_left,
         x_right,

@@ -143,6 +143,33 @@ def test_models_manifest_round_trip(synthetic):
     assert bare.guide_to_slm is None and bare.offset is None and bare.response is None
 
 
+def _with_index_rows(disp: DispersionModel, y_index: np.ndarray) -> DispersionModel:
+    kwargs = {name: getattr(disp, name) for name in DispersionModel.__dataclass_fields__}
+    return DispersionModel(**{**kwargs, "y_index_coeffs": y_index})
+
+
+def test_rows_in_the_index_are_evaluated_from_their_own_coefficients(synthetic):
+    disp = synthetic.make_dispersion()
+    y_index = np.zeros_like(disp.y_coeffs)
+    y_index[0, 0], y_index[1, 0], y_index[2, 0] = 1000.0, 3.0, -0.5
+    model = _with_index_rows(disp, y_index)
+    assert model.row_in_index and not disp.row_in_index
+    lam = np.array([405.0, 520.0, 690.0])
+    s = (sellmeier_index(lam, disp.sellmeier_b, disp.sellmeier_c) - disp.n_ref) / disp.n_scale
+    x, y = model.evaluate(319.5, 199.5, lam)  # the field centre: P_0 only
+    np.testing.assert_allclose(y, 1000.0 + 3.0 * s - 0.5 * s**2, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(x, disp.evaluate(319.5, 199.5, lam)[0])
+    # The paper's coefficients are kept, for readers of schema 1.0, and round trip.
+    models = synthetic.make_models(dispersion=model)
+    section, arrays = models.to_manifest()
+    assert section["dispersion"]["y_index_coeffs"] in arrays
+    again = CalibrationModels.from_manifest(section, arrays).dispersion
+    np.testing.assert_array_equal(again.y_index_coeffs, y_index)
+    np.testing.assert_array_equal(again.y_coeffs, disp.y_coeffs)
+    with pytest.raises(BundleSchemaError, match="y_index_coeffs"):
+        _with_index_rows(disp, y_index[:, :4])
+
+
 def test_model_arrays_are_read_only(synthetic):
     models = synthetic.make_models()
     with pytest.raises(ValueError):

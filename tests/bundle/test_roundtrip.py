@@ -42,7 +42,7 @@ def test_layout_on_disk(published: Path, data_root: Path):
 def test_manifest_content(published: Path, synthetic):
     manifest = json.loads((published / "manifest.json").read_text())
     assert manifest["schema"] == "sassi-bench/calibration-bundle"
-    assert manifest["schema_version"] == "1.0.0"
+    assert manifest["schema_version"] == "1.1.0"
     assert manifest["version"] == "v0001" and manifest["parent"] is None
     assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z", manifest["created"])
     assert manifest["rig"] == synthetic.RIG

@@ -71,6 +71,9 @@ def test_older_major_is_refused(published: Path):
 def test_older_minor_is_migrated(published: Path, monkeypatch):
     # Pretend this sassi-bench writes 1.1.0, in which blur got a required "units" key; the
     # bundle on disk is a 1.0.0 one, so the migration must add it.
+    manifest = read_manifest(published)
+    manifest["schema_version"] = "1.0.0"
+    write_manifest(published, manifest)
     registry = MigrationRegistry("1.1.0")
     calls = []
 
@@ -91,9 +94,23 @@ def test_older_minor_is_migrated(published: Path, monkeypatch):
 
 
 def test_missing_migration_is_refused(published: Path, monkeypatch):
-    monkeypatch.setattr(loader.migrations, "REGISTRY", MigrationRegistry("1.2.0"))
-    with pytest.raises(UnsupportedSchemaError, match=r"no migration from schema version 1\.0"):
+    monkeypatch.setattr(loader.migrations, "REGISTRY", MigrationRegistry("1.9.0"))
+    with pytest.raises(UnsupportedSchemaError, match=r"no migration from schema version 1\.1"):
         load(published)
+
+
+def test_a_1_0_bundle_loads_with_its_rows_in_wavelength(published: Path):
+    # Schema 1.0 had no y_index_coeffs: its rows are the quadratic in wavelength.
+    manifest = read_manifest(published)
+    manifest["schema_version"] = "1.0.0"
+    manifest["models"]["dispersion"].pop("y_index_coeffs", None)
+    write_manifest(published, manifest)
+    bundle = load(published)
+    assert bundle.migrated_from == "1.0.0"
+    assert bundle.manifest["schema_version"] == SCHEMA_VERSION
+    model = bundle.models.dispersion
+    assert not model.row_in_index
+    np.testing.assert_array_equal(model.row_coordinate([400.0]), model.spectral_y([400.0]))
 
 
 def test_newer_minor_loads_with_a_warning(published: Path):
