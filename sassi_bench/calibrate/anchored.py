@@ -87,10 +87,22 @@ class XInformation:
     Minimising ``‖maps‖² + aᵀ matrix a − 2 aᵀ vector`` over the flattened column
     coefficients ``a`` (power-major, like ``DispersionModel.x_coeffs.ravel()``) is the
     anchored fit's least squares linearised at its solution.
+
+    ``matrix`` is the lamps' Fisher information scaled by ``map_sigma_px²`` (the weight
+    the maps' samples are given), so the lamps' photon noise moves the solution ``a`` of
+    normal equations ``N`` (the maps' plus ``matrix``) by the covariance
+    ``map_sigma_px² N⁻¹ matrix N⁻¹``.
     """
 
     matrix: NDArray[np.float64]
     vector: NDArray[np.float64]
+    map_sigma_px: float = 1.0
+
+    def noise_covariance(self, normal: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The column coefficients' covariance from the lamps' photon noise, for the full
+        normal equations ``normal`` (the maps' plus :attr:`matrix`)."""
+        inverse = np.linalg.inv(normal)
+        return self.map_sigma_px**2 * inverse @ self.matrix @ inverse
 
 
 @dataclass(frozen=True, eq=False)
@@ -585,7 +597,7 @@ class _Problem:
         matrix = normal[:n, :n] - normal[:n, rest] @ solve @ normal[rest, :n]
         reduced = gradient[:n] - normal[:n, rest] @ solve @ gradient[rest]
         coeffs = state.globals_[:n]
-        return XInformation(sigma**2 * matrix, sigma**2 * (matrix @ coeffs - reduced))
+        return XInformation(sigma**2 * matrix, sigma**2 * (matrix @ coeffs - reduced), sigma)
 
 
 def _solve(problem: _Problem, state: _State, max_iterations: int) -> tuple[_State, int]:
