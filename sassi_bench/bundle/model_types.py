@@ -69,8 +69,7 @@ class DispersionModel:
     y_index_coeffs
         The row's ``(K, n_terms)`` coefficients in ``s_x`` instead (schema 1.1), or None.
         When given, rows are evaluated from them; ``y_coeffs`` stays in the bundle for
-        readers of schema 1.0. A prism's rows follow its index, which a polynomial in
-        wavelength cannot follow into the blue.
+        readers of schema 1.0.
 
     Examples
     --------

@@ -330,7 +330,6 @@ def fit_dispersion(
     samples = _field_samples(maps, g, slm_shape, field_degree, grid)
     u, v, xs, ys = samples.u, samples.v, samples.xs, samples.ys
     sy = (lam - LAMBDA_REF_NM) / LAMBDA_SCALE_NM
-
     sx = samples.sx(lam)
 
     def fit(keep: NDArray[np.bool_]):
