@@ -42,7 +42,10 @@ import yaml
 #: The targets: correspondence px (worst laser), streak rows px RMS, wavelength nm RMS,
 #: Macbeth mean dE00, scan dB.
 TARGETS = {"corr_px": 0.1, "row_px": 0.1, "wl_nm": 0.3, "de00": 0.5, "scan_db": 45.0}
-TARGETS_TEXT = "0.1 px, rows 0.1 px, 0.3 nm, dE00 0.5, 45 dB"
+TARGETS_TEXT = (
+    f"{TARGETS['corr_px']:g} px, rows {TARGETS['row_px']:g} px, {TARGETS['wl_nm']:g} nm, "
+    f"dE00 {TARGETS['de00']:g}, {TARGETS['scan_db']:g} dB"
+)
 
 
 def within_targets(record: dict) -> bool:

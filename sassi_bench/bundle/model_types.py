@@ -110,7 +110,9 @@ class DispersionModel:
         degree = integer(self.field_degree, f"{where}.field_degree", 0, MAX_FIELD_DEGREE)
         n_terms = len(legendre2d_terms(degree))
         coeffs = {}
-        keys = ["x_coeffs", "y_coeffs"] + ["y_index_coeffs"] * (self.y_index_coeffs is not None)
+        keys = ("x_coeffs", "y_coeffs")
+        if self.y_index_coeffs is not None:
+            keys += ("y_index_coeffs",)
         for key in keys:
             coeffs[key] = frozen_array(
                 getattr(self, key),

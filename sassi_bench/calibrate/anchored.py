@@ -98,11 +98,11 @@ class XInformation:
     vector: NDArray[np.float64]
     map_sigma_px: float = 1.0
 
-    def noise_covariance(self, normal: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The column coefficients' covariance from the lamps' photon noise, for the full
-        normal equations ``normal`` (the maps' plus :attr:`matrix`)."""
-        inverse = np.linalg.inv(normal)
-        return self.map_sigma_px**2 * inverse @ self.matrix @ inverse
+    def noise_variance(self, solved: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Variance from the lamps' photon noise of linear functions ``r · a`` of the column
+        coefficients, given ``solved = N⁻¹ rᵀ`` for each (one per row), ``N`` the full
+        normal equations (the maps' plus :attr:`matrix`)."""
+        return self.map_sigma_px**2 * np.einsum("ni,ij,nj->n", solved, self.matrix, solved)
 
 
 @dataclass(frozen=True, eq=False)

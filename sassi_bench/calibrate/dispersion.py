@@ -614,7 +614,7 @@ def _centre_position_sigma(
     linear function of the maps (through the lamp lines' normal equations too, when the
     fit is anchored), so its variance is each map's sensitivity through that covariance,
     summed over the maps, plus the lamp streaks' own photon noise carried through the
-    same normal equations (:meth:`~sassi_bench.calibrate.anchored.XInformation.noise_covariance`).
+    same normal equations (:meth:`~sassi_bench.calibrate.anchored.XInformation.noise_variance`).
     """
     field_design = samples.field_design
     points, terms = field_design.shape
@@ -630,7 +630,8 @@ def _centre_position_sigma(
     band = np.linspace(*BAND_NM, 31)
     band_powers = model.spectral_x(band)[:, None] ** np.arange(order + 1)[None, :]
     rows = np.einsum("nk,t->nkt", band_powers, centre).reshape(band.size, -1)
-    through = np.linalg.solve(normal, rows.T).T.reshape(band.size, order + 1, terms)
+    solved = np.linalg.solve(normal, rows.T).T
+    through = solved.reshape(band.size, order + 1, terms)
     # Sensitivity of the centre column at each band wavelength to laser l's map,
     # expressed in field terms: d x_c / d xs[l] = A[l] @ field_design.T.
     sensitivity = np.einsum("lk,nkt->lnt", powers, through)
@@ -640,18 +641,10 @@ def _centre_position_sigma(
     scatter = float(np.sum((samples.xs - predicted) ** 2)) / (points * spare) if spare > 0 else 0.0
     own = np.array([m.x.rms**2 * m.x.coeffs.size / max(m.x.n_inliers, 1) for m in maps])
     variance = np.maximum(own, scatter)[:, None] * (points / terms) * squared
-    sigma_px = np.sqrt(variance.sum(axis=0) + _lamp_variance(information, normal, rows))
+    lamps = 0.0 if information is None else information.noise_variance(solved)
+    sigma_px = np.sqrt(variance.sum(axis=0) + lamps)
     slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, band)))
     return sigma_px, sigma_px / np.maximum(slope, 1e-12)
-
-
-def _lamp_variance(information, normal, rows) -> NDArray[np.float64] | float:
-    """Variance (px²) of the linear functions ``rows`` of the column coefficients from the
-    lamp streaks' photon noise; nothing without lamps."""
-    if information is None:
-        return 0.0
-    covariance = information.noise_covariance(normal)
-    return np.einsum("ni,ij,nj->n", rows, covariance, rows)
 
 
 def wavelength_bins(
