@@ -6,8 +6,9 @@ and the spot width of :func:`~sassi_bench.optics.psf.line_spread_sigma`):
 
 * **dense** (:meth:`SpectralRenderer.render_dense`), for patterns with many open
   pixels: for every wavelength sample the SLM image is warped onto the camera through
-  the inverse relay map (solved to 1e-7 px on a coarse grid and interpolated; the map is
-  smooth to far below a pixel), scaled by the local area ratio so energy is conserved,
+  the inverse relay map (solved to 1e-7 px on a coarse grid and interpolated bilinearly,
+  from nodes moved so that the interpolant has no mean offset where the map curves:
+  :func:`_interpolation_nodes`), scaled by the local area ratio so energy is conserved,
   and blurred. Bilinear warping already spreads a pixel like a tent of one SLM pixel,
   so the blur adds only the variance still missing. Only the camera rows the SLM's
   light can reach (the coarse map says which, exactly: a bilinear interpolant stays
@@ -56,6 +57,32 @@ _MAP_TOL_PX = 1e-7
 #: The SLM coordinate given to camera points no ray reaches: far outside any SLM.
 _UNREACHED = -1.0e6
 _MAP_ITERATIONS = 40
+
+
+def _interpolation_nodes(grid: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Node values whose bilinear interpolant matches a smooth map on average over each cell.
+
+    Inside a cell of side ``h`` the bilinear interpolant of a curved map ``f`` is off by
+    ``t (1 - t) h² f'' / 2`` along each axis, ``h² f'' / 12`` on average, and to one side
+    wherever the curvature keeps its sign (the relay's distortion, the prism's bend): at
+    the 8 px coarse step every dense frame sat 0.004 SLM px off the ray trace
+    (``docs/notes/2026-12-01-lamp-rigs-red-end.md``). Each node moved by ``-Δ²f / 12``
+    along each axis removes that mean; nodes beside an untraced (NaN) one stay.
+
+    Examples
+    --------
+    >>> x = np.arange(5.0)
+    >>> nodes = _interpolation_nodes(np.add.outer(0.0 * x, x**2))  # f = x², cells of 1
+    >>> float(nodes[2, 2])  # 4 - 2/12: the cell means of the interpolant are those of x²
+    3.8333333333333335
+    """
+    out = np.array(grid, dtype=np.float64)
+    for axis in (0, 1):
+        inner = [slice(None)] * 2
+        inner[axis] = slice(1, -1)
+        second = np.diff(grid, n=2, axis=axis)
+        out[tuple(inner)] -= np.nan_to_num(second, nan=0.0) / 12.0
+    return out
 
 
 def spot_profile(
@@ -308,6 +335,7 @@ class SpectralRenderer:
         grad_u = np.gradient(u, step)
         grad_v = np.gradient(v, step)
         area = np.abs(grad_u[1] * grad_v[0] - grad_u[0] * grad_v[1])
+        u, v = _interpolation_nodes(u), _interpolation_nodes(v)
         # Camera points no ray from the SLM side reaches (far off the SLM's image, past
         # what the prism passes) have no inverse: they get no light.
         traced = np.isfinite(u) & np.isfinite(v)
