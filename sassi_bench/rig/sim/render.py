@@ -64,10 +64,10 @@ def _interpolation_nodes(grid: NDArray[np.float64]) -> NDArray[np.float64]:
 
     Inside a cell of side ``h`` the bilinear interpolant of a curved map ``f`` is off by
     ``t (1 - t) h² f'' / 2`` along each axis, ``h² f'' / 12`` on average, and to one side
-    wherever the curvature keeps its sign (the relay's distortion, the prism's bend): at
-    the 8 px coarse step every dense frame sat 0.004 SLM px off the ray trace
+    wherever the curvature keeps its sign (the relay's distortion, the prism's bend), so
+    every dense frame sat off the ray trace by that mean
     (``docs/notes/2026-12-01-lamp-rigs-red-end.md``). Each node moved by ``-Δ²f / 12``
-    along each axis removes that mean; nodes beside an untraced (NaN) one stay.
+    along each axis removes it; nodes beside an untraced (NaN) one stay.
 
     Examples
     --------
