@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from sassi_bench.bundle import DispersionModel, WavelengthBins
 from sassi_bench.calibrate.field import FieldFit
@@ -104,6 +104,10 @@ class DispersionFit:
         line moved by its 1-sigma and the fit made again, in quadrature): RMS over
         400-700 nm, and the worst there (most where the map reaches past its lines);
         0 when every line is exact.
+    form_sigma_rms_nm
+        The part of the stated 1-sigma that is the column form's miss under the anchored
+        fit's weighting (``form_error_px`` of :func:`fit_dispersion`), RMS over
+        400-700 nm; 0 when none was given.
     """
 
     model: DispersionModel
@@ -118,6 +122,7 @@ class DispersionFit:
     anchored: bool = False
     line_sigma_nm: float = 0.0
     line_sigma_max_nm: float = 0.0
+    form_sigma_rms_nm: float = 0.0
 
     @property
     def estimated_lines(self) -> list[float]:
@@ -285,6 +290,7 @@ def fit_dispersion(
     wavelengths_nm: Mapping[float, float] | None = None,
     x_information=None,
     wavelength_sigma_nm: Mapping[float, float] | None = None,
+    form_error_px: ArrayLike | None = None,
 ) -> DispersionFit:
     """Fit the joint dispersion model to per-laser maps.
 
@@ -313,6 +319,11 @@ def fit_dispersion(
         Label -> the 1-sigma of the wavelength that line is fitted at (a test sheet's
         accuracy, a lamp measurement's uncertainty); lines left out are exact. Carried
         into the map (``line_sigma_nm``, ``line_sigma_max_nm``).
+    form_error_px
+        How far the column's form misses the optics under the anchored fit's weighting,
+        px, at 31 wavelengths over 400-700 nm
+        (:func:`~sassi_bench.calibrate.anchored_form.anchored_form_error_px`): added in
+        quadrature to the stated 1-sigma at each (``position_sigma_*``).
 
     Returns
     -------
@@ -386,6 +397,14 @@ def fit_dispersion(
                 "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
     sigma_px, sigma_nm = _centre_position_sigma(samples, model, lam, maps, order, x_information)
+    form_nm = np.zeros_like(sigma_nm)
+    if form_error_px is not None:
+        form_px = np.asarray(form_error_px, dtype=np.float64)
+        h, w = slm_shape
+        band = np.linspace(*BAND_NM, form_px.size)
+        slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, band)))
+        form_nm = form_px / np.maximum(slope, 1e-12)
+        sigma_px, sigma_nm = np.hypot(sigma_px, form_px), np.hypot(sigma_nm, form_nm)
 
     def refit_x(moved: NDArray[np.float64]) -> DispersionModel:
         return model_from(
@@ -409,6 +428,7 @@ def fit_dispersion(
         anchored=x_information is not None,
         line_sigma_nm=line_rms,
         line_sigma_max_nm=line_max,
+        form_sigma_rms_nm=float(np.sqrt(np.mean(form_nm**2))),
     )
 
 
