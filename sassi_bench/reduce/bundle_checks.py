@@ -13,13 +13,18 @@
   bundles whose lasers stop short of the band's ends, where the 1-sigma is largest
   (at the blue end, where the dispersion is steepest, in px most of all). For a
   lamp-anchored map it counts the laser maps' errors as the anchored fit carries them,
-  not the lamp streaks' own noise.
+  the lamp streaks' photon noise, and how far the column's form misses the described
+  optics where the anchored fit's weighting puts the miss
+  (:func:`~sassi_bench.calibrate.anchored_form.anchored_form_error_px`: noise-free, the
+  miss lands where the lamp lines are thin or blended, often the red end).
 - **The lines' own wavelengths, recorded.** What the lasers' wavelength uncertainty (a
-  test sheet's accuracy as the rig states it, a lamp measurement's 1-sigma) moves the
-  map by (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.line_sigma_nm`) is
-  recorded and noted above ``LINE_SIGMA_NOTE_NM`` (:func:`line_uncertainty_notes`), not
-  graded: a map whose lines are off by their accuracy and one whose lines happen to be
-  right state the same, so a tolerance on it fails right bundles as often as wrong ones.
+  test sheet's accuracy as the rig states it, a lamp measurement's 1-sigma, for a label
+  the lamps confirm the measurement's:
+  :attr:`~sassi_bench.reduce.lamps.LampAnchoring.line_sigma_by_label`) moves the map by
+  (:attr:`~sassi_bench.calibrate.dispersion.DispersionFit.line_sigma_nm`) is recorded
+  and noted above ``LINE_SIGMA_NOTE_NM`` (:func:`line_uncertainty_notes`), not graded:
+  a map whose lines are off by their accuracy and one whose lines happen to be right
+  state the same, so a tolerance on it fails right bundles as often as wrong ones.
 - **Lamp lines against their own uncertainty.** Every lamp line bright enough to tell has a
   residual from where the map puts it and a 1-sigma from its photons (scaled by its
   lamp's reduced chi-square). Against the line's width (``lamp_line_rms_fwhm``) a wrong

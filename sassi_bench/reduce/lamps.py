@@ -34,6 +34,7 @@ from sassi_bench.calibrate.anchored import (
     LampStreaks,
     fit_anchored_wavelengths,
 )
+from sassi_bench.calibrate.anchored_form import anchored_form_error_px
 from sassi_bench.calibrate.blur import SpotMoments
 from sassi_bench.calibrate.dispersion import LaserMap, fit_dispersion
 from sassi_bench.calibrate.lamp_streaks import (
@@ -384,6 +385,11 @@ class LampAnchoring:
         form misses the described arm by more than :data:`FORM_MISFIT_NM`.
     form_misfit_nm
         That misfit (:func:`described_form_misfit_nm`).
+    form_error_px
+        How far ``fit``'s column misses the described optics with no noise, at 31
+        wavelengths over 400-700 nm
+        (:func:`~sassi_bench.calibrate.anchored_form.anchored_form_error_px`): the form's
+        miss where the fit's weighting puts it, part of the map's stated uncertainty.
     """
 
     fit: AnchoredWavelengths
@@ -397,6 +403,23 @@ class LampAnchoring:
     record: LampFrameRecord | None = None
     form_shift_nm: dict[float, float] = field(default_factory=dict)
     form_misfit_nm: float | None = None
+    form_error_px: NDArray[np.float64] | None = None
+
+    @property
+    def line_sigma_by_label(self) -> dict[float, float]:
+        """Label -> the 1-sigma of the wavelength each line is fitted at, for the map.
+
+        A confirmed label is only known to agree with the lamps' measurement within that
+        measurement's 1-sigma (its form shift added), not to the hold that fixes it in
+        ``fit``: the measurement's 1-sigma is carried. The others carry ``fit``'s.
+        """
+        carried = self.fit.sigma_by_label
+        if self.measured is not None:
+            total = _total_sigma_nm(self.measured, self.form_shift_nm)
+            for label, sigma in zip(self.measured.labels_nm, total, strict=True):
+                if float(label) in self.confirmed:
+                    carried[float(label)] = float(sigma)
+        return carried
 
     def method(self, label: float) -> str:
         """How the fit took the line labelled ``label``: ``lamp-confirmed label``,
@@ -598,6 +621,7 @@ def anchor_wavelengths(
     confirmed = _confirmed_labels(measured, procedure, form_shift)
     unpinned = _unpinned_labels(measured, procedure, form_shift) - confirmed
     fit = measured
+    held = list(tolerance)
     if confirmed or unpinned:
         # A label the lamps cannot tell from the measurement is exact to better than the
         # measurement, and one they cannot pin is no worse than it: those lines are held
@@ -605,6 +629,11 @@ def anchor_wavelengths(
         held = [HELD_LABEL_NM if m.wavelength_nm in confirmed | unpinned else t
                 for m, t in zip(maps, tolerance, strict=True)]  # fmt: skip
         fit = fit_anchored_wavelengths(maps, streaks, glass, slm_shape, held, **shape)
+    relay = desc.nominal_relay()
+    form_error = anchored_form_error_px(
+        fit, streaks, glass, slm_shape, held, lambda u, v, lam: relay.forward(u, v, lam)[0],
+        **shape,
+    )  # fmt: skip
     exposures = {k: float(v) for k, v in lamps.plan.parameters.get("exposures_s", {}).items()}
     return LampAnchoring(
         fit=fit,
@@ -618,6 +647,7 @@ def anchor_wavelengths(
         record=record,
         form_shift_nm=form_shift,
         form_misfit_nm=misfit,
+        form_error_px=form_error,
     )
 
 

@@ -443,7 +443,8 @@ def analyse_spectral_sweeps(
             slm_shape,
             wavelengths_nm=anchoring.fit.by_label,
             x_information=anchoring.fit.information,
-            wavelength_sigma_nm=anchoring.fit.sigma_by_label,
+            wavelength_sigma_nm=anchoring.line_sigma_by_label,
+            form_error_px=anchoring.form_error_px,
             **shape,
         )
         form = blur_form(proc, desc)

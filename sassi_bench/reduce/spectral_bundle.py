@@ -84,6 +84,7 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
             "position_sigma_rms_px": disp.position_sigma_rms_px,
             "line_sigma_nm": disp.line_sigma_nm,
             "line_sigma_max_nm": disp.line_sigma_max_nm,
+            "form_sigma_rms_nm": disp.form_sigma_rms_nm,
             "blur_measured_sigma_px": dict(
                 zip(
                     [f"{x:g}" for x in result.blur.wavelengths_nm],
