@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-import yaml
 
 from sassi_bench import open_rig
 from sassi_bench.acquire.patterns import pinhole_pattern
 from sassi_bench.optics.sources import SpectralSamples
+from sassi_bench.rig.config import rig_description_from_dict
 from sassi_bench.rig.sim import truth
 from sassi_bench.rig.sim.family import family_rigs
 from sassi_bench.rig.sim.render import _interpolation_nodes
@@ -261,12 +261,9 @@ def test_inverse_maps_are_the_relays_inverse_at_their_interpolation_nodes(sim_ri
 
 
 @pytest.fixture(scope="module")
-def curved_rig(tmp_path_factory):
+def curved_rig():
     """A family rig whose streaks bend (SF10, 59 px, small SLM): the inverse map curves."""
-    rig = family_rigs(45, 4, small=True)[3]
-    path = tmp_path_factory.mktemp("curved") / "curved.yaml"
-    path.write_text(yaml.safe_dump(rig, sort_keys=False))
-    return open_rig(str(path))
+    return open_rig(rig_description_from_dict(family_rigs(45, 4, small=True)[3]))
 
 
 @pytest.mark.parametrize("wavelength_nm", [450.0, 650.0])
@@ -341,17 +338,11 @@ def test_the_closed_slm_background_with_coarser_samples_is_within_noise(sim_rig)
     assert np.abs(difference_e / noise_e).max() < 0.1
 
 
-def test_camera_points_no_ray_reaches_get_no_light(tmp_path):
+def test_camera_points_no_ray_reaches_get_no_light():
     """The family's fam19 images a 1920 x 1080 SLM 320 camera px right of centre: the
     camera's first 170 columns trace back past what the prism passes (no inverse) and
     must be dark, not NaN."""
-    import yaml
-
-    from sassi_bench.rig.sim.family import family_rigs
-
-    rig_file = tmp_path / "fam19.yaml"
-    rig_file.write_text(yaml.safe_dump(family_rigs(45, 20)[19], sort_keys=False))
-    bench = truth(open_rig(str(rig_file))).bench
+    bench = truth(open_rig(rig_description_from_dict(family_rigs(45, 20)[19]))).bench
     rate = bench.renderer.render_dense(
         np.ones(bench.slm_shape, np.float32), bench.scene, bench.samples("laser:532")
     )
