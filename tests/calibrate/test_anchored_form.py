@@ -8,16 +8,13 @@ import numpy as np
 import pytest
 
 from sassi_bench.calibrate.anchored import (
-    LampStreaks,
     _Spectral,
     fit_anchored_wavelengths,
 )
 from sassi_bench.calibrate.anchored_form import BAND_SAMPLES, anchored_form_error_px
 from sassi_bench.calibrate.dispersion import BAND_NM
-from sassi_bench.calibrate.lamp_streaks import StreakProfiles
 from sassi_bench.maths.legendre import field_coordinates, legendre2d_design
 from sassi_bench.optics.glass import get_glass
-from sassi_bench.optics.lamps import load_line_list
 
 SLM = (48, 64)
 GLASS = get_glass("N-SF11")
@@ -39,32 +36,13 @@ def _sigma_px(lam):
     return np.polyval(np.polyfit([405.0, 530.0, 660.0], [1.44, 0.99, 2.32], 2), lam)
 
 
-def _lamp(name, column, rng, signal=20000.0):
-    lines = load_line_list(name)
-    keep = (lines.wavelengths_nm > 395.0) & (lines.wavelengths_nm < 715.0)
-    lam, table = lines.wavelengths_nm[keep], lines.relative_intensity[keep]
-    u, v = (x.ravel() for x in np.meshgrid(np.linspace(4, 60, 5), np.linspace(4, 44, 3)))
-    start = np.floor(column(u, v, 395.0)) - 12
-    columns = start[:, None] + np.arange(int(column(0, 0, 715.0) - column(0, 0, 395.0)) + 24)
-    true = column(u[:, None], v[:, None], lam[None, :])
-    spots = np.exp(-0.5 * ((columns[:, :, None] - true[:, None, :]) / _sigma_px(lam)) ** 2)
-    clean = signal * spots @ (table / table.max())
-    variance = clean + 25.0
-    profile = clean + rng.normal(size=clean.shape) * np.sqrt(variance)
-    profiles = StreakProfiles(
-        f"lamp:{name}", u, v, columns.astype(float), profile, variance,
-        np.zeros((u.size, 2), dtype=np.intp),
-    )  # fmt: skip
-    return LampStreaks(name, lam, table, _sigma_px(lam), aperture_px=0.1, profiles=profiles)
-
-
-def _fit(column, seed):
+def _fit(build, column, seed):
     rng = np.random.default_rng(seed)
     maps = [
         SimpleNamespace(wavelength_nm=label, x=lambda u, v, lam=label: column(u, v, lam))
         for label in LASERS
     ]
-    lamps = [_lamp("HgAr", column, rng), _lamp("Ne", column, rng)]
+    lamps = [build(name, column, _sigma_px, rng) for name in ("HgAr", "Ne")]
     fit = fit_anchored_wavelengths(maps, lamps, GLASS, SLM, [5.0] * 4, field_degree=1)
     return fit, lamps
 
@@ -78,9 +56,9 @@ def _miss_px(fit, column):
     return np.sqrt(np.mean((fitted - column(u[:, None], v[:, None], band[None, :])) ** 2, 0))
 
 
-def test_an_arm_the_form_follows_has_no_form_error():
+def test_an_arm_the_form_follows_has_no_form_error(synthetic_lamp_streaks):
     column = _column(0.0)
-    fit, lamps = _fit(column, 1)
+    fit, lamps = _fit(synthetic_lamp_streaks, column, 1)
     error = anchored_form_error_px(fit, lamps, GLASS, SLM, [5.0] * 4, column, field_degree=1)
     assert error.shape == (BAND_SAMPLES,)
     # measured: below 1e-4 px (the fit's convergence)
@@ -88,11 +66,11 @@ def test_an_arm_the_form_follows_has_no_form_error():
 
 
 @pytest.mark.parametrize("cubic", [1.5, -1.0])
-def test_the_form_error_is_the_miss_the_noisy_fit_makes(cubic):
+def test_the_form_error_is_the_miss_the_noisy_fit_makes(synthetic_lamp_streaks, cubic):
     """Described as the bench is built: the noisy fits miss the arm by what the form
     error states, wavelength by wavelength (the photon noise is far smaller here)."""
     column = _column(cubic)
-    fit, lamps = _fit(column, 2)
+    fit, lamps = _fit(synthetic_lamp_streaks, column, 2)
     error = anchored_form_error_px(fit, lamps, GLASS, SLM, [5.0] * 4, column, field_degree=1)
     miss = _miss_px(fit, column)
     # measured: at the red end the form error is 0.21 / 0.18 px and the noisy fits miss by

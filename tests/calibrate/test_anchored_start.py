@@ -10,15 +10,12 @@ import numpy as np
 import pytest
 
 from sassi_bench.calibrate.anchored import (
-    LampStreaks,
     _Problem,
     _solve,
     _Spectral,
     fit_anchored_wavelengths,
 )
-from sassi_bench.calibrate.lamp_streaks import StreakProfiles
 from sassi_bench.optics.glass import get_glass
-from sassi_bench.optics.lamps import load_line_list
 
 SLM = (48, 64)
 GLASS = get_glass("N-SF11")
@@ -38,34 +35,18 @@ def _sigma_px(lam):
     return np.polyval(np.polyfit([405.0, 530.0, 660.0], [1.44, 0.99, 2.32], 2), lam)
 
 
-def _lamp(name, rng):
-    lines = load_line_list(name)
-    keep = (lines.wavelengths_nm > 395.0) & (lines.wavelengths_nm < 715.0)
-    lam, table = lines.wavelengths_nm[keep], lines.relative_intensity[keep]
-    u, v = (x.ravel() for x in np.meshgrid(np.linspace(4, 60, 5), np.linspace(4, 44, 3)))
-    start = np.floor(_column(u, v, 395.0)) - 12
-    columns = start[:, None] + np.arange(int(_column(0, 0, 715.0) - _column(0, 0, 395.0)) + 24)
-    true = _column(u[:, None], v[:, None], lam[None, :])  # (P, K)
-    amplitude = table * rng.uniform(0.7, 1.3, lam.size)  # the lamp's lines as this one emits
-    spots = np.exp(-0.5 * ((columns[:, :, None] - true[:, None, :]) / _sigma_px(lam)) ** 2)
-    signal = 20000.0 * spots @ (amplitude / amplitude.max())
-    variance = signal + 25.0
-    profile = signal + rng.normal(size=signal.shape) * np.sqrt(variance)
-    profiles = StreakProfiles(
-        f"lamp:{name}", u, v, columns.astype(float), profile, variance,
-        np.zeros((u.size, 2), dtype=np.intp),
-    )  # fmt: skip
-    return LampStreaks(name, lam, table, _sigma_px(lam), aperture_px=0.1, profiles=profiles)
-
-
 @pytest.fixture(scope="module")
-def fam07():
+def fam07(synthetic_lamp_streaks):
     rng = np.random.default_rng(7)
     maps = [
         SimpleNamespace(wavelength_nm=label, x=lambda u, v, lam=true: _column(u, v, lam))
         for label, true in TRUE_LINES.items()
     ]
-    return maps, [_lamp("HgAr", rng), _lamp("Ne", rng)]
+    lamps = [
+        synthetic_lamp_streaks(name, _column, _sigma_px, rng, amplitude_spread=0.3)
+        for name in ("HgAr", "Ne")
+    ]
+    return maps, lamps
 
 
 def test_the_start_through_the_labels_alone_takes_lamp_lines_for_their_neighbours(fam07):
