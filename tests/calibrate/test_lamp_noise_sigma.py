@@ -9,7 +9,7 @@ import pytest
 from sassi_bench.calibrate.anchored import fit_anchored_wavelengths
 from sassi_bench.calibrate.dispersion import LaserMap, fit_dispersion
 from sassi_bench.calibrate.field import fit_field
-from tests.calibrate.test_anchored_start import GLASS, SLM, _column, _lamp
+from tests.calibrate.test_anchored_start import GLASS, SLM, _column, _sigma_px
 
 #: Three lines for the quadratic: the maps leave the joint model no scatter to state, so
 #: what is stated is the lamps' noise alone.
@@ -27,9 +27,9 @@ def _exact_maps() -> list[LaserMap]:
     return maps
 
 
-def _anchored_fit(maps, seed: int):
+def _anchored_fit(build, maps, seed: int):
     rng = np.random.default_rng(seed)
-    lamps = [_lamp("HgAr", rng), _lamp("Ne", rng)]
+    lamps = [build(name, _column, _sigma_px, rng, amplitude_spread=0.3) for name in ("HgAr", "Ne")]
     anchored = fit_anchored_wavelengths(maps, lamps, GLASS, SLM, [5.0] * 3, field_degree=1)
     # The lines at their true wavelengths: the spread left is the lamps' photon noise.
     return fit_dispersion(
@@ -38,9 +38,9 @@ def _anchored_fit(maps, seed: int):
     )  # fmt: skip
 
 
-def test_the_stated_sigma_carries_the_lamp_streaks_photon_noise():
+def test_the_stated_sigma_carries_the_lamp_streaks_photon_noise(synthetic_lamp_streaks):
     maps = _exact_maps()
-    fits = [_anchored_fit(maps, seed) for seed in range(16)]
+    fits = [_anchored_fit(synthetic_lamp_streaks, maps, seed) for seed in range(16)]
     lam = np.linspace(400.0, 700.0, 31)
     centre = ((SLM[1] - 1) / 2, (SLM[0] - 1) / 2)
     columns = np.array([np.ravel(f.model.evaluate(*centre, lam)[0]) for f in fits])
