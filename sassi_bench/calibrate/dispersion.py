@@ -396,15 +396,13 @@ def fit_dispersion(
                 "rms_nm": float(np.sqrt(np.mean(((qx - xs[i]) / dx_dlam) ** 2))),
                 "estimated_nm": samples.line_wavelength(ax, i, float(lam[i])),
             }
-    sigma_px, sigma_nm = _centre_position_sigma(samples, model, lam, maps, order, x_information)
-    form_nm = np.zeros_like(sigma_nm)
+    sigma_px, slope = _centre_position_sigma(samples, model, lam, maps, order, x_information)
+    form_px = np.zeros_like(sigma_px)
     if form_error_px is not None:
         form_px = np.asarray(form_error_px, dtype=np.float64)
-        h, w = slm_shape
-        band = np.linspace(*BAND_NM, form_px.size)
-        slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, band)))
-        form_nm = form_px / np.maximum(slope, 1e-12)
-        sigma_px, sigma_nm = np.hypot(sigma_px, form_px), np.hypot(sigma_nm, form_nm)
+    sigma_px = np.hypot(sigma_px, form_px)
+    sigma_nm = sigma_px / slope
+    form_nm = form_px / slope
 
     def refit_x(moved: NDArray[np.float64]) -> DispersionModel:
         return model_from(
@@ -620,8 +618,8 @@ def _centre_position_sigma(
     order: int,
     information=None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The column's 1-sigma at the field centre at each of 31 wavelengths over the band:
-    in camera px, and in nm (over the local dispersion there).
+    """The column's 1-sigma at the field centre at each of 31 wavelengths over the band,
+    camera px, and the local dispersion there (px per nm).
 
     Each laser map's error is one smooth surface over the field, not independent grid
     samples: a map carries about as many independent numbers as the field has terms
@@ -664,7 +662,7 @@ def _centre_position_sigma(
     lamps = 0.0 if information is None else information.noise_variance(solved)
     sigma_px = np.sqrt(variance.sum(axis=0) + lamps)
     slope = np.abs(np.ravel(_dispersion_px_per_nm(model, (w - 1) / 2, (h - 1) / 2, band)))
-    return sigma_px, sigma_px / np.maximum(slope, 1e-12)
+    return sigma_px, np.maximum(slope, 1e-12)
 
 
 def wavelength_bins(
