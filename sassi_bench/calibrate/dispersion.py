@@ -291,6 +291,7 @@ def fit_dispersion(
     x_information=None,
     wavelength_sigma_nm: Mapping[float, float] | None = None,
     form_error_px: ArrayLike | None = None,
+    wavelength_correlation: Mapping[tuple[float, float], float] | None = None,
 ) -> DispersionFit:
     """Fit the joint dispersion model to per-laser maps.
 
@@ -324,6 +325,10 @@ def fit_dispersion(
         px, at 31 wavelengths over 400-700 nm
         (:func:`~sassi_bench.calibrate.anchored_form.anchored_form_error_px`): added in
         quadrature to the stated 1-sigma at each (``position_sigma_*``).
+    wavelength_correlation
+        (label, label) -> the correlation of those two lines' wavelength errors (lines
+        estimated together), each pair once in either order; pairs left out are
+        independent.
 
     Returns
     -------
@@ -411,7 +416,7 @@ def fit_dispersion(
         )
 
     line_rms, line_max = _line_wavelength_sigma(
-        model, refit_x, labels, lam, wavelength_sigma_nm or {}
+        model, refit_x, labels, lam, wavelength_sigma_nm or {}, wavelength_correlation or {}
     )
     return DispersionFit(
         model=model,
@@ -588,16 +593,17 @@ def _dispersion_px_per_nm(model: DispersionModel, u, v, wavelength_nm: float) ->
     return (hi - lo) / (2 * step)
 
 
-def _line_wavelength_sigma(model, refit, labels, lam, sigma_nm) -> tuple[float, float]:
+def _line_wavelength_sigma(model, refit, labels, lam, sigma_nm, correlation) -> tuple[float, float]:
     """The map's wavelength at the field centre over the band, moved by each line's
-    wavelength 1-sigma in turn (``refit``: the model fitted at moved wavelengths), in
-    quadrature: its RMS over the band and its largest, nm."""
+    wavelength 1-sigma in turn (``refit``: the model fitted at moved wavelengths), summed
+    through the lines' correlations (in quadrature where they are independent): its RMS
+    over the band and its largest, nm."""
     h, w = model.slm_shape
     band = np.linspace(*BAND_NM, 31)
     centre = ((w - 1) / 2, (h - 1) / 2)
     x0 = np.asarray(model.evaluate(*centre, band)[0], dtype=np.float64).ravel()
     slope = np.maximum(np.abs(np.gradient(x0, band)), 1e-12)
-    moved_px2 = np.zeros_like(band)
+    moves: dict[float, NDArray[np.float64]] = {}
     for i, label in enumerate(labels):
         sigma = float(sigma_nm.get(float(label), 0.0))
         if sigma <= 0:
@@ -605,8 +611,13 @@ def _line_wavelength_sigma(model, refit, labels, lam, sigma_nm) -> tuple[float, 
         moved = lam.copy()
         moved[i] += sigma
         x1 = np.asarray(refit(moved).evaluate(*centre, band)[0], dtype=np.float64)
-        moved_px2 += (x1.ravel() - x0) ** 2
-    moved_nm = np.sqrt(moved_px2) / slope
+        moves[float(label)] = x1.ravel() - x0
+    moved_px2 = sum((m**2 for m in moves.values()), np.zeros_like(band))
+    pairs = {tuple(sorted((float(a), float(b)))): rho for (a, b), rho in correlation.items()}
+    for (a, b), rho in pairs.items():
+        if a != b and a in moves and b in moves:
+            moved_px2 = moved_px2 + 2.0 * rho * moves[a] * moves[b]
+    moved_nm = np.sqrt(np.clip(moved_px2, 0.0, None)) / slope
     return float(np.sqrt(np.mean(moved_nm**2))), float(moved_nm.max())
 
 
