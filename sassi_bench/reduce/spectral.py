@@ -5,7 +5,9 @@
 other, fits the joint dispersion model and the blur, and grades the result against the
 procedure's tolerances (:func:`grade`). With lamp frames (a rig with wavelength lamps)
 the lamp lines anchor the wavelength axis and every laser's line is measured
-(:mod:`sassi_bench.reduce.lamps`) instead of checked against the others.
+(:mod:`sassi_bench.reduce.lamps`) instead of checked against the others. Without
+lamps, a line the rig states to a test sheet's accuracy is fitted where the maps and the
+sheet together put it (:mod:`sassi_bench.calibrate.stated_lines`).
 Fit settings and tolerances may differ from those the sweeps were captured with (a
 region excluded in the notebook).
 """
@@ -34,6 +36,7 @@ from sassi_bench.calibrate.dispersion import (
     fit_dispersion,
 )
 from sassi_bench.calibrate.grey_response import GreyResponse
+from sassi_bench.calibrate.stated_lines import StatedLine, estimate_stated_lines
 from sassi_bench.reduce.blur_budget import BlurFrameRecord, LampFieldFrameRecord
 from sassi_bench.reduce.blur_frames import pinhole_signals
 from sassi_bench.reduce.bundle_checks import (
@@ -122,6 +125,8 @@ class SpectralCalibration:
     design_comparison: DesignComparison | None = None
     blur_record: BlurFrameRecord | None = None
     lamp_field_record: LampFieldFrameRecord | None = None
+    #: Without lamps, the lines stated to a test sheet's accuracy as the maps place them.
+    stated_lines: dict[float, StatedLine] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -472,14 +477,28 @@ def analyse_spectral_sweeps(
         **shape,
     )
     estimate = bool(proc["fit"].get("estimate_laser_wavelengths", False))
+    stated = stated_line_sigma_nm(desc, [m.wavelength_nm for m in maps])
+    relay = desc.nominal_relay()
+    sheets = estimate_stated_lines(
+        maps,
+        desc.prism.glass_model(),
+        slm_shape,
+        {k: v for k, v in stated.items() if not lines[k].off_label},
+        lambda u, v, lam: relay.forward(u, v, lam)[0],
+        **shape,
+    )
+    fitted = {k: v.estimated_nm for k, v in sheets.items()}
+    if estimate:
+        fitted.update({k: v.estimated_nm for k, v in lines.items() if v.off_label})
     dispersion = fit_dispersion(
         maps,
         desc.prism.glass_model(),
         slm_shape,
-        wavelengths_nm={k: v.estimated_nm for k, v in lines.items() if v.off_label}
-        if estimate
-        else None,
-        wavelength_sigma_nm=stated_line_sigma_nm(desc, [m.wavelength_nm for m in maps]),
+        wavelengths_nm=fitted or None,
+        wavelength_sigma_nm={**stated, **{k: v.sigma_nm for k, v in sheets.items()}},
+        wavelength_correlation={
+            (k, other): rho for k, v in sheets.items() for other, rho in v.correlation.items()
+        },
         **shape,
     )
     blur = blur_from_pinholes(
@@ -499,6 +518,7 @@ def analyse_spectral_sweeps(
             sweeps.sessions,
             laser_lines=lines,
             blur_record=sweeps.blur_record,
+            stated_lines=sheets,
         )
     )
 
@@ -507,7 +527,9 @@ def stated_line_sigma_nm(desc: Any, labels: Sequence[float]) -> dict[float, floa
     """The 1-sigma of each laser line a rig without lamps states (its
     ``laser_tolerance_nm``, read as the prior's sigma as the lamp-anchored fit reads it):
     a test sheet's accuracy. A line the rig states nothing for is taken at its label;
-    the other lines check it (``laser_line_<label>nm``).
+    the other lines check it (``laser_line_<label>nm``). The fit places a stated line
+    from the maps and its sheet together
+    (:func:`~sassi_bench.calibrate.stated_lines.estimate_stated_lines`).
 
     Examples
     --------

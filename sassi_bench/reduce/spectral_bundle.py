@@ -16,6 +16,7 @@ import numpy as np
 
 from sassi_bench.bundle import publish
 from sassi_bench.bundle.derive import stage_checks
+from sassi_bench.calibrate.stated_lines import StatedLine
 from sassi_bench.reduce.lamps import LampAnchoring
 from sassi_bench.reduce.spectral import SpectralCalibration, spectral_notes
 
@@ -107,6 +108,7 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
                 "allowed_nm": line.allowed_nm(
                     float(result.procedure["tolerances"].get("laser_line_nm", 0.5))
                 ),
+                **_stated_line(result.stated_lines.get(label)),
             }
             for label, line in result.laser_lines.items()
         },
@@ -121,6 +123,18 @@ def quality_section(result: SpectralCalibration) -> dict[str, Any]:
     if getattr(result, "lamp_field_record", None) is not None:
         section["lamp_field_frames"] = result.lamp_field_record.to_json()
     return section
+
+
+def _stated_line(line: StatedLine | None) -> dict[str, float]:
+    """A line stated to a test sheet's accuracy: the sheet's 1-sigma, and the fitted
+    wavelength's 1-sigma and the model form's part of it (nothing for other lines)."""
+    if line is None:
+        return {}
+    return {
+        "stated_sigma_nm": line.stated_sigma_nm,
+        "fitted_sigma_nm": line.sigma_nm,
+        "form_nm": line.form_nm,
+    }
 
 
 def anchoring_section(anchoring: LampAnchoring, dispersion) -> dict[str, Any]:
