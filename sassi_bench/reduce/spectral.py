@@ -72,6 +72,7 @@ __all__ = [
     "lamp_measurement",
     "laser_line_checks",
     "laser_line_notes",
+    "placed_line_note",
     "spectral_notes",
     "stated_line_sigma_nm",
 ]
@@ -679,10 +680,11 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
     Returns
     -------
     list of str
-        A note for every line fitted at its estimate, off its label by more than its
-        check allows, or passed by a check wider than :data:`LOOSE_LINE_CHECK` times the
-        tolerance (an end line far from the others: what would check it closer); empty
-        when the labels agree closely. With lamp anchoring, every laser's measured line.
+        A note for every line fitted at its estimate, placed by the maps and its test
+        sheet (:func:`placed_line_note`), off its label by more than its check allows, or
+        passed by a check wider than :data:`LOOSE_LINE_CHECK` times the tolerance (an end
+        line far from the others: what would check it closer); empty when the labels
+        agree closely. With lamp anchoring, every laser's measured line.
 
     Examples
     --------
@@ -741,15 +743,19 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
     estimated = set(result.dispersion.estimated_lines)
     tolerance = float(result.procedure["tolerances"].get("laser_line_nm", 0.5))
     for label, line in result.laser_lines.items():
-        if label in estimated:
+        placed = result.stated_lines.get(label)
+        if placed is not None:
+            notes.append(placed_line_note(placed))
+        elif label in estimated:
             notes.append(
                 f"laser {label:g} nm: fitted at {line.estimated_nm:.2f} nm, its wavelength as "
                 f"estimated from the {', '.join(f'{x:g}' for x in line.from_lines)} nm lines "
                 f"({line.offset_nm:+.2f} nm from its label)"
             )
-        elif not np.isfinite(line.estimated_nm):
             continue
-        elif abs(line.offset_nm) > (allowed := line.allowed_nm(tolerance)):
+        if not np.isfinite(line.estimated_nm):
+            continue
+        if abs(line.offset_nm) > (allowed := line.allowed_nm(tolerance)):
             cause = (
                 "this line is off its label"
                 if line.off_label
@@ -763,9 +769,39 @@ def laser_line_notes(result: SpectralCalibration) -> list[str]:
                 f"{cause}. Fix: measure the line with a spectrometer and correct lasers_nm, "
                 "or set fit.estimate_laser_wavelengths: true in the procedure"
             )
-        elif allowed > LOOSE_LINE_CHECK * tolerance:
+        elif placed is None and allowed > LOOSE_LINE_CHECK * tolerance:
             notes.append(_loose_line_note(label, line, allowed))
     return notes
+
+
+def placed_line_note(line: StatedLine) -> str:
+    """Where the maps and a line's test sheet together place it, and how sure that is.
+
+    Examples
+    --------
+    >>> print(placed_line_note(StatedLine(441.93, 0.28, 441.531, 0.0098, -0.0098)))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    laser 441.93 nm: the maps and its test sheet together place it at 441.53 +- 0.01 nm
+    (-0.40 nm from the sheet's centre, 1.4 of the sheet's 0.28 nm sigmas); fitted there
+    >>> print(placed_line_note(StatedLine(633.0, 0.28, 632.9, 0.27, 0.0)))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    laser 633 nm: the maps and its test sheet together place it at 632.90 +- 0.27 nm
+    (-0.10 nm from the sheet's centre, 0.4 of the sheet's 0.28 nm sigmas); fitted there.
+    The maps add little to the sheet here: a laser line nearer it or wavelength lamps
+    would pin it
+    """
+    note = (
+        f"laser {line.label_nm:g} nm: the maps and its test sheet together place it at "
+        f"{line.estimated_nm:.2f} +- {line.sigma_nm:.2f} nm ({line.moved_nm:+.2f} nm from the "
+        f"sheet's centre, {abs(line.moved_nm) / line.stated_sigma_nm:.1f} of the sheet's "
+        f"{line.stated_sigma_nm:g} nm sigmas); fitted there"
+    )
+    if line.sigma_nm > 0.5 * line.stated_sigma_nm:
+        note += (
+            ". The maps add little to the sheet here: a laser line nearer it or wavelength "
+            "lamps would pin it"
+        )
+    return note
 
 
 #: A laser line whose check allows more than this many times ``laser_line_nm`` (the

@@ -8,6 +8,7 @@ import pytest
 from sassi_bench import open_rig
 from sassi_bench.calibrate.blur import fit_blur
 from sassi_bench.calibrate.dispersion import LaserLine
+from sassi_bench.calibrate.stated_lines import StatedLine
 from sassi_bench.reduce.spectral import (
     BLUR_NOTE_ERROR,
     blur_notes,
@@ -45,11 +46,12 @@ def test_no_blur_note_without_an_error_to_state():
     assert exact.model.relative_error < 1e-9 < BLUR_NOTE_ERROR and blur_notes(exact) == []
 
 
-def _lamp_less(lines, estimated=()):
+def _lamp_less(lines, estimated=(), stated_lines=None):
     """What laser_line_notes reads of an analysed lamp-less calibration."""
     return SimpleNamespace(
         anchoring=None,
         laser_lines=lines,
+        stated_lines=stated_lines or {},
         procedure={"tolerances": {"laser_line_nm": 0.5}},
         dispersion=SimpleNamespace(estimated_lines=list(estimated)),
     )
@@ -71,6 +73,13 @@ def test_an_end_line_far_from_the_others_passes_and_says_how_loosely():
     assert note.startswith("laser 402.75 nm: checked only within 10.21 nm")
     assert "an extrapolation 113 nm beyond the nearest, 515.91 nm" in note
     assert "wavelength lamps" in note and "laser_tolerance_nm" in note
+
+
+def test_a_line_its_sheet_states_says_where_the_maps_put_it_not_how_loosely_it_is_checked():
+    placed = StatedLine(402.75, 0.26, 402.4, 0.02, 0.01)
+    (note,) = laser_line_notes(_lamp_less({402.75: FAR_END}, [402.75], {402.75: placed}))
+    assert note.startswith("laser 402.75 nm: the maps and its test sheet together place it")
+    assert "402.40 +- 0.02 nm" in note and "checked only" not in note
 
 
 def test_a_line_beyond_its_allowance_fails_and_names_the_fix():

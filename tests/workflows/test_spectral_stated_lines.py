@@ -38,3 +38,11 @@ def test_the_bundle_records_where_the_maps_put_a_misstated_line(calibrated):
     assert line["fitted_sigma_nm"] < 0.05
     error = bench.wavelength_map_error_nm(bundle.models.dispersion)
     assert float(np.sqrt(np.mean(error**2))) < 0.05  # measured 0.010 nm (0.31 at the sheets)
+
+
+def test_the_notes_say_where_the_maps_put_it(calibrated):
+    _, result, _ = calibrated
+    bundle = load(result.bundle_path)
+    (note,) = [n for n in bundle.manifest["quality"]["notes"] if n.startswith("laser 441.93")]
+    assert "the maps and its test sheet together place it at 441.53 +- 0.01 nm" in note
+    assert "(-0.40 nm from the sheet's centre" in note
