@@ -10,10 +10,13 @@ the joint model and the sheet together (a Gaussian prior at the sheet's centre w
 sheet's 1-sigma), as a wavelength solution weighs arc lines against a prior.
 
 The maps' weight is each map's own correspondence scatter, or, where the model's form
-misses the optics by more, the lines' scatter about the joint model at the estimate (the
-degrees of freedom the maps leave over), as for the map's stated 1-sigma in
-:mod:`sassi_bench.calibrate.dispersion`. Each line's posterior 1-sigma is what the fit
-carries into the map in place of the sheet's.
+misses the optics by more, that miss: on the described optics (the model fitted to the
+columns they trace at the sheets) and, with degrees of freedom to spare, the lines'
+scatter about the joint model at the estimate, as for the map's stated 1-sigma in
+:mod:`sassi_bench.calibrate.dispersion`. Where the form misses, the estimate is pulled by
+it: the same estimate made on the described optics without noise says how far, and that
+offset is taken off the estimate and kept in its 1-sigma. Each line's 1-sigma is what the
+fit carries into the map in place of the sheet's.
 """
 
 from __future__ import annotations
@@ -23,7 +26,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from sassi_bench.calibrate.anchored_form import ColumnOptics
 from sassi_bench.calibrate.dispersion import (
@@ -35,6 +37,13 @@ from sassi_bench.calibrate.dispersion import (
 from sassi_bench.optics.glass import Glass, get_glass
 
 __all__ = ["StatedLine", "estimate_stated_lines"]
+
+#: Gauss-Newton steps of the joint estimate (the misses are close to linear in the
+#: lines' offsets over a sheet's accuracy).
+GAUSS_NEWTON_STEPS = 4
+
+#: Finite-difference step of the misses' derivative in a line's wavelength (nm).
+_STEP_NM = 0.01
 
 #: The least a map's column is taken to be uncertain by (px): keeps the weights finite
 #: for maps fitted to noise-free samples.
@@ -52,14 +61,15 @@ class StatedLine:
     stated_sigma_nm
         The sheet's 1-sigma as the rig states it (``laser_tolerance_nm``).
     estimated_nm
-        The wavelength the maps and the sheet together put the line at.
+        The wavelength the maps and the sheet together put the line at, less the
+        model form's pull (``form_nm``).
     sigma_nm
         The estimate's 1-sigma: the maps' and the sheet's, and the model's form (how
         far the estimate moves a line on the described optics without noise), in
         quadrature.
     form_nm
-        The form's part: the estimate's offset on the described optics (0 when they
-        were not given).
+        The form's pull: the estimate's offset on the described optics, taken off
+        ``estimated_nm`` (0 when they were not given).
     correlation
         Other stated line's label -> the correlation of the two estimates' errors (the
         maps tie lines they place together; the form's part counted independent).
@@ -94,9 +104,10 @@ def estimate_stated_lines(
     the joint model fitted at those wavelengths (each map weighted by its noise, counted
     as the field's terms of independent numbers) plus each line's squared offset from
     its sheet centre in sheet sigmas. Lines not in ``stated_sigma_nm`` (or stated at 0)
-    are exact. With ``column``, the same estimate is made from the maps those optics
-    trace at the sheet centres, without noise: how far it moves a line is the model's
-    form, which the estimate's 1-sigma then carries in quadrature.
+    are exact. With ``column``, each map is weighed at no better than the model's miss of
+    those optics, and the same estimate is made from the maps they trace at the sheet
+    centres, without noise: how far it moves a line is the model form's pull, which is
+    taken off the estimate and carried in its 1-sigma in quadrature.
 
     Parameters
     ----------
@@ -131,22 +142,27 @@ def estimate_stated_lines(
         return {}
     samples = _field_samples(maps, g, slm_shape, field_degree, grid)
     own = np.array([m.x.rms**2 * m.x.coeffs.size / max(m.x.n_inliers, 1) for m in maps])
-    own = np.maximum(own, _MAP_FLOOR_PX**2)
-    offsets, covariance = _joint_offsets(samples, samples.xs, labels, sigma, own, order)
-    posterior = np.sqrt(np.diag(covariance))
-    form = np.zeros_like(offsets)
+    variance = np.maximum(own, _MAP_FLOOR_PX**2)
+    traced = None
     if column is not None:
         traced = np.asarray(
             column(samples.u[None, :], samples.v[None, :], labels[:, None]), dtype=np.float64
         )
-        form, _ = _joint_offsets(samples, traced, labels, sigma, own, order)
+        # Where the model's form misses the optics, a map is known no better than that
+        # miss: the maps' misses at the sheets are read against it, not against photons.
+        variance = np.maximum(variance, _form_miss(samples, traced, labels, order) ** 2)
+    offsets, covariance = _joint_offsets(samples, samples.xs, labels, sigma, variance, order)
+    posterior = np.sqrt(np.diag(covariance))
+    form = np.zeros_like(offsets)
+    if traced is not None:
+        form, _ = _joint_offsets(samples, traced, labels, sigma, variance, order)
     total = np.hypot(posterior, form)
     correlation = covariance / np.outer(total, total)
     return {
         float(labels[i]): StatedLine(
             label_nm=float(labels[i]),
             stated_sigma_nm=float(sigma[i]),
-            estimated_nm=float(labels[i] + offsets[k]),
+            estimated_nm=float(labels[i] + offsets[k] - form[k]),
             sigma_nm=float(total[k]),
             form_nm=float(form[k]),
             correlation={
@@ -155,6 +171,17 @@ def estimate_stated_lines(
         )
         for k, i in enumerate(free)
     }
+
+
+def _form_miss(
+    samples: _FieldSamples, traced: NDArray[np.float64], labels: NDArray[np.float64], order: int
+) -> NDArray[np.float64]:
+    """Each line's RMS miss over the field (px) of the model fitted to the columns the
+    optics trace at ``labels``: how far the model's form is from those optics."""
+    powers = samples.sx(labels)[:, None] ** np.arange(order + 1)[None, :]
+    coeffs = np.linalg.pinv(powers) @ traced @ samples.field_pinv.T
+    predicted = powers @ coeffs @ samples.field_design.T
+    return np.sqrt(np.mean((traced - predicted) ** 2, axis=1))
 
 
 def _joint_offsets(
@@ -181,18 +208,32 @@ def _joint_offsets(
         predicted = powers @ (coeffs @ samples.field_pinv.T) @ samples.field_design.T
         return (xs - predicted) * weight[:, None] * np.sqrt(terms / points)
 
-    def residual(offsets: NDArray[np.float64], variance: NDArray[np.float64]) -> NDArray:
-        return np.concatenate([miss(offsets, variance).ravel(), offsets / sigma[free]])
+    def solve(variance: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        # Gauss-Newton on the stacked maps' misses and the sheets' rows, solved exactly:
+        # the maps outweigh the sheets by orders of magnitude where they place a line and
+        # not at all where they cannot, which a tolerance-stopped minimiser leaves
+        # wandering along the directions only the sheets fix.
+        offsets = np.zeros(free.size)
+        prior = np.diag(1.0 / sigma[free])
+        for _ in range(GAUSS_NEWTON_STEPS):
+            base = miss(offsets, variance).ravel()
+            jacobian = np.stack(
+                [
+                    (miss(offsets + step, variance).ravel() - base) / _STEP_NM
+                    for step in np.eye(free.size) * _STEP_NM
+                ],
+                axis=1,
+            )
+            normal = jacobian.T @ jacobian + prior.T @ prior
+            gradient = jacobian.T @ base + prior.T @ (prior @ offsets)
+            offsets = offsets - np.linalg.solve(normal, gradient)
+        return offsets, np.linalg.inv(normal)
 
-    start = np.zeros(free.size)
-    solution = least_squares(residual, start, args=(own,), x_scale=sigma[free])
+    offsets, covariance = solve(own)
     if spare > 0:
         # Where the lines scatter about the joint model by more than the maps' own
         # noise, the model's form misses the optics: weigh the maps by that scatter.
-        scatter = float(np.sum(miss(solution.x, np.ones_like(own)) ** 2)) / (terms * spare)
+        scatter = float(np.sum(miss(offsets, np.ones_like(own)) ** 2)) / (terms * spare)
         if scatter > own.max():
-            solution = least_squares(
-                residual, start, args=(np.maximum(own, scatter),), x_scale=sigma[free]
-            )
-    covariance = np.linalg.pinv(solution.jac.T @ solution.jac)
-    return solution.x, covariance
+            offsets, covariance = solve(np.maximum(own, scatter))
+    return offsets, covariance
