@@ -132,7 +132,7 @@ def estimate_stated_lines(
         lines = estimate_stated_lines(maps, "N-SF5", (300, 400), {441.93: 0.28},
                                       lambda u, v, lam: relay.forward(u, v, lam)[0])
         lines[441.93].estimated_nm
-        # 441.53
+        # 441.54
     """
     g = glass if isinstance(glass, Glass) else get_glass(glass)
     labels = _checked_wavelengths(maps, order)
@@ -209,10 +209,9 @@ def _joint_offsets(
         return (xs - predicted) * weight[:, None] * np.sqrt(terms / points)
 
     def solve(variance: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        # Gauss-Newton on the stacked maps' misses and the sheets' rows, solved exactly:
-        # the maps outweigh the sheets by orders of magnitude where they place a line and
-        # not at all where they cannot, which a tolerance-stopped minimiser leaves
-        # wandering along the directions only the sheets fix.
+        # Gauss-Newton on the stacked maps' misses and the sheets' rows: the misses are
+        # close to linear in the offsets over a sheet's accuracy, and the last step's
+        # normal equations are the estimate's inverse covariance.
         offsets = np.zeros(free.size)
         prior = np.diag(1.0 / sigma[free])
         for _ in range(GAUSS_NEWTON_STEPS):
