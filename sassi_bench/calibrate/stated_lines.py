@@ -173,15 +173,30 @@ def estimate_stated_lines(
     }
 
 
+def _column_miss(
+    samples: _FieldSamples,
+    xs: NDArray[np.float64],
+    wavelengths_nm: NDArray[np.float64],
+    variance: NDArray[np.float64],
+    order: int,
+) -> NDArray[np.float64]:
+    """Columns ``xs`` (lines, points) less the joint model fitted to them at
+    ``wavelengths_nm``, each line weighted by one over its standard deviation."""
+    powers = samples.sx(wavelengths_nm)[:, None] ** np.arange(order + 1)[None, :]
+    weight = 1.0 / np.sqrt(variance)
+    # Weighted least squares over the lines; the field terms separate as in fit_x.
+    coeffs = np.linalg.pinv(weight[:, None] * powers) @ (weight[:, None] * xs)
+    predicted = powers @ (coeffs @ samples.field_pinv.T) @ samples.field_design.T
+    return (xs - predicted) * weight[:, None]
+
+
 def _form_miss(
     samples: _FieldSamples, traced: NDArray[np.float64], labels: NDArray[np.float64], order: int
 ) -> NDArray[np.float64]:
     """Each line's RMS miss over the field (px) of the model fitted to the columns the
     optics trace at ``labels``: how far the model's form is from those optics."""
-    powers = samples.sx(labels)[:, None] ** np.arange(order + 1)[None, :]
-    coeffs = np.linalg.pinv(powers) @ traced @ samples.field_pinv.T
-    predicted = powers @ coeffs @ samples.field_design.T
-    return np.sqrt(np.mean((traced - predicted) ** 2, axis=1))
+    unweighted = np.ones(labels.size)
+    return np.sqrt(np.mean(_column_miss(samples, traced, labels, unweighted, order) ** 2, axis=1))
 
 
 def _joint_offsets(
@@ -201,12 +216,7 @@ def _joint_offsets(
     def miss(offsets: NDArray[np.float64], variance: NDArray[np.float64]) -> NDArray:
         lam = labels.copy()
         lam[free] += offsets
-        powers = samples.sx(lam)[:, None] ** np.arange(order + 1)[None, :]
-        weight = 1.0 / np.sqrt(variance)
-        # Weighted least squares over the lines; the field terms separate as in fit_x.
-        coeffs = np.linalg.pinv(weight[:, None] * powers) @ (weight[:, None] * xs)
-        predicted = powers @ (coeffs @ samples.field_pinv.T) @ samples.field_design.T
-        return (xs - predicted) * weight[:, None] * np.sqrt(terms / points)
+        return _column_miss(samples, xs, lam, variance, order) * np.sqrt(terms / points)
 
     def solve(variance: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         # Gauss-Newton on the stacked maps' misses and the sheets' rows: the misses are

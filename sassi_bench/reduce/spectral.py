@@ -479,15 +479,18 @@ def analyse_spectral_sweeps(
     )
     estimate = bool(proc["fit"].get("estimate_laser_wavelengths", False))
     stated = stated_line_sigma_nm(desc, [m.wavelength_nm for m in maps])
-    relay = desc.nominal_relay()
-    sheets = estimate_stated_lines(
-        maps,
-        desc.prism.glass_model(),
-        slm_shape,
-        {k: v for k, v in stated.items() if not lines[k].off_label},
-        lambda u, v, lam: relay.forward(u, v, lam)[0],
-        **shape,
-    )
+    placed = {k: v for k, v in stated.items() if not lines[k].off_label}
+    sheets = {}
+    if placed:
+        relay = desc.nominal_relay()
+        sheets = estimate_stated_lines(
+            maps,
+            desc.prism.glass_model(),
+            slm_shape,
+            placed,
+            lambda u, v, lam: relay.forward(u, v, lam)[0],
+            **shape,
+        )
     fitted = {k: v.estimated_nm for k, v in sheets.items()}
     if estimate:
         fitted.update({k: v.estimated_nm for k, v in lines.items() if v.off_label})
